@@ -1,0 +1,64 @@
+"""``body_pose`` sensor: ground-truth pose and velocity of named bodies.
+
+For scenes and tests where perception is not the point (lesson 01's drop test, pick-and-place of a known object).
+Perception-based behaviours must use the camera/lidar instead.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from robokit import hookimpl
+from robokit.components import Sensor, SetupContext
+from robokit.config import Schema
+from robokit.errors import ConfigError, LookupNameError
+
+Vec3 = tuple[float, float, float]
+
+
+class BodyPoseConfig(Schema):
+    """``bodies``: names to track (empty = every body with mass)."""
+
+    bodies: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class BodyState:
+    """Pose and velocity of one body's base: metres, ``(x, y, z, w)`` quaternion, m/s and rad/s, world frame."""
+
+    position: Vec3
+    orientation: tuple[float, float, float, float]
+    linear_velocity: Vec3
+    angular_velocity: Vec3
+
+
+class BodyPoseSensor(Sensor):
+    """Ground-truth pose and velocity of named bodies (a dict of name -> BodyState)."""
+
+    reading_type = dict
+
+    def setup(self, ctx: SetupContext) -> None:
+        super().setup(ctx)
+        names = self.config.bodies if self.config else ()
+        for i, name in enumerate(names):
+            if not self.world.has_body(name):
+                raise ConfigError(str(LookupNameError("body", name, self.world.body_names)), key=f"bodies[{i}]")
+        if not names:
+            client = self.world.client
+            names = tuple(n for n in self.world.body_names if client.getDynamicsInfo(self.world.body(n), -1)[0] > 0)
+        self.names = names
+
+    def read(self) -> dict[str, BodyState]:
+        out = {}
+        for name in self.names:
+            if not self.world.has_body(name):  # removed during the run
+                continue
+            pos, orn = self.world.pose(name)
+            lin, ang = self.world.velocity(name)
+            out[name] = BodyState(pos, orn, lin, ang)
+        return out
+
+
+@hookimpl
+def robokit_register_sensors(register):  # type: ignore[no-untyped-def]
+    register("body_pose", BodyPoseSensor, BodyPoseConfig)

@@ -1,0 +1,45 @@
+"""Silencing C-level stdout, for pybullet's unconditional prints (they would corrupt ``--json`` output)."""
+
+from __future__ import annotations
+
+import os
+import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
+
+
+@contextmanager
+def quiet_stdout() -> Iterator[None]:
+    """Send file descriptors 1 and 2 to /dev/null for the duration (Python's streams are flushed first).
+
+    Only wrap calls that report failure by raising: anything they print is lost.
+    """
+    fds = []
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+            fds.append(stream.fileno())
+        except (AttributeError, OSError, ValueError):  # captured or replaced stream: no fd to guard
+            continue
+    saved = [os.dup(fd) for fd in fds]
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    try:
+        for fd in fds:
+            os.dup2(devnull, fd)
+        yield
+    finally:
+        _flush_c_stdio()
+        for fd, old in zip(fds, saved):
+            os.dup2(old, fd)
+            os.close(old)
+        os.close(devnull)
+
+
+def _flush_c_stdio() -> None:
+    """Flush C stdio buffers so text printed while silenced is not written after the redirect ends."""
+    try:
+        import ctypes
+
+        ctypes.CDLL(None).fflush(None)
+    except (OSError, AttributeError):
+        pass

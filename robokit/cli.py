@@ -1,0 +1,195 @@
+"""The ``robokit`` command. Heavy imports (pybullet, cv2) happen only inside the commands that need them.
+
+Exit codes: 0 succeeded; 1 the behaviour failed or was aborted (e.g. ``max_time`` reached); 2 usage or config
+error; 3 a plugin raised (outcome ``error``); 4 the result could be neither delivered nor stored; 130 interrupted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import warnings
+from collections.abc import Sequence
+from typing import Any
+
+from robokit import __version__
+from robokit.errors import PluginError, UserError
+
+EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_PLUGIN, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="robokit", description="Run PyBullet robots from TOML configs.")
+    parser.add_argument("--version", action="version", version=f"robokit {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+
+    run = sub.add_parser("run", help="run a config until its behaviour ends")
+    run.add_argument("config", help="path to a TOML config")
+    run.add_argument("--gui", action="store_true", help="open the PyBullet GUI (paced to real time)")
+    run.add_argument("--seed", type=int, help="override world.seed")
+    run.add_argument("--max-time", type=float, metavar="S", help="override world.max_time (sim seconds)")
+    run.add_argument("--json", action="store_true", help="print the RunResult JSON alone on stdout")
+    run.add_argument("--trace", metavar="FILE", help="write state transitions and events as JSON lines")
+    run.add_argument("--quiet", action="store_true", help="print nothing but errors (and --json output)")
+    run.add_argument("--student", help="override report.student")
+    run.add_argument("--project", help="override report.project")
+    run.add_argument("--report-url", metavar="URL", help="post the result to this URL (the http reporter)")
+    run.set_defaults(func=cmd_run)
+
+    val = sub.add_parser("validate", help="check a config, its URDFs and named joints/links, without running")
+    val.add_argument("config")
+    val.set_defaults(func=cmd_validate)
+
+    plug = sub.add_parser("plugins", help="list every registered plugin type")
+    plug.add_argument("--json", action="store_true")
+    plug.set_defaults(func=cmd_plugins)
+
+    ins = sub.add_parser("inspect", help="print a URDF's joint table (lesson 02)")
+    ins.add_argument("urdf", help="a pybullet_data name (e.g. r2d2.urdf) or a path")
+    ins.add_argument("--json", action="store_true")
+    ins.set_defaults(func=cmd_inspect)
+
+    graph = sub.add_parser("graph", help="print a behaviour's state machine as a Mermaid diagram")
+    graph.add_argument("behaviour", help="a behaviour type name, e.g. sort")
+    graph.set_defaults(func=cmd_graph)
+    _add_extra_commands(sub)
+    return parser
+
+
+def _add_extra_commands(sub: Any) -> None:
+    """Commands that live in their own modules (kept out of the import path of ``--help``)."""
+    try:
+        from robokit.outbox_cli import add_outbox_command
+    except ImportError:
+        return
+    add_outbox_command(sub)
+
+
+def _overrides(args: argparse.Namespace) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    if getattr(args, "seed", None) is not None:
+        out["world.seed"] = args.seed
+    if getattr(args, "student", None) is not None:
+        out["report.student"] = args.student
+    if getattr(args, "project", None) is not None:
+        out["report.project"] = args.project
+    if getattr(args, "report_url", None) is not None:
+        out["report.http.url"] = args.report_url
+    return out
+
+
+def _load(args: argparse.Namespace) -> tuple[Any, Any]:
+    from robokit.config import load_config
+    from robokit.plugins import load_plugins
+
+    plugins = load_plugins()
+    return plugins, load_config(args.config, plugins, _overrides(args))
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    """``robokit run``: build, run, report; print a summary (or the RunResult JSON with ``--json``)."""
+    from robokit.runner import run_config, summary
+
+    plugins, cfg = _load(args)
+    trace = open(args.trace, "w", encoding="utf-8") if args.trace else None  # noqa: SIM115
+    try:
+        out = run_config(cfg, plugins, gui=True if args.gui else None, max_time=args.max_time, trace=trace)
+    finally:
+        if trace is not None:
+            trace.close()
+    if args.json:
+        print(json.dumps(out.result.to_dict(), indent=2))
+    if not args.quiet:
+        print(summary(out), file=sys.stderr if args.json else sys.stdout)
+    return out.exit_code
+
+
+def cmd_validate(args: argparse.Namespace) -> int:
+    """``robokit validate``: validate the config and set every component up in a DIRECT world, without stepping."""
+    from robokit.simulation import Simulation
+
+    plugins, cfg = _load(args)
+    with Simulation(cfg, plugins, gui=False) as sim:
+        n_bodies = len(sim.world.body_names)
+    parts = [f"{n_bodies} bodies", f"{len(cfg.sensors)} sensors", f"{len(cfg.actuators)} actuators",
+             f"behaviour {cfg.behaviour.type if cfg.behaviour else '(none)'}"]
+    print(f"{args.config}: ok ({', '.join(parts)})")
+    return EXIT_OK
+
+
+def cmd_plugins(args: argparse.Namespace) -> int:
+    """``robokit plugins``: every registered type with kind, distribution, version and description."""
+    from robokit.plugins import load_plugins
+
+    plugins = load_plugins()
+    rows = [
+        {"kind": t.kind, "type": t.name, "distribution": t.distribution, "version": t.version,
+         "description": t.description}
+        for t in plugins.all_types()
+    ]
+    if args.json:
+        print(json.dumps({"types": rows, "broken": plugins.broken}, indent=2))
+        return EXIT_OK
+    width = max((len(r["type"]) for r in rows), default=4)
+    for r in rows:
+        origin = f"{r['distribution']} {r['version']}".strip()
+        print(f"{r['kind']:<10} {r['type']:<{width}}  {origin:<24} {r['description']}")
+    for label, why in plugins.broken.items():
+        print(f"not loaded: {label}: {why}")
+    return EXIT_OK
+
+
+def cmd_inspect(args: argparse.Namespace) -> int:
+    """``robokit inspect``: lesson 02's joint table of a URDF."""
+    from robokit.world import World
+
+    with World() as world:
+        world.load_urdf("robot", args.urdf, fixed_base=True)
+        joints = world.joints("robot")
+        base = world.base_link_name("robot")
+    if args.json:
+        print(json.dumps({"urdf": args.urdf, "base_link": base, "joints": [j.__dict__ for j in joints]}, indent=2))
+        return EXIT_OK
+    print(f"{args.urdf}: base link {base!r}, {len(joints)} joints")
+    print(f"{'idx':>3}  {'name':<28} {'type':<10} {'lower':>9} {'upper':>9} {'max_force':>9} {'max_vel':>8}  child link")
+    for j in joints:
+        print(f"{j.index:>3}  {j.name:<28} {j.type:<10} {j.lower:>9.3f} {j.upper:>9.3f} {j.max_force:>9.1f} "
+              f"{j.max_velocity:>8.2f}  {j.child_link}")
+    return EXIT_OK
+
+
+def cmd_graph(args: argparse.Namespace) -> int:
+    """``robokit graph``: a behaviour's state machine as Mermaid."""
+    from robokit.plugins import load_plugins
+
+    ptype = load_plugins().get("behaviour", args.behaviour)
+    mermaid = getattr(ptype.cls, "mermaid", None)
+    if mermaid is None:
+        raise UserError(f"behaviour {args.behaviour!r} is not a state machine (it has no mermaid())")
+    print(mermaid(), end="")
+    return EXIT_OK
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``robokit`` console script; returns the exit code."""
+    args = _parser().parse_args(argv)
+    warnings.filterwarnings("default")
+    warnings.formatwarning = lambda msg, cat, *a, **k: f"robokit: warning: {msg}\n"  # type: ignore[assignment]
+    try:
+        code: int = args.func(args)
+    except UserError as exc:
+        print(f"robokit: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        print("robokit: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except PluginError as exc:
+        print(f"robokit: error: {exc}", file=sys.stderr)
+        return EXIT_PLUGIN
+    return code
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,191 @@
+"""The small interfaces every plugin type implements, and what each receives.
+
+Lifecycle, in order, for sensors, actuators and behaviours:
+
+1. ``__init__(name, config)`` — when the simulation is built; ``config`` is the validated, frozen pydantic model
+   of the type's section (or ``None`` if the type registered no schema). Do not touch the world here.
+2. ``setup(ctx)`` — once, after every body is in the world and before the first tick. Look up bodies, joints and
+   links by name here and raise :class:`robokit.errors.ConfigError` (with a ``key``) for bad names.
+3. per tick, at the component's rate (see :mod:`robokit.scheduler`):
+   sensors ``read()``, behaviours ``step(readings, t)``, actuators ``update()``.
+4. ``close()`` — once, when the simulation closes; release anything held.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, ClassVar
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from robokit.world import World
+
+OUTCOMES = ("succeeded", "failed", "aborted")
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """How a behaviour ended: ``status`` is one of ``succeeded``, ``failed``, ``aborted``; ``reason`` says why."""
+
+    status: str
+    reason: str = ""
+
+    def __post_init__(self) -> None:
+        if self.status not in OUTCOMES:
+            raise ValueError(f"outcome must be one of {OUTCOMES}, got {self.status!r}")
+
+
+@dataclass
+class SetupContext:
+    """What a component receives in ``setup``.
+
+    Attributes:
+        world: The World (bodies by name, the PyBullet client, the clock). Behaviours should not drive
+            physics through it: readings in, commands out.
+        rng: This component's own generator, spawned from the run's seed (independent of other components).
+        key: The component's config key path, e.g. ``"sensors.cam"``; prefix errors with it.
+        readings: Live view of every sensor's and actuator's latest reading, by component name.
+        components: Every sensor and actuator instance by name (to check what another one is).
+        config_dir: Folder of the config file (resolve relative paths against it).
+        trace: ``trace(kind, **data)`` appends a record to the run's trace at the current tick.
+    """
+
+    world: World
+    rng: np.random.Generator
+    key: str
+    readings: Mapping[str, Any]
+    components: Mapping[str, Any]
+    config_dir: Any
+    trace: Callable[..., None]
+    extras: dict[str, Any] = field(default_factory=dict)
+
+
+class Sensor:
+    """Base class of sensors. Subclasses implement :meth:`read`.
+
+    A sensor's reading is *lazy* by default: when the sensor is due (every ``1/rate_hz`` sim seconds) it is only
+    marked stale, and :meth:`read` runs the first time something looks at the reading. Set ``lazy = False`` for
+    sensors that must observe every due tick (for example ones that integrate).
+    """
+
+    kind: ClassVar[str] = "sensor"
+    lazy: ClassVar[bool] = True
+    reading_type: ClassVar[type] = object
+    """The type every reading is an instance of (checked by :func:`robokit.testing.check_sensor`)."""
+
+    def __init__(self, name: str, config: Any) -> None:
+        self.name = name
+        self.config = config
+
+    def setup(self, ctx: SetupContext) -> None:
+        """Resolve names and allocate what the sensor needs. Runs once before the first tick."""
+        self.ctx = ctx
+        self.world = ctx.world
+
+    def read(self) -> Any:
+        """Measure now and return a reading (an instance of ``reading_type``)."""
+        raise NotImplementedError
+
+    def close(self) -> None:
+        """Release what the sensor holds. Runs once when the simulation closes."""
+
+
+class Actuator:
+    """Base class of actuators.
+
+    :meth:`command` receives what the behaviour sent (as soon as the behaviour returns it); :meth:`update` runs at
+    the actuator's rate and pushes motor commands into the world; :meth:`read` reports the actuator's state.
+    """
+
+    kind: ClassVar[str] = "actuator"
+    reading_type: ClassVar[type] = object
+
+    def __init__(self, name: str, config: Any) -> None:
+        self.name = name
+        self.config = config
+
+    def setup(self, ctx: SetupContext) -> None:
+        """Resolve joints by name and put the device into its start state. Runs once before the first tick."""
+        self.ctx = ctx
+        self.world = ctx.world
+
+    def command(self, cmd: Any) -> None:
+        """Accept a command from the behaviour. Raise ``ValueError`` with a clear message for a bad one."""
+        raise NotImplementedError
+
+    def update(self) -> None:
+        """Apply the current command to the world. Runs at the actuator's rate, after the behaviour."""
+
+    def read(self) -> Any:
+        """Return the actuator's state as a reading."""
+        return None
+
+    def close(self) -> None:
+        """Release what the actuator holds (constraints, debug items). Runs once when the simulation closes."""
+
+
+class Behaviour:
+    """Base class of behaviours: readings in, commands out. Never import pybullet in a behaviour.
+
+    :meth:`step` runs at the behaviour's rate with a read-only mapping of readings by component name and the sim
+    time in seconds; it returns a mapping of actuator name to command (or ``None`` for no new commands). When the
+    behaviour is done it sets :attr:`outcome`; the loop stops after that tick.
+    """
+
+    kind: ClassVar[str] = "behaviour"
+
+    def __init__(self, name: str, config: Any) -> None:
+        self.name = name
+        self.config = config
+        self.outcome: Outcome | None = None
+
+    def setup(self, ctx: SetupContext) -> None:
+        """Check the components it needs exist (raise ``ConfigError`` otherwise). Runs once before the first tick."""
+        self.ctx = ctx
+
+    def step(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any] | None:
+        """Advance one step; return commands by actuator name."""
+        raise NotImplementedError
+
+    def finish(self, status: str, reason: str = "") -> None:
+        """Set the outcome (``succeeded``, ``failed`` or ``aborted``) once; later calls are ignored."""
+        if self.outcome is None:
+            self.outcome = Outcome(status, reason)
+
+    def result(self) -> dict[str, Any]:
+        """The behaviour's own result, JSON-serialisable. Called at the end, also after an error or interrupt."""
+        return {}
+
+    def close(self) -> None:
+        """Release what the behaviour holds."""
+
+
+@dataclass(frozen=True)
+class Delivery:
+    """What a reporter did with a result.
+
+    Attributes:
+        delivered: The result reached its destination.
+        stored: A local path where the result is kept (a result file or an outbox entry), if any.
+        message: One line for the run summary.
+    """
+
+    delivered: bool
+    stored: str | None = None
+    message: str = ""
+
+
+class Reporter:
+    """Base class of reporters: deliver a finished run's payload somewhere. Runs after the simulation ended."""
+
+    kind: ClassVar[str] = "reporter"
+
+    def __init__(self, name: str, config: Any) -> None:
+        self.name = name
+        self.config = config
+
+    def report(self, payload: dict[str, Any]) -> Delivery:
+        """Deliver the payload (the RunResult dict plus course fields). Must not raise for delivery failures."""
+        raise NotImplementedError

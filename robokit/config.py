@@ -1,0 +1,397 @@
+"""TOML in, frozen typed objects out.
+
+Every problem is a :class:`~robokit.errors.ConfigError` whose text is one line: the file, the key path, and what
+was expected against what was found. Unknown keys are errors with a "did you mean". Plugin sections are validated
+by the schema their type registered.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+import sys
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from robokit.errors import ConfigError, UserError, did_you_mean
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - exercised on 3.10 only
+    import tomli as tomllib
+
+Vec2 = tuple[float, float]
+Vec3 = tuple[float, float, float]
+Vec4 = tuple[float, float, float, float]
+
+
+class Schema(BaseModel):
+    """Base of every config model: frozen, unknown keys rejected. Plugin schemas should subclass it."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class WorldConfig(Schema):
+    """``[world]``: physics and run settings."""
+
+    gravity: Vec3 = (0.0, 0.0, -9.81)
+    time_step: float = Field(1.0 / 240.0, gt=0, le=0.1, description="physics step, seconds")
+    solver_iterations: int = Field(50, ge=1, le=1000)
+    seed: int = Field(0, ge=0)
+    max_time: float = Field(60.0, gt=0, description="stop after this many sim seconds")
+    gui: bool = False
+    realtime: bool = Field(True, description="pace the GUI to wall-clock time (GUI only)")
+
+
+class RegionConfig(Schema):
+    """``[regions.NAME]``: a rectangle that bodies with ``region = NAME`` are scattered in, seeded."""
+
+    low: Vec2
+    high: Vec2
+    z: float = 0.0
+    min_spacing: float = Field(0.0, ge=0)
+    avoid: tuple[str, ...] = ()
+    clearance: float = Field(0.0, ge=0)
+
+    @model_validator(mode="after")
+    def _ordered(self) -> RegionConfig:
+        if self.low[0] > self.high[0] or self.low[1] > self.high[1]:
+            raise ValueError(f"low {list(self.low)} must be <= high {list(self.high)}")
+        return self
+
+
+class BodyConfig(Schema):
+    """``[bodies.NAME]`` and ``[robots.NAME]``: a primitive (``shape``) or a URDF (``urdf``)."""
+
+    shape: Literal["box", "sphere", "cylinder"] | None = None
+    urdf: str | None = None
+    size: Vec3 = Field((0.1, 0.1, 0.1), description="box edge lengths, metres")
+    radius: float = Field(0.05, gt=0)
+    height: float = Field(0.1, gt=0)
+    mass: float = Field(1.0, ge=0, description="kg; 0 = static")
+    position: Vec3 | None = None
+    region: str | None = None
+    rpy_deg: Vec3 | None = None
+    quaternion: Vec4 | None = None
+    yaw_deg_range: Vec2 | None = None
+    fixed_base: bool = False
+    scale: float = Field(1.0, gt=0)
+    rgba: Vec4 = (0.7, 0.7, 0.7, 1.0)
+    lateral_friction: float | None = Field(None, ge=0)
+    rolling_friction: float | None = Field(None, ge=0)
+    spinning_friction: float | None = Field(None, ge=0)
+    restitution: float | None = Field(None, ge=0)
+    linear_damping: float | None = Field(None, ge=0)
+    angular_damping: float | None = Field(None, ge=0)
+    joint_positions: dict[str, float] = Field(default_factory=dict)
+    count: int = Field(1, ge=1, le=10_000)
+    self_collision: bool = False
+
+    @model_validator(mode="after")
+    def _one_kind(self) -> BodyConfig:
+        if (self.shape is None) == (self.urdf is None):
+            raise ValueError("give exactly one of 'shape' (box, sphere, cylinder) or 'urdf'")
+        if self.position is None and self.region is None:
+            raise ValueError("give 'position' or 'region'")
+        if self.rpy_deg is not None and self.quaternion is not None:
+            raise ValueError("give 'rpy_deg' or 'quaternion', not both")
+        if self.quaternion is not None and math.isclose(sum(v * v for v in self.quaternion), 0.0):
+            raise ValueError("'quaternion' must not be all zeros")
+        if self.count > 1 and self.region is None:
+            raise ValueError("'count' > 1 needs a 'region' to scatter the copies in")
+        return self
+
+
+class EventConfig(Schema):
+    """``[[events]]``: something done to the world at a sim time (lesson 01's push).
+
+    ``force``: apply ``force`` (N, world frame) for ``duration`` seconds (default one step);
+    ``set_pose``: teleport ``body`` to ``position`` (and ``rpy_deg``); ``remove``: delete ``body``.
+    """
+
+    at: float = Field(ge=0, description="sim seconds")
+    type: Literal["force", "set_pose", "remove"]
+    body: str
+    force: Vec3 | None = None
+    duration: float = Field(0.0, ge=0)
+    position: Vec3 | None = None
+    rpy_deg: Vec3 | None = None
+
+    @model_validator(mode="after")
+    def _fields(self) -> EventConfig:
+        if self.type == "force" and self.force is None:
+            raise ValueError("a 'force' event needs 'force' = [fx, fy, fz] in newtons")
+        if self.type == "set_pose" and self.position is None:
+            raise ValueError("a 'set_pose' event needs 'position' = [x, y, z]")
+        return self
+
+
+class ReportConfig(Schema):
+    """``[report]``: who the run is for, and one sub-table per reporter (``[report.local]``, ``[report.http]``)."""
+
+    model_config = ConfigDict(extra="allow", frozen=True)
+    student: str | None = None
+    project: str | None = None
+    keep_local: bool = Field(True, description="always add the local reporter")
+
+
+@dataclass(frozen=True)
+class ComponentSpec:
+    """A validated plugin section: ``name`` (its key), ``type``, ``rate_hz`` (None = every tick), ``params``."""
+
+    kind: str
+    name: str
+    type: str
+    rate_hz: float | None
+    params: Any
+    key: str
+
+
+@dataclass(frozen=True)
+class Config:
+    """A whole validated config. ``source`` is the file (or ``"<dict>"``); ``base_dir`` resolves relative paths."""
+
+    source: str
+    base_dir: Path
+    world: WorldConfig
+    regions: Mapping[str, RegionConfig]
+    bodies: Mapping[str, BodyConfig]
+    robots: Mapping[str, BodyConfig]
+    sensors: tuple[ComponentSpec, ...]
+    actuators: tuple[ComponentSpec, ...]
+    behaviour: ComponentSpec | None
+    report: ReportConfig
+    reporters: tuple[ComponentSpec, ...]
+    events: tuple[EventConfig, ...]
+    raw: Mapping[str, Any]
+
+
+SECTIONS = ("world", "regions", "bodies", "robots", "sensors", "actuators", "behaviour", "report", "events")
+_COMPONENT_KEYS = ("type", "rate_hz")
+
+
+def read_toml(path: str | Path) -> dict[str, Any]:
+    """Parse a TOML file; syntax errors and missing files become one-line ConfigErrors."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ConfigError("file not found", file=str(path)) from None
+    except OSError as exc:
+        raise ConfigError(f"cannot read: {exc.strerror}", file=str(path)) from None
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"TOML syntax error: {exc}", file=str(path)) from None
+
+
+def _describe(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def validation_error(exc: ValidationError, prefix: str = "") -> ConfigError:
+    """Turn the first pydantic error into a one-line ConfigError at ``prefix.loc``."""
+    err = exc.errors()[0]
+    loc = [str(part) for part in err["loc"]]
+    key = ".".join([prefix, *loc] if prefix else loc)
+    if err["type"] == "extra_forbidden":
+        fields = getattr(exc, "_robokit_fields", None) or []
+        msg = f"unknown key {loc[-1]!r}{did_you_mean(loc[-1], fields)}"
+        if fields:
+            msg += f"; valid keys: {', '.join(sorted(fields))}"
+        return ConfigError(msg, key=key)
+    msg = str(err["msg"])
+    if msg.startswith("Value error, "):
+        msg = msg[len("Value error, ") :]
+    if err["type"] not in ("value_error", "missing", "assertion_error"):
+        msg = f"{msg[0].lower()}{msg[1:]}, got {_describe(err.get('input'))}"
+    return ConfigError(msg, key=key)
+
+
+def validate_model(model: type[BaseModel], data: Any, key: str) -> Any:
+    """Validate ``data`` against a pydantic model; raise a one-line ConfigError placed at ``key``."""
+    if not isinstance(data, Mapping):
+        raise ConfigError(f"expected a table, got {_describe(data)}", key=key)
+    try:
+        return model.model_validate(data)
+    except ValidationError as exc:
+        fields = _nested_fields(model, exc)
+        exc._robokit_fields = fields  # type: ignore[attr-defined]
+        raise validation_error(exc, key) from None
+
+
+def _nested_fields(model: type[BaseModel], exc: ValidationError) -> list[str]:
+    """Field names of the (possibly nested) model an unknown-key error is about."""
+    loc = exc.errors()[0]["loc"][:-1]
+    current: Any = model
+    for part in loc:
+        field = getattr(current, "model_fields", {}).get(part)
+        if field is None:
+            return list(getattr(current, "model_fields", {}))
+        ann = field.annotation
+        if isinstance(ann, type) and issubclass(ann, BaseModel):
+            current = ann
+    return list(getattr(current, "model_fields", {}))
+
+
+def _table(raw: Mapping[str, Any], name: str) -> Mapping[str, Any]:
+    value = raw.get(name, {})
+    if not isinstance(value, Mapping):
+        raise ConfigError(f"expected a table [{name}], got {_describe(value)}", key=name)
+    return value
+
+
+def _rate(value: Any, key: str, physics_hz: float) -> float | None:
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or value <= 0:
+        raise ConfigError(f"expected a positive number of Hz, got {_describe(value)}", key=key)
+    ratio = physics_hz / value
+    if ratio < 1 - 1e-9 or abs(ratio - round(ratio)) > 1e-6:
+        raise ConfigError(
+            f"rate {value} Hz does not divide the physics rate {physics_hz:g} Hz "
+            f"(use {physics_hz:g}/n, e.g. {physics_hz / 2:g}, {physics_hz / 4:g}, {physics_hz / 8:g})",
+            key=key,
+        )
+    return float(value)
+
+
+def _component(kind: str, name: str, data: Any, key: str, plugins: Any, physics_hz: float) -> ComponentSpec:
+    if not isinstance(data, Mapping):
+        raise ConfigError(f"expected a table, got {_describe(data)}", key=key)
+    if "type" not in data:
+        raise ConfigError(f"missing 'type' (the {kind} type to use)", key=key)
+    type_name = data["type"]
+    if not isinstance(type_name, str):
+        raise ConfigError(f"expected a type name string, got {_describe(type_name)}", key=f"{key}.type")
+    try:
+        ptype = plugins.get(kind, type_name)
+    except UserError as exc:
+        raise ConfigError(str(exc), key=f"{key}.type") from None
+    rate = _rate(data.get("rate_hz"), f"{key}.rate_hz", physics_hz)
+    params_raw = {k: v for k, v in data.items() if k not in _COMPONENT_KEYS}
+    if ptype.schema is None:
+        if params_raw:
+            extra = next(iter(params_raw))
+            raise ConfigError(f"unknown key {extra!r}; {kind} type {type_name!r} takes no options", key=key)
+        params = None
+    else:
+        params = validate_model(ptype.schema, params_raw, key)
+    return ComponentSpec(kind, name, type_name, rate, params, key)
+
+
+def _components(raw: Mapping[str, Any], section: str, kind: str, plugins: Any, physics_hz: float) -> tuple:
+    return tuple(
+        _component(kind, name, data, f"{section}.{name}", plugins, physics_hz)
+        for name, data in _table(raw, section).items()
+    )
+
+
+def _reporters(report: Mapping[str, Any], plugins: Any) -> tuple[ComponentSpec, ...]:
+    specs = []
+    for name, data in report.items():
+        if name in ReportConfig.model_fields:
+            continue
+        if not isinstance(data, Mapping):
+            valid = sorted(set(ReportConfig.model_fields) | set(plugins.types["reporter"]))
+            raise ConfigError(f"unknown key {name!r}{did_you_mean(name, valid)}; valid keys: {', '.join(valid)}",
+                              key=f"report.{name}")
+        try:
+            ptype = plugins.get("reporter", name)
+        except UserError as exc:
+            raise ConfigError(str(exc), key=f"report.{name}") from None
+        params = validate_model(ptype.schema, data, f"report.{name}") if ptype.schema else None
+        specs.append(ComponentSpec("reporter", name, name, None, params, f"report.{name}"))
+    keep_local = report.get("keep_local", True)
+    if keep_local and "local" not in report and "local" in plugins.types["reporter"]:
+        schema = plugins.types["reporter"]["local"].schema
+        specs.insert(0, ComponentSpec("reporter", "local", "local", None, schema() if schema else None, "report.local"))
+    return tuple(specs)
+
+
+def _check_names(raw: Mapping[str, Any]) -> None:
+    unknown = [k for k in raw if k not in SECTIONS]
+    if unknown:
+        name = unknown[0]
+        raise ConfigError(
+            f"unknown section {name!r}{did_you_mean(name, SECTIONS)}; valid sections: {', '.join(SECTIONS)}",
+            key=name,
+        )
+    for group in (("bodies", "robots"), ("sensors", "actuators")):
+        names: dict[str, str] = {}
+        for section in group:
+            for name in _table(raw, section):
+                if name in names:
+                    raise ConfigError(f"name {name!r} is already used in [{names[name]}]", key=f"{section}.{name}")
+                names[name] = section
+
+
+def build_config(raw: Mapping[str, Any], plugins: Any, *, source: str = "<dict>", base_dir: Path | None = None) -> Config:
+    """Validate a parsed config (a dict as TOML gives it) into a frozen :class:`Config`.
+
+    Raises:
+        ConfigError: The first problem found, as one line naming ``source`` and the key path.
+    """
+    try:
+        return _build(raw, plugins, source, base_dir or Path("."))
+    except ConfigError as exc:
+        raise exc.within(file=source) from None
+
+
+def _build(raw: Mapping[str, Any], plugins: Any, source: str, base_dir: Path) -> Config:
+    _check_names(raw)
+    world = validate_model(WorldConfig, _table(raw, "world"), "world")
+    regions = {n: validate_model(RegionConfig, d, f"regions.{n}") for n, d in _table(raw, "regions").items()}
+    bodies = {n: validate_model(BodyConfig, d, f"bodies.{n}") for n, d in _table(raw, "bodies").items()}
+    robots = {n: validate_model(BodyConfig, d, f"robots.{n}") for n, d in _table(raw, "robots").items()}
+    for section, group in (("bodies", bodies), ("robots", robots)):
+        for name, body in group.items():
+            if body.region is not None and body.region not in regions:
+                raise ConfigError(
+                    f"unknown region {body.region!r}{did_you_mean(body.region, regions)}; "
+                    f"defined: {', '.join(regions) or '(none)'}",
+                    key=f"{section}.{name}.region",
+                )
+    physics_hz = 1.0 / world.time_step
+    sensors = _components(raw, "sensors", "sensor", plugins, physics_hz)
+    actuators = _components(raw, "actuators", "actuator", plugins, physics_hz)
+    behaviour = None
+    if "behaviour" in raw:
+        behaviour = _component("behaviour", "behaviour", raw["behaviour"], "behaviour", plugins, physics_hz)
+    report_raw = _table(raw, "report")
+    report = ReportConfig.model_validate({k: v for k, v in report_raw.items() if k in ReportConfig.model_fields})
+    reporters = _reporters(report_raw, plugins)
+    events_raw = raw.get("events", [])
+    if not isinstance(events_raw, list):
+        raise ConfigError("expected an array of tables [[events]]", key="events")
+    events = tuple(validate_model(EventConfig, e, f"events[{i}]") for i, e in enumerate(events_raw))
+    all_bodies = set(bodies) | set(robots)
+    for i, event in enumerate(events):
+        if event.body not in all_bodies and not any(event.body.startswith(f"{b}_") for b in all_bodies):
+            raise ConfigError(
+                f"unknown body {event.body!r}{did_you_mean(event.body, all_bodies)}", key=f"events[{i}].body"
+            )
+    return Config(source, base_dir, world, regions, bodies, robots, sensors, actuators, behaviour, report,
+                  reporters, events, copy.deepcopy(dict(raw)))
+
+
+def load_config(path: str | Path, plugins: Any, overrides: Mapping[str, Any] | None = None) -> Config:
+    """Read and validate a TOML config file. ``overrides`` maps dotted keys to values (CLI options)."""
+    raw = read_toml(path)
+    for dotted, value in (overrides or {}).items():
+        set_dotted(raw, dotted, value)
+    return build_config(raw, plugins, source=str(path), base_dir=Path(path).resolve().parent)
+
+
+def set_dotted(raw: dict[str, Any], dotted: str, value: Any) -> None:
+    """Set ``raw["a"]["b"] = value`` for ``dotted = "a.b"``, creating tables on the way."""
+    *parents, last = dotted.split(".")
+    node = raw
+    for part in parents:
+        node = node.setdefault(part, {})
+    node[last] = value

@@ -1,0 +1,112 @@
+"""Running a config end to end: build, run, report. What ``robokit run`` does, usable from code and benchmarks."""
+
+from __future__ import annotations
+
+import datetime as dt
+import json
+import uuid
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import IO, Any
+
+from robokit import __version__
+from robokit.components import Delivery
+from robokit.config import Config
+from robokit.errors import PluginError
+from robokit.plugins import Plugins
+from robokit.reporting import build_payload, deliver
+from robokit.result import RunResult
+from robokit.simulation import Simulation
+
+EXIT_NOT_STORED = 4
+"""Exit code when the result could be neither delivered nor stored locally by any reporter."""
+
+
+@dataclass
+class RunOutput:
+    """A finished run: its result, the payload delivered, what each reporter did, and the exit code."""
+
+    result: RunResult
+    payload: dict[str, Any]
+    deliveries: list[tuple[str, Delivery]] = field(default_factory=list)
+
+    @property
+    def stored(self) -> bool:
+        """True if any reporter delivered or stored the result (or there was no reporter to ask)."""
+        return not self.deliveries or any(d.delivered or d.stored for _, d in self.deliveries)
+
+    @property
+    def exit_code(self) -> int:
+        """The run's exit code, or :data:`EXIT_NOT_STORED` when the result was kept nowhere."""
+        return self.result.exit_code if self.stored else EXIT_NOT_STORED
+
+
+def make_reporters(cfg: Config, plugins: Plugins) -> list[Any]:
+    """Instantiate the reporters a config asks for (``local`` is added unless ``keep_local = false``)."""
+    return [plugins.get("reporter", s.type).cls(s.name, s.params) for s in cfg.reporters]
+
+
+def error_result(cfg: Config, seed: int, reason: str) -> RunResult:
+    """A RunResult for a run that failed before its first tick (a plugin raised during setup)."""
+    return RunResult(
+        run_id=str(uuid.uuid4()), robokit_version=__version__, config=cfg.source,
+        behaviour=cfg.behaviour.type if cfg.behaviour else None, seed=seed, outcome="error", reason=reason,
+        ticks=0, sim_time=0.0, wall_time=0.0,
+        started_at=dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
+    )
+
+
+def run_config(
+    cfg: Config,
+    plugins: Plugins,
+    *,
+    gui: bool | None = None,
+    seed: int | None = None,
+    max_time: float | None = None,
+    trace: IO[str] | None = None,
+    report: bool = True,
+) -> RunOutput:
+    """Build the simulation, run it, close it, then hand the payload to every reporter.
+
+    A plugin that raises during setup or the run gives outcome ``error``; whatever result exists is still reported.
+    """
+    run_seed = cfg.world.seed if seed is None else seed
+    try:
+        sim = Simulation(cfg, plugins, gui=gui, seed=seed)
+    except PluginError as exc:
+        result = error_result(cfg, run_seed, str(exc))
+    else:
+        if trace is not None:
+            sim.trace_listeners.append(lambda rec: trace.write(json.dumps(rec) + "\n"))
+        try:
+            result = sim.run(max_time=max_time)
+        finally:
+            sim.close()
+    payload = build_payload(result, student=cfg.report.student, project=cfg.report.project)
+    deliveries = deliver(make_reporters(cfg, plugins), payload) if report else []
+    return RunOutput(result, payload, deliveries)
+
+
+def summary(out: RunOutput) -> str:
+    """A short human summary: outcome, times, real-time factor, the behaviour's result and where it went."""
+    r = out.result
+    rtf = f"{r.real_time_factor:.1f}x" if r.wall_time > 0 else "-"
+    lines = [
+        f"outcome: {r.outcome}" + (f" ({r.reason})" if r.reason else ""),
+        f"sim time: {r.sim_time:.2f} s   wall time: {r.wall_time:.2f} s   real-time factor: {rtf}",
+    ]
+    for key, value in r.result.items():
+        if isinstance(value, (dict, list)):
+            value = json.dumps(value, default=str)
+            value = value if len(value) <= 200 else value[:197] + "..."
+        lines.append(f"  {key}: {value}")
+    for name, d in out.deliveries:
+        lines.append(f"report[{name}]: {d.message or ('delivered' if d.delivered else 'not delivered')}")
+    if not out.stored:
+        lines.append("WARNING: the result could not be delivered or stored anywhere")
+    return "\n".join(lines)
+
+
+def write_json(path: Path, data: Any) -> None:
+    """Write indented JSON (helper for CLI options that save files)."""
+    path.write_text(json.dumps(data, indent=2) + "\n", encoding="utf-8")

@@ -1,0 +1,167 @@
+"""The one loop. Fixed physics step; each component runs at its own rate in Hz of *sim* time.
+
+Order inside a tick (tick ``k``, sim time ``t = k * dt``), fixed:
+
+1. **sensors** whose period divides ``k`` are marked stale (lazy ones) or read now (``lazy = False``);
+2. **behaviour**, if due, steps with the readings and ``t``; its commands go to the actuators at once;
+3. **actuators** whose period divides ``k`` run ``update()``;
+4. **events** scheduled for tick ``k`` (forces, teleports, removals) are applied;
+5. **physics**: one ``stepSimulation``; the clock becomes ``k + 1``.
+
+A stale sensor is computed the first time something reads it; a camera nobody looks at costs nothing. There is no
+wall clock in any of this: real-time pacing exists only for the GUI (:meth:`TickScheduler.pace`).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Iterator, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from robokit.errors import PluginError
+
+
+def period_ticks(rate_hz: float | None, physics_hz: float) -> int:
+    """Ticks between runs of a component with ``rate_hz`` (None = every tick)."""
+    if rate_hz is None:
+        return 1
+    return max(1, round(physics_hz / rate_hz))
+
+
+@dataclass
+class Slot:
+    """One sensor or actuator in the loop: its period, staleness and latest reading.
+
+    ``origin`` names the type and distribution for error messages.
+    """
+
+    name: str
+    component: Any
+    period: int
+    origin: str
+    clock: Callable[[], int]
+    lazy: bool = True
+    stale: bool = True
+    value: Any = None
+    stamp: int = -1
+    computed: int = 0
+
+    def due(self, tick: int) -> bool:
+        """True when the component runs at this tick."""
+        return tick % self.period == 0
+
+    def get(self) -> Any:
+        """The latest reading, computing it first if the slot is stale."""
+        if self.stale:
+            self.value = guarded(self, "read", self.component.read)
+            self.stamp = self.clock()
+            self.stale = False
+            self.computed += 1
+        return self.value
+
+
+def guarded(slot: Slot, what: str, fn: Callable[..., Any], *args: Any) -> Any:
+    """Call a plugin method; turn any exception into a :class:`PluginError` naming the component and origin."""
+    try:
+        return fn(*args)
+    except PluginError:
+        raise
+    except Exception as exc:
+        raise PluginError(
+            f"{slot.component.kind} {slot.name!r} ({slot.origin}) raised during {what}: {type(exc).__name__}: {exc}",
+            type_name=slot.origin,
+        ) from exc
+
+
+class Readings(Mapping[str, Any]):
+    """Read-only view of every sensor's and actuator's latest reading, by component name.
+
+    Indexing computes a stale reading on demand. :meth:`stamp` gives the tick a reading was computed at.
+    """
+
+    def __init__(self, slots: Mapping[str, Slot]) -> None:
+        self._slots = slots
+
+    def __getitem__(self, name: str) -> Any:
+        return self._slots[name].get()
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._slots)
+
+    def __len__(self) -> int:
+        return len(self._slots)
+
+    def stamp(self, name: str) -> int:
+        """Tick at which the current reading of ``name`` was computed (-1 if never)."""
+        return self._slots[name].stamp
+
+    def computed(self, name: str) -> int:
+        """How many times ``name``'s reading has been computed so far (e.g. camera frames rendered)."""
+        return self._slots[name].computed
+
+
+@dataclass
+class TickScheduler:
+    """Runs sensors, the behaviour, actuators, events and physics in the documented order, one tick at a time."""
+
+    world: Any
+    sensors: dict[str, Slot]
+    actuators: dict[str, Slot]
+    behaviour: Any | None
+    behaviour_period: int
+    behaviour_origin: str
+    events: dict[int, list[Callable[[], None]]] = field(default_factory=dict)
+    _wall_start: float | None = None
+
+    def __post_init__(self) -> None:
+        self.slots: dict[str, Slot] = {**self.sensors, **self.actuators}
+        self.readings = Readings(self.slots)
+
+    def tick(self) -> None:
+        """Run one tick (see the module docstring for the order)."""
+        k = self.world.tick
+        for slot in self.sensors.values():
+            if slot.due(k):
+                slot.stale = True
+                if not slot.lazy:
+                    slot.get()
+        for slot in self.actuators.values():
+            slot.stale = True  # actuator state is cheap; recomputed on read each tick
+        if self.behaviour is not None and k % self.behaviour_period == 0 and self.behaviour.outcome is None:
+            self._step_behaviour()
+        for slot in self.actuators.values():
+            if slot.due(k):
+                guarded(slot, "update", slot.component.update)
+        for action in self.events.pop(k, ()):
+            action()
+        self.world.step()
+
+    def _step_behaviour(self) -> None:
+        try:
+            commands = self.behaviour.step(self.readings, self.world.time)
+        except PluginError:
+            raise
+        except Exception as exc:
+            raise PluginError(
+                f"behaviour ({self.behaviour_origin}) raised during step: {type(exc).__name__}: {exc}",
+                type_name=self.behaviour_origin,
+            ) from exc
+        for name, cmd in (commands or {}).items():
+            slot = self.actuators.get(name)
+            if slot is None:
+                raise PluginError(
+                    f"behaviour ({self.behaviour_origin}) sent a command to unknown actuator {name!r}; "
+                    f"actuators: {', '.join(self.actuators) or '(none)'}",
+                    type_name=self.behaviour_origin,
+                )
+            guarded(slot, "command", slot.component.command, cmd)
+
+    def pace(self) -> None:
+        """GUI only: sleep so that sim time does not run ahead of wall-clock time."""
+        now = time.perf_counter()
+        if self._wall_start is None:
+            self._wall_start = now - self.world.time
+        ahead = self.world.time - (now - self._wall_start)
+        if ahead > 0:
+            time.sleep(ahead)

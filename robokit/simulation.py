@@ -1,0 +1,370 @@
+"""Simulation: wires a validated Config, the plugin types and one World together, and runs the loop."""
+
+from __future__ import annotations
+
+import copy
+import datetime as dt
+import signal
+import threading
+import time
+import uuid
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from robokit import __version__
+from robokit.components import SetupContext
+from robokit.config import BodyConfig, ComponentSpec, Config
+from robokit.errors import ConfigError, PluginError, UserError
+from robokit.plugins import Plugins
+from robokit.result import RunResult
+from robokit.scheduler import Slot, TickScheduler, period_ticks
+from robokit.world import World, to_quaternion
+
+
+class Simulation:
+    """One run: a World built from a Config, its components set up, and the tick scheduler.
+
+    Args:
+        config: A validated config.
+        plugins: The plugin types the config was validated against.
+        gui: Override ``world.gui``.
+        seed: Override ``world.seed``.
+    """
+
+    def __init__(self, config: Config, plugins: Plugins, *, gui: bool | None = None, seed: int | None = None) -> None:
+        self.config = config
+        self.plugins = plugins
+        wc = config.world
+        self.seed = wc.seed if seed is None else int(seed)
+        self.world = World(
+            gui=wc.gui if gui is None else gui,
+            time_step=wc.time_step,
+            gravity=wc.gravity,
+            solver_iterations=wc.solver_iterations,
+            seed=self.seed,
+            base_dir=config.base_dir,
+        )
+        self.trace: list[dict[str, Any]] = []
+        self.trace_listeners: list[Callable[[dict[str, Any]], None]] = []
+        self.components: dict[str, Any] = {}
+        self.behaviour: Any = None
+        self._origins: dict[str, str] = {}
+        self._stop_reason: str | None = None
+        self.interrupted = False
+        try:
+            self._build()
+        except BaseException:
+            self.close()
+            raise
+
+    # ----------------------------------------------------------------- building
+    def _build(self) -> None:
+        cfg = self.config
+        try:
+            spawn_bodies(self.world, cfg)
+        except UserError as exc:
+            raise _as_config_error(exc, "bodies", cfg.source) from None
+        hz = self.world.physics_hz
+        slots: dict[str, Slot] = {}
+        for spec in cfg.sensors + cfg.actuators:
+            comp = self._instantiate(spec)
+            lazy = getattr(comp, "lazy", True) if spec.kind == "sensor" else True
+            period = period_ticks(spec.rate_hz, hz)
+            slots[spec.name] = Slot(spec.name, comp, period, self._origins[spec.name], lambda: self.world.tick, lazy)
+        sensors = {s.name: slots[s.name] for s in cfg.sensors}
+        actuators = {s.name: slots[s.name] for s in cfg.actuators}
+        if cfg.behaviour is not None:
+            self.behaviour = self._instantiate(cfg.behaviour)
+        self.scheduler = TickScheduler(
+            self.world,
+            sensors,
+            actuators,
+            self.behaviour,
+            period_ticks(cfg.behaviour.rate_hz, hz) if cfg.behaviour else 1,
+            self._origins.get("behaviour", ""),
+        )
+        self.readings = self.scheduler.readings
+        for spec in cfg.sensors + cfg.actuators + ((cfg.behaviour,) if cfg.behaviour else ()):
+            self._setup(spec)
+        self._schedule_events()
+
+    def _instantiate(self, spec: ComponentSpec) -> Any:
+        ptype = self.plugins.get(spec.kind, spec.type)
+        self._origins[spec.name] = f"type {spec.type!r} from {ptype.origin}"
+        try:
+            comp = ptype.cls(spec.name, spec.params)
+        except Exception as exc:
+            raise PluginError(f"{spec.key}: {spec.kind} type {spec.type!r} ({ptype.origin}) failed to build: "
+                              f"{type(exc).__name__}: {exc}", type_name=spec.type, distribution=ptype.origin) from exc
+        if spec.kind != "behaviour":
+            self.components[spec.name] = comp
+        return comp
+
+    def _setup(self, spec: ComponentSpec) -> None:
+        comp = self.behaviour if spec.kind == "behaviour" else self.components[spec.name]
+        rng = self.world.rng.spawn(1)[0]
+        ctx = SetupContext(self.world, rng, spec.key, self.readings, self.components, self.config.base_dir,
+                           self._tracer(spec.name))
+        try:
+            comp.setup(ctx)
+        except ConfigError as exc:
+            raise exc.within(spec.key, self.config.source) from None
+        except UserError as exc:
+            raise ConfigError(str(exc), key=spec.key, file=self.config.source) from None
+        except Exception as exc:
+            ptype = self.plugins.get(spec.kind, spec.type)
+            raise PluginError(f"{spec.key}: {spec.kind} type {spec.type!r} ({ptype.origin}) raised during setup: "
+                              f"{type(exc).__name__}: {exc}", type_name=spec.type, distribution=ptype.origin) from exc
+
+    def _tracer(self, source: str) -> Callable[..., None]:
+        def trace(kind: str, **data: Any) -> None:
+            record = {"tick": self.world.tick, "t": round(self.world.time, 6), "source": source, "kind": kind, **data}
+            self.trace.append(record)
+            for listener in self.trace_listeners:
+                listener(record)
+
+        return trace
+
+    def _schedule_events(self) -> None:
+        dt_ = self.world.time_step
+        events = self.scheduler.events
+        log = self._tracer("events")
+        for ev in self.config.events:
+            start = round(ev.at / dt_)
+            if ev.type == "force":
+                ticks = max(1, round(ev.duration / dt_))
+                for k in range(start, start + ticks):
+                    first = k == start
+                    events.setdefault(k, []).append(self._event_action(ev, log if first else None))
+            else:
+                events.setdefault(start, []).append(self._event_action(ev, log))
+
+    def _event_action(self, ev: Any, log: Callable[..., None] | None) -> Callable[[], None]:
+        w = self.world
+
+        def act() -> None:
+            if not w.has_body(ev.body):
+                return
+            if ev.type == "force":
+                w.apply_force(ev.body, ev.force)
+            elif ev.type == "set_pose":
+                orn = to_quaternion(ev.rpy_deg) if ev.rpy_deg is not None else None
+                w.set_pose(ev.body, ev.position, orn)
+            else:
+                w.remove_body(ev.body)
+            if log is not None:
+                log("event", type=ev.type, body=ev.body)
+
+        return act
+
+    # ----------------------------------------------------------------- stepping
+    @property
+    def outcome(self) -> Any:
+        """The behaviour's outcome so far (None while it runs or when there is no behaviour)."""
+        return self.behaviour.outcome if self.behaviour is not None else None
+
+    def step(self, n: int = 1) -> None:
+        """Run ``n`` ticks (ignores outcomes and time limits: tests decide when to stop)."""
+        for _ in range(n):
+            self.scheduler.tick()
+
+    def run_until(self, predicate: Callable[[Simulation], bool], max_ticks: int) -> bool:
+        """Step until ``predicate(sim)`` is true (checked before each tick); False if ``max_ticks`` ran out."""
+        for _ in range(max_ticks):
+            if predicate(self):
+                return True
+            self.scheduler.tick()
+        return bool(predicate(self))
+
+    def run(self, *, max_time: float | None = None, wall_clock: Callable[[], float] = time.perf_counter) -> RunResult:
+        """Run until the behaviour ends, ``max_time`` sim seconds pass, or SIGINT/SIGTERM; return the RunResult.
+
+        A plugin that raises ends the run with outcome ``error``; the behaviour's partial result is kept.
+        """
+        limit = self.config.world.max_time if max_time is None else max_time
+        max_ticks = round(limit / self.world.time_step)
+        started = dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds")
+        t0 = wall_clock()
+        outcome, reason = "aborted", ""
+        pace = self.world.gui and self.config.world.realtime
+        with self._signals():
+            try:
+                self.plugins.hook.robokit_run_start(simulation=self)
+                while self.world.tick < max_ticks and self.outcome is None and not self.interrupted:
+                    self.scheduler.tick()
+                    if pace:
+                        self.scheduler.pace()
+                if self.outcome is not None:
+                    outcome, reason = self.outcome.status, self.outcome.reason
+                elif self.interrupted:
+                    reason = f"interrupted by {self._stop_reason} at t = {self.world.time:.3f} s"
+                else:
+                    reason = f"max_time {limit:g} s reached before the behaviour finished"
+            except PluginError as exc:
+                outcome, reason = "error", str(exc)
+        result = RunResult(
+            run_id=str(uuid.uuid4()),
+            robokit_version=__version__,
+            config=self.config.source,
+            behaviour=self.config.behaviour.type if self.config.behaviour else None,
+            seed=self.seed,
+            outcome=outcome,
+            reason=reason,
+            ticks=self.world.tick,
+            sim_time=round(self.world.time, 6),
+            wall_time=round(wall_clock() - t0, 6),
+            started_at=started,
+            result=self._behaviour_result(),
+            interrupted=self.interrupted and self.outcome is None,
+        )
+        self.plugins.hook.robokit_run_end(simulation=self, result=result)
+        return result
+
+    def _behaviour_result(self) -> dict[str, Any]:
+        if self.behaviour is None:
+            return {}
+        try:
+            return dict(self.behaviour.result())
+        except Exception as exc:  # noqa: BLE001 - the run's result must survive a faulty behaviour
+            return {"result_error": f"{type(exc).__name__}: {exc}"}
+
+    @contextmanager
+    def _signals(self) -> Iterator[None]:
+        if threading.current_thread() is not threading.main_thread():
+            yield
+            return
+
+        def handler(signum: int, _frame: Any) -> None:
+            self.interrupted = True
+            self._stop_reason = signal.Signals(signum).name
+
+        old = {s: signal.signal(s, handler) for s in (signal.SIGINT, signal.SIGTERM)}
+        try:
+            yield
+        finally:
+            for s, h in old.items():
+                signal.signal(s, h)
+
+    def interrupt(self, reason: str = "request") -> None:
+        """Ask the loop to stop at the next tick boundary (what Ctrl-C does)."""
+        self.interrupted = True
+        self._stop_reason = reason
+
+    # ----------------------------------------------------------------- lifetime
+    def close(self) -> None:
+        """Close every component, then the World. Safe to call twice."""
+        for comp in list(self.components.values()) + ([self.behaviour] if self.behaviour else []):
+            try:
+                comp.close()
+            except Exception:  # noqa: BLE001, S110 - closing must reach the world
+                pass
+        self.components.clear()
+        self.world.close()
+
+    def __enter__(self) -> Simulation:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def _as_config_error(exc: UserError, section: str, source: str) -> ConfigError:
+    if isinstance(exc, ConfigError):
+        return exc.within(file=source)
+    return ConfigError(str(exc), key=section, file=source)
+
+
+def spawn_bodies(world: World, cfg: Config) -> None:
+    """Create every body and robot of a config: fixed ones first, then region-scattered ones, seeded."""
+    groups = {**{n: ("bodies", b) for n, b in cfg.bodies.items()}, **{n: ("robots", b) for n, b in cfg.robots.items()}}
+    for name, (section, body) in groups.items():
+        if body.region is None:
+            _spawn_one(world, f"{section}.{name}", name, body, body.position)
+    for region_name, region in cfg.regions.items():
+        members = [(n, s, b) for n, (s, b) in groups.items() if b.region == region_name]
+        total = sum(b.count for _, _, b in members)
+        if total == 0:
+            continue
+        for avoided in region.avoid:
+            if not world.has_body(avoided):
+                raise ConfigError(f"unknown body {avoided!r} (bodies placed in regions cannot be avoided)",
+                                  key=f"regions.{region_name}.avoid")
+        boxes = [world.body_aabb(a) for a in region.avoid]
+        try:
+            points = iter(world.sample_positions(total, region.low, region.high, min_spacing=region.min_spacing,
+                                                 avoid=boxes, clearance=region.clearance))
+        except UserError as exc:
+            raise ConfigError(str(exc), key=f"regions.{region_name}") from None
+        for name, section, body in members:
+            for i in range(body.count):
+                x, y = next(points)
+                label = name if body.count == 1 else f"{name}_{i}"
+                _spawn_one(world, f"{section}.{name}", label, body, (x, y, region.z))
+
+
+def _orientation(world: World, body: BodyConfig) -> tuple[float, float, float, float]:
+    if body.yaw_deg_range is not None:
+        roll, pitch, _ = body.rpy_deg or (0.0, 0.0, 0.0)
+        yaw = float(world.rng.uniform(*body.yaw_deg_range))
+        return to_quaternion((roll, pitch, yaw))
+    return to_quaternion(body.rpy_deg, body.quaternion)
+
+
+def _spawn_one(world: World, key: str, name: str, body: BodyConfig, position: Any) -> None:
+    orn = _orientation(world, body)
+    pos = tuple(float(v) for v in np.asarray(position, float))
+    try:
+        if body.shape is not None:
+            world.add_primitive(
+                name, body.shape, size=body.size, radius=body.radius, height=body.height, mass=body.mass,
+                position=pos, orientation=orn, rgba=body.rgba, lateral_friction=body.lateral_friction,
+                rolling_friction=body.rolling_friction, spinning_friction=body.spinning_friction,
+                restitution=body.restitution, linear_damping=body.linear_damping,
+                angular_damping=body.angular_damping,
+            )
+        else:
+            assert body.urdf is not None
+            world.load_urdf(name, body.urdf, position=pos, orientation=orn, fixed_base=body.fixed_base,
+                            scale=body.scale, self_collision=body.self_collision)
+            world.set_dynamics(name, lateral_friction=body.lateral_friction, restitution=body.restitution,
+                               rolling_friction=body.rolling_friction, spinning_friction=body.spinning_friction,
+                               linear_damping=body.linear_damping, angular_damping=body.angular_damping)
+            for joint_name, value in body.joint_positions.items():
+                try:
+                    info = world.joint(name, joint_name)
+                except UserError as exc:
+                    raise ConfigError(str(exc), key=f"{key}.joint_positions.{joint_name}") from None
+                world.client.resetJointState(world.body(name), info.index, value)
+    except ConfigError:
+        raise
+    except UserError as exc:
+        raise ConfigError(str(exc), key=key) from None
+
+
+def build(
+    config: str | Path | dict[str, Any],
+    *,
+    plugins: Plugins | None = None,
+    extra_plugins: tuple[object, ...] = (),
+    overrides: dict[str, Any] | None = None,
+    gui: bool | None = None,
+    seed: int | None = None,
+    base_dir: str | Path | None = None,
+) -> Simulation:
+    """Build a Simulation from a TOML path or a config dict (loading plugins unless given)."""
+    from robokit.config import build_config, load_config, set_dotted
+    from robokit.plugins import load_plugins
+
+    plugins = plugins or load_plugins(extra_plugins)
+    if isinstance(config, dict):
+        raw = copy.deepcopy(config)
+        for dotted, value in (overrides or {}).items():
+            set_dotted(raw, dotted, value)
+        cfg = build_config(raw, plugins, base_dir=Path(base_dir) if base_dir else Path.cwd())
+    else:
+        cfg = load_config(config, plugins, overrides)
+    return Simulation(cfg, plugins, gui=gui, seed=seed)

@@ -1,0 +1,470 @@
+"""The World: one PyBullet client, a registry of named bodies, the sim clock and the run's random generator.
+
+Units are SI throughout: metres, kilograms, seconds, newtons, radians (degrees only where a name says ``_deg``).
+Positions are world frame ``(x, y, z)``; quaternions are PyBullet order ``(x, y, z, w)``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from robokit._quiet import quiet_stdout
+from robokit.errors import LookupNameError, UserError
+
+with quiet_stdout():  # pybullet prints its build time on import and argv[0] on connect, to C stdout
+    import pybullet as p
+    import pybullet_data
+    from pybullet_utils.bullet_client import BulletClient
+
+DATA_DIR = Path(__file__).parent / "data"
+"""URDFs and meshes bundled with robokit (searched after the config's folder and ``pybullet_data``)."""
+
+JOINT_TYPES = {
+    p.JOINT_REVOLUTE: "revolute",
+    p.JOINT_PRISMATIC: "prismatic",
+    p.JOINT_SPHERICAL: "spherical",
+    p.JOINT_PLANAR: "planar",
+    p.JOINT_FIXED: "fixed",
+}
+
+Vec3 = tuple[float, float, float]
+Quat = tuple[float, float, float, float]
+
+
+@dataclass(frozen=True)
+class JointInfo:
+    """One joint of a multibody, as read from the URDF (lesson 02's joint table).
+
+    Limits are radians for revolute joints and metres for prismatic ones; ``max_force`` in N or N·m,
+    ``max_velocity`` in rad/s or m/s. ``child_link`` is the link the joint moves.
+    """
+
+    index: int
+    name: str
+    type: str
+    lower: float
+    upper: float
+    max_force: float
+    max_velocity: float
+    damping: float
+    friction: float
+    child_link: str
+
+    @property
+    def movable(self) -> bool:
+        """True for revolute and prismatic joints (the ones IK and joint control drive)."""
+        return self.type in ("revolute", "prismatic")
+
+
+def to_quaternion(rpy_deg: Sequence[float] | None = None, quaternion: Sequence[float] | None = None) -> Quat:
+    """Turn roll/pitch/yaw in degrees, or a quaternion ``(x, y, z, w)``, into a unit quaternion."""
+    if quaternion is not None:
+        q = np.asarray(quaternion, dtype=float)
+        q = q / np.linalg.norm(q)
+        return (float(q[0]), float(q[1]), float(q[2]), float(q[3]))
+    r, pch, y = (math.radians(a) for a in (rpy_deg or (0.0, 0.0, 0.0)))
+    q2 = p.getQuaternionFromEuler((r, pch, y))
+    return (q2[0], q2[1], q2[2], q2[3])
+
+
+def yaw_of(quaternion: Sequence[float]) -> float:
+    """Yaw (rotation about +z, radians, in (-pi, pi]) of a quaternion ``(x, y, z, w)``."""
+    x, y, z, w = quaternion
+    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+
+
+class World:
+    """Owns one PyBullet client (DIRECT by default), the named bodies in it, the clock and the RNG.
+
+    Two Worlds in one process are fully independent: every call goes through this instance's own
+    :class:`BulletClient`, never the module-global ``pybullet`` connection.
+
+    Args:
+        gui: Open the OpenGL GUI instead of the headless DIRECT engine.
+        time_step: Physics step in seconds (default 1/240 s).
+        gravity: Gravity vector in m/s², world frame.
+        solver_iterations: Constraint solver iterations per step.
+        seed: Seed of the run's :class:`numpy.random.Generator`, the only source of randomness.
+        base_dir: Folder that relative URDF paths are resolved against (the config file's folder).
+    """
+
+    def __init__(
+        self,
+        *,
+        gui: bool = False,
+        time_step: float = 1.0 / 240.0,
+        gravity: Sequence[float] = (0.0, 0.0, -9.81),
+        solver_iterations: int = 50,
+        seed: int = 0,
+        base_dir: str | Path = ".",
+    ) -> None:
+        self.gui = gui
+        self.time_step = float(time_step)
+        self.seed = int(seed)
+        self.base_dir = Path(base_dir)
+        self.rng = np.random.default_rng(self.seed)
+        self.tick = 0
+        with quiet_stdout():
+            self.client: Any = BulletClient(connection_mode=p.GUI if gui else p.DIRECT)
+        self._bodies: dict[str, int] = {}
+        self._names: dict[int, str] = {}
+        self._joint_cache: dict[int, list[JointInfo]] = {}
+        self.client.setAdditionalSearchPath(pybullet_data.getDataPath())
+        self.client.setGravity(*gravity)
+        self.client.setPhysicsEngineParameter(fixedTimeStep=self.time_step, numSolverIterations=solver_iterations)
+        if gui:
+            self.client.configureDebugVisualizer(p.COV_ENABLE_GUI, 0)
+
+    # ----------------------------------------------------------------- clock
+    @property
+    def time(self) -> float:
+        """Simulated seconds since the start of the run (``tick * time_step``)."""
+        return self.tick * self.time_step
+
+    @property
+    def physics_hz(self) -> float:
+        """Physics steps per simulated second."""
+        return 1.0 / self.time_step
+
+    def step(self) -> None:
+        """Advance physics by one step. Only the scheduler calls this."""
+        self.client.stepSimulation()
+        self.tick += 1
+
+    # ----------------------------------------------------------------- bodies
+    def _register(self, name: str, body_id: int) -> int:
+        if name in self._bodies:
+            raise UserError(f"a body named {name!r} already exists")
+        self._bodies[name] = body_id
+        self._names[body_id] = name
+        return body_id
+
+    def add_primitive(
+        self,
+        name: str,
+        shape: str,
+        *,
+        size: Sequence[float] = (0.1, 0.1, 0.1),
+        radius: float = 0.05,
+        height: float = 0.1,
+        mass: float = 1.0,
+        position: Sequence[float] = (0.0, 0.0, 0.0),
+        orientation: Sequence[float] = (0.0, 0.0, 0.0, 1.0),
+        rgba: Sequence[float] = (0.7, 0.7, 0.7, 1.0),
+        lateral_friction: float | None = None,
+        rolling_friction: float | None = None,
+        spinning_friction: float | None = None,
+        restitution: float | None = None,
+        linear_damping: float | None = None,
+        angular_damping: float | None = None,
+    ) -> int:
+        """Create a box (``size`` = full edge lengths), sphere (``radius``) or cylinder (``radius``, ``height``).
+
+        A ``mass`` of 0 makes the body static. Returns the body id and registers it under ``name``.
+        """
+        c = self.client
+        if shape == "box":
+            half = [s / 2.0 for s in size]
+            col = c.createCollisionShape(p.GEOM_BOX, halfExtents=half)
+            vis = c.createVisualShape(p.GEOM_BOX, halfExtents=half, rgbaColor=list(rgba))
+        elif shape == "sphere":
+            col = c.createCollisionShape(p.GEOM_SPHERE, radius=radius)
+            vis = c.createVisualShape(p.GEOM_SPHERE, radius=radius, rgbaColor=list(rgba))
+        elif shape == "cylinder":
+            col = c.createCollisionShape(p.GEOM_CYLINDER, radius=radius, height=height)
+            vis = c.createVisualShape(p.GEOM_CYLINDER, radius=radius, length=height, rgbaColor=list(rgba))
+        else:
+            raise UserError(f"unknown shape {shape!r}; valid: box, cylinder, sphere")
+        body = c.createMultiBody(
+            baseMass=mass,
+            baseCollisionShapeIndex=col,
+            baseVisualShapeIndex=vis,
+            basePosition=list(position),
+            baseOrientation=list(orientation),
+        )
+        self._register(name, body)
+        self.set_dynamics(
+            body,
+            lateral_friction=lateral_friction,
+            rolling_friction=rolling_friction,
+            spinning_friction=spinning_friction,
+            restitution=restitution,
+            linear_damping=linear_damping,
+            angular_damping=angular_damping,
+        )
+        return body
+
+    def set_dynamics(self, body: int | str, link: int = -1, **params: float | None) -> None:
+        """Set contact and damping parameters of one link (``-1`` = base); ``None`` values are left alone.
+
+        Keyword names are snake_case versions of ``changeDynamics`` arguments, e.g. ``lateral_friction``.
+        """
+        names = {
+            "lateral_friction": "lateralFriction",
+            "rolling_friction": "rollingFriction",
+            "spinning_friction": "spinningFriction",
+            "restitution": "restitution",
+            "linear_damping": "linearDamping",
+            "angular_damping": "angularDamping",
+            "mass": "mass",
+        }
+        kwargs = {names[k]: float(v) for k, v in params.items() if v is not None}
+        if kwargs:
+            self.client.changeDynamics(self.body(body), link, **kwargs)
+
+    def resolve_urdf(self, urdf: str) -> str:
+        """Find a URDF: a path relative to the config folder, robokit's bundled data, or a ``pybullet_data`` name.
+
+        Raises:
+            UserError: The file exists in none of those places (the message lists where it looked).
+        """
+        candidates = [self.base_dir / urdf, DATA_DIR / urdf, Path(pybullet_data.getDataPath()) / urdf]
+        if Path(urdf).is_absolute():
+            candidates = [Path(urdf)]
+        for cand in candidates:
+            if cand.is_file():
+                return str(cand.resolve())
+        looked = ", ".join(str(c.parent) for c in candidates)
+        raise UserError(f"URDF {urdf!r} not found (looked in {looked})")
+
+    def load_urdf(
+        self,
+        name: str,
+        urdf: str,
+        *,
+        position: Sequence[float] = (0.0, 0.0, 0.0),
+        orientation: Sequence[float] = (0.0, 0.0, 0.0, 1.0),
+        fixed_base: bool = False,
+        scale: float = 1.0,
+        self_collision: bool = False,
+    ) -> int:
+        """Load a URDF (see :meth:`resolve_urdf`) and register it under ``name``; returns the body id."""
+        path = self.resolve_urdf(urdf)
+        flags = p.URDF_USE_INERTIA_FROM_FILE
+        if self_collision:
+            flags |= p.URDF_USE_SELF_COLLISION
+        try:
+            body = self.client.loadURDF(
+                path, list(position), list(orientation), useFixedBase=fixed_base, globalScaling=scale, flags=flags
+            )
+        except p.error as exc:
+            raise UserError(f"URDF {urdf!r} could not be loaded: {exc}") from exc
+        return self._register(name, body)
+
+    def remove_body(self, name: str) -> None:
+        """Remove a body from the simulation and the registry."""
+        body = self.body(name)
+        self.client.removeBody(body)
+        del self._bodies[name]
+        del self._names[body]
+        self._joint_cache.pop(body, None)
+
+    @property
+    def body_names(self) -> list[str]:
+        """Names of every registered body, in creation order."""
+        return list(self._bodies)
+
+    def body(self, name: str | int) -> int:
+        """Body id of a registered name (an int is passed through after a check).
+
+        Raises:
+            LookupNameError: No body has that name; the message lists the valid names.
+        """
+        if isinstance(name, int):
+            if name not in self._names:
+                raise LookupNameError("body id", str(name), [str(i) for i in self._names])
+            return name
+        try:
+            return self._bodies[name]
+        except KeyError:
+            raise LookupNameError("body", name, self._bodies) from None
+
+    def has_body(self, name: str) -> bool:
+        """True if a body with this name is registered."""
+        return name in self._bodies
+
+    def body_name(self, body_id: int) -> str | None:
+        """Registered name of a body id, or None for bodies created outside the registry."""
+        return self._names.get(body_id)
+
+    # ----------------------------------------------------------------- joints and links
+    def joints(self, body: str | int) -> list[JointInfo]:
+        """Every joint of a body, in index order (cached: joint layout never changes)."""
+        bid = self.body(body)
+        if bid not in self._joint_cache:
+            infos = []
+            for i in range(self.client.getNumJoints(bid)):
+                j = self.client.getJointInfo(bid, i)
+                infos.append(
+                    JointInfo(
+                        index=i,
+                        name=j[1].decode(),
+                        type=JOINT_TYPES.get(j[2], str(j[2])),
+                        lower=float(j[8]),
+                        upper=float(j[9]),
+                        max_force=float(j[10]),
+                        max_velocity=float(j[11]),
+                        damping=float(j[6]),
+                        friction=float(j[7]),
+                        child_link=j[12].decode(),
+                    )
+                )
+            self._joint_cache[bid] = infos
+        return self._joint_cache[bid]
+
+    def joint(self, body: str | int, joint_name: str) -> JointInfo:
+        """Look a joint up by name.
+
+        Raises:
+            LookupNameError: The body has no such joint; the message lists its joints.
+        """
+        infos = self.joints(body)
+        for info in infos:
+            if info.name == joint_name:
+                return info
+        raise LookupNameError("joint", joint_name, [j.name for j in infos], where=self._label(body))
+
+    def base_link_name(self, body: str | int) -> str:
+        """Name of the base link (index -1) as written in the URDF."""
+        return str(self.client.getBodyInfo(self.body(body))[0].decode())
+
+    def link(self, body: str | int, link_name: str) -> int:
+        """Link index by name: ``-1`` for the base link, else the index of the joint whose child it is.
+
+        Raises:
+            LookupNameError: The body has no such link; the message lists its links.
+        """
+        if link_name == self.base_link_name(body):
+            return -1
+        infos = self.joints(body)
+        for info in infos:
+            if info.child_link == link_name:
+                return info.index
+        valid = [self.base_link_name(body)] + [j.child_link for j in infos]
+        raise LookupNameError("link", link_name, valid, where=self._label(body))
+
+    def link_names(self, body: str | int) -> list[str]:
+        """Every link name of a body, base first."""
+        return [self.base_link_name(body)] + [j.child_link for j in self.joints(body)]
+
+    def _label(self, body: str | int) -> str:
+        return body if isinstance(body, str) else (self.body_name(body) or f"body {body}")
+
+    # ----------------------------------------------------------------- state
+    def pose(self, body: str | int, link: int = -1) -> tuple[Vec3, Quat]:
+        """Position (m, world frame) and orientation ``(x, y, z, w)`` of a body's base or one of its links."""
+        bid = self.body(body)
+        if link == -1:
+            pos, orn = self.client.getBasePositionAndOrientation(bid)
+        else:
+            state = self.client.getLinkState(bid, link, computeForwardKinematics=True)
+            pos, orn = state[4], state[5]
+        return tuple(pos), tuple(orn)  # type: ignore[return-value]
+
+    def velocity(self, body: str | int) -> tuple[Vec3, Vec3]:
+        """Linear (m/s) and angular (rad/s) velocity of a body's base, world frame."""
+        lin, ang = self.client.getBaseVelocity(self.body(body))
+        return tuple(lin), tuple(ang)  # type: ignore[return-value]
+
+    def set_pose(self, body: str | int, position: Sequence[float], orientation: Sequence[float] | None = None) -> None:
+        """Teleport a body's base (velocity is zeroed). For set-up and tests, not for control."""
+        bid = self.body(body)
+        orn = orientation if orientation is not None else self.pose(bid)[1]
+        self.client.resetBasePositionAndOrientation(bid, list(position), list(orn))
+        self.client.resetBaseVelocity(bid, [0, 0, 0], [0, 0, 0])
+
+    def aabb(self, body: str | int, link: int = -1) -> tuple[Vec3, Vec3]:
+        """Axis-aligned bounding box ``(min, max)`` of a body's link (``-1`` = base), metres, world frame."""
+        lo, hi = self.client.getAABB(self.body(body), link)
+        return tuple(lo), tuple(hi)  # type: ignore[return-value]
+
+    def body_aabb(self, body: str | int) -> tuple[Vec3, Vec3]:
+        """Bounding box of a whole body (all links)."""
+        bid = self.body(body)
+        boxes = [self.client.getAABB(bid, link) for link in range(-1, self.client.getNumJoints(bid))]
+        lo = np.min([b[0] for b in boxes], axis=0)
+        hi = np.max([b[1] for b in boxes], axis=0)
+        return tuple(float(v) for v in lo), tuple(float(v) for v in hi)  # type: ignore[return-value]
+
+    def apply_force(
+        self,
+        body: str | int,
+        force: Sequence[float],
+        *,
+        position: Sequence[float] | None = None,
+        link: int = -1,
+    ) -> None:
+        """Apply a force (N, world frame) at a world point (default: the link's centre of mass) for one step."""
+        bid = self.body(body)
+        at = position if position is not None else self.pose(bid, link)[0]
+        self.client.applyExternalForce(bid, link, list(force), list(at), p.WORLD_FRAME)
+
+    def debug_line(
+        self, start: Sequence[float], end: Sequence[float], rgb: Sequence[float], *, lifetime: float = 0.0
+    ) -> None:
+        """Draw a line in the GUI (no-op headless). ``lifetime`` in seconds, 0 = until removed."""
+        if self.gui:
+            self.client.addUserDebugLine(list(start), list(end), list(rgb), lineWidth=1.5, lifeTime=lifetime)
+
+    # ----------------------------------------------------------------- randomness
+    def sample_positions(
+        self,
+        count: int,
+        low: Sequence[float],
+        high: Sequence[float],
+        *,
+        min_spacing: float = 0.0,
+        avoid: Iterable[tuple[Sequence[float], Sequence[float]]] = (),
+        clearance: float = 0.0,
+        existing: Iterable[Sequence[float]] = (),
+        max_tries: int = 10_000,
+    ) -> np.ndarray:
+        """Draw ``count`` (x, y) points uniformly in a rectangle, pairwise at least ``min_spacing`` apart.
+
+        Points also keep ``min_spacing`` from ``existing`` points and ``clearance`` from the xy footprint of
+        every box in ``avoid`` (``(min, max)`` corners). Draws only from the run's generator.
+
+        Raises:
+            UserError: The points do not fit after ``max_tries`` draws.
+        """
+        lo, hi = np.asarray(low, float)[:2], np.asarray(high, float)[:2]
+        boxes = [(np.asarray(a, float)[:2] - clearance, np.asarray(b, float)[:2] + clearance) for a, b in avoid]
+        placed: list[np.ndarray] = [np.asarray(e, float)[:2] for e in existing]
+        out: list[np.ndarray] = []
+        for _ in range(max_tries):
+            if len(out) == count:
+                break
+            cand = self.rng.uniform(lo, hi)
+            if any(np.linalg.norm(cand - q) < min_spacing for q in placed):
+                continue
+            if any(bool(np.all(cand >= a) and np.all(cand <= b)) for a, b in boxes):
+                continue
+            placed.append(cand)
+            out.append(cand)
+        if len(out) < count:
+            raise UserError(
+                f"could not place {count} objects {min_spacing} m apart in x {lo[0]}..{hi[0]}, y {lo[1]}..{hi[1]}"
+            )
+        return np.array(out).reshape(count, 2)
+
+    # ----------------------------------------------------------------- lifetime
+    def close(self) -> None:
+        """Disconnect the client. Safe to call twice."""
+        if self.client is not None:
+            try:
+                self.client.disconnect()
+            except p.error:
+                pass
+            self.client = None
+
+    def __enter__(self) -> World:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
