@@ -205,7 +205,10 @@ def validation_error(exc: ValidationError, prefix: str = "") -> ConfigError:
         if fields:
             msg += f"; valid keys: {', '.join(sorted(fields))}"
         return ConfigError(msg, key=key)
-    msg = str(err["msg"])
+    if err["type"] == "missing" and loc and loc[-1].isdigit():
+        key = key.rsplit(".", 1)[0]
+        return ConfigError(f"too few values, got {_describe(err.get('input'))}", key=key)
+    msg = str(err["msg"]).replace("a valid tuple", "a list").replace("a valid dictionary", "a table")
     if msg.startswith("Value error, "):
         msg = msg[len("Value error, ") :]
     if err["type"] not in ("value_error", "missing", "assertion_error"):
