@@ -29,7 +29,7 @@ def quiet_stdout() -> Iterator[None]:
         yield
     finally:
         _flush_c_stdio()
-        for fd, old in zip(fds, saved):
+        for fd, old in zip(fds, saved, strict=True):
             os.dup2(old, fd)
             os.close(old)
         os.close(devnull)

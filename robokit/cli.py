@@ -153,7 +153,8 @@ def cmd_inspect(args: argparse.Namespace) -> int:
         print(json.dumps({"urdf": args.urdf, "base_link": base, "joints": [j.__dict__ for j in joints]}, indent=2))
         return EXIT_OK
     print(f"{args.urdf}: base link {base!r}, {len(joints)} joints")
-    print(f"{'idx':>3}  {'name':<28} {'type':<10} {'lower':>9} {'upper':>9} {'max_force':>9} {'max_vel':>8}  child link")
+    header = ("idx", "name", "type", "lower", "upper", "max_force", "max_vel", "child link")
+    print("{:>3}  {:<28} {:<10} {:>9} {:>9} {:>9} {:>8}  {}".format(*header))
     for j in joints:
         print(f"{j.index:>3}  {j.name:<28} {j.type:<10} {j.lower:>9.3f} {j.upper:>9.3f} {j.max_force:>9.1f} "
               f"{j.max_velocity:>8.2f}  {j.child_link}")

@@ -334,7 +334,9 @@ def _check_names(raw: Mapping[str, Any]) -> None:
                 names[name] = section
 
 
-def build_config(raw: Mapping[str, Any], plugins: Any, *, source: str = "<dict>", base_dir: Path | None = None) -> Config:
+def build_config(
+    raw: Mapping[str, Any], plugins: Any, *, source: str = "<dict>", base_dir: Path | None = None
+) -> Config:
     """Validate a parsed config (a dict as TOML gives it) into a frozen :class:`Config`.
 
     Raises:

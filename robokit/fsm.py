@@ -46,6 +46,7 @@ class MachineBehaviour(Behaviour):
     TIMEOUTS: ClassVar[dict[str, float]] = {}
 
     state: Any
+    trigger: Any  # added by transitions: trigger(name) fires a named trigger
 
     def __init__(self, name: str, config: Any) -> None:
         super().__init__(name, config)

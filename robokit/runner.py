@@ -77,7 +77,10 @@ def run_config(
         result = error_result(cfg, run_seed, str(exc))
     else:
         if trace is not None:
-            sim.trace_listeners.append(lambda rec: trace.write(json.dumps(rec) + "\n"))
+            def write(record: dict[str, Any], out: IO[str] = trace) -> None:
+                out.write(json.dumps(record) + "\n")
+
+            sim.trace_listeners.append(write)
         try:
             result = sim.run(max_time=max_time)
         finally:

@@ -138,6 +138,7 @@ class TickScheduler:
         self.world.step()
 
     def _step_behaviour(self) -> None:
+        assert self.behaviour is not None
         try:
             commands = self.behaviour.step(self.readings, self.world.time)
         except PluginError:

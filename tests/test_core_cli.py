@@ -98,7 +98,7 @@ def test_higher_restitution_bounces_higher() -> None:
         result = sim.run()
     bodies = result.result["bodies"]
     peaks = [bodies[f"ball_r{i}"]["peak_bounce_height"] for i in range(10)]
-    assert all(b > a for a, b in zip(peaks, peaks[1:])), peaks
+    assert all(b > a for a, b in zip(peaks, peaks[1:], strict=False)), peaks
     assert peaks[0] == pytest.approx(0.05, abs=0.002)  # restitution 0: rests at its radius
     assert bodies["box"]["final_position"][0] > 0.2  # the push at t = 2 s moved it
 
