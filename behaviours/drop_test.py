@@ -35,22 +35,24 @@ class DropTest(Behaviour):
                 f"no sensor named {self.config.pose_sensor!r}; add a body_pose sensor or set pose_sensor",
                 key="pose_sensor",
             )
+        self.sensor = self.config.pose_sensor
         self.last_vz: dict[str, float] = {}
-        self.bounced: dict[str, bool] = {}
         self.peak: dict[str, float] = {}
         self.final: dict[str, Any] = {}
 
     def step(self, readings: Mapping[str, Any], t: float) -> None:
-        for name, state in readings[self.config.pose_sensor].items():
+        states = readings[self.sensor]
+        last_vz, peaks = self.last_vz, self.peak
+        for name, state in states.items():
             z, vz = state.position[2], state.linear_velocity[2]
-            prev = self.last_vz.get(name, 0.0)
-            if not self.bounced.get(name) and prev < -0.05 and vz >= 0.0:
-                self.bounced[name] = True
-                self.peak[name] = z
-            if self.bounced.get(name):
-                self.peak[name] = max(self.peak[name], z)
-            self.last_vz[name] = vz
-            self.final[name] = {"position": state.position, "orientation": state.orientation}
+            peak = peaks.get(name)
+            if peak is None:
+                if last_vz.get(name, 0.0) < -0.05 and vz >= 0.0:  # first impact: falling turned rising
+                    peaks[name] = z
+            elif z > peak:
+                peaks[name] = z
+            last_vz[name] = vz
+        self.final.update(states)
         if t >= self.config.duration:
             self.finish("succeeded", f"watched {len(self.final)} bodies for {self.config.duration:g} s")
         return None
@@ -59,10 +61,10 @@ class DropTest(Behaviour):
         return {
             "bodies": {
                 name: {
-                    "peak_bounce_height": round(self.peak.get(name, final["position"][2]), 6),
-                    "bounced": bool(self.bounced.get(name)),
-                    "final_position": [round(v, 6) for v in final["position"]],
-                    "final_orientation": [round(v, 6) for v in final["orientation"]],
+                    "peak_bounce_height": round(self.peak.get(name, final.position[2]), 6),
+                    "bounced": name in self.peak,
+                    "final_position": [round(v, 6) for v in final.position],
+                    "final_orientation": [round(v, 6) for v in final.orientation],
                 }
                 for name, final in self.final.items()
             }

@@ -6,7 +6,9 @@ Perception-based behaviours must use the camera/lidar instead.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from typing import NamedTuple
+
+import pybullet as p
 
 from robokit import hookimpl
 from robokit.components import Sensor, SetupContext
@@ -22,8 +24,7 @@ class BodyPoseConfig(Schema):
     bodies: tuple[str, ...] = ()
 
 
-@dataclass(frozen=True)
-class BodyState:
+class BodyState(NamedTuple):
     """Pose and velocity of one body's base: metres, ``(x, y, z, w)`` quaternion, m/s and rad/s, world frame."""
 
     position: Vec3
@@ -47,16 +48,16 @@ class BodyPoseSensor(Sensor):
             client = self.world.client
             names = tuple(n for n in self.world.body_names if client.getDynamicsInfo(self.world.body(n), -1)[0] > 0)
         self.names = names
+        self._ids = [(name, self.world.body(name)) for name in names]  # looked up once, at load
 
     def read(self) -> dict[str, BodyState]:
-        out = {}
-        for name in self.names:
-            if not self.world.has_body(name):  # removed during the run
-                continue
-            pos, orn = self.world.pose(name)
-            lin, ang = self.world.velocity(name)
-            out[name] = BodyState(pos, orn, lin, ang)
-        return out
+        cid, alive = self.world.cid, self.world.body_name
+        pose, velocity = p.getBasePositionAndOrientation, p.getBaseVelocity
+        return {
+            name: BodyState(*pose(bid, physicsClientId=cid), *velocity(bid, physicsClientId=cid))
+            for name, bid in self._ids
+            if alive(bid) == name  # it may have been removed during the run
+        }
 
 
 @hookimpl

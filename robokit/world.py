@@ -79,6 +79,16 @@ def yaw_of(quaternion: Sequence[float]) -> float:
     return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
 
 
+class _Client(BulletClient):  # type: ignore[misc]
+    """A BulletClient that binds each pybullet function to its client id once, not on every attribute access."""
+
+    def __getattr__(self, name: str) -> Any:
+        attribute = super().__getattr__(name)
+        if callable(attribute):
+            self.__dict__[name] = attribute
+        return attribute
+
+
 class World:
     """Owns one PyBullet client (DIRECT by default), the named bodies in it, the clock and the RNG.
 
@@ -111,7 +121,10 @@ class World:
         self.rng = np.random.default_rng(self.seed)
         self.tick = 0
         with quiet_stdout():
-            self.client: Any = BulletClient(connection_mode=p.GUI if gui else p.DIRECT)
+            try:
+                self.client: Any = _Client(connection_mode=p.GUI if gui else p.DIRECT)
+            except p.error as exc:
+                raise UserError(f"could not start PyBullet ({'GUI: is a display available?' if gui else exc})") from exc
         self._bodies: dict[str, int] = {}
         self._names: dict[int, str] = {}
         self._joint_cache: dict[int, list[JointInfo]] = {}
@@ -120,6 +133,11 @@ class World:
         self.client.setPhysicsEngineParameter(fixedTimeStep=self.time_step, numSolverIterations=solver_iterations)
         if gui:
             self.client.configureDebugVisualizer(p.COV_ENABLE_GUI, 0)
+
+    @property
+    def cid(self) -> int:
+        """The client id, for hot loops that call ``pybullet.f(..., physicsClientId=world.cid)`` directly."""
+        return int(self.client._client)
 
     # ----------------------------------------------------------------- clock
     @property
@@ -359,18 +377,18 @@ class World:
     # ----------------------------------------------------------------- state
     def pose(self, body: str | int, link: int = -1) -> tuple[Vec3, Quat]:
         """Position (m, world frame) and orientation ``(x, y, z, w)`` of a body's base or one of its links."""
-        bid = self.body(body)
+        bid = self._bodies.get(body) if isinstance(body, str) else None  # fast path: called every tick
+        if bid is None:
+            bid = self.body(body)
         if link == -1:
-            pos, orn = self.client.getBasePositionAndOrientation(bid)
-        else:
-            state = self.client.getLinkState(bid, link, computeForwardKinematics=True)
-            pos, orn = state[4], state[5]
-        return tuple(pos), tuple(orn)  # type: ignore[return-value]
+            return self.client.getBasePositionAndOrientation(bid)  # type: ignore[no-any-return]
+        state = self.client.getLinkState(bid, link, computeForwardKinematics=True)
+        return state[4], state[5]
 
     def velocity(self, body: str | int) -> tuple[Vec3, Vec3]:
         """Linear (m/s) and angular (rad/s) velocity of a body's base, world frame."""
-        lin, ang = self.client.getBaseVelocity(self.body(body))
-        return tuple(lin), tuple(ang)  # type: ignore[return-value]
+        bid = self._bodies.get(body) if isinstance(body, str) else None
+        return self.client.getBaseVelocity(self.body(body) if bid is None else bid)  # type: ignore[no-any-return]
 
     def set_pose(self, body: str | int, position: Sequence[float], orientation: Sequence[float] | None = None) -> None:
         """Teleport a body's base (velocity is zeroed). For set-up and tests, not for control."""
