@@ -74,6 +74,9 @@ class Sensor:
     lazy: ClassVar[bool] = True
     reading_type: ClassVar[type] = object
     """The type every reading is an instance of (checked by :func:`robokit.testing.check_sensor`)."""
+    example: ClassVar[dict[str, Any] | None] = None
+    """A minimal scene and config section to build this type from (used by the conformance checks in
+    :mod:`robokit.testing`): ``{"config": {...section without type...}, "bodies": {...}, ...}``."""
 
     def __init__(self, name: str, config: Any) -> None:
         self.name = name
@@ -101,6 +104,8 @@ class Actuator:
 
     kind: ClassVar[str] = "actuator"
     reading_type: ClassVar[type] = object
+    example: ClassVar[dict[str, Any] | None] = None
+    """Like :attr:`Sensor.example`, plus optional ``"commands"``: ``(tick, command)`` pairs sent to the actuator."""
 
     def __init__(self, name: str, config: Any) -> None:
         self.name = name

@@ -15,7 +15,7 @@ from typing import Any
 import pluggy
 
 from robokit import hookspecs
-from robokit.errors import LookupNameError, UserError
+from robokit.errors import LookupNameError, PluginError, UserError
 
 ENTRY_POINT_GROUP = "robokit"
 KINDS = ("sensor", "actuator", "behaviour", "reporter")
@@ -88,6 +88,19 @@ class Plugins:
         """The manager's hook relay, for lifecycle calls."""
         return self.pm.hook
 
+    def call(self, hook_name: str, **kwargs: Any) -> None:
+        """Call a lifecycle hook implementation by implementation.
+
+        Raises:
+            PluginError: An implementation raised; the message names the plugin (``distribution:entry point``).
+        """
+        for impl in reversed(getattr(self.pm.hook, hook_name).get_hookimpls()):
+            try:
+                impl.function(**{k: v for k, v in kwargs.items() if k in impl.argnames})
+            except Exception as exc:
+                raise PluginError(f"plugin {impl.plugin_name} raised in {hook_name}: {type(exc).__name__}: {exc}",
+                                  type_name=hook_name, distribution=impl.plugin_name) from exc
+
 
 def _dist_label(dist: md.Distribution | None) -> tuple[str, str]:
     if dist is None:
@@ -107,7 +120,9 @@ def _register_checked(pm: pluggy.PluginManager, plugin: object, name: str) -> st
     """Register one plugin object; return a reason if it was rejected (bad hook signature or unknown hook)."""
     try:
         pm.register(plugin, name=name)
-    except (pluggy.PluginValidationError, ValueError) as exc:
+    except pluggy.PluginValidationError as exc:
+        return "; ".join(line.strip() for line in str(exc).splitlines() if line.strip())
+    except ValueError as exc:
         return str(exc).splitlines()[0]
     unknown = [hc.name for hc in (pm.get_hookcallers(plugin) or []) if not hc.has_spec()]
     if unknown:
@@ -180,9 +195,12 @@ def _collect(plugins: Plugins, kind: str, origins: dict[str, tuple[str, str]]) -
                 )
             plugins.types[kind][type_name] = PluginType(kind, type_name, cls, schema, _d, _v, _p)
 
+        before = set(plugins.types[kind])
         try:
             impl.function(register=register)
         except UserError:
             raise
         except Exception as exc:  # noqa: BLE001 - isolate a faulty plugin
+            for partial in set(plugins.types[kind]) - before:
+                del plugins.types[kind][partial]
             _reject(plugins, f"{dist} ({impl.plugin_name})", f"{_HOOK_OF_KIND[kind]} raised {exc!r}")

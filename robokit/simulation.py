@@ -193,7 +193,7 @@ class Simulation:
         pace = self.world.gui and self.config.world.realtime
         with self._signals():
             try:
-                self.plugins.hook.robokit_run_start(simulation=self)
+                self.plugins.call("robokit_run_start", simulation=self)
                 while self.world.tick < max_ticks and self.outcome is None and not self.interrupted:
                     self.scheduler.tick()
                     if pace:
@@ -221,7 +221,11 @@ class Simulation:
             result=self._behaviour_result(),
             interrupted=self.interrupted and self.outcome is None,
         )
-        self.plugins.hook.robokit_run_end(simulation=self, result=result)
+        try:
+            self.plugins.call("robokit_run_end", simulation=self, result=result)
+        except PluginError as exc:  # the result survives a faulty run_end hook
+            if result.outcome != "error":
+                result.outcome, result.reason = "error", str(exc)
         return result
 
     def _behaviour_result(self) -> dict[str, Any]:

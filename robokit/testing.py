@@ -64,3 +64,18 @@ def states_visited(sim: Simulation, machine: str | None = None) -> list[str]:
 def run_until(sim: Simulation, predicate: Callable[[Simulation], bool], max_ticks: int) -> bool:
     """Step ``sim`` until ``predicate(sim)`` holds; False if ``max_ticks`` ran out first."""
     return sim.run_until(predicate, max_ticks)
+
+
+# Conformance checks for plugin types (see robokit.conformance for what they verify).
+from robokit.conformance import (  # noqa: E402
+    ConformanceError,
+    ConformanceReport,
+    check_actuator,
+    check_sensor,
+    first_difference,
+)
+
+__all__ = [
+    "PLANE", "ConformanceError", "ConformanceReport", "check_actuator", "check_sensor", "first_difference",
+    "make_sim", "run_until", "states_visited", "transitions",
+]
