@@ -43,3 +43,27 @@ def _flush_c_stdio() -> None:
         ctypes.CDLL(None).fflush(None)
     except (OSError, AttributeError):
         pass
+
+
+@contextmanager
+def c_stdout_to_stderr() -> Iterator[None]:
+    """Point file descriptor 1 at stderr for the duration, so C libraries' prints cannot corrupt stdout.
+
+    Python's own ``sys.stdout`` is flushed before and after; use this around a run whose stdout must stay clean
+    (``robokit run --json``).
+    """
+    try:
+        sys.stdout.flush()
+        out_fd, err_fd = sys.stdout.fileno(), sys.stderr.fileno()
+    except (AttributeError, OSError, ValueError):
+        yield
+        return
+    saved = os.dup(out_fd)
+    try:
+        os.dup2(err_fd, out_fd)
+        yield
+    finally:
+        _flush_c_stdio()
+        sys.stdout.flush()
+        os.dup2(saved, out_fd)
+        os.close(saved)

@@ -90,12 +90,14 @@ def _load(args: argparse.Namespace) -> tuple[Any, Any]:
 
 def cmd_run(args: argparse.Namespace) -> int:
     """``robokit run``: build, run, report; print a summary (or the RunResult JSON with ``--json``)."""
+    from robokit._quiet import c_stdout_to_stderr
     from robokit.runner import run_config, summary
 
-    plugins, cfg = _load(args)
     trace = open(args.trace, "w", encoding="utf-8") if args.trace else None  # noqa: SIM115
     try:
-        out = run_config(cfg, plugins, gui=True if args.gui else None, max_time=args.max_time, trace=trace)
+        with c_stdout_to_stderr():  # pybullet's C-level warnings must not corrupt stdout (--json)
+            plugins, cfg = _load(args)
+            out = run_config(cfg, plugins, gui=True if args.gui else None, max_time=args.max_time, trace=trace)
     finally:
         if trace is not None:
             trace.close()

@@ -202,6 +202,8 @@ class Simulation:
                     outcome, reason = self.outcome.status, self.outcome.reason
                 elif self.interrupted:
                     reason = f"interrupted by {self._stop_reason} at t = {self.world.time:.3f} s"
+                elif self.behaviour is None:  # a scene with no behaviour just runs for max_time
+                    outcome, reason = "succeeded", f"no behaviour: simulated {limit:g} s"
                 else:
                     reason = f"max_time {limit:g} s reached before the behaviour finished"
             except PluginError as exc:

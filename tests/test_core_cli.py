@@ -138,3 +138,12 @@ def test_behaviour_modules_never_import_pybullet() -> None:
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.strip() == "False"
+
+
+def test_json_stdout_stays_clean_despite_pybullet_warnings(tmp_path: Path) -> None:
+    # The humanoid URDF makes pybullet print C-level warnings; --json output must still parse.
+    proc = robokit("run", str(ROOT / "configs" / "urdf_gallery.toml"), "--json", "--max-time", "0.5", cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    result = json.loads(proc.stdout)
+    assert result["outcome"] == "succeeded" and result["reason"] == "no behaviour: simulated 0.5 s"
+    assert "b3Warning" in proc.stderr
