@@ -62,6 +62,11 @@ class Camera(Sensor):
     """RGB, metric depth and segmentation from a fixed or link-mounted camera (lazy: renders only when read)."""
 
     reading_type = CameraFrame
+    example = {
+        "config": {"width": 32, "height": 24, "eye": [0.0, 0.0, 1.0], "target": [0.0, 0.0, 0.0], "up": [1, 0, 0]},
+        "bodies": {"plane": {"urdf": "plane.urdf", "position": [0, 0, 0]},
+                   "cube": {"shape": "box", "size": [0.1, 0.1, 0.1], "mass": 0.0, "position": [0, 0, 0.05]}},
+    }
 
     def setup(self, ctx: SetupContext) -> None:
         super().setup(ctx)

@@ -94,6 +94,14 @@ class ColourDetector(Sensor):
     """Coloured blobs in a camera frame with world positions deprojected from depth (lazy, one frame per read)."""
 
     reading_type = Detections
+    example = {
+        "config": {"camera": "cam", "object_height": 0.1},
+        "bodies": {"plane": {"urdf": "plane.urdf", "position": [0, 0, 0]},
+                   "cube": {"shape": "box", "size": [0.1, 0.1, 0.1], "mass": 0.0, "position": [0, 0, 0.05],
+                            "rgba": [1, 0, 0, 1]}},
+        "sensors": {"cam": {"type": "camera", "width": 64, "height": 48, "eye": [0.0, 0.0, 1.0],
+                            "target": [0.0, 0.0, 0.0], "up": [1, 0, 0]}},
+    }
 
     def setup(self, ctx: SetupContext) -> None:
         super().setup(ctx)
