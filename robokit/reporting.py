@@ -7,7 +7,11 @@ lesson 08's ``POST /api/robotics/result/``.
 
 from __future__ import annotations
 
+import json
+import os
+import tempfile
 from collections.abc import Iterable
+from pathlib import Path
 from typing import Any
 
 from robokit.components import Delivery
@@ -16,7 +20,9 @@ from robokit.result import RunResult
 COURSE_FIELDS = ("red_sorted", "blue_sorted", "failures", "total_time")
 
 
-def build_payload(result: RunResult, *, student: str | None = None, project: str | None = None) -> dict[str, Any]:
+def build_payload(
+    result: RunResult, *, student: str | None = None, project: str | None = None
+) -> dict[str, Any]:
     """The RunResult as a dict plus the course's top-level fields."""
     payload = result.to_dict()
     if student is not None:
@@ -39,3 +45,49 @@ def deliver(reporters: Iterable[Any], payload: dict[str, Any]) -> list[tuple[str
             delivery = Delivery(False, None, f"{reporter.name}: {type(exc).__name__}: {exc}")
         out.append((reporter.name, delivery))
     return out
+
+
+def write_json_atomic(path: Path, data: Any, *, overwrite: bool = False) -> None:
+    """Write JSON to ``path`` through a temporary file in the same folder, fsync, and an atomic rename.
+
+    A reader (or a crash) sees either the old file or the complete new one, never a partial write.
+
+    Args:
+        path: Destination file; its folder is created if missing.
+        data: Anything ``json.dumps`` accepts.
+        overwrite: Replace an existing file (outbox entries are rewritten; results never are).
+
+    Raises:
+        FileExistsError: ``path`` exists and ``overwrite`` is false.
+    """
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if not overwrite and path.exists():
+        raise FileExistsError(f"{path} already exists")
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            json.dump(data, fh, indent=2)
+            fh.write("\n")
+            fh.flush()
+            os.fsync(fh.fileno())
+        if overwrite:
+            os.replace(tmp, path)
+        else:
+            _link_no_overwrite(Path(tmp), path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def _link_no_overwrite(tmp: Path, path: Path) -> None:
+    """Move ``tmp`` to ``path`` unless ``path`` exists (a hard link is atomic and refuses to overwrite)."""
+    try:
+        os.link(tmp, path)
+    except FileExistsError:
+        raise FileExistsError(f"{path} already exists") from None
+    except OSError:  # a filesystem without hard links: check, then rename
+        if path.exists():
+            raise FileExistsError(f"{path} already exists") from None
+        os.replace(tmp, path)
+        return
+    tmp.unlink()

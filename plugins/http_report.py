@@ -1,0 +1,273 @@
+"""``http`` reporter: POST the result to a course server, keeping it in the outbox until a 2xx says it arrived.
+
+Config (``[report.http]``; ``--report-url`` sets ``url``)::
+
+    [report.http]
+    url = "https://course.example.org/api/robotics/result/"
+    token_env = "ROBOKIT_TOKEN"   # the NAME of an environment variable holding a bearer token (optional)
+    outbox = "outbox"             # folder for undelivered results, relative to the working directory
+
+Retries (connection errors, timeouts, 5xx, 408, 429) are urllib3's :class:`~urllib3.util.retry.Retry` mounted on a
+requests :class:`~requests.adapters.HTTPAdapter`: exponential backoff with jitter, ``Retry-After`` honoured (up to
+``retry_after_max``). The run id is the ``Idempotency-Key`` header. The token is read from the environment at send
+time, sent as ``Authorization: Bearer ...``, and never written anywhere. ``requests`` is imported only when a
+result is sent, so loading the plugin costs nothing.
+"""
+
+from __future__ import annotations
+
+import inspect
+import json
+import os
+from dataclasses import asdict, dataclass, fields
+from typing import Any
+
+from pydantic import Field, field_validator, model_validator
+
+from robokit import __version__, hookimpl
+from robokit.components import Delivery, Reporter
+from robokit.config import Schema
+from robokit.outbox import Entry, Outbox, SendResult
+
+RETRY_STATUSES = frozenset([408, 429, *range(500, 600)])
+"""Answers worth retrying: request timeout, too many requests, and every server error."""
+_MAX_BODY = 4096
+_ENV_NAME = r"^[A-Za-z_][A-Za-z0-9_]*$"
+
+
+class HttpReportConfig(Schema):
+    """``[report.http]``. Times in seconds, sizes in bytes."""
+
+    url: str = Field(description="where to POST, e.g. http://host/api/robotics/result/")
+    token_env: str | None = Field(None, pattern=_ENV_NAME, description="env var NAME holding a bearer token")
+    connect_timeout: float = Field(3.05, gt=0)
+    read_timeout: float = Field(10.0, gt=0)
+    retries: int = Field(4, ge=0, le=20, description="retries after the first try (urllib3 Retry total)")
+    backoff_factor: float = Field(0.5, ge=0, description="sleep backoff_factor * 2**(n-1) before retry n>1")
+    backoff_max: float = Field(30.0, ge=0)
+    backoff_jitter: float = Field(0.5, ge=0, description="uniform random extra sleep, 0..jitter seconds")
+    retry_after_max: float = Field(120.0, ge=0, description="cap on a server's Retry-After")
+    verify: bool | str = Field(True, description="TLS verification: true, false, or a CA bundle path")
+    max_payload_bytes: int = Field(1_000_000, ge=1)
+    outbox: str = Field("outbox", min_length=1)
+    flush_outbox: bool = Field(True, description="after delivering, send entries waiting in the outbox")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _no_secret_here(cls, data: Any) -> Any:
+        if isinstance(data, dict) and {"token", "bearer", "password", "api_key"} & data.keys():
+            raise ValueError("never put a token in the config file: set token_env = the NAME of an environment "
+                             "variable that holds it")
+        return data
+
+    @field_validator("url")
+    @classmethod
+    def _http_url(cls, url: str) -> str:
+        if not url.startswith(("http://", "https://")):
+            raise ValueError(f"expected an http:// or https:// URL, got {url!r}")
+        return url
+
+
+@dataclass(frozen=True)
+class HttpOptions:
+    """How to send: everything an outbox entry needs to be sent later, and nothing secret."""
+
+    connect_timeout: float = 3.05
+    read_timeout: float = 10.0
+    retries: int = 4
+    backoff_factor: float = 0.5
+    backoff_max: float = 30.0
+    backoff_jitter: float = 0.5
+    retry_after_max: float = 120.0
+    verify: bool | str = True
+    max_payload_bytes: int = 1_000_000
+    token_env: str | None = None
+
+    @classmethod
+    def from_mapping(cls, data: Any) -> HttpOptions:
+        """From a config model or an entry's ``options`` dict (unknown keys ignored, missing ones default)."""
+        get = data.get if isinstance(data, dict) else lambda k, d: getattr(data, k, d)
+        return cls(**{f.name: get(f.name, f.default) for f in fields(cls)})
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+def make_session(opts: HttpOptions) -> Any:
+    """A requests Session whose adapter retries with urllib3's Retry (POST included, Retry-After honoured)."""
+    import requests
+    from requests.adapters import HTTPAdapter
+    from urllib3.util.retry import Retry
+
+    kwargs: dict[str, Any] = dict(
+        total=opts.retries, connect=None, read=None, redirect=0, status=None, other=0,
+        allowed_methods=frozenset({"POST"}), status_forcelist=RETRY_STATUSES,
+        backoff_factor=opts.backoff_factor, backoff_max=opts.backoff_max, backoff_jitter=opts.backoff_jitter,
+        respect_retry_after_header=True, raise_on_status=False, raise_on_redirect=False,
+    )
+    if "retry_after_max" in inspect.signature(Retry).parameters:  # urllib3 >= 2.6
+        kwargs["retry_after_max"] = opts.retry_after_max
+    adapter = HTTPAdapter(max_retries=Retry(**kwargs))
+    session = requests.Session()
+    session.trust_env = False  # no proxies or .netrc credentials picked up behind the user's back
+    session.mount("http://", adapter)
+    session.mount("https://", adapter)
+    return session
+
+
+def encode(payload: dict[str, Any]) -> bytes:
+    """The request body: compact UTF-8 JSON."""
+    return json.dumps(payload, separators=(",", ":"), ensure_ascii=False).encode("utf-8")
+
+
+class HttpSender:
+    """Sends outbox entries (a :data:`robokit.outbox.Sender`). ``url`` overrides each entry's URL."""
+
+    def __init__(self, url: str | None = None, token_env: str | None = None) -> None:
+        self.url = url
+        self.token_env = token_env
+        self._sessions: dict[HttpOptions, Any] = {}
+
+    def __call__(self, entry: Entry) -> SendResult:
+        opts = HttpOptions.from_mapping(entry.options)
+        if self.token_env is not None:
+            opts = HttpOptions.from_mapping({**opts.to_dict(), "token_env": self.token_env})
+        body = encode(entry.payload)
+        if len(body) > opts.max_payload_bytes:
+            return SendResult(False, True, None, f"payload is {len(body)} bytes, over the "
+                              f"{opts.max_payload_bytes}-byte limit (max_payload_bytes): not sent")
+        token = os.environ.get(opts.token_env) if opts.token_env else None
+        if opts.token_env and not token:
+            return SendResult(False, False, None, f"environment variable {opts.token_env} is not set: not sent")
+        if opts not in self._sessions:
+            self._sessions[opts] = make_session(opts)
+        result = post(self._sessions[opts], self.url or entry.url, body, entry.run_id, opts, token)
+        return _redact(result, token)
+
+    def close(self) -> None:
+        for session in self._sessions.values():
+            session.close()
+        self._sessions.clear()
+
+
+def post(session: Any, url: str, body: bytes, run_id: str, opts: HttpOptions, token: str | None) -> SendResult:
+    """POST once through the retrying session; classify the final answer or error."""
+    import requests
+
+    headers = {"Content-Type": "application/json", "Idempotency-Key": run_id,
+               "User-Agent": f"robokit/{__version__}"}
+    if token:
+        headers["Authorization"] = f"Bearer {token}"
+    try:
+        resp = session.post(url, data=body, headers=headers, timeout=(opts.connect_timeout, opts.read_timeout),
+                            verify=opts.verify, allow_redirects=False)
+    except requests.RequestException as exc:
+        return SendResult(False, False, None, _describe(exc, opts))
+    text = resp.text[:_MAX_BODY]
+    first_line = " ".join(text.split())[:200]
+    if 200 <= resp.status_code < 300:
+        return SendResult(True, False, resp.status_code, f"HTTP {resp.status_code}", text)
+    if 400 <= resp.status_code < 500 and resp.status_code not in RETRY_STATUSES:
+        return SendResult(False, True, resp.status_code, f"HTTP {resp.status_code}: {first_line}", text)
+    if 300 <= resp.status_code < 400:
+        where = resp.headers.get("Location", "?")
+        return SendResult(False, False, resp.status_code,
+                          f"HTTP {resp.status_code}: the server redirects to {where}; flush with --url set to it")
+    return SendResult(False, False, resp.status_code, f"HTTP {resp.status_code} after retries: {first_line}", text)
+
+
+def _describe(exc: Exception, opts: HttpOptions) -> str:
+    """One line for a requests error (never the headers): what kind of failure, and its root cause."""
+    from urllib3.exceptions import ConnectTimeoutError, NewConnectionError, ReadTimeoutError, SSLError
+
+    chain = _causes(exc)
+    after = f"after {opts.retries} retries"
+    refused = any(isinstance(e, NewConnectionError) for e in chain)  # a subclass of ConnectTimeoutError
+    if not refused and any(isinstance(e, ConnectTimeoutError) for e in chain):
+        return f"connect timed out ({opts.connect_timeout} s), {after}"
+    if any(isinstance(e, ReadTimeoutError) for e in chain):
+        return f"no answer within the read timeout ({opts.read_timeout} s), {after}"
+    kind = "TLS error" if any(isinstance(e, SSLError) for e in chain) else "connection failed"
+    cause = " ".join(str(chain[-1]).split())[:160]
+    return f"{kind}: {cause}, {after}"
+
+
+def _causes(exc: BaseException) -> list[BaseException]:
+    """``exc`` and what it wraps (requests' ``args[0]``, urllib3's ``reason``, ``__cause__``/``__context__``)."""
+    chain = [exc]
+    while len(chain) < 20:
+        cur = chain[-1]
+        nxt = getattr(cur, "reason", None)
+        if not isinstance(nxt, BaseException) and cur.args and isinstance(cur.args[0], BaseException):
+            nxt = cur.args[0]
+        if not isinstance(nxt, BaseException):
+            nxt = cur.__cause__ or cur.__context__
+        if not isinstance(nxt, BaseException) or any(nxt is e for e in chain):
+            break
+        chain.append(nxt)
+    return chain
+
+
+def _redact(result: SendResult, token: str | None) -> SendResult:
+    """Blank the token out of anything the server echoed back (it is written to files and printed)."""
+    if not token or (token not in result.detail and token not in result.body):
+        return result
+    return SendResult(result.ok, result.permanent, result.status,
+                      result.detail.replace(token, "***"), result.body.replace(token, "***"))
+
+
+class HttpReporter(Reporter):
+    """POSTs the payload; on failure the payload waits in the outbox (see :mod:`robokit.outbox`)."""
+
+    def report(self, payload: dict[str, Any]) -> Delivery:
+        cfg: HttpReportConfig = self.config
+        opts = HttpOptions.from_mapping(cfg)
+        outbox = Outbox(cfg.outbox)
+        sender = HttpSender()
+        try:
+            delivery = self._send_own(outbox, sender, payload, opts)
+            if delivery.delivered and cfg.flush_outbox:
+                delivery = _with_flush(delivery, outbox, sender, cfg.url)
+            return delivery
+        finally:
+            sender.close()
+
+    def _send_own(self, outbox: Outbox, sender: HttpSender, payload: dict[str, Any], opts: HttpOptions) -> Delivery:
+        url = self.config.url
+        try:
+            with outbox.lock(str(payload["run_id"])):
+                entry = outbox.put(payload, url, opts.to_dict())  # write-ahead: a crash from here on resends
+                outcome, entry, result = outbox.attempt(entry, sender)
+        except OSError as exc:  # the outbox cannot be written: still try to deliver, without a safety net
+            result = sender(Entry(outbox.path_for(str(payload["run_id"])), {
+                "run_id": payload["run_id"], "url": url, "payload": payload, "options": opts.to_dict()}))
+            if result.ok:
+                return Delivery(True, None, f"delivered to {url} ({result.detail})")
+            return Delivery(False, None, f"not delivered ({result.detail}) and the outbox {outbox.root} "
+                            f"could not be written: {exc}")
+        if outcome == "delivered":
+            return Delivery(True, None, f"delivered to {url} ({result.detail})")
+        if outcome == "failed":
+            return Delivery(False, str(entry.path), f"refused by the server ({result.detail}); kept in {entry.path}")
+        return Delivery(False, str(entry.path), f"not delivered ({result.detail}); result kept in the outbox "
+                        f"{entry.path} - `robokit outbox flush --dir {outbox.root}` sends it later")
+
+
+def _with_flush(delivery: Delivery, outbox: Outbox, sender: HttpSender, url: str) -> Delivery:
+    """After this run's own delivery worked, send what waits in the outbox for the same URL.
+
+    Entries made for other URLs are left alone (that server was not just shown to be up). A failure here changes
+    nothing about this run's own report.
+    """
+    try:
+        if not any(e.url == url for e in outbox.entries()):
+            return delivery
+        report = outbox.flush(sender, url=url)
+    except Exception as exc:  # noqa: BLE001 - flushing older results never changes this run's report
+        return Delivery(True, None, f"{delivery.message}; outbox flush failed: {type(exc).__name__}: {exc}")
+    return Delivery(True, None, f"{delivery.message}; outbox {outbox.root}: {report.counts()}")
+
+
+@hookimpl
+def robokit_register_reporters(register):  # type: ignore[no-untyped-def]
+    register("http", HttpReporter, HttpReportConfig)
