@@ -1,0 +1,408 @@
+"""``pick_place`` behaviour: pick one object with an ``ik_arm`` and a friction ``gripper``, place it at a spot.
+
+States advance on conditions (pose reached, gripper settled, hold verified), never after fixed waits; each state
+has a sim-time timeout. A failed grasp, a drop or a timeout while handling the object starts a new attempt (the
+object is located again) until ``max_attempts`` is used up; then the behaviour fails with the reason.
+
+Two ways to use it:
+
+- as the top-level behaviour ``type = "pick_place"``: the object's pose comes from a ``body_pose`` sensor by name;
+- as a sub-machine of a larger behaviour (sorting): ``PickPlace.sub(name=..., parent_ctx=ctx, arm=..., gripper=...)``,
+  then ``start(PickPlaceTask(...), t)`` and ``step(readings, t)`` each tick until ``outcome`` is set.
+
+Heights: positions are object *centres*, metres, world frame. The tool-centre point (the arm's end-effector link)
+goes to the object centre plus ``grasp_offset`` to grasp and is released ``place_clearance`` above the place
+position.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from pydantic import Field
+from robokit_plugins.arm_types import (
+    ArmState,
+    GripperCommand,
+    GripperState,
+    MoveTo,
+    Vec3,
+    cube_grasp_yaw,
+    yaw_of,
+)
+
+from robokit import hookimpl
+from robokit.components import SetupContext
+from robokit.config import Schema
+from robokit.errors import ConfigError
+from robokit.fsm import MachineBehaviour
+
+
+class Phase(enum.Enum):
+    """States of the pick-and-place machine, in the order a clean run visits them."""
+
+    WAIT = "wait"
+    APPROACH = "approach"
+    DESCEND = "descend"
+    GRASP = "grasp"
+    LIFT = "lift"
+    TRANSPORT = "transport"
+    LOWER = "lower"
+    RELEASE = "release"
+    RETREAT = "retreat"
+    DONE = "done"
+    FAILED = "failed"
+
+
+HANDLING = ["GRASP", "LIFT", "TRANSPORT", "LOWER", "DESCEND", "APPROACH", "RELEASE", "RETREAT"]
+
+TRANSITIONS: list[dict[str, Any]] = [
+    {"trigger": "begin", "source": "WAIT", "dest": "APPROACH"},
+    {"trigger": "above_object", "source": "APPROACH", "dest": "DESCEND"},
+    {"trigger": "at_object", "source": "DESCEND", "dest": "GRASP"},
+    {"trigger": "grasped", "source": "GRASP", "dest": "LIFT"},
+    {"trigger": "hold_verified", "source": "LIFT", "dest": "TRANSPORT"},
+    {"trigger": "above_place", "source": "TRANSPORT", "dest": "LOWER"},
+    {"trigger": "at_place", "source": "LOWER", "dest": "RELEASE"},
+    {"trigger": "released", "source": "RELEASE", "dest": "RETREAT"},
+    {"trigger": "clear", "source": "RETREAT", "dest": "DONE"},
+    {"trigger": "retry", "source": HANDLING, "dest": "APPROACH"},
+    {"trigger": "give_up", "source": "*", "dest": "FAILED"},
+    {"trigger": "reset", "source": "*", "dest": "WAIT"},
+]
+
+TIMEOUTS = {"APPROACH": 3.0, "DESCEND": 2.0, "GRASP": 1.0, "LIFT": 2.0, "TRANSPORT": 3.0, "LOWER": 2.0,
+            "RELEASE": 1.0, "RETREAT": 2.0}
+"""Sim seconds allowed per state."""
+
+
+@dataclass(frozen=True)
+class PickPlaceTask:
+    """One pick-and-place job. Positions are object centres, metres, world frame; yaw in radians."""
+
+    pick_position: tuple[float, float, float]
+    pick_yaw: float
+    place_position: tuple[float, float, float]
+    object_name: str | None = None
+    object_size: float = 0.05
+
+
+class PickPlaceConfig(Schema):
+    """``[behaviour]`` with ``type = "pick_place"`` (the same options apply to :meth:`PickPlace.sub`)."""
+
+    arm: str = Field("arm", description="an ik_arm actuator")
+    gripper: str = Field("gripper", description="a gripper actuator")
+    pose_sensor: str | None = Field(None, description="a body_pose sensor that sees the object")
+    object: str | None = Field(None, description="body to pick (top-level use)")
+    place_position: Vec3 | None = Field(None, description="object centre at the place spot, m (top-level use)")
+    object_size: float = Field(0.05, gt=0, description="edge length, m (top-level use)")
+    max_attempts: int = Field(3, ge=1, le=20)
+    approach_height: float = Field(0.07, gt=0, description="TCP above the grasp point before descending, m")
+    lift_height: float = Field(0.08, gt=0, description="transport altitude above max(pick, place) z, m")
+    retreat_height: float = Field(0.05, gt=0, description="rise after release, m")
+    grasp_offset: float = Field(0.0, description="TCP z relative to the object centre when grasping, m")
+    place_clearance: float = Field(0.004, ge=0, description="release height above the place position, m")
+    speed: float = Field(1.2, gt=0, description="peak speed of free moves, m/s")
+    slow_speed: float = Field(0.6, gt=0, description="peak speed near the object, m/s")
+    grasp_force: float | None = Field(None, gt=0, description="N; default the gripper's force")
+    place_tolerance: float = Field(0.02, gt=0, description="max placement error for success, m")
+    timeouts: dict[str, float] = Field(default_factory=dict, description="state name -> sim seconds")
+
+
+class PickPlace(MachineBehaviour):
+    """Picks an object and places it at a spot: approach, descend, grasp, lift, transport, lower, release, retreat."""
+
+    STATES = Phase
+    TRANSITIONS = TRANSITIONS
+    INITIAL = Phase.WAIT
+    TIMEOUTS = TIMEOUTS
+
+    def __init__(self, name: str, config: Any) -> None:
+        super().__init__(name, config or PickPlaceConfig())
+        cfg: PickPlaceConfig = self.config
+        unknown = sorted(set(cfg.timeouts) - set(TIMEOUTS))
+        if unknown:
+            raise ValueError(f"unknown state {unknown[0]!r} in timeouts; states: {', '.join(TIMEOUTS)}")
+        self.TIMEOUTS = {**TIMEOUTS, **cfg.timeouts}
+        self.task: PickPlaceTask | None = None
+        self.attempts = 0
+        self.started_at = 0.0
+        self.finished_at: float | None = None
+        self.failures: list[str] = []
+        self.final_position: Vec3 | None = None
+        self.placement_error: float | None = None
+        self._entry_due = False
+        self._yaw = 0.0
+        self._grasp: Vec3 = (0.0, 0.0, 0.0)
+
+    # ------------------------------------------------------------------ construction
+    @classmethod
+    def sub(cls, *, name: str = "pick_place", parent_ctx: SetupContext, arm: str = "arm",
+            gripper: str = "gripper", max_attempts: int = 1, **options: Any) -> PickPlace:
+        """Build a pick-and-place sub-machine for a parent behaviour, set up with the parent's context.
+
+        Its transitions go to the run's trace under ``machine=name``. Options are :class:`PickPlaceConfig` fields.
+        """
+        config = PickPlaceConfig(arm=arm, gripper=gripper, max_attempts=max_attempts, **options)
+        machine = cls(name, config)
+        machine.setup(parent_ctx)
+        return machine
+
+    def setup(self, ctx: SetupContext) -> None:
+        """Check the arm, gripper and (top-level) pose sensor and object exist and are what they should be."""
+        super().setup(ctx)
+        cfg: PickPlaceConfig = self.config
+        self._need(ctx, cfg.arm, "arm", ArmState, "ik_arm")
+        self._need(ctx, cfg.gripper, "gripper", GripperState, "gripper")
+        if cfg.pose_sensor is not None and cfg.pose_sensor not in ctx.components:
+            raise ConfigError(f"no sensor named {cfg.pose_sensor!r}; add a body_pose sensor", key="pose_sensor")
+        if cfg.object is not None and not ctx.world.has_body(cfg.object):
+            raise ConfigError(f"unknown body {cfg.object!r}; bodies: {', '.join(ctx.world.body_names)}",
+                              key="object")
+
+    @staticmethod
+    def _need(ctx: SetupContext, name: str, key: str, reading: type, type_name: str) -> None:
+        comp = ctx.components.get(name)
+        if comp is None:
+            have = ", ".join(ctx.components) or "(none)"
+            raise ConfigError(f"pick_place needs a {type_name} actuator named {name!r}, but there is none; "
+                              f"components: {have}", key=key)
+        if getattr(comp, "reading_type", None) is not reading:
+            raise ConfigError(f"component {name!r} is not a {type_name} actuator", key=key)
+
+    # ------------------------------------------------------------------ driving
+    def start(self, task: PickPlaceTask, t: float) -> None:
+        """Begin a new pick-and-place (resets the machine; commands follow at the next :meth:`step`)."""
+        if self.state is not Phase.WAIT:
+            self.t = t
+            self.fire("reset")
+        self.task, self.outcome, self.attempts, self.failures = task, None, 0, []
+        self.t = self.started_at = self.entered_at = t
+        self.finished_at, self.final_position, self.placement_error = None, None, None
+        self.phase_times = {}
+        self._go("begin")
+
+    def step(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any] | None:
+        """Check the state's timeout, run its ``do_<state>`` handler; return commands when a state is entered.
+
+        A state's handler runs only after its entry commands went out, so it never sees the previous state's
+        readings (e.g. an old ``reached``).
+        """
+        self.t = t
+        if self.state is Phase.WAIT and self.task is None and self.config.object is not None:
+            self._start_from_config(readings, t)
+        limit = self.TIMEOUTS.get(self.state_name)
+        if limit is not None and self.time_in_state > limit:
+            self.on_timeout(self.state_name)
+        handler = getattr(self, f"do_{self.state_name.lower()}", None)
+        if handler is not None and self.outcome is None and not self._entry_due:
+            handler(readings, t)
+        if self._entry_due and self.outcome is None:
+            self._entry_due = False
+            enter = getattr(self, f"enter_{self.state_name.lower()}", None)
+            return enter(readings) if enter else None
+        return None
+
+    def _start_from_config(self, readings: Mapping[str, Any], t: float) -> None:
+        cfg: PickPlaceConfig = self.config
+        if cfg.place_position is None:
+            self.finish("failed", "no place_position configured")
+            return
+        located = self._locate(readings)
+        if located is None:
+            return
+        pos, yaw = located
+        self.start(PickPlaceTask(pos, yaw, cfg.place_position, cfg.object, cfg.object_size), t)
+
+    def _locate(self, readings: Mapping[str, Any]) -> tuple[Vec3, float] | None:
+        """Object centre and yaw now: from the pose sensor if there is one, else the task's."""
+        cfg: PickPlaceConfig = self.config
+        name = self.task.object_name if self.task else cfg.object
+        if cfg.pose_sensor is None or name is None:
+            return (self.task.pick_position, self.task.pick_yaw) if self.task else None
+        state = readings[cfg.pose_sensor].get(name)
+        if state is None:
+            self._fail(f"object {name!r} is not seen by {cfg.pose_sensor!r} (removed?)")
+            return None
+        return tuple(state.position), yaw_of(state.orientation)  # type: ignore[return-value]
+
+    def _go(self, trigger: str) -> None:
+        if self.fire(trigger):
+            self._entry_due = True
+
+    def _fail(self, reason: str) -> None:
+        self.failures.append(reason)
+        self.fire("give_up")
+        self.finished_at = self.t
+        self.finish("failed", reason)
+
+    def _retry(self, reason: str) -> None:
+        cfg: PickPlaceConfig = self.config
+        self.failures.append(reason)
+        if self.attempts >= cfg.max_attempts:
+            tries = f"after {self.attempts} attempt{'s' if self.attempts > 1 else ''}"
+            self._fail(f"{reason} ({tries})")
+        else:
+            self._go("retry")
+
+    def on_timeout(self, state: str) -> None:
+        """A state ran out of sim time: retry while attempts remain."""
+        self._retry(f"timed out in {state} after {self.TIMEOUTS[state]:g} s")
+
+    # ------------------------------------------------------------------ commands on entry
+    def _move(self, pos: Vec3, slow: bool = False) -> dict[str, Any]:
+        cfg: PickPlaceConfig = self.config
+        return {cfg.arm: MoveTo(pos, yaw=self._yaw, speed=cfg.slow_speed if slow else cfg.speed)}
+
+    def _altitude(self) -> float:
+        assert self.task is not None
+        return max(self._grasp[2], self.task.place_position[2] + self.config.grasp_offset) + self.config.lift_height
+
+    def enter_approach(self, readings: Mapping[str, Any]) -> dict[str, Any] | None:
+        """Open the gripper and move above the object (located again on every attempt)."""
+        cfg: PickPlaceConfig = self.config
+        located = self._locate(readings)
+        if located is None:
+            return None
+        self.attempts += 1
+        (x, y, z), yaw = located
+        self._yaw = cube_grasp_yaw(yaw, 0.0)
+        self._grasp = (x, y, z + cfg.grasp_offset)
+        return {cfg.gripper: GripperCommand("open"), **self._move((x, y, self._grasp[2] + cfg.approach_height))}
+
+    def enter_descend(self, readings: Mapping[str, Any]) -> dict[str, Any]:
+        """Go straight down to the grasp point."""
+        return self._move(self._grasp, slow=True)
+
+    def enter_grasp(self, readings: Mapping[str, Any]) -> dict[str, Any]:
+        """Close the fingers with the grasp force."""
+        return {self.config.gripper: GripperCommand("close", force=self.config.grasp_force)}
+
+    def enter_lift(self, readings: Mapping[str, Any]) -> dict[str, Any]:
+        """Lift straight up to the transport altitude."""
+        x, y, _ = self._grasp
+        return self._move((x, y, self._altitude()))
+
+    def enter_transport(self, readings: Mapping[str, Any]) -> dict[str, Any]:
+        """Carry the object above the place spot."""
+        assert self.task is not None
+        x, y, _ = self.task.place_position
+        return self._move((x, y, self._altitude()))
+
+    def enter_lower(self, readings: Mapping[str, Any]) -> dict[str, Any]:
+        """Lower the object to just above the place spot."""
+        assert self.task is not None
+        x, y, z = self.task.place_position
+        return self._move((x, y, z + self.config.grasp_offset + self.config.place_clearance), slow=True)
+
+    def enter_release(self, readings: Mapping[str, Any]) -> dict[str, Any]:
+        """Open the fingers a little wider than the object."""
+        assert self.task is not None
+        return {self.config.gripper: GripperCommand("width", width=self.task.object_size + 0.025)}
+
+    def enter_retreat(self, readings: Mapping[str, Any]) -> dict[str, Any]:
+        """Rise clear of the placed object."""
+        assert self.task is not None
+        x, y, z = self.task.place_position
+        return self._move((x, y, z + self.config.grasp_offset + self.config.retreat_height))
+
+    # ------------------------------------------------------------------ per-state conditions
+    def _arm(self, readings: Mapping[str, Any]) -> ArmState | None:
+        """The arm's reading; fails the machine if the arm rejected its target (unreachable)."""
+        arm: ArmState = readings[self.config.arm]
+        if arm.failed and not self._entry_due:
+            self._fail(f"arm failed in {self.state_name}: {arm.reason}")
+            return None
+        return arm
+
+    def _holding(self, readings: Mapping[str, Any]) -> bool:
+        return bool(readings[self.config.gripper].holding)
+
+    def do_approach(self, readings: Mapping[str, Any], t: float) -> None:
+        arm = self._arm(readings)
+        if arm is not None and arm.reached:
+            self._go("above_object")
+
+    def do_descend(self, readings: Mapping[str, Any], t: float) -> None:
+        arm = self._arm(readings)
+        if arm is not None and arm.reached:
+            self._go("at_object")
+
+    def do_grasp(self, readings: Mapping[str, Any], t: float) -> None:
+        g: GripperState = readings[self.config.gripper]
+        if not g.settled or self.time_in_state < 0.02:
+            return
+        if g.holding:
+            self._go("grasped")
+        else:
+            self._retry(f"grasp failed: fingers closed to {g.width * 1000:.1f} mm without holding")
+
+    def do_lift(self, readings: Mapping[str, Any], t: float) -> None:
+        self._carry(readings, "hold_verified")
+
+    def do_transport(self, readings: Mapping[str, Any], t: float) -> None:
+        self._carry(readings, "above_place")
+
+    def do_lower(self, readings: Mapping[str, Any], t: float) -> None:
+        self._carry(readings, "at_place")
+
+    def _carry(self, readings: Mapping[str, Any], trigger: str) -> None:
+        if not self._holding(readings):
+            self._retry(f"dropped during {self.state_name}")
+            return
+        arm = self._arm(readings)
+        if arm is not None and arm.reached:
+            self._go(trigger)
+
+    def do_release(self, readings: Mapping[str, Any], t: float) -> None:
+        assert self.task is not None
+        g: GripperState = readings[self.config.gripper]
+        if g.width >= self.task.object_size + 0.01 or (g.settled and self.time_in_state > 0.05):
+            self._go("released")
+
+    def do_retreat(self, readings: Mapping[str, Any], t: float) -> None:
+        arm = self._arm(readings)
+        if arm is not None and arm.reached:
+            self._check_placement(readings)
+
+    def _check_placement(self, readings: Mapping[str, Any]) -> None:
+        assert self.task is not None
+        cfg: PickPlaceConfig = self.config
+        located = self._locate(readings) if cfg.pose_sensor is not None else None
+        if located is not None:
+            self.final_position = located[0]
+            self.placement_error = math.dist(located[0], self.task.place_position)
+            if self.placement_error > cfg.place_tolerance:
+                self._retry(f"placed {self.placement_error * 1000:.0f} mm from the target")
+                return
+        if self.outcome is None:
+            self._go("clear")
+            self.finished_at = self.t
+            self.finish("succeeded", f"placed {self.task.object_name or 'object'} in {self.attempts} attempt(s)")
+
+    # ------------------------------------------------------------------ result
+    def result(self) -> dict[str, Any]:
+        """Object, pick and place positions, final position, placement error, attempts, sim time per phase."""
+        task = self.task
+        end = self.finished_at if self.finished_at is not None else self.t
+        return {
+            "object": task.object_name if task else self.config.object,
+            "outcome": self.outcome.status if self.outcome else None,
+            "reason": self.outcome.reason if self.outcome else "",
+            "attempts": self.attempts,
+            "failures": list(self.failures),
+            "pick_position": list(task.pick_position) if task else None,
+            "place_position": list(task.place_position) if task else None,
+            "final_position": list(self.final_position) if self.final_position else None,
+            "placement_error": self.placement_error,
+            "sim_time": round(end - self.started_at, 6),
+            "phase_times": {k: round(v, 6) for k, v in self.phase_times.items()},
+        }
+
+
+@hookimpl
+def robokit_register_behaviours(register):  # type: ignore[no-untyped-def]
+    register("pick_place", PickPlace, PickPlaceConfig)

@@ -1,0 +1,325 @@
+"""``ik_arm`` actuator: move an arm's end-effector link to poses along interpolated Cartesian paths.
+
+Any fixed-base arm URDF works; the end-effector link is named in config (Panda: ``panda_grasptarget``). The arm
+joints are the movable joints between the base and that link, found from the URDF tree; IK arrays (limits, ranges,
+rest poses) are sized to *all* movable joints of the robot (9 on the Panda, fingers included).
+
+How a :class:`~robokit_plugins.arm_types.MoveTo` is executed:
+
+1. The straight path from the current pose to the target is cut into waypoints (``waypoint_spacing`` metres,
+   ``waypoint_angle`` radians). Each waypoint is solved by damped least squares on the arm's Jacobian, seeded by the
+   previous waypoint, with a null-space pull towards the rest pose and joint limits enforced, iterated until the
+   forward-kinematics residual is below ``ik_tolerance``. IK runs once per waypoint when the command arrives, not
+   per tick.
+2. A waypoint that cannot be solved (outside ``reach`` or residual above tolerance) rejects the whole target: the
+   arm does not move and its reading says ``failed`` with the reason.
+3. Each tick, joint targets are interpolated between waypoint solutions with a smooth (zero end-velocity) time
+   profile whose duration follows from ``speed`` (m/s) and ``angular_speed`` (rad/s).
+4. ``reached`` is reported once the path is done and the measured end-effector pose is within ``position_tolerance``
+   and ``orientation_tolerance``; ``failed`` if it is not within ``settle_timeout`` after the path ends.
+
+Forward kinematics for IK is evaluated on the arm itself: its joint states are saved, set to each candidate, and
+restored exactly (positions and velocities) before the next physics step, so the simulation is not disturbed.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+from contextlib import contextmanager
+from typing import Any
+
+import numpy as np
+from pydantic import Field
+from robokit_plugins.arm_types import ArmState, HoldArm, MoveTo, Quat, Vec3, quat_angle, quat_multiply
+
+from robokit import hookimpl
+from robokit.components import Actuator, SetupContext
+from robokit.config import Schema
+from robokit.errors import ConfigError, UserError
+
+
+class IkArmConfig(Schema):
+    """``[actuators.NAME]`` with ``type = "ik_arm"``. Lengths in metres, angles in radians, times in sim seconds."""
+
+    body: str = Field(description="the robot's body name")
+    ee_link: str = Field(description="end-effector link, e.g. panda_grasptarget")
+    ready_pose: dict[str, float] = Field(default_factory=dict, description="joint name -> start position")
+    rest_pose: dict[str, float] = Field(default_factory=dict, description="null-space rest; default ready_pose")
+    limits: dict[str, tuple[float, float]] = Field(default_factory=dict, description="override URDF limits")
+    speed: float = Field(0.8, gt=0, description="Cartesian speed limit, m/s")
+    angular_speed: float = Field(3.0, gt=0, description="rad/s")
+    min_duration: float = Field(0.05, ge=0, description="shortest path duration, s")
+    position_tolerance: float = Field(0.005, gt=0)
+    orientation_tolerance: float = Field(0.05, gt=0)
+    ik_tolerance: float = Field(0.0005, gt=0, description="IK residual accepted per waypoint, metres")
+    ik_iterations: int = Field(30, ge=1, le=1000)
+    reach: float | None = Field(None, gt=0, description="max distance from the base to a target, metres")
+    waypoint_spacing: float = Field(0.025, gt=0)
+    waypoint_angle: float = Field(0.15, gt=0)
+    settle_timeout: float = Field(1.0, gt=0)
+    max_force: float | None = Field(None, gt=0, description="N·m per joint; default: the URDF's")
+    position_gain: float = Field(0.3, gt=0, le=1)
+    velocity_gain: float = Field(1.0, ge=0)
+
+
+def _smoothstep(x: float) -> float:
+    x = min(1.0, max(0.0, x))
+    return x * x * (3.0 - 2.0 * x)
+
+
+def _rotvec(current: Quat, target: Quat) -> np.ndarray:
+    """Rotation vector (world frame, radians) taking ``current`` to ``target``."""
+    cx, cy, cz, cw = current
+    x, y, z, w = quat_multiply(target, (-cx, -cy, -cz, cw))
+    if w < 0:
+        x, y, z, w = -x, -y, -z, -w
+    v = np.array([x, y, z])
+    n = float(np.linalg.norm(v))
+    return np.zeros(3) if n < 1e-12 else v / n * 2.0 * math.atan2(n, w)
+
+
+def _slerp(a: Quat, b: Quat, s: float) -> Quat:
+    qa, qb = np.asarray(a, float), np.asarray(b, float)
+    dot = float(qa @ qb)
+    if dot < 0:
+        qb, dot = -qb, -dot
+    if dot > 0.9995:
+        q = qa + s * (qb - qa)
+    else:
+        th = math.acos(dot)
+        q = (math.sin((1 - s) * th) * qa + math.sin(s * th) * qb) / math.sin(th)
+    q = q / np.linalg.norm(q)
+    return (float(q[0]), float(q[1]), float(q[2]), float(q[3]))
+
+
+class IkArm(Actuator):
+    """Moves an arm's end-effector link along interpolated Cartesian paths (IK per waypoint, not per tick)."""
+
+    reading_type = ArmState
+
+    # ------------------------------------------------------------------ setup
+    def setup(self, ctx: SetupContext) -> None:
+        super().setup(ctx)
+        cfg: IkArmConfig = self.config
+        w = self.world
+        if not w.has_body(cfg.body):
+            raise ConfigError(f"unknown body {cfg.body!r}; bodies: {', '.join(w.body_names)}", key="body")
+        self.body = w.body(cfg.body)
+        try:
+            self.ee = w.link(cfg.body, cfg.ee_link)
+        except UserError as exc:
+            raise ConfigError(str(exc), key="ee_link") from None
+        if self.ee < 0:
+            raise ConfigError(f"the end-effector link must not be the base link {cfg.ee_link!r}", key="ee_link")
+        self.movable = [j for j in w.joints(cfg.body) if j.movable]
+        self.arm = self._arm_joints()
+        if not self.arm:
+            raise ConfigError(f"no movable joint between the base and {cfg.ee_link!r}", key="ee_link")
+        self._limits()
+        names = [j.name for j in self.movable]
+        self.ready = self._pose_vector(cfg.ready_pose, "ready_pose", self._measured_all())
+        self.rest = self._pose_vector(cfg.rest_pose, "rest_pose", self.ready) if cfg.rest_pose else self.ready
+        self.arm_cols = [names.index(j.name) for j in self.arm]
+        for j, q in zip(self.movable, self.ready, strict=True):
+            if j in self.arm or j.name in cfg.ready_pose:
+                w.client.resetJointState(self.body, j.index, float(q))
+        self.forces = [cfg.max_force or (j.max_force if j.max_force > 0 else 100.0) for j in self.arm]
+        self.q_cmd = self.ready[self.arm_cols].copy()
+        self.path: list[np.ndarray] | None = None
+        self.status, self.reason, self.command_id = "idle", "", 0
+        self.target: tuple[Vec3, Quat] | None = None
+        self.base_pos = np.array(w.pose(self.body)[0])
+        self._apply(self.q_cmd, np.zeros(len(self.arm)))
+
+    def _arm_joints(self) -> list[Any]:
+        """Movable joints on the chain from the base to the end-effector link, base first."""
+        client = self.world.client
+        chain, link = [], self.ee
+        while link >= 0:
+            chain.append(link)
+            link = client.getJointInfo(self.body, link)[16]
+        return [j for j in self.movable if j.index in chain]
+
+    def _limits(self) -> None:
+        cfg: IkArmConfig = self.config
+        names = [j.name for j in self.movable]
+        for name in cfg.limits:
+            if name not in names:
+                raise ConfigError(f"unknown joint {name!r}; movable joints: {', '.join(names)}", key="limits")
+        lo, hi = [], []
+        for j in self.movable:
+            low, high = cfg.limits.get(j.name, (j.lower, j.upper))
+            if high <= low:  # continuous joint
+                low, high = -2 * math.pi, 2 * math.pi
+            lo.append(low)
+            hi.append(high)
+        self.lower, self.upper = np.array(lo), np.array(hi)
+
+    def _pose_vector(self, pose: dict[str, float], key: str, default: np.ndarray) -> np.ndarray:
+        names = [j.name for j in self.movable]
+        out = np.array(default, float)
+        for name, value in pose.items():
+            if name not in names:
+                raise ConfigError(f"unknown joint {name!r}; movable joints: {', '.join(names)}", key=key)
+            out[names.index(name)] = value
+        return np.clip(out, self.lower, self.upper)
+
+    # ------------------------------------------------------------------ kinematics
+    def _measured_all(self) -> np.ndarray:
+        states = self.world.client.getJointStates(self.body, [j.index for j in self.movable])
+        return np.array([s[0] for s in states])
+
+    @contextmanager
+    def _probe(self) -> Iterator[None]:
+        """Evaluate kinematics on the arm, then restore its exact joint states."""
+        client = self.world.client
+        idx = [j.index for j in self.movable]
+        saved = client.getJointStates(self.body, idx)
+        try:
+            yield
+        finally:
+            for i, s in zip(idx, saved, strict=True):
+                client.resetJointState(self.body, i, s[0], s[1])
+
+    def _fk(self, q_all: np.ndarray) -> tuple[np.ndarray, Quat]:
+        client = self.world.client
+        for j, q in zip(self.movable, q_all, strict=True):
+            client.resetJointState(self.body, j.index, float(q))
+        s = client.getLinkState(self.body, self.ee, computeForwardKinematics=True)
+        return np.array(s[4]), tuple(s[5])  # type: ignore[return-value]
+
+    def _solve(self, q_all: np.ndarray, pos: np.ndarray, orn: Quat) -> tuple[np.ndarray, float, float]:
+        """Damped least squares from ``q_all``; returns (solution, position residual m, angle residual rad)."""
+        cfg: IkArmConfig = self.config
+        q = q_all.copy()
+        cols = self.arm_cols
+        zeros = [0.0] * len(q)
+        ep, eo = np.zeros(3), np.zeros(3)
+        for _ in range(cfg.ik_iterations):
+            cur, corn = self._fk(q)
+            ep, eo = pos - cur, _rotvec(corn, orn)
+            if np.linalg.norm(ep) < cfg.ik_tolerance and np.linalg.norm(eo) < cfg.ik_tolerance * 4:
+                break
+            jl, ja = self.world.client.calculateJacobian(self.body, self.ee, [0.0, 0.0, 0.0], list(q), zeros, zeros)
+            jac = np.vstack([np.asarray(jl), np.asarray(ja)])[:, cols]
+            err = np.concatenate([ep, eo])
+            jjt = jac @ jac.T + 1e-4 * np.eye(6)
+            pinv = jac.T @ np.linalg.inv(jjt)
+            null = (np.eye(len(cols)) - pinv @ jac) @ (0.05 * (self.rest[cols] - q[cols]))
+            q[cols] = np.clip(q[cols] + pinv @ err + null, self.lower[cols], self.upper[cols])
+        return q, float(np.linalg.norm(ep)), float(np.linalg.norm(eo))
+
+    # ------------------------------------------------------------------ commands
+    def command(self, cmd: Any) -> None:
+        """Accept :class:`MoveTo` (plan a path, or fail with a reason) or :class:`HoldArm`."""
+        if isinstance(cmd, HoldArm):
+            self.path, self.target = None, None
+            self.q_cmd = self._measured_all()[self.arm_cols]
+            self.status, self.reason = "idle", ""
+            self.command_id += 1
+            return
+        if not isinstance(cmd, MoveTo):
+            raise ValueError(f"ik_arm takes MoveTo or HoldArm, got {type(cmd).__name__}")
+        self.command_id += 1
+        pos, orn = np.asarray(cmd.position, float), cmd.quaternion()
+        self.target = (tuple(float(v) for v in pos), orn)  # type: ignore[assignment]
+        reason = self._plan(pos, orn, cmd.speed or self.config.speed)
+        if reason:
+            self.path, self.status, self.reason = None, "failed", reason
+        else:
+            self.status, self.reason = "moving", ""
+
+    def _plan(self, pos: np.ndarray, orn: Quat, speed: float) -> str:
+        """Solve the path's waypoints; returns a failure reason, or "" with ``self.path`` set."""
+        cfg: IkArmConfig = self.config
+        where = f"({pos[0]:.3f}, {pos[1]:.3f}, {pos[2]:.3f})"
+        dist_base = float(np.linalg.norm(pos - self.base_pos))
+        if cfg.reach is not None and dist_base > cfg.reach:
+            return f"unreachable: target {where} is {dist_base:.3f} m from the base, reach is {cfg.reach:g} m"
+        q_all = self._measured_all()
+        q_all[self.arm_cols] = self.q_cmd
+        with self._probe():
+            start_pos, start_orn = self._fk(q_all)
+            dist, ang = float(np.linalg.norm(pos - start_pos)), quat_angle(start_orn, orn)
+            n = max(1, math.ceil(dist / cfg.waypoint_spacing), math.ceil(ang / cfg.waypoint_angle))
+            qs = [q_all[self.arm_cols].copy()]
+            for k in range(1, n + 1):
+                s = k / n
+                q_all, ep, eo = self._solve(q_all, start_pos + s * (pos - start_pos), _slerp(start_orn, orn, s))
+                if ep > max(cfg.ik_tolerance, 1e-3) or eo > cfg.orientation_tolerance / 2:
+                    return (f"unreachable: IK residual {ep * 1000:.1f} mm / {math.degrees(eo):.1f} deg at "
+                            f"waypoint {k}/{n} towards {where} (tolerance {cfg.ik_tolerance * 1000:g} mm)")
+                qs.append(q_all[self.arm_cols].copy())
+        self.path = qs
+        self.t0 = self.world.time
+        self.duration = max(1.5 * dist / speed, 1.5 * ang / cfg.angular_speed, cfg.min_duration)
+        return ""
+
+    # ------------------------------------------------------------------ per tick
+    def update(self) -> None:
+        """Send this tick's interpolated joint targets (with feed-forward velocity) to the motors."""
+        if self.path is None:
+            self._apply(self.q_cmd, np.zeros(len(self.arm)))
+            return
+        dt = self.world.time_step
+        tau = (self.world.time - self.t0) / self.duration
+        q_now = self._interp(_smoothstep(tau))
+        q_next = self._interp(_smoothstep(tau + dt / self.duration))
+        self.q_cmd = q_now
+        self._apply(q_now, (q_next - q_now) / dt)
+
+    def _interp(self, s: float) -> np.ndarray:
+        assert self.path is not None
+        x = s * (len(self.path) - 1)
+        k = min(int(x), len(self.path) - 2) if len(self.path) > 1 else 0
+        if len(self.path) == 1:
+            return self.path[0]
+        f = x - k
+        return (1 - f) * self.path[k] + f * self.path[k + 1]  # type: ignore[no-any-return]
+
+    def _apply(self, q: np.ndarray, qd: np.ndarray) -> None:
+        cfg: IkArmConfig = self.config
+        n = len(self.arm)
+        self.world.client.setJointMotorControlArray(
+            self.body, [j.index for j in self.arm], self.world.client.POSITION_CONTROL,
+            targetPositions=[float(v) for v in q], targetVelocities=[float(v) for v in qd], forces=self.forces,
+            positionGains=[cfg.position_gain] * n, velocityGains=[cfg.velocity_gain] * n,
+        )
+
+    def read(self) -> ArmState:
+        """End-effector pose and the state of the current target (see :class:`ArmState`)."""
+        s = self.world.client.getLinkState(self.body, self.ee, computeForwardKinematics=True)
+        pos, orn = tuple(s[4]), tuple(s[5])
+        ep = eo = 0.0
+        if self.target is not None:
+            ep = float(np.linalg.norm(np.subtract(pos, self.target[0])))
+            eo = quat_angle(orn, self.target[1])
+        self._update_status(ep, eo)
+        q = self._measured_all()
+        return ArmState(
+            position=pos, orientation=orn, status=self.status, reason=self.reason,  # type: ignore[arg-type]
+            target_position=self.target[0] if self.target else None,
+            target_orientation=self.target[1] if self.target else None,
+            position_error=ep, orientation_error=eo, command_id=self.command_id,
+            joint_positions={j.name: float(v) for j, v in zip(self.movable, q, strict=True)},
+        )
+
+    def _update_status(self, ep: float, eo: float) -> None:
+        cfg: IkArmConfig = self.config
+        if self.status != "moving" or self.path is None:
+            return
+        elapsed = self.world.time - self.t0
+        if elapsed < self.duration:
+            self.status = "moving"
+        elif ep <= cfg.position_tolerance and eo <= cfg.orientation_tolerance:
+            self.status = "reached"
+        elif elapsed > self.duration + cfg.settle_timeout:
+            self.status = "failed"
+            self.reason = (f"did not reach the target: {ep * 1000:.1f} mm / {math.degrees(eo):.1f} deg off "
+                           f"{cfg.settle_timeout:g} s after the path ended (blocked?)")
+
+
+@hookimpl
+def robokit_register_actuators(register):  # type: ignore[no-untyped-def]
+    register("ik_arm", IkArm, IkArmConfig)

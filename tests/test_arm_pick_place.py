@@ -1,0 +1,71 @@
+"""pick_place behaviour: a full friction pick-and-place, state order, retry after a drop, sub-machine use."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from robokit_behaviours.pick_place import PickPlace, PickPlaceTask
+
+from robokit.testing import make_sim, states_visited
+
+CONFIG = Path(__file__).resolve().parents[1] / "configs" / "pick_place.toml"
+CLEAN_RUN = ["APPROACH", "DESCEND", "GRASP", "LIFT", "TRANSPORT", "LOWER", "RELEASE", "RETREAT", "DONE"]
+
+
+def test_pick_place_succeeds_with_friction_grasp_and_visits_states_in_order() -> None:
+    with make_sim(CONFIG, seed=3) as sim:
+        result = sim.run(max_time=6.0)
+        assert result.outcome == "succeeded", result.reason
+        assert states_visited(sim, "behaviour") == CLEAN_RUN
+        res = result.result
+        assert res["attempts"] == 1
+        assert res["placement_error"] < 0.01
+        assert math.dist(sim.world.pose("cube")[0], res["place_position"]) < 0.01
+        assert res["sim_time"] < 3.0
+        assert set(res["phase_times"]) >= {"APPROACH", "GRASP", "TRANSPORT", "RETREAT"}
+        # friction grasp: nothing welds the cube to the hand
+        assert sim.world.client.getNumConstraints() == 1  # only the finger gear
+
+
+def test_drop_mid_transport_is_retried() -> None:
+    with make_sim(CONFIG, seed=3) as sim:
+        sim.run_until(lambda s: s.behaviour.state_name == "TRANSPORT", 2000)
+        sim.step(20)
+        assert sim.readings["gripper"].holding
+        sim.world.set_pose("cube", (0.55, 0.05, 0.03))  # knocked out of the fingers onto the table
+        result = sim.run(max_time=10.0)
+        assert result.outcome == "succeeded", result.reason
+        visited = states_visited(sim, "behaviour")
+        first_transport = visited.index("TRANSPORT")
+        assert visited[first_transport + 1] == "APPROACH"
+        assert visited[-len(CLEAN_RUN):] == CLEAN_RUN
+        assert result.result["attempts"] == 2
+        assert result.result["failures"] == ["dropped during TRANSPORT"]
+
+
+def test_sub_machine_contract_one_attempt() -> None:
+    with make_sim(CONFIG, seed=5) as sim:
+        pp = PickPlace.sub(name="pick_place", parent_ctx=sim.behaviour.ctx, arm="arm", gripper="gripper",
+                           max_attempts=1)
+        sim.behaviour.outcome = None
+        sim.scheduler.behaviour = None  # the test drives the sub-machine directly
+        pos, orn = sim.world.pose("cube")
+        yaw = 2.0 * math.atan2(orn[2], orn[3])
+        task = PickPlaceTask(pick_position=pos, pick_yaw=yaw, place_position=(0.45, -0.35, 0.027),
+                             object_name="cube")
+        pp.start(task, sim.world.time)
+        for _ in range(2000):
+            cmds = pp.step(sim.readings, sim.world.time) or {}
+            for name, cmd in cmds.items():
+                sim.components[name].command(cmd)
+            if pp.outcome is not None:
+                break
+            sim.step(1)
+        assert pp.outcome is not None and pp.outcome.status == "succeeded", pp.outcome
+        assert math.dist(sim.world.pose("cube")[0], task.place_position) < 0.01
+        assert pp.result()["attempts"] == 1
+        assert "LIFT" in [r["dest_state"] for r in sim.trace if r.get("machine") == "pick_place"]
+        # restart for a second job: the machine resets to its initial state
+        pp.start(PickPlaceTask(sim.world.pose("cube")[0], 0.0, (0.45, -0.25, 0.027), "cube"), sim.world.time)
+        assert pp.outcome is None and pp.state_name == "APPROACH"
