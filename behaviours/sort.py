@@ -1,0 +1,341 @@
+"""``sort`` behaviour (lesson 08, project A): look with a camera, pick each coloured object, drop it in its bin.
+
+The loop: **LOOK** (one camera frame through the ``colour_detector``) -> choose the detected object of a colour that
+has a bin, nearest to the gripper -> **PICK_PLACE** (the ``pick_place`` behaviour, reused as a sub-machine, one
+attempt) -> LOOK again (things move: a dropped or nudged object is found where it is now) ... until nothing
+sortable is seen (**DONE**, succeeded) or the attempts run out (**FAILED**). Objects of a colour without a bin are
+left where they are and reported. Detections inside a bin (plus ``bin_margin``) are ignored: what is sorted stays
+sorted.
+
+Perception uses the image and depth only. Ground truth (an optional ``body_pose`` sensor, ``truth_sensor``) is
+read for the report alone: which body a detection was, and how far the detected position was from it.
+
+Identity across looks is by colour and position: an object whose pick failed is the same object as the next
+detection of its colour nearest to where it was last seen. An object that failed ``max_attempts`` times is given
+up and detections near its last position are ignored from then on.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from pydantic import Field
+from robokit_behaviours.pick_place import PickPlace, PickPlaceTask
+from robokit_plugins.arm_types import ArmState
+from robokit_plugins.vision_types import Detection, Detections
+
+from robokit import hookimpl
+from robokit.components import SetupContext
+from robokit.config import Schema
+from robokit.errors import ConfigError, LookupNameError, did_you_mean
+from robokit.fsm import MachineBehaviour
+
+Vec3 = tuple[float, float, float]
+
+
+class Phase(enum.Enum):
+    """States of the sorting machine."""
+
+    LOOK = "look"
+    PICK_PLACE = "pick_place"
+    DONE = "done"
+    FAILED = "failed"
+
+
+TRANSITIONS: list[dict[str, Any]] = [
+    {"trigger": "found", "source": "LOOK", "dest": "PICK_PLACE"},
+    {"trigger": "placed", "source": "PICK_PLACE", "dest": "LOOK"},
+    {"trigger": "missed", "source": "PICK_PLACE", "dest": "LOOK"},
+    {"trigger": "clear", "source": "LOOK", "dest": "DONE"},
+    {"trigger": "exhausted", "source": "LOOK", "dest": "FAILED"},
+]
+
+TIMEOUTS = {"LOOK": 1.0, "PICK_PLACE": 20.0}
+"""Sim seconds per state (a pick-and-place has its own per-phase timeouts; this is a backstop)."""
+
+
+class BinConfig(Schema):
+    """A bin: ``body`` names a body in the scene; objects are placed on a grid of ``slots`` around its centre."""
+
+    body: str
+    floor: float = Field(default=0.008, ge=0, description="bin floor height above the bin's base, metres")
+    slot_spacing: float = Field(default=0.07, ge=0, description="distance between place slots, metres")
+
+
+class SortConfig(Schema):
+    """``[behaviour]`` with ``type = "sort"``.
+
+    ``bins`` maps a colour class of the detector to a bin. Lengths in metres, times in sim seconds.
+    """
+
+    detector: str = Field(default="detector", description="a colour_detector sensor")
+    arm: str = Field(default="arm", description="an ik_arm actuator")
+    gripper: str = Field(default="gripper", description="a gripper actuator")
+    bins: dict[str, BinConfig] = Field(default_factory=dict)
+    truth_sensor: str | None = Field(default=None, description="a body_pose sensor, for the report only")
+    object_size: float = Field(default=0.05, gt=0, description="edge length of the objects, metres")
+    max_attempts: int = Field(default=3, ge=1, le=20, description="pick attempts per object")
+    max_picks: int = Field(default=30, ge=1, description="pick attempts in total")
+    bin_margin: float = Field(default=0.02, ge=0, description="detections this close to a bin are in it")
+    same_object_radius: float = Field(default=0.15, gt=0, description="a retry's detection is within this")
+    pick_place: dict[str, Any] = Field(default_factory=dict, description="options of the pick_place sub-machine")
+
+
+@dataclass
+class Bin:
+    """A bin resolved at setup: its place slots (object centres, metres, world) and its footprint."""
+
+    colour: str
+    body: str
+    slots: list[Vec3]
+    low: tuple[float, float]
+    high: tuple[float, float]
+    used: int = 0
+
+    def next_slot(self) -> Vec3:
+        """The next place position (cycles through the slots)."""
+        slot = self.slots[self.used % len(self.slots)]
+        self.used += 1
+        return slot
+
+    def contains(self, x: float, y: float, margin: float) -> bool:
+        """True if ``(x, y)`` lies over the bin's footprint grown by ``margin`` metres."""
+        return self.low[0] - margin <= x <= self.high[0] + margin and self.low[1] - margin <= y <= self.high[1] + margin
+
+
+@dataclass
+class SortedObject:
+    """What the sort knows of one object (for decisions: colour and detected positions; truth: report only)."""
+
+    colour: str
+    detected: Vec3
+    yaw: float
+    bin: str | None
+    attempts: int = 0
+    outcome: str = "pending"
+    reason: str = ""
+    body: str | None = None
+    detection_error: float | None = None
+    failures: list[str] = field(default_factory=list)
+
+    def report(self) -> dict[str, Any]:
+        """JSON-ready summary."""
+        err = None if self.detection_error is None else round(self.detection_error, 5)
+        return {"colour": self.colour, "detected_position": [round(v, 4) for v in self.detected],
+                "detection_error": err, "body": self.body, "bin": self.bin, "attempts": self.attempts,
+                "outcome": self.outcome, "reason": self.reason}
+
+
+class Sort(MachineBehaviour):
+    """Colour sorting: look, pick the nearest sortable object with pick_place, drop it in its bin, look again."""
+
+    STATES = Phase
+    TRANSITIONS = TRANSITIONS
+    INITIAL = Phase.LOOK
+    TIMEOUTS = TIMEOUTS
+
+    # ------------------------------------------------------------------ setup
+    def setup(self, ctx: SetupContext) -> None:
+        """Check the detector, the bins (colour classes and bodies) and build the pick_place sub-machine."""
+        super().setup(ctx)
+        cfg: SortConfig = self.config
+        self.colours = self._detector_colours(ctx)
+        if not cfg.bins:
+            raise ConfigError("no bins: give at least one, e.g. bins.red = { body = \"red_bin\" }", key="bins")
+        self.bins = {colour: self._bin(ctx, colour, b) for colour, b in cfg.bins.items()}
+        if cfg.truth_sensor is not None and cfg.truth_sensor not in ctx.components:
+            raise ConfigError(str(LookupNameError("sensor", cfg.truth_sensor, ctx.components)), key="truth_sensor")
+        try:
+            self.pp = PickPlace.sub(name="pick_place", parent_ctx=ctx, arm=cfg.arm, gripper=cfg.gripper,
+                                    max_attempts=1, **cfg.pick_place)
+        except ConfigError as exc:
+            raise ConfigError(exc.message, key=exc.key) from None
+        except (TypeError, ValueError) as exc:
+            raise ConfigError(f"bad pick_place option: {exc}".splitlines()[0], key="pick_place") from None
+        self.objects: list[SortedObject] = []
+        self.left: list[dict[str, Any]] = []
+        self.current: SortedObject | None = None
+        self.looks = 0
+        self.picks = 0
+        self.started_at: float | None = None
+        self.finished_at: float | None = None
+
+    def _detector_colours(self, ctx: SetupContext) -> tuple[str, ...]:
+        cfg: SortConfig = self.config
+        det = ctx.components.get(cfg.detector)
+        if det is None or getattr(det, "reading_type", None) is not Detections:
+            found = [n for n, c in ctx.components.items() if getattr(c, "reading_type", None) is Detections]
+            raise ConfigError(str(LookupNameError("colour_detector sensor", cfg.detector, found)), key="detector")
+        colours = getattr(det, "colours", None)
+        return tuple(colours) if colours is not None else ()
+
+    def _bin(self, ctx: SetupContext, colour: str, cfg: BinConfig) -> Bin:
+        if colour not in self.colours:
+            known = ", ".join(self.colours)
+            raise ConfigError(f"bin for undefined colour {colour!r}{did_you_mean(colour, self.colours)}; "
+                              f"colour classes of detector {self.config.detector!r}: {known}", key=f"bins.{colour}")
+        if not ctx.world.has_body(cfg.body):
+            raise ConfigError(str(LookupNameError("body", cfg.body, ctx.world.body_names)), key=f"bins.{colour}.body")
+        (bx, by, bz), _ = ctx.world.pose(cfg.body)
+        lo, hi = ctx.world.body_aabb(cfg.body)
+        z = bz + cfg.floor + self.config.object_size / 2.0
+        d = cfg.slot_spacing / 2.0
+        offsets = [(-d, -d), (d, d), (-d, d), (d, -d), (0.0, 0.0)] if d > 0 else [(0.0, 0.0)]
+        slots = [(bx + ox, by + oy, z) for ox, oy in offsets]
+        return Bin(colour, cfg.body, slots, (lo[0], lo[1]), (hi[0], hi[1]))
+
+    # ------------------------------------------------------------------ LOOK
+    def do_look(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any] | None:
+        """Read one detection frame (fresh: taken after entering LOOK) and decide what to do next."""
+        if self.started_at is None:
+            self.started_at = t
+        seen: Detections = readings[self.config.detector]
+        if seen.time < self.entered_at - 1e-9:
+            return None  # the camera has not been due since LOOK began: wait for a fresh frame
+        self.looks += 1
+        sortable, unknown = self._classify(seen)
+        self.left = [{"colour": d.colour, "detected_position": [round(v, 4) for v in d.position],
+                      "outcome": "left", "reason": f"no bin for {d.colour}"} for d in unknown]
+        if not sortable:
+            self._end("clear", "succeeded", self._summary())
+            return None
+        if self.picks >= self.config.max_picks:
+            self._end("exhausted", "failed", f"{self.picks} pick attempts used up; "
+                      f"{len(sortable)} sortable object(s) remain")
+            return None
+        target = min(sortable, key=lambda d: self._distance_to_gripper(readings, d))
+        self._start_pick(readings, target, t)
+        return None
+
+    def _classify(self, seen: Detections) -> tuple[list[Detection], list[Detection]]:
+        """Split detections into sortable ones (a bin exists, not in a bin, not given up) and unknown colours."""
+        cfg: SortConfig = self.config
+        sortable, unknown = [], []
+        for d in seen:
+            x, y, _ = d.position
+            if any(b.contains(x, y, cfg.bin_margin) for b in self.bins.values()):
+                continue
+            if d.colour not in self.bins:
+                unknown.append(d)
+            elif not self._given_up_near(d):
+                sortable.append(d)
+        return sortable, unknown
+
+    def _given_up_near(self, d: Detection) -> bool:
+        r = self.config.same_object_radius / 3.0
+        return any(o.outcome == "failed" and o.colour == d.colour and math.dist(o.detected, d.position) < r
+                   for o in self.objects)
+
+    def _distance_to_gripper(self, readings: Mapping[str, Any], d: Detection) -> float:
+        arm = readings.get(self.config.arm)
+        here = arm.position if isinstance(arm, ArmState) else (0.0, 0.0, 0.0)
+        return math.dist(here[:2], d.position[:2])
+
+    def _start_pick(self, readings: Mapping[str, Any], d: Detection, t: float) -> None:
+        obj = self._object_for(d)
+        obj.detected, obj.yaw = d.position, d.yaw
+        self._record_truth(readings, obj)
+        obj.attempts += 1
+        self.picks += 1
+        self.current = obj
+        place = self.bins[d.colour].next_slot()
+        task = PickPlaceTask(pick_position=d.position, pick_yaw=d.yaw, place_position=place,
+                             object_name=obj.body, object_size=self.config.object_size)
+        self.fire("found")
+        self.pp.start(task, t)
+
+    def _object_for(self, d: Detection) -> SortedObject:
+        """The object a detection is: a pending retry of its colour nearby, else a new one."""
+        retries = [o for o in self.objects if o.outcome == "retry" and o.colour == d.colour
+                   and math.dist(o.detected[:2], d.position[:2]) < self.config.same_object_radius]
+        if retries:
+            return min(retries, key=lambda o: math.dist(o.detected, d.position))
+        obj = SortedObject(d.colour, d.position, d.yaw, self.bins[d.colour].body)
+        self.objects.append(obj)
+        return obj
+
+    def _record_truth(self, readings: Mapping[str, Any], obj: SortedObject) -> None:
+        """Report only: the body nearest to the detected position and the detection error."""
+        if self.config.truth_sensor is None:
+            return
+        poses = readings[self.config.truth_sensor]
+        if not poses:
+            return
+        name, state = min(poses.items(), key=lambda kv: math.dist(kv[1].position, obj.detected))
+        obj.body, obj.detection_error = name, math.dist(state.position, obj.detected)
+
+    # ------------------------------------------------------------------ PICK_PLACE
+    def do_pick_place(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any] | None:
+        """Step the pick_place sub-machine; when it ends, book the outcome and look again."""
+        commands = self.pp.step(readings, t)
+        if self.pp.outcome is None:
+            return commands
+        obj = self.current
+        assert obj is not None
+        if self.pp.outcome.status == "succeeded":
+            obj.outcome, obj.reason = "sorted", ""
+            self.fire("placed")
+        else:
+            reason = self.pp.outcome.reason
+            obj.failures.append(reason)
+            given_up = obj.attempts >= self.config.max_attempts
+            obj.outcome, obj.reason = ("failed" if given_up else "retry"), reason
+            self.fire("missed")
+        self.current = None
+        return commands
+
+    def on_timeout(self, state: str) -> None:
+        """LOOK without a fresh frame, or a stuck sub-machine: fail with the reason."""
+        self._end("exhausted" if state == "LOOK" else "", "failed",
+                  f"timed out in state {state} after {self.TIMEOUTS[state]:g} s (sim time)")
+
+    # ------------------------------------------------------------------ end and result
+    def _end(self, trigger: str, status: str, reason: str) -> None:
+        if trigger and self.state is Phase.LOOK:
+            self.fire(trigger)
+        self.finished_at = self.t
+        for obj in self.objects:
+            if obj.outcome in ("pending", "retry"):
+                obj.outcome = "failed"
+        if status == "succeeded" and any(o.outcome == "failed" for o in self.objects):
+            status = "failed"
+        self.finish(status, reason)
+
+    def _summary(self) -> str:
+        done = sum(o.outcome == "sorted" for o in self.objects)
+        text = f"sorted {done} object(s) in {self.picks} pick(s)"
+        return text + (f"; left {len(self.left)} of unknown colour" if self.left else "")
+
+    def result(self) -> dict[str, Any]:
+        """Counts per colour, failures (failed pick attempts), sim time, and one record per object."""
+        counts = {f"{c}_sorted": 0 for c in (*self.colours, *self.bins)}
+        for obj in self.objects:
+            if obj.outcome == "sorted":
+                counts[f"{obj.colour}_sorted"] += 1
+        start = self.started_at or 0.0
+        end = self.finished_at if self.finished_at is not None else self.t
+        frames = self._frames()
+        return {
+            **counts,
+            "failures": sum(len(o.failures) for o in self.objects),
+            "total_time": round(end - start, 4),
+            "looks": self.looks,
+            "picks": self.picks,
+            **({"camera_frames": frames} if frames is not None else {}),
+            "objects": [o.report() for o in self.objects] + self.left,
+        }
+
+    def _frames(self) -> int | None:
+        camera = getattr(self.ctx.components.get(self.config.detector), "cfg", None)
+        computed = getattr(self.ctx.readings, "computed", None)
+        name = getattr(camera, "camera", None)
+        return int(computed(name)) if computed is not None and name in self.ctx.components else None
+
+
+@hookimpl
+def robokit_register_behaviours(register):  # type: ignore[no-untyped-def]
+    register("sort", Sort, SortConfig)
