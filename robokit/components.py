@@ -140,6 +140,8 @@ class Behaviour:
     """
 
     kind: ClassVar[str] = "behaviour"
+    open_ended: ClassVar[bool] = False
+    """True for behaviours with no natural end (teleop): reaching ``max_time`` then counts as success."""
 
     def __init__(self, name: str, config: Any) -> None:
         self.name = name

@@ -141,6 +141,7 @@ def load_plugins(extra: Iterable[object] = (), *, entry_points: bool = True) -> 
     Raises:
         UserError: Two plugins register the same type name for the same kind (the message names both).
     """
+    _import_pybullet_quietly()
     pm = pluggy.PluginManager("robokit")
     pm.add_hookspecs(hookspecs)
     plugins = Plugins(pm=pm)
@@ -204,3 +205,14 @@ def _collect(plugins: Plugins, kind: str, origins: dict[str, tuple[str, str]]) -
             for partial in set(plugins.types[kind]) - before:
                 del plugins.types[kind][partial]
             _reject(plugins, f"{dist} ({impl.plugin_name})", f"{_HOOK_OF_KIND[kind]} raised {exc!r}")
+
+
+def _import_pybullet_quietly() -> None:
+    """Import pybullet once with its C-level banner silenced (plugin modules import it as they load)."""
+    from robokit._quiet import quiet_stdout
+
+    with quiet_stdout():
+        try:
+            import pybullet  # noqa: F401
+        except ImportError:  # let the plugin that needs it report the problem
+            pass

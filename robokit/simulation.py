@@ -204,6 +204,8 @@ class Simulation:
                     reason = f"interrupted by {self._stop_reason} at t = {self.world.time:.3f} s"
                 elif self.behaviour is None:  # a scene with no behaviour just runs for max_time
                     outcome, reason = "succeeded", f"no behaviour: simulated {limit:g} s"
+                elif getattr(self.behaviour, "open_ended", False):  # e.g. teleop: runs until stopped
+                    outcome, reason = "succeeded", f"open-ended behaviour ran for max_time {limit:g} s"
                 else:
                     reason = f"max_time {limit:g} s reached before the behaviour finished"
             except PluginError as exc:
