@@ -17,6 +17,9 @@ from dataclasses import dataclass, field
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from typing import Any
 
+from robokit.reporting import build_payload
+from robokit.result import RunResult
+
 
 @dataclass(frozen=True)
 class Answer:
@@ -44,6 +47,8 @@ class Recorded:
     body: bytes
     at: float
     answer: Answer
+    after_ack: bool = False
+    """The server had already answered 2xx to a request with this key when this one arrived."""
 
     @property
     def key(self) -> str | None:
@@ -62,6 +67,7 @@ class CourseServer:
     requests: list[Recorded] = field(default_factory=list)
     stored: dict[str, Any] = field(default_factory=dict)
     store_count: dict[str, int] = field(default_factory=dict)
+    acked: set[str] = field(default_factory=set)
 
     def __post_init__(self) -> None:
         self._lock = threading.Lock()
@@ -96,7 +102,7 @@ class CourseServer:
     def _record(self, path: str, headers: dict[str, str], body: bytes, clock: float) -> Recorded:
         with self._lock:
             answer = self.plan(len(self.requests))
-            rec = Recorded(path, headers, body, clock, answer)
+            rec = Recorded(path, headers, body, clock, answer, after_ack=headers.get("idempotency-key") in self.acked)
             self.requests.append(rec)
             if answer.store and not answer.reset and rec.key and rec.key not in self.stored \
                     and (answer.stall or 200 <= answer.status < 300):
@@ -107,6 +113,8 @@ class CourseServer:
 
 def _handler_for(server: CourseServer) -> type[BaseHTTPRequestHandler]:
     class Handler(BaseHTTPRequestHandler):
+        disable_nagle_algorithm = True  # headers and body go out at once (no 40 ms delayed-ACK stalls)
+
         def do_POST(self) -> None:  # noqa: N802 - http.server's naming
             body = self.rfile.read(int(self.headers.get("Content-Length", 0)))
             headers = {k.lower(): v for k, v in self.headers.items()}
@@ -123,13 +131,20 @@ def _handler_for(server: CourseServer) -> type[BaseHTTPRequestHandler]:
                 self.close_connection = True
                 return
             reply = answer.body.encode()
-            self.send_response(answer.status)
-            for name, value in answer.headers:
-                self.send_header(name, value)
-            self.send_header("Content-Type", "application/json")
-            self.send_header("Content-Length", str(len(reply)))
-            self.end_headers()
-            self.wfile.write(reply)
+            try:
+                self.send_response(answer.status)
+                for name, value in answer.headers:
+                    self.send_header(name, value)
+                self.send_header("Content-Type", "application/json")
+                self.send_header("Content-Length", str(len(reply)))
+                self.end_headers()
+                self.wfile.write(reply)
+                self.wfile.flush()
+            except OSError:  # the client is gone (e.g. killed by a test)
+                return
+            if 200 <= answer.status < 300 and rec.key:
+                with server._lock:
+                    server.acked.add(rec.key)
 
         def log_message(self, *args: Any) -> None:
             pass
@@ -156,3 +171,11 @@ class SilentListener:
 
     def close(self) -> None:
         self.sock.close()
+
+
+def make_payload(i: int = 0, **result: Any) -> dict[str, Any]:
+    """A RunResult payload with a deterministic run id (no simulation needed)."""
+    r = RunResult(run_id=f"00000000-0000-4000-8000-{i:012d}", robokit_version="0.1.0", config="configs/x.toml",
+                  behaviour="sort", seed=i, outcome="succeeded", reason="", ticks=240, sim_time=1.0,
+                  wall_time=0.1, started_at="2026-01-01T00:00:00+00:00", result=result)
+    return build_payload(r, student="kim", project="A")

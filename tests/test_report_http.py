@@ -8,23 +8,13 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from report_server import Answer, CourseServer, SilentListener, closed_port_url
+from report_server import Answer, CourseServer, SilentListener, closed_port_url, make_payload
 from robokit_plugins.http_report import HttpReportConfig, HttpReporter
 
 from robokit.cli import main
 from robokit.outbox import Outbox
-from robokit.reporting import build_payload
-from robokit.result import RunResult
 
 FAST = {"retries": 2, "backoff_factor": 0.01, "backoff_max": 0.01, "backoff_jitter": 0.0, "read_timeout": 2.0}
-
-
-def make_payload(i: int = 0, **result: Any) -> dict[str, Any]:
-    """A RunResult payload with a deterministic run id (no simulation needed)."""
-    r = RunResult(run_id=f"00000000-0000-4000-8000-{i:012d}", robokit_version="0.1.0", config="configs/x.toml",
-                  behaviour="sort", seed=i, outcome="succeeded", reason="", ticks=240, sim_time=1.0,
-                  wall_time=0.1, started_at="2026-01-01T00:00:00+00:00", result=result)
-    return build_payload(r, student="kim", project="A")
 
 
 def reporter(url: str, outbox: Path, **options: Any) -> HttpReporter:
