@@ -1,0 +1,306 @@
+"""Lidar-driven navigation shared by ``go_to_goal``, ``patrol`` and ``patrol_collect``: a heading controller and
+an obstacle avoider that gets around concave corners.
+
+How it decides (every behaviour step, from the latest :class:`~robokit_plugins.mobile_types.LaserScan` and pose):
+
+1. Scan hit points (world frame) are put in the robot frame. For each of ``headings`` candidate directions the
+   *clearance* is how far the robot could drive that way before a point enters its corridor (half-width
+   ``corridor``, m).
+2. If the goal direction is clear (up to the goal, or at least ``free_distance`` m) the robot heads for the goal.
+3. Otherwise it *commits to a side* (left = counter-clockwise, right = clockwise: whichever free heading is nearer
+   the goal) and takes the first free heading met when turning from the goal direction that way. Keeping the same
+   side makes it follow the obstacle's boundary, which is what gets it out of a concave corner where lesson 07's
+   "turn while blocked" turns back and forth forever. It leaves the boundary (Bug2's rule) when the goal direction
+   is clear *and* it is closer to the goal than where it committed.
+4. If no progress is made for ``stall_time`` sim seconds it switches side (escape from a local minimum).
+
+The heading controller is smooth turn-then-drive: yaw rate proportional to the heading error, forward speed
+scaled by ``cos(error)^2`` (zero beyond 90 degrees, so it turns in place first), by the clearance straight ahead
+and by the distance left. Pure numpy: no pybullet here.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from pydantic import Field
+from robokit_plugins.mobile_types import LaserScan, Pose2D, Twist, wrap_angle
+
+from robokit.components import SetupContext
+from robokit.config import Schema
+from robokit.errors import ConfigError
+
+
+class AvoidanceConfig(Schema):
+    """Navigation parameters (defaults fit the bundled diffbot). Lengths in m, speeds in m/s and rad/s.
+
+    Attributes:
+        max_speed: Top forward speed.
+        max_turn_rate: Top yaw rate.
+        heading_gain: Yaw rate per radian of heading error, 1/s.
+        arrive_gain: Forward speed per metre left to the goal, 1/s (smooth arrival).
+        corridor: Radius of the disk the robot is modelled as (half-diagonal + margin); clearances are how far
+            that disk can move along a heading before touching a scan point.
+        stop_distance: Stop driving forward when the clearance straight ahead is this small.
+        slow_distance: Start slowing down when the clearance straight ahead is this small.
+        free_distance: A heading is free when its clearance is at least this (or reaches the goal).
+        leave_distance: Stop following a boundary as soon as the goal direction is clear this far (or to the goal).
+        follow_gap: Extra margin kept from a boundary while following or choosing a side.
+        follow_range: While following, the boundary is the nearest scan point within this distance.
+        ground_height: Scan points lower than this (m, world z) are floor returns, not obstacles.
+        headings: Candidate headings over the full circle.
+        stall_time: Sim seconds without getting 0.1 m closer to the goal before switching side.
+        leave_margin: Leave the boundary only this much closer to the goal than where it was met.
+    """
+
+    max_speed: float = Field(0.4, gt=0)
+    max_turn_rate: float = Field(1.5, gt=0)
+    heading_gain: float = Field(2.5, gt=0)
+    arrive_gain: float = Field(1.0, gt=0)
+    corridor: float = Field(0.26, gt=0)
+    stop_distance: float = Field(0.03, ge=0)
+    slow_distance: float = Field(0.5, gt=0)
+    free_distance: float = Field(0.7, gt=0)
+    leave_distance: float = Field(2.0, gt=0)
+    follow_gap: float = Field(0.12, ge=0)
+    follow_range: float = Field(1.0, gt=0)
+    ground_height: float = Field(0.03, ge=0)
+    headings: int = Field(72, ge=8, le=720)
+    stall_time: float = Field(20.0, gt=0)
+    leave_margin: float = Field(0.05, ge=0)
+
+
+def track_heading(error: float, dist: float, clear_ahead: float, cfg: AvoidanceConfig) -> Twist:
+    """Smooth turn-then-drive command towards a heading ``error`` (rad) with ``dist`` m left to go.
+
+    Forward speed falls with ``cos(error)^2`` (zero beyond 90 degrees: turn in place first), with the clearance
+    straight ahead (``clear_ahead``, m, see :func:`clearances`) and with the distance left.
+    """
+    omega = float(np.clip(cfg.heading_gain * error, -cfg.max_turn_rate, cfg.max_turn_rate))
+    align = math.cos(error) ** 2 if abs(error) < math.pi / 2 else 0.0
+    room = (clear_ahead - cfg.stop_distance) / max(cfg.slow_distance - cfg.stop_distance, 1e-6)
+    v = cfg.max_speed * align * float(np.clip(room, 0.0, 1.0))
+    v = min(v, cfg.arrive_gain * dist + 0.03)
+    return Twist(v, omega)
+
+
+def to_robot_frame(points: np.ndarray, pose: Pose2D) -> np.ndarray:
+    """World-frame xy points (n, 2) into the robot frame of ``pose`` = (x, y, yaw)."""
+    x, y, yaw = pose
+    c, s = math.cos(yaw), math.sin(yaw)
+    d = points - np.array([x, y])
+    return np.stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]], axis=1)
+
+
+def clearances(points: np.ndarray, angles: np.ndarray, corridor: float, far: float) -> np.ndarray:
+    """Free distance (m) along each heading in ``angles`` (robot frame) before a point enters the corridor.
+
+    Args:
+        points: Obstacle points in the robot frame, (n, 2), m.
+        angles: Headings, rad, robot frame.
+        corridor: Corridor half-width, m.
+        far: Value for headings with nothing in the way, m.
+    """
+    if len(points) == 0:
+        return np.full(len(angles), far)
+    u = np.stack([np.cos(angles), np.sin(angles)], axis=1)
+    along = points @ u.T
+    lateral = np.abs(points[:, 0:1] * u[:, 1] - points[:, 1:2] * u[:, 0])
+    ahead = (lateral < corridor) & (along > 0.0)  # points behind never block a heading that moves away
+    dist = np.where(ahead, np.maximum(along - np.sqrt(np.maximum(corridor**2 - lateral**2, 0.0)), 0.0), far)
+    return np.asarray(dist.min(axis=0))
+
+
+@dataclass
+class NavStep:
+    """What the navigator decided: the command, whether it is following an obstacle, and the goal geometry."""
+
+    twist: Twist
+    avoiding: bool
+    distance: float
+    heading_error: float
+
+
+class Avoider:
+    """Goal-seeking obstacle avoidance on a laser scan (see the module docstring). One instance per behaviour."""
+
+    def __init__(self, cfg: AvoidanceConfig) -> None:
+        self.cfg = cfg
+        self.angles = -math.pi + (2.0 * math.pi / cfg.headings) * np.arange(cfg.headings)
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the committed side and progress (call when the goal changes)."""
+        self.side = 0
+        self.commit_distance = math.inf
+        self.best = math.inf
+        self.best_at = 0.0
+        self.switches = 0
+
+    def step(self, pose: Pose2D, scan: LaserScan | None, goal: tuple[float, float], t: float,
+             ignore: tuple[float, float, float] | None = None) -> NavStep:
+        """One decision towards ``goal`` (world xy, m) at sim time ``t`` (s).
+
+        Args:
+            pose: Robot pose (x, y, yaw), world frame.
+            scan: Latest scan (``None``: no lidar, plain go-to-goal).
+            goal: Target point, world frame, m.
+            t: Sim time, s.
+            ignore: ``(x, y, radius)``: scan points within that circle are not obstacles (the object being
+                collected).
+        """
+        dx, dy = goal[0] - pose[0], goal[1] - pose[1]
+        dist = math.hypot(dx, dy)
+        bearing = wrap_angle(math.atan2(dy, dx) - pose[2])
+        points = self._points(pose, scan, ignore)
+        far = scan.range_max if scan is not None else 1e3
+        self._watch_progress(dist, t)
+        goal_clear = float(clearances(points, np.array([bearing]), self.cfg.corridor, far)[0])
+        if self.side != 0 and self._may_leave(goal_clear, dist):
+            self.side = 0
+        if self.side == 0 and goal_clear >= min(dist, self.cfg.free_distance):
+            heading = bearing
+        elif self.side == 0:
+            heading = self._commit(points, bearing, dist, far)
+        else:
+            heading = self._follow(points, bearing, far)
+        ahead = float(clearances(points, np.array([0.0]), self.cfg.corridor, far)[0])
+        twist = track_heading(wrap_angle(heading), dist, ahead, self.cfg)
+        return NavStep(twist, self.side != 0, dist, bearing)
+
+    def _may_leave(self, goal_clear: float, dist: float) -> bool:
+        """Bug2's leave rule (goal clear and closer than where the boundary was met), or a long clear view."""
+        if goal_clear >= min(dist, self.cfg.leave_distance):
+            return True
+        closer = dist < self.commit_distance - self.cfg.leave_margin
+        return closer and goal_clear >= min(dist, self.cfg.free_distance)
+
+    def _free(self, points: np.ndarray, far: float) -> tuple[np.ndarray, np.ndarray]:
+        clear = clearances(points, self.angles, self.cfg.corridor + self.cfg.follow_gap, far)
+        return clear, clear >= self.cfg.free_distance
+
+    def _commit(self, points: np.ndarray, bearing: float, dist: float, far: float) -> float:
+        """Choose the side whose free heading is nearer the goal direction; return that heading (robot frame)."""
+        clear, free = self._free(points, far)
+        if not free.any():
+            return float(self.angles[int(np.argmax(clear))])
+        offsets = (self.angles - bearing) % (2.0 * math.pi)  # counter-clockwise offset from the goal direction
+        ccw = np.where(free, offsets, np.inf)
+        cw = np.where(free, 2.0 * math.pi - offsets, np.inf)
+        self.side = 1 if ccw.min() <= cw.min() else -1
+        self.commit_distance = dist
+        return float(self.angles[int(np.argmin(ccw if self.side > 0 else cw))])
+
+    def _follow(self, points: np.ndarray, bearing: float, far: float) -> float:
+        """Boundary following: sweep from the nearest obstacle point towards the committed side; the first free
+        heading wins. With no obstacle within ``follow_range`` the sweep starts at the goal direction."""
+        clear, free = self._free(points, far)
+        if not free.any():
+            return float(self.angles[int(np.argmax(clear))])
+        start = bearing
+        if len(points):
+            near = np.hypot(points[:, 0], points[:, 1])
+            i = int(np.argmin(near))
+            if near[i] < self.cfg.follow_range:
+                start = math.atan2(points[i, 1], points[i, 0])
+        offsets = ((self.angles - start) * self.side) % (2.0 * math.pi)
+        return float(self.angles[int(np.argmin(np.where(free, offsets, np.inf)))])
+
+    def _points(self, pose: Pose2D, scan: LaserScan | None, ignore: tuple[float, float, float] | None) -> np.ndarray:
+        """Scan hit points in the robot frame, (n, 2), without those inside the ``ignore`` circle."""
+        if scan is None:
+            return np.zeros((0, 2))
+        hits = scan.points[scan.hits]
+        pts = hits[hits[:, 2] > self.cfg.ground_height, :2]  # a tilted scan plane reaching the floor is not a wall
+        if ignore is not None and len(pts):
+            keep = np.hypot(pts[:, 0] - ignore[0], pts[:, 1] - ignore[1]) > ignore[2]
+            pts = pts[keep]
+        return to_robot_frame(pts, pose)
+
+    def _watch_progress(self, dist: float, t: float) -> None:
+        """Switch side when the goal has not come 0.1 m closer for ``stall_time`` seconds."""
+        if dist < self.best - 0.1:
+            self.best, self.best_at = dist, t
+        elif t - self.best_at > self.cfg.stall_time:
+            if self.side != 0:
+                self.side = -self.side
+                self.commit_distance = dist
+                self.switches += 1
+            self.best, self.best_at = dist, t
+
+
+MOTION_STATES = ["TURNING", "DRIVING", "AVOIDING"]
+MOTION_TRANSITIONS: list[dict[str, Any]] = [
+    {"trigger": "aligned", "source": "TURNING", "dest": "DRIVING"},
+    {"trigger": "misaligned", "source": "DRIVING", "dest": "TURNING"},
+    {"trigger": "blocked", "source": ["TURNING", "DRIVING"], "dest": "AVOIDING"},
+    {"trigger": "clear", "source": "AVOIDING", "dest": "TURNING"},
+]
+"""Transitions shared by every navigating machine: turn to the goal, drive, go around obstacles."""
+
+
+class NavConfig(Schema):
+    """Options every navigating behaviour shares.
+
+    Attributes:
+        drive: Name of the ``diff_drive`` actuator.
+        scan: Name of the ``lidar`` sensor (empty: no obstacle avoidance).
+        tolerance: A goal is reached within this distance, m.
+        align_deg: Turning in place ends when the heading error is below this, degrees.
+        avoidance: Navigation parameters.
+    """
+
+    drive: str = "drive"
+    scan: str = "scan"
+    tolerance: float = Field(0.2, gt=0)
+    align_deg: float = Field(20.0, gt=0, lt=90)
+    avoidance: AvoidanceConfig = AvoidanceConfig()
+
+
+class Navigating:
+    """Mixin for :class:`robokit.fsm.MachineBehaviour` subclasses whose machines include ``MOTION_TRANSITIONS``.
+
+    :meth:`move_towards` runs the avoider and fires the motion triggers when the situation changes.
+    """
+
+    config: Any
+    state_name: str
+    fire: Callable[[str], bool]  # provided by MachineBehaviour
+
+    def setup_navigation(self, ctx: SetupContext) -> None:
+        """Check that the drive (and scan, if named) exist; build the avoider. Call from ``setup``."""
+        cfg = self.config
+        for key in ("drive", "scan"):
+            name = getattr(cfg, key)
+            if name and name not in ctx.components:
+                raise ConfigError(
+                    f"no component named {name!r}; components: {', '.join(ctx.components) or '(none)'}", key=key
+                )
+        self.avoider = Avoider(cfg.avoidance)
+
+    def pose(self, readings: Mapping[str, Any]) -> Pose2D:
+        """The robot's pose from the drive reading."""
+        return readings[self.config.drive].pose  # type: ignore[no-any-return]
+
+    def move_towards(self, readings: Mapping[str, Any], goal: tuple[float, float], t: float,
+                     ignore: tuple[float, float, float] | None = None) -> NavStep:
+        """One navigation step towards ``goal`` (world xy, m); fires aligned / misaligned / blocked / clear."""
+        scan = readings[self.config.scan] if self.config.scan else None
+        nav = self.avoider.step(self.pose(readings), scan, goal, t, ignore)
+        align = math.radians(self.config.align_deg)
+        state = self.state_name
+        if nav.avoiding and state != "AVOIDING" and state in MOTION_STATES:
+            self.fire("blocked")
+        elif not nav.avoiding and state == "AVOIDING":
+            self.fire("clear")
+        elif state == "TURNING" and abs(nav.heading_error) < align:
+            self.fire("aligned")
+        elif state == "DRIVING" and abs(nav.heading_error) > 2.5 * align and nav.distance > self.config.tolerance:
+            self.fire("misaligned")
+        if self.state_name == "TURNING":
+            nav.twist = Twist(0.0, nav.twist.omega)
+        return nav
