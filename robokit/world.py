@@ -84,7 +84,7 @@ class _Client(BulletClient):  # type: ignore[misc]
 
     def __getattr__(self, name: str) -> Any:
         attribute = super().__getattr__(name)
-        if callable(attribute):
+        if not name.startswith("_"):  # bound functions and constants alike never change
             self.__dict__[name] = attribute
         return attribute
 
