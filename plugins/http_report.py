@@ -19,6 +19,7 @@ from __future__ import annotations
 import inspect
 import json
 import os
+import re
 from dataclasses import asdict, dataclass, fields
 from typing import Any
 
@@ -38,8 +39,8 @@ _ENV_NAME = r"^[A-Za-z_][A-Za-z0-9_]*$"
 class HttpReportConfig(Schema):
     """``[report.http]``. Times in seconds, sizes in bytes."""
 
-    url: str = Field(description="where to POST, e.g. http://host/api/robotics/result/")
-    token_env: str | None = Field(None, pattern=_ENV_NAME, description="env var NAME holding a bearer token")
+    url: str = Field("", validate_default=True, description="where to POST, e.g. http://host/api/robotics/result/")
+    token_env: str | None = Field(None, description="env var NAME holding a bearer token")
     connect_timeout: float = Field(3.05, gt=0)
     read_timeout: float = Field(10.0, gt=0)
     retries: int = Field(4, ge=0, le=20, description="retries after the first try (urllib3 Retry total)")
@@ -60,9 +61,19 @@ class HttpReportConfig(Schema):
                              "variable that holds it")
         return data
 
+    @field_validator("token_env")
+    @classmethod
+    def _env_name(cls, name: str | None) -> str | None:
+        if name is not None and not re.match(_ENV_NAME, name):
+            raise ValueError("expected the NAME of an environment variable (letters, digits, _), got something "
+                             "else (not shown: it may be the token itself, which must not be in the config)")
+        return name
+
     @field_validator("url")
     @classmethod
     def _http_url(cls, url: str) -> str:
+        if not url:
+            raise ValueError('missing: give url = "http://host/api/robotics/result/" or --report-url URL')
         if not url.startswith(("http://", "https://")):
             raise ValueError(f"expected an http:// or https:// URL, got {url!r}")
         return url

@@ -9,12 +9,15 @@ from __future__ import annotations
 
 import json
 import socket
+import ssl
 import struct
+import subprocess
 import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+from pathlib import Path
 from typing import Any
 
 from robokit.reporting import build_payload
@@ -68,19 +71,26 @@ class CourseServer:
     stored: dict[str, Any] = field(default_factory=dict)
     store_count: dict[str, int] = field(default_factory=dict)
     acked: set[str] = field(default_factory=set)
+    tls: tuple[str, str] | None = None
+    """(certificate file, key file): serve HTTPS."""
 
     def __post_init__(self) -> None:
         self._lock = threading.Lock()
         self.release = threading.Event()
         self._httpd = ThreadingHTTPServer(("127.0.0.1", 0), _handler_for(self))
         self._httpd.daemon_threads = True
+        if self.tls is not None:
+            ctx = ssl.SSLContext(ssl.PROTOCOL_TLS_SERVER)
+            ctx.load_cert_chain(*self.tls)
+            self._httpd.socket = ctx.wrap_socket(self._httpd.socket, server_side=True)
         self._thread = threading.Thread(target=self._httpd.serve_forever, kwargs={"poll_interval": 0.05},
                                         daemon=True)
 
     @property
     def url(self) -> str:
         host, port = self._httpd.server_address[:2]
-        return f"http://{host}:{port}/api/robotics/result/"
+        scheme = "https" if self.tls else "http"
+        return f"{scheme}://{host}:{port}/api/robotics/result/"
 
     def start(self) -> CourseServer:
         self._thread.start()
@@ -179,3 +189,12 @@ def make_payload(i: int = 0, **result: Any) -> dict[str, Any]:
                   behaviour="sort", seed=i, outcome="succeeded", reason="", ticks=240, sim_time=1.0,
                   wall_time=0.1, started_at="2026-01-01T00:00:00+00:00", result=result)
     return build_payload(r, student="kim", project="A")
+
+
+def self_signed_cert(folder: Path) -> tuple[str, str]:
+    """A throwaway certificate for 127.0.0.1 made with the ``openssl`` command: (cert file, key file)."""
+    cert, key = folder / "cert.pem", folder / "key.pem"
+    subprocess.run(["openssl", "req", "-x509", "-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:prime256v1",
+                    "-nodes", "-keyout", str(key), "-out", str(cert), "-days", "1", "-subj", "/CN=127.0.0.1",
+                    "-addext", "subjectAltName=IP:127.0.0.1"], check=True, capture_output=True)
+    return str(cert), str(key)

@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from report_server import Answer, CourseServer, SilentListener, closed_port_url, make_payload
+from report_server import Answer, CourseServer, SilentListener, closed_port_url, make_payload, self_signed_cert
 from robokit_plugins.http_report import HttpReportConfig, HttpReporter
 
 from robokit.cli import main
@@ -148,19 +148,35 @@ def test_missing_token_variable_keeps_the_result_waiting(
     assert "ROBOKIT_TEST_TOKEN is not set" in (entry.last_error or "")
 
 
-def test_a_token_in_the_config_file_is_refused_without_echoing_it(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+@pytest.mark.parametrize(("http_table", "expected"), [
+    ('url = "http://127.0.0.1:9/"\ntoken = "hunter2-xyz"', "token_env"),
+    ('url = "http://127.0.0.1:9/"\ntoken_env = "hunter2-xyz=="', "NAME of an environment variable"),
+    ("retries = 1", "--report-url"),
+])
+def test_http_config_errors_are_one_line_and_never_echo_a_token(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], http_table: str, expected: str
 ) -> None:
     cfg = tmp_path / "c.toml"
-    cfg.write_text('[world]\nmax_time = 0.1\n[report.http]\nurl = "http://127.0.0.1:9/"\ntoken = "hunter2-xyz"\n')
+    cfg.write_text(f"[world]\nmax_time = 0.1\n[report.http]\n{http_table}\n")
     assert main(["validate", str(cfg)]) == 2
     err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and "report.http" in err and "token_env" in err
-    assert "hunter2-xyz" not in err
+    assert len(err.splitlines()) == 1 and "report.http" in err and expected in err
+    assert "hunter2" not in err
 
 
-def test_tls_verification_is_on_by_default() -> None:
-    assert HttpReportConfig(url="https://example.org/").verify is True
+def test_tls_is_verified_by_default(tmp_path: Path) -> None:
+    cert, key = self_signed_cert(tmp_path)
+    server = CourseServer(tls=(cert, key)).start()
+    try:
+        untrusted = reporter(server.url, tmp_path / "outbox", retries=0).report(make_payload(15))
+        trusted = reporter(server.url, tmp_path / "outbox", retries=0, verify=cert).report(make_payload(16))
+    finally:
+        server.stop()
+    assert not untrusted.delivered and trusted.delivered
+    [entry] = Outbox(tmp_path / "outbox").entries()
+    assert entry.run_id == make_payload(15)["run_id"] and "TLS error" in (entry.last_error or "")
+    assert "certificate verify failed" in (entry.last_error or "")
+    assert server.keys() == [make_payload(16)["run_id"]]
 
 
 def test_after_delivering_its_own_result_the_reporter_flushes_the_outbox(
