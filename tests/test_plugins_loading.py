@@ -1,0 +1,129 @@
+"""Loading third-party plugin distributions: broken ones are isolated, bad hooks rejected, clashes named.
+
+Each test puts fake distributions (``tests/plugin_dists.py``) on ``sys.path``; ``load_plugins()`` builds a fresh
+plugin manager every time, so nothing leaks between tests.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from plugin_dists import BAD_SIGNATURE, BROKEN_IMPORT, GOOD_SENSOR, UNKNOWN_HOOK, make_dist
+
+from robokit.cli import main
+from robokit.errors import UserError
+from robokit.plugins import PluginLoadWarning, load_plugins
+
+
+def toml_config(path: Path, sensor_type: str) -> Path:
+    path.write_text(
+        '[world]\nmax_time = 0.05\n[bodies.plane]\nurdf = "plane.urdf"\nposition = [0, 0, 0]\n'
+        f'[sensors.s]\ntype = "{sensor_type}"\n'
+    )
+    return path
+
+
+@pytest.fixture
+def broken_and_good(tmp_path, monkeypatch):
+    """A distribution whose plugin module fails to import, and a good one."""
+    make_dist(tmp_path, "broken-dist", "0.3.0", BROKEN_IMPORT)
+    make_dist(tmp_path, "good-dist", "2.3.1", GOOD_SENSOR, type_name="good_probe")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    return tmp_path
+
+
+def test_import_failure_warns_naming_the_distribution_and_the_others_still_load(broken_and_good):
+    with pytest.warns(PluginLoadWarning, match=r"broken-dist \(entry point 'main'\) not loaded: import failed: "
+                                               r"ModuleNotFoundError"):
+        plugins = load_plugins()
+    assert "good_probe" in plugins.types["sensor"]
+    assert plugins.types["sensor"]["good_probe"].origin == "good-dist 2.3.1"
+    assert "body_pose" in plugins.types["sensor"]  # robokit's own entry points load too
+    assert "drop_test" in plugins.types["behaviour"]
+    assert list(plugins.broken) == ["broken-dist (entry point 'main')"]
+
+
+def test_only_a_config_using_the_broken_distribution_fails_and_it_says_why(broken_and_good, capsys):
+    good = toml_config(broken_and_good / "good.toml", "good_probe")
+    with pytest.warns(PluginLoadWarning):
+        assert main(["validate", str(good)]) == 0
+    assert "ok" in capsys.readouterr().out
+
+    bad = toml_config(broken_and_good / "bad.toml", "ghost")
+    with pytest.warns(PluginLoadWarning):
+        assert main(["validate", str(bad)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "Traceback" not in err
+    assert f"{bad}: sensors.s.type: unknown sensor type 'ghost'" in err
+    assert "broken-dist (entry point 'main') failed to load: import failed: ModuleNotFoundError" in err
+    assert "robokit_this_dependency_is_not_installed" in err
+
+
+def test_hookimpl_with_a_signature_not_matching_its_spec_is_rejected_at_load(tmp_path, monkeypatch):
+    make_dist(tmp_path, "odd-dist", "1.0", BAD_SIGNATURE)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    with pytest.warns(PluginLoadWarning) as caught:
+        plugins = load_plugins()
+    message = str(caught[0].message)
+    assert message.startswith("robokit plugin odd-dist (entry point 'main') not loaded: ")
+    assert "robokit_register_sensors" in message
+    assert "robokit_register_sensors(register, colour)" in message  # the offending definition
+    assert "{'colour'} are declared in the hookimpl but can not be found in the hookspec" in message
+    assert not any(t.distribution == "odd-dist" for t in plugins.all_types())
+    assert "body_pose" in plugins.types["sensor"]
+
+
+def test_hookimpl_of_an_unknown_hook_is_rejected_at_load(tmp_path, monkeypatch):
+    make_dist(tmp_path, "typo-dist", "1.0", UNKNOWN_HOOK)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    with pytest.warns(PluginLoadWarning, match=r"typo-dist .* implements unknown hook\(s\) robokit_register_sensor$"):
+        plugins = load_plugins()
+    assert "body_pose" in plugins.types["sensor"]
+
+
+def test_two_types_with_one_name_is_an_error_naming_both_distributions(tmp_path, monkeypatch, capsys):
+    make_dist(tmp_path, "alpha-sensors", "1.0", GOOD_SENSOR, type_name="rangefinder")
+    make_dist(tmp_path, "beta-sensors", "2.0", GOOD_SENSOR, type_name="rangefinder")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    with pytest.raises(UserError) as info:
+        load_plugins()
+    text = str(info.value)
+    assert "sensor type 'rangefinder' is registered twice" in text
+    assert "alpha-sensors 1.0" in text and "beta-sensors 2.0" in text
+
+    assert main(["plugins"]) == 2  # the CLI says it in one line, no traceback
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("robokit: error: sensor type 'rangefinder' is registered twice")
+    assert err.count("\n") == 0
+
+
+def test_a_type_clashing_with_a_builtin_is_named_too(tmp_path, monkeypatch):
+    make_dist(tmp_path, "copycat", "0.1", GOOD_SENSOR, type_name="body_pose")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    with pytest.raises(UserError, match=r"'body_pose' is registered twice: by robokit 0\.1\.0 .* copycat 0\.1"):
+        load_plugins()
+
+
+def test_plugins_command_shows_kind_type_distribution_version_description(broken_and_good, capsys):
+    with pytest.warns(PluginLoadWarning):
+        assert main(["plugins"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    probe = next(line for line in lines if " good_probe " in line)
+    assert probe.split()[:4] == ["sensor", "good_probe", "good-dist", "2.3.1"]
+    assert probe.endswith("Reads the sim time in seconds (a third-party sensor that works).")
+    pose = next(line for line in lines if " body_pose " in line)
+    assert pose.split()[:4] == ["sensor", "body_pose", "robokit", "0.1.0"]
+    assert pose.endswith("Ground-truth pose and velocity of named bodies (a dict of name -> BodyState).")
+    kinds = {line.split()[0] for line in lines if not line.startswith("not loaded")}
+    assert kinds == {"sensor", "actuator", "behaviour", "reporter"}
+    assert lines[-1].startswith("not loaded: broken-dist (entry point 'main'): import failed: ModuleNotFoundError")
+
+    with pytest.warns(PluginLoadWarning):
+        assert main(["plugins", "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    row = next(r for r in data["types"] if r["type"] == "good_probe")
+    assert row == {"kind": "sensor", "type": "good_probe", "distribution": "good-dist", "version": "2.3.1",
+                   "description": "Reads the sim time in seconds (a third-party sensor that works)."}
+    assert list(data["broken"]) == ["broken-dist (entry point 'main')"]
