@@ -25,7 +25,7 @@ from typing import Any
 
 from pydantic import Field
 from robokit_behaviours.pick_place import PickPlace, PickPlaceTask
-from robokit_plugins.arm_types import ArmState
+from robokit_plugins.arm_types import ArmState, GripperCommand, MoveTo
 from robokit_plugins.vision_types import Detection, Detections
 
 from robokit import hookimpl
@@ -42,6 +42,7 @@ class Phase(enum.Enum):
 
     LOOK = "look"
     PICK_PLACE = "pick_place"
+    CLEAR_VIEW = "clear_view"
     DONE = "done"
     FAILED = "failed"
 
@@ -49,12 +50,14 @@ class Phase(enum.Enum):
 TRANSITIONS: list[dict[str, Any]] = [
     {"trigger": "found", "source": "LOOK", "dest": "PICK_PLACE"},
     {"trigger": "placed", "source": "PICK_PLACE", "dest": "LOOK"},
-    {"trigger": "missed", "source": "PICK_PLACE", "dest": "LOOK"},
+    {"trigger": "missed", "source": "PICK_PLACE", "dest": "CLEAR_VIEW"},
+    {"trigger": "view_clear", "source": "CLEAR_VIEW", "dest": "LOOK"},
     {"trigger": "clear", "source": "LOOK", "dest": "DONE"},
     {"trigger": "exhausted", "source": "LOOK", "dest": "FAILED"},
+    {"trigger": "stuck", "source": ["LOOK", "PICK_PLACE", "CLEAR_VIEW"], "dest": "FAILED"},
 ]
 
-TIMEOUTS = {"LOOK": 1.0, "PICK_PLACE": 20.0}
+TIMEOUTS = {"LOOK": 1.0, "PICK_PLACE": 20.0, "CLEAR_VIEW": 4.0}
 """Sim seconds per state (a pick-and-place has its own per-phase timeouts; this is a backstop)."""
 
 
@@ -82,6 +85,8 @@ class SortConfig(Schema):
     max_picks: int = Field(default=30, ge=1, description="pick attempts in total")
     bin_margin: float = Field(default=0.02, ge=0, description="detections this close to a bin are in it")
     same_object_radius: float = Field(default=0.15, gt=0, description="a retry's detection is within this")
+    look_position: Vec3 = Field(default=(0.28, 0.0, 0.34),
+                                description="gripper position out of the camera's view, for looks after a miss")
     pick_place: dict[str, Any] = Field(default_factory=dict, description="options of the pick_place sub-machine")
 
 
@@ -284,19 +289,36 @@ class Sort(MachineBehaviour):
             obj.failures.append(reason)
             given_up = obj.attempts >= self.config.max_attempts
             obj.outcome, obj.reason = ("failed" if given_up else "retry"), reason
-            self.fire("missed")
+            self.current = None
+            return self._clear_view(readings)
         self.current = None
         return commands
 
+    def _clear_view(self, readings: Mapping[str, Any]) -> Mapping[str, Any]:
+        """After a miss the arm may be over the table: open the gripper and move out of the camera's view."""
+        cfg: SortConfig = self.config
+        arm = readings[cfg.arm]
+        self._view_command = arm.command_id if isinstance(arm, ArmState) else 0
+        self.fire("missed")
+        return {cfg.arm: MoveTo(cfg.look_position), cfg.gripper: GripperCommand("open")}
+
+    def do_clear_view(self, readings: Mapping[str, Any], t: float) -> None:
+        """Wait until the arm has reached the look position (its new command is done), then look."""
+        arm = readings[self.config.arm]
+        if not isinstance(arm, ArmState) or arm.command_id <= self._view_command:
+            return
+        if arm.failed:
+            self._end("stuck", "failed", f"could not move out of the camera's view: {arm.reason}")
+        elif arm.reached:
+            self.fire("view_clear")
+
     def on_timeout(self, state: str) -> None:
         """LOOK without a fresh frame, or a stuck sub-machine: fail with the reason."""
-        self._end("exhausted" if state == "LOOK" else "", "failed",
-                  f"timed out in state {state} after {self.TIMEOUTS[state]:g} s (sim time)")
+        self._end("stuck", "failed", f"timed out in state {state} after {self.TIMEOUTS[state]:g} s (sim time)")
 
     # ------------------------------------------------------------------ end and result
     def _end(self, trigger: str, status: str, reason: str) -> None:
-        if trigger and self.state is Phase.LOOK:
-            self.fire(trigger)
+        self.fire(trigger)
         self.finished_at = self.t
         for obj in self.objects:
             if obj.outcome in ("pending", "retry"):
