@@ -12,7 +12,7 @@ the width is above ``empty_width``, i.e. the fingers did not close on nothing) a
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, ClassVar
 
 from pydantic import Field
 from robokit_plugins.arm_types import GripperCommand, GripperState
@@ -46,6 +46,11 @@ class Gripper(Actuator):
     """A two-finger parallel gripper: open / close with a force limit / go to a width; grasps by friction."""
 
     reading_type = GripperState
+    example: ClassVar[dict[str, Any] | None] = {
+        "config": {"body": "panda"},
+        "robots": {"panda": {"urdf": "franka_panda/panda.urdf", "position": [0, 0, 0], "fixed_base": True}},
+        "commands": [(0, GripperCommand("close")), (24, GripperCommand("width", width=0.05))],
+    }
 
     def setup(self, ctx: SetupContext) -> None:
         super().setup(ctx)

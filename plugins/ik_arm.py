@@ -27,7 +27,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterator
 from contextlib import contextmanager
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 from pydantic import Field
@@ -97,6 +97,13 @@ class IkArm(Actuator):
     """Moves an arm's end-effector link along interpolated Cartesian paths (IK per waypoint, not per tick)."""
 
     reading_type = ArmState
+    example: ClassVar[dict[str, Any] | None] = {
+        "config": {"body": "panda", "ee_link": "panda_grasptarget",
+                   "ready_pose": {"panda_joint2": -0.4, "panda_joint4": -2.2, "panda_joint6": 1.8,
+                                  "panda_joint7": 0.785}},
+        "robots": {"panda": {"urdf": "franka_panda/panda.urdf", "position": [0, 0, 0], "fixed_base": True}},
+        "commands": [(0, MoveTo((0.5, 0.1, 0.3))), (30, MoveTo((0.45, -0.1, 0.25), yaw=0.3))],
+    }
 
     # ------------------------------------------------------------------ setup
     def setup(self, ctx: SetupContext) -> None:

@@ -1,0 +1,89 @@
+"""Pick-and-place benchmark: N seeds of ``configs/pick_place.toml`` (random cube position and yaw).
+
+Prints the success rate, the median and p95 sim seconds per pick-and-place (successful trials), the attempts
+used, and the wall-clock real-time factor (sim seconds simulated per wall second, whole process).
+
+    python benchmarks/pick_place.py --trials 200            # sequential, one process
+    python benchmarks/pick_place.py --trials 200 --processes 2
+
+Every trial is a pure function of (config, seed): a World is built inside the worker, nothing is pickled.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+from typing import Any
+
+CONFIG = Path(__file__).resolve().parents[1] / "configs" / "pick_place.toml"
+
+
+def trial(seed: int, config: str = str(CONFIG)) -> dict[str, Any]:
+    """Run one seed; return its outcome, sim seconds, attempts and wall seconds."""
+    from robokit.testing import make_sim
+
+    t0 = time.perf_counter()
+    with make_sim(config, seed=seed) as sim:
+        result = sim.run()
+    res = result.result
+    return {
+        "seed": seed,
+        "outcome": result.outcome,
+        "reason": result.reason,
+        "pick_seconds": res.get("sim_time"),
+        "attempts": res.get("attempts"),
+        "placement_error": res.get("placement_error"),
+        "run_sim_seconds": result.sim_time,
+        "wall": time.perf_counter() - t0,
+    }
+
+
+def percentile(values: list[float], q: float) -> float:
+    """Nearest-rank percentile (q in 0..100)."""
+    ordered = sorted(values)
+    k = max(0, min(len(ordered) - 1, round(q / 100.0 * len(ordered) + 0.5) - 1))
+    return ordered[k]
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--trials", type=int, default=50)
+    parser.add_argument("--start-seed", type=int, default=0)
+    parser.add_argument("--processes", type=int, default=1)
+    parser.add_argument("--config", default=str(CONFIG))
+    args = parser.parse_args(argv)
+    seeds = list(range(args.start_seed, args.start_seed + args.trials))
+    t0 = time.perf_counter()
+    if args.processes > 1:
+        with ProcessPoolExecutor(args.processes) as pool:
+            rows = list(pool.map(trial, seeds, [args.config] * len(seeds)))
+    else:
+        rows = [trial(s, args.config) for s in seeds]
+    wall = time.perf_counter() - t0
+    ok = [r for r in rows if r["outcome"] == "succeeded"]
+    times = [r["pick_seconds"] for r in ok]
+    sim_total = sum(r["run_sim_seconds"] for r in rows)
+    print(f"trials: {len(rows)} (seeds {seeds[0]}..{seeds[-1]}, {args.processes} process(es))")
+    print(f"success: {len(ok)}/{len(rows)} = {100.0 * len(ok) / len(rows):.1f} %")
+    if times:
+        print(f"sim seconds per pick-and-place: median {statistics.median(times):.3f}, "
+              f"p95 {percentile(times, 95):.3f}, max {max(times):.3f}")
+        retried = sum(1 for r in ok if r["attempts"] > 1)
+        errs = [r["placement_error"] for r in ok if r["placement_error"] is not None]
+        if errs:
+            print(f"placement error: median {1000 * statistics.median(errs):.1f} mm, max {1000 * max(errs):.1f} mm")
+        print(f"succeeded after a retry: {retried}")
+    print(f"wall: {wall:.1f} s for {sim_total:.1f} sim s -> real-time factor {sim_total / wall:.1f}x "
+          f"({sim_total / wall / args.processes:.1f}x per process)")
+    for r in rows:
+        if r["outcome"] != "succeeded":
+            print(f"  seed {r['seed']}: {r['outcome']}: {r['reason']}")
+    return 0 if len(ok) == len(rows) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,56 @@
+"""Arm config errors: each one clear line at ``robokit validate``, exit code 2, no traceback."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+from robokit.cli import main
+
+CONFIG = Path(__file__).resolve().parents[1] / "configs" / "pick_place.toml"
+
+
+def broken(tmp_path: Path, old: str, new: str) -> Path:
+    text = CONFIG.read_text(encoding="utf-8")
+    assert old in text
+    path = tmp_path / "broken.toml"
+    path.write_text(text.replace(old, new, 1), encoding="utf-8")
+    return path
+
+
+CASES = [
+    ('ee_link = "panda_grasptarget"', 'ee_link = "panda_tcp"',
+     r"actuators\.arm\.ee_link: unknown link 'panda_tcp' in panda.*valid: .*panda_grasptarget"),
+    ('finger_joints = ["panda_finger_joint1", "panda_finger_joint2"]',
+     'finger_joints = ["panda_finger_joint1", "panda_finger_joint3"]',
+     r"actuators\.gripper\.finger_joints\[1\]: unknown joint 'panda_finger_joint3' in panda.*panda_finger_joint2"),
+    ('[actuators.gripper]\ntype = "gripper"\nbody = "panda"\n'
+     'finger_joints = ["panda_finger_joint1", "panda_finger_joint2"]\nforce = 20.0\nlateral_friction = 1.2\n', '',
+     r"behaviour\.gripper: pick_place needs a gripper actuator named 'gripper', but there is none"),
+    ('ready_pose = { panda_joint1 = 0.0,', 'ready_pose = { panda_jiont1 = 0.0,',
+     r"actuators\.arm\.ready_pose: unknown joint 'panda_jiont1'"),
+    ('[sensors.poses]\ntype = "body_pose"\nbodies = ["cube"]', '[sensors.poses]\ntype = "contact"\nbody = "cubes"',
+     r"sensors\.poses\.body: unknown body 'cubes'"),
+]
+
+
+@pytest.mark.parametrize(("old", "new", "expected"), CASES, ids=["ee_link", "finger", "no_gripper", "ready",
+                                                                  "contact_body"])
+def test_validate_gives_one_clear_line(tmp_path: Path, capsys: pytest.CaptureFixture[str], old: str, new: str,
+                                       expected: str) -> None:
+    path = broken(tmp_path, old, new)
+    assert main(["validate", str(path)]) == 2
+    out = capsys.readouterr()
+    lines = [line for line in out.err.splitlines() if line.strip()]
+    assert len(lines) == 1, out.err
+    assert lines[0].startswith(f"robokit: error: {path}: "), lines[0]
+    assert re.search(expected, lines[0]), lines[0]
+    assert "Traceback" not in out.err + out.out
+
+
+def test_the_shipped_arm_configs_validate(capsys: pytest.CaptureFixture[str]) -> None:
+    for name in ("pick_place.toml", "kuka_dance.toml", "contact_stop.toml"):
+        assert main(["validate", str(CONFIG.parent / name)]) == 0
+    assert capsys.readouterr().out.count(": ok (") == 3
