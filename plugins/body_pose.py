@@ -37,6 +37,11 @@ class BodyPoseSensor(Sensor):
     """Ground-truth pose and velocity of named bodies (a dict of name -> BodyState)."""
 
     reading_type = dict
+    example = {  # for robokit.testing.check_sensor
+        "config": {"bodies": ["ball"]},
+        "bodies": {"plane": {"urdf": "plane.urdf", "position": [0, 0, 0]},
+                   "ball": {"shape": "sphere", "radius": 0.05, "position": [0, 0, 0.3]}},
+    }
 
     def setup(self, ctx: SetupContext) -> None:
         super().setup(ctx)
