@@ -119,8 +119,7 @@ def make_session(opts: HttpOptions) -> Any:
     if "retry_after_max" in inspect.signature(Retry).parameters:  # urllib3 >= 2.6
         kwargs["retry_after_max"] = opts.retry_after_max
     adapter = HTTPAdapter(max_retries=Retry(**kwargs))
-    session = requests.Session()
-    session.trust_env = False  # no proxies or .netrc credentials picked up behind the user's back
+    session = requests.Session()  # honours HTTPS_PROXY / NO_PROXY / REQUESTS_CA_BUNDLE like any requests client
     session.mount("http://", adapter)
     session.mount("https://", adapter)
     return session
@@ -167,11 +166,9 @@ def post(session: Any, url: str, body: bytes, run_id: str, opts: HttpOptions, to
 
     headers = {"Content-Type": "application/json", "Idempotency-Key": run_id,
                "User-Agent": f"robokit/{__version__}"}
-    if token:
-        headers["Authorization"] = f"Bearer {token}"
     try:
         resp = session.post(url, data=body, headers=headers, timeout=(opts.connect_timeout, opts.read_timeout),
-                            verify=opts.verify, allow_redirects=False)
+                            verify=opts.verify, allow_redirects=False, auth=_Bearer(token) if token else None)
     except requests.RequestException as exc:
         return SendResult(False, False, None, _describe(exc, opts))
     text = resp.text[:_MAX_BODY]
@@ -185,6 +182,20 @@ def post(session: Any, url: str, body: bytes, run_id: str, opts: HttpOptions, to
         return SendResult(False, False, resp.status_code,
                           f"HTTP {resp.status_code}: the server redirects to {where}; flush with --url set to it")
     return SendResult(False, False, resp.status_code, f"HTTP {resp.status_code} after retries: {first_line}", text)
+
+
+class _Bearer:
+    """``Authorization: Bearer <token>`` as a requests auth object (so a ``.netrc`` entry cannot replace it)."""
+
+    def __init__(self, token: str) -> None:
+        self._token = token
+
+    def __call__(self, request: Any) -> Any:
+        request.headers["Authorization"] = f"Bearer {self._token}"
+        return request
+
+    def __repr__(self) -> str:
+        return "_Bearer(***)"
 
 
 def _describe(exc: Exception, opts: HttpOptions) -> str:

@@ -22,6 +22,7 @@ def add_outbox_command(sub: Any) -> None:
     lst = cmds.add_parser("list", help="show waiting results: run id, age, attempts, last error")
     lst.add_argument("--dir", default=DEFAULT_DIR, help=f"outbox folder (default: ./{DEFAULT_DIR})")
     lst.add_argument("--json", action="store_true", help="print the entries as JSON (without payloads)")
+    lst.add_argument("--failed", action="store_true", help="show the entries in failed/ (refused by the server)")
     lst.set_defaults(func=cmd_list)
 
     flush = cmds.add_parser("flush", help="deliver waiting results, oldest first")
@@ -61,9 +62,10 @@ def cmd_list(args: argparse.Namespace) -> int:
         print(json.dumps({"dir": str(box.root), "waiting": [_row(e) for e in waiting],
                           "failed": [_row(e) for e in failed], "unreadable": [str(p) for p in broken]}, indent=2))
         return 0
-    if waiting:
-        print(f"{'RUN ID':<36}  {'AGE':>7}  {'ATTEMPTS':>8}  LAST ERROR")
-    for e in waiting:
+    shown = failed if args.failed else waiting
+    if shown:
+        print(f"{'RUN ID':<36}  {'AGE':>7}  {'ATTEMPTS':>8}  {'SERVER ANSWER' if args.failed else 'LAST ERROR'}")
+    for e in shown:
         print(f"{e.run_id:<36}  {_age(e.age):>7}  {e.attempts:>8}  {e.last_error or '-'}")
     print(f"{len(waiting)} waiting in {box.root}; {len(failed)} refused in {box.failed_dir}")
     for path in broken:
@@ -75,12 +77,15 @@ def cmd_flush(args: argparse.Namespace) -> int:
     """Deliver oldest first; print one line per entry and a count. Exit 0 only if nothing is left waiting."""
     from robokit_plugins.http_report import HttpSender
 
+    from robokit.errors import UserError
     from robokit.outbox import Outbox
 
     box = Outbox(args.dir)
     sender = HttpSender(url=args.url, token_env=args.token_env)
     try:
         report = box.flush(sender, stop_on_transient=not args.keep_going)
+    except OSError as exc:
+        raise UserError(f"outbox {box.root}: {exc}") from None
     finally:
         sender.close()
     for line in report.lines:

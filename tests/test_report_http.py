@@ -89,7 +89,9 @@ def test_429_retry_after_is_honoured(server: CourseServer, tmp_path: Path) -> No
     assert gap >= 0.95, f"the retry came {gap:.3f} s after a 429 with Retry-After: 1"  # backoff alone: 0.01 s
 
 
-def test_400_moves_the_entry_to_failed_with_the_servers_answer(server: CourseServer, tmp_path: Path) -> None:
+def test_400_moves_the_entry_to_failed_with_the_servers_answer(
+    server: CourseServer, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     server.script(Answer(400, '{"student": ["This field is required."]}'))
     payload = make_payload(6)
     d = reporter(server.url, tmp_path / "outbox").report(payload)
@@ -100,6 +102,14 @@ def test_400_moves_the_entry_to_failed_with_the_servers_answer(server: CourseSer
     assert failed.data["server_answer"]["status"] == 400
     assert "This field is required." in failed.data["server_answer"]["body"]
     assert failed.payload == payload
+    assert main(["outbox", "list", "--failed", "--dir", str(tmp_path / "outbox")]) == 0
+    assert "HTTP 400: {\"student\": [\"This field is required.\"]}" in capsys.readouterr().out
+
+
+def test_an_unwritable_outbox_does_not_stop_a_delivery(server: CourseServer, tmp_path: Path) -> None:
+    (tmp_path / "blocker").write_text("a file where the outbox folder should be")
+    d = reporter(server.url, tmp_path / "blocker" / "outbox").report(make_payload(17))
+    assert d.delivered and server.keys() == [make_payload(17)["run_id"]]
 
 
 def test_payload_over_the_size_limit_is_not_sent(server: CourseServer, tmp_path: Path) -> None:
