@@ -135,9 +135,10 @@ def cmd_plugins(args: argparse.Namespace) -> int:
         print(json.dumps({"types": rows, "broken": plugins.broken}, indent=2))
         return EXIT_OK
     width = max((len(r["type"]) for r in rows), default=4)
-    for r in rows:
-        origin = f"{r['distribution']} {r['version']}".strip()
-        print(f"{r['kind']:<10} {r['type']:<{width}}  {origin:<24} {r['description']}")
+    origins = [f"{r['distribution']} {r['version']}".strip() for r in rows]
+    owidth = max((len(o) for o in origins), default=8)
+    for r, origin in zip(rows, origins, strict=True):
+        print(f"{r['kind']:<10} {r['type']:<{width}}  {origin:<{owidth}}  {r['description']}")
     for label, why in plugins.broken.items():
         print(f"not loaded: {label}: {why}")
     return EXIT_OK

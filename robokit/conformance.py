@@ -294,7 +294,7 @@ class _Check:
         self.passed(f"reading computed only when due (every {period} ticks, {self.computed} times in {n})")
 
     def _check_shape(self, values: list[Any]) -> None:
-        reading_type = self.ptype.cls.reading_type
+        reading_type: type = getattr(self.ptype.cls, "reading_type", object)
         for k, value in enumerate(values):
             if not isinstance(value, reading_type):
                 raise self.fail("shape", f"reading after tick {k} is a {type(value).__name__}, declared "
