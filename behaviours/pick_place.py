@@ -23,7 +23,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from pydantic import Field
+from pydantic import Field, field_validator
 from robokit_plugins.arm_types import (
     ArmState,
     GripperCommand,
@@ -111,6 +111,14 @@ class PickPlaceConfig(Schema):
     place_tolerance: float = Field(0.02, gt=0, description="max placement error for success, m")
     timeouts: dict[str, float] = Field(default_factory=dict, description="state name -> sim seconds")
 
+    @field_validator("timeouts")
+    @classmethod
+    def _known_states(cls, value: dict[str, float]) -> dict[str, float]:
+        unknown = sorted(set(value) - set(TIMEOUTS))
+        if unknown:
+            raise ValueError(f"unknown state {unknown[0]!r}; states with timeouts: {', '.join(TIMEOUTS)}")
+        return value
+
 
 class PickPlace(MachineBehaviour):
     """Picks an object and places it at a spot: approach, descend, grasp, lift, transport, lower, release, retreat."""
@@ -121,12 +129,9 @@ class PickPlace(MachineBehaviour):
     TIMEOUTS = TIMEOUTS
 
     def __init__(self, name: str, config: Any) -> None:
-        super().__init__(name, config or PickPlaceConfig())
+        super().__init__(name, config or PickPlaceConfig.model_validate({}))
         cfg: PickPlaceConfig = self.config
-        unknown = sorted(set(cfg.timeouts) - set(TIMEOUTS))
-        if unknown:
-            raise ValueError(f"unknown state {unknown[0]!r} in timeouts; states: {', '.join(TIMEOUTS)}")
-        self.TIMEOUTS = {**TIMEOUTS, **cfg.timeouts}
+        self.timeouts = {**TIMEOUTS, **cfg.timeouts}
         self.task: PickPlaceTask | None = None
         self.attempts = 0
         self.started_at = 0.0
@@ -146,7 +151,7 @@ class PickPlace(MachineBehaviour):
 
         Its transitions go to the run's trace under ``machine=name``. Options are :class:`PickPlaceConfig` fields.
         """
-        config = PickPlaceConfig(arm=arm, gripper=gripper, max_attempts=max_attempts, **options)
+        config = PickPlaceConfig.model_validate({"arm": arm, "gripper": gripper, "max_attempts": max_attempts, **options})
         machine = cls(name, config)
         machine.setup(parent_ctx)
         return machine
@@ -194,7 +199,7 @@ class PickPlace(MachineBehaviour):
         self.t = t
         if self.state is Phase.WAIT and self.task is None and self.config.object is not None:
             self._start_from_config(readings, t)
-        limit = self.TIMEOUTS.get(self.state_name)
+        limit = self.timeouts.get(self.state_name)
         if limit is not None and self.time_in_state > limit:
             self.on_timeout(self.state_name)
         handler = getattr(self, f"do_{self.state_name.lower()}", None)
@@ -250,7 +255,7 @@ class PickPlace(MachineBehaviour):
 
     def on_timeout(self, state: str) -> None:
         """A state ran out of sim time: retry while attempts remain."""
-        self._retry(f"timed out in {state} after {self.TIMEOUTS[state]:g} s")
+        self._retry(f"timed out in {state} after {self.timeouts[state]:g} s")
 
     # ------------------------------------------------------------------ commands on entry
     def _move(self, pos: Vec3, slow: bool = False) -> dict[str, Any]:

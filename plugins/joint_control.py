@@ -92,7 +92,8 @@ class JointControl(Actuator):
             self._set_mode(name, cfg.mode)
         self.force: float | None = cfg.max_force
         self.max_velocity = cfg.max_velocity
-        self.stopped, self.stop_reason, self.stopped_at = False, "", None
+        self.stopped, self.stop_reason = False, ""
+        self.stopped_at: float | None = None
 
     def _joint(self, name: str, key: str) -> Any:
         try:

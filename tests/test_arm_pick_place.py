@@ -6,6 +6,7 @@ import math
 from pathlib import Path
 
 from robokit_behaviours.pick_place import PickPlace, PickPlaceTask
+from robokit_plugins.arm_types import cube_grasp_yaw
 
 from robokit.testing import make_sim, states_visited
 
@@ -69,3 +70,30 @@ def test_sub_machine_contract_one_attempt() -> None:
         # restart for a second job: the machine resets to its initial state
         pp.start(PickPlaceTask(sim.world.pose("cube")[0], 0.0, (0.45, -0.25, 0.027), "cube"), sim.world.time)
         assert pp.outcome is None and pp.state_name == "APPROACH"
+
+
+def test_drop_with_no_attempts_left_fails_with_the_reason() -> None:
+    with make_sim(CONFIG, seed=3, overrides={"behaviour.max_attempts": 1}) as sim:
+        sim.run_until(lambda s: s.behaviour.state_name == "TRANSPORT", 2000)
+        sim.step(20)
+        sim.world.set_pose("cube", (0.55, 0.05, 0.03))
+        result = sim.run(max_time=6.0)
+        assert result.outcome == "failed"
+        assert result.reason == "dropped during TRANSPORT (after 1 attempt)"
+        assert states_visited(sim, "behaviour")[-1] == "FAILED"
+
+
+def test_unreachable_object_fails_at_once_with_the_arm_reason() -> None:
+    with make_sim(CONFIG, seed=3) as sim:
+        sim.world.set_pose("cube", (0.95, 0.45, 0.025))  # table corner, beyond the configured reach
+        result = sim.run(max_time=6.0)
+        assert result.outcome == "failed"
+        assert result.reason.startswith("arm failed in APPROACH: unreachable:")
+        assert result.sim_time < 0.1
+
+
+def test_grasp_yaw_follows_the_cube_within_45_degrees() -> None:
+    for cube_yaw in (0.0, 0.5, -0.7, 1.2, 3.0, -2.5):
+        yaw = cube_grasp_yaw(cube_yaw, 0.0)
+        assert abs(yaw) <= math.pi / 4 + 1e-9
+        assert math.isclose(math.remainder(yaw - cube_yaw, math.pi / 2), 0.0, abs_tol=1e-9)
