@@ -152,7 +152,7 @@ class _Check:
         self.report.ticks = self.ticks = int(ticks or example.get("ticks") or DEFAULT_TICKS)
         self.name = type_name
         self.raw = self._raw_config(example, rate_hz)
-        self.base_dir = Path(inspect.getfile(self.ptype.cls)).parent
+        self.base_dir = _module_dir(self.ptype.cls)
 
     def fail(self, check: str, message: str) -> ConformanceError:
         return ConformanceError(f"{self.kind} type {self.type_name!r} ({self.ptype.origin}): {check}: {message}")
@@ -372,6 +372,14 @@ class _Check:
         with sim:
             client = sim.world.client
             return {"bodies": client.getNumBodies(), "constraints": client.getNumConstraints()}, closing
+
+
+def _module_dir(cls: type) -> Path:
+    """Folder of the module defining ``cls`` (relative URDF paths in an example resolve against it)."""
+    try:
+        return Path(inspect.getfile(cls)).parent
+    except (TypeError, OSError):  # defined in a module without a file
+        return Path.cwd()
 
 
 def first_difference(a: Any, b: Any, path: str = "reading") -> str | None:
