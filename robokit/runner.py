@@ -42,8 +42,30 @@ class RunOutput:
 
 
 def make_reporters(cfg: Config, plugins: Plugins) -> list[Any]:
-    """Instantiate the reporters a config asks for (``local`` is added unless ``keep_local = false``)."""
-    return [plugins.get("reporter", s.type).cls(s.name, s.params) for s in cfg.reporters]
+    """Instantiate the reporters a config asks for (``local`` is added unless ``keep_local = false``).
+
+    A reporter whose constructor raises is replaced by one that reports the failure, so the others still run.
+    """
+    reporters: list[Any] = []
+    for spec in cfg.reporters:
+        ptype = plugins.get("reporter", spec.type)
+        try:
+            reporters.append(ptype.cls(spec.name, spec.params))
+        except Exception as exc:  # noqa: BLE001 - a broken reporter must not cost the result
+            reporters.append(_UnbuiltReporter(spec.name, f"reporter {spec.type!r} ({ptype.origin}) failed to "
+                                                         f"build: {type(exc).__name__}: {exc}"))
+    return reporters
+
+
+@dataclass
+class _UnbuiltReporter:
+    """Stands in for a reporter that could not be built: delivers nothing and says why."""
+
+    name: str
+    message: str
+
+    def report(self, payload: dict[str, Any]) -> Delivery:
+        return Delivery(False, None, self.message)
 
 
 def error_result(cfg: Config, seed: int, reason: str) -> RunResult:

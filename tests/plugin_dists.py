@@ -134,3 +134,25 @@ def make_dist(root: Path, name: str, version: str, source: str, *, entry_name: s
     (info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {name}\nVersion: {version}\n")
     (info / "entry_points.txt").write_text(f"[robokit]\n{entry_name} = {module}\n")
     return module
+
+BROKEN_REPORTER = '''
+from robokit import hookimpl
+from robokit.components import Reporter
+from robokit.config import Schema
+
+
+class GrumpyConfig(Schema):
+    """No options."""
+
+
+class Grumpy(Reporter):
+    """A reporter whose constructor raises."""
+
+    def __init__(self, name, config):
+        raise RuntimeError("no credentials")
+
+
+@hookimpl
+def robokit_register_reporters(register):
+    register("grumpy", Grumpy, GrumpyConfig)
+'''

@@ -13,7 +13,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from plugin_dists import FAULTY_SENSORS, RAISING_RUN_START, make_dist
+from plugin_dists import BROKEN_REPORTER, FAULTY_SENSORS, RAISING_RUN_START, make_dist
 
 from robokit.cli import EXIT_PLUGIN, main
 from robokit.plugins import load_plugins
@@ -133,6 +133,19 @@ def test_a_raising_run_start_hook_is_an_error_naming_its_plugin(tmp_path, monkey
     assert out.result.reason == ("plugin telemetry-dist:telemetry raised in robokit_run_start: RuntimeError: "
                                  "telemetry server unreachable")
     assert out.stored
+
+
+def test_a_reporter_that_cannot_be_built_does_not_cost_the_result(tmp_path, monkeypatch, capsys):
+    make_dist(tmp_path / "site", "grumpy-dist", "0.9", BROKEN_REPORTER)
+    monkeypatch.syspath_prepend(str(tmp_path / "site"))
+    monkeypatch.chdir(tmp_path)
+    config = tmp_path / "c.toml"
+    config.write_text(SCENE + '[behaviour]\ntype = "record"\nduration = 0.1\n[report.grumpy]\n')
+    assert main(["run", str(config)]) == 0  # the local reporter still stored it
+    out = capsys.readouterr().out
+    assert "report[grumpy]: reporter 'grumpy' (grumpy-dist 0.9) failed to build: RuntimeError: no credentials" in out
+    (stored,) = stored_results(tmp_path)
+    assert stored["outcome"] == "succeeded"
 
 
 def test_sim_step_raises_plugin_error_naming_type_and_distribution(faulty):
