@@ -156,3 +156,25 @@ class Grumpy(Reporter):
 def robokit_register_reporters(register):
     register("grumpy", Grumpy, GrumpyConfig)
 '''
+
+HALF_REGISTERING = '''
+from robokit import hookimpl
+from robokit.components import Sensor
+from robokit.config import Schema
+
+
+class Cfg(Schema):
+    """No options."""
+
+
+class First(Sensor):
+    """Registered before the hook raised."""
+
+    reading_type = float
+
+
+@hookimpl
+def robokit_register_sensors(register):
+    register("first_half", First, Cfg)
+    raise KeyError("second_half")
+'''

@@ -10,7 +10,7 @@ import json
 from pathlib import Path
 
 import pytest
-from plugin_dists import BAD_SIGNATURE, BROKEN_IMPORT, GOOD_SENSOR, UNKNOWN_HOOK, make_dist
+from plugin_dists import BAD_SIGNATURE, BROKEN_IMPORT, GOOD_SENSOR, HALF_REGISTERING, UNKNOWN_HOOK, make_dist
 
 from robokit.cli import main
 from robokit.errors import UserError
@@ -80,6 +80,16 @@ def test_hookimpl_of_an_unknown_hook_is_rejected_at_load(tmp_path, monkeypatch):
     monkeypatch.syspath_prepend(str(tmp_path))
     with pytest.warns(PluginLoadWarning, match=r"typo-dist .* implements unknown hook\(s\) robokit_register_sensor$"):
         plugins = load_plugins()
+    assert "body_pose" in plugins.types["sensor"]
+
+
+def test_a_registration_hook_that_raises_leaves_none_of_its_types(tmp_path, monkeypatch):
+    make_dist(tmp_path, "half-dist", "1.0", HALF_REGISTERING)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    expected = r"half-dist .* robokit_register_sensors raised KeyError\('second_half'\)"
+    with pytest.warns(PluginLoadWarning, match=expected):
+        plugins = load_plugins()
+    assert "first_half" not in plugins.types["sensor"]
     assert "body_pose" in plugins.types["sensor"]
 
 
