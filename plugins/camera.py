@@ -6,7 +6,8 @@ looks along the +z axis of the offset frame with image-up along its -y axis (x r
 
 The sensor is lazy (the scheduler's default): when due it is only marked stale, and a frame is rendered the first
 time something reads it. A 320x240 TinyRenderer frame costs ~64 ms, as much as ~450 physics steps. Headless worlds
-use the TinyRenderer; a GUI world uses the OpenGL renderer (``renderer = "auto"``).
+use the TinyRenderer; a GUI world uses the OpenGL renderer (``renderer = "auto"`` or ``"opengl"``; ``"tiny"`` forces
+the TinyRenderer, e.g. to get the same images with and without the GUI).
 
 Depth is converted from the depth buffer ``d`` to metres with ``far * near / (far - (far - near) * d)``.
 """
@@ -87,7 +88,8 @@ class Camera(Sensor):
         client = self.world.client
         self.projection = tuple(client.computeProjectionMatrixFOV(
             fov=cfg.fov, aspect=cfg.width / cfg.height, nearVal=cfg.near, farVal=cfg.far))
-        use_gl = cfg.renderer == "opengl" or (cfg.renderer == "auto" and self.world.gui)
+        # DIRECT mode has no OpenGL context: PyBullet falls back to the TinyRenderer, so "opengl" needs the GUI
+        use_gl = cfg.renderer != "tiny" and self.world.gui
         self.renderer = client.ER_BULLET_HARDWARE_OPENGL if use_gl else client.ER_TINY_RENDERER
         self.sample_offset = 0.5 if use_gl else 0.0  # TinyRenderer samples pixel corners (see vision_types)
         self.flags = 0 if cfg.segmentation else client.ER_NO_SEGMENTATION_MASK
