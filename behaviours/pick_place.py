@@ -70,8 +70,8 @@ TRANSITIONS: list[dict[str, Any]] = [
     {"trigger": "released", "source": "RELEASE", "dest": "RETREAT"},
     {"trigger": "clear", "source": "RETREAT", "dest": "DONE"},
     {"trigger": "retry", "source": HANDLING, "dest": "APPROACH"},
-    {"trigger": "give_up", "source": "*", "dest": "FAILED"},
-    {"trigger": "reset", "source": "*", "dest": "WAIT"},
+    {"trigger": "give_up", "source": ["WAIT", *HANDLING], "dest": "FAILED"},
+    {"trigger": "reset", "source": ["DONE", "FAILED"], "dest": "WAIT"},
 ]
 
 TIMEOUTS = {"APPROACH": 3.0, "DESCEND": 2.0, "GRASP": 1.0, "LIFT": 2.0, "TRANSPORT": 3.0, "LOWER": 2.0,
@@ -181,8 +181,10 @@ class PickPlace(MachineBehaviour):
     # ------------------------------------------------------------------ driving
     def start(self, task: PickPlaceTask, t: float) -> None:
         """Begin a new pick-and-place (resets the machine; commands follow at the next :meth:`step`)."""
+        self.t = t
+        if self.state not in (Phase.WAIT, Phase.DONE, Phase.FAILED):
+            self.fire("give_up")  # a job still running is abandoned
         if self.state is not Phase.WAIT:
-            self.t = t
             self.fire("reset")
         self.task, self.outcome, self.attempts, self.failures = task, None, 0, []
         self.t = self.started_at = self.entered_at = t
