@@ -86,7 +86,8 @@ class SortConfig(Schema):
     bin_margin: float = Field(default=0.02, ge=0, description="detections this close to a bin are in it")
     same_object_radius: float = Field(default=0.15, gt=0, description="a retry's detection is within this")
     look_position: Vec3 = Field(default=(0.28, 0.0, 0.34),
-                                description="gripper position out of the camera's view, for looks after a miss")
+                                description="gripper position out of the camera's view: first look, after a miss")
+    look_tolerance: float = Field(default=0.05, gt=0, description="at the start, closer than this is there")
     pick_place: dict[str, Any] = Field(default_factory=dict, description="options of the pick_place sub-machine")
 
 
@@ -140,7 +141,7 @@ class Sort(MachineBehaviour):
 
     STATES = Phase
     TRANSITIONS = TRANSITIONS
-    INITIAL = Phase.LOOK
+    INITIAL = Phase.CLEAR_VIEW
     TIMEOUTS = TIMEOUTS
 
     # ------------------------------------------------------------------ setup
@@ -166,6 +167,7 @@ class Sort(MachineBehaviour):
         self.current: SortedObject | None = None
         self.looks = 0
         self.picks = 0
+        self._view_command: int | None = None
         self.started_at: float | None = None
         self.finished_at: float | None = None
 
@@ -302,15 +304,35 @@ class Sort(MachineBehaviour):
         self.fire("missed")
         return {cfg.arm: MoveTo(cfg.look_position), cfg.gripper: GripperCommand("open")}
 
-    def do_clear_view(self, readings: Mapping[str, Any], t: float) -> None:
-        """Wait until the arm has reached the look position (its new command is done), then look."""
-        arm = readings[self.config.arm]
-        if not isinstance(arm, ArmState) or arm.command_id <= self._view_command:
-            return
+    def do_clear_view(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any] | None:
+        """Wait until the arm has reached the look position (its new command is done), then look.
+
+        At the start the gripper goes to ``look_position`` only if it is not already within ``look_tolerance``
+        of it (a ready pose out of the camera's view costs nothing).
+        """
+        cfg: SortConfig = self.config
+        if self.started_at is None:
+            self.started_at = t
+        arm = readings[cfg.arm]
+        if not isinstance(arm, ArmState):
+            return None
+        if self._view_command is None:
+            if math.dist(arm.position, cfg.look_position) <= cfg.look_tolerance:
+                return self._view_clear(readings, t)
+            self._view_command = arm.command_id
+            return {cfg.arm: MoveTo(cfg.look_position), cfg.gripper: GripperCommand("open")}
+        if arm.command_id <= self._view_command:
+            return None
         if arm.failed:
             self._end("stuck", "failed", f"could not move out of the camera's view: {arm.reason}")
         elif arm.reached:
-            self.fire("view_clear")
+            return self._view_clear(readings, t)
+        return None
+
+    def _view_clear(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any] | None:
+        self._view_command = None
+        self.fire("view_clear")
+        return self.do_look(readings, t)
 
     def on_timeout(self, state: str) -> None:
         """LOOK without a fresh frame, or a stuck sub-machine: fail with the reason."""

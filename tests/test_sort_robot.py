@@ -98,7 +98,8 @@ def test_cube_knocked_off_mid_transport_is_found_again_and_sorted() -> None:
         assert math.dist(obj["detected_position"], (0.45, -0.12, 0.025)) < 0.01
         pick_states = states_visited(sim, "pick_place")
         assert "FAILED" in pick_states and pick_states[-1] == "DONE"
-        assert states_visited(sim, "behaviour") == ["PICK_PLACE", "CLEAR_VIEW", "LOOK", "PICK_PLACE", "LOOK", "DONE"]
+        assert states_visited(sim, "behaviour") == ["LOOK", "PICK_PLACE", "CLEAR_VIEW", "LOOK", "PICK_PLACE", "LOOK",
+                                                    "DONE"]
 
 
 def test_empty_table_ends_at_once_with_zero_counts() -> None:
@@ -122,3 +123,22 @@ def test_other_seeds_sort_everything(seed: int) -> None:
         assert sim.outcome.status == "succeeded"
         assert (res["red_sorted"], res["blue_sorted"], res["failures"]) == (2, 2, 0)
         assert all(in_bin(sim, c, f"{c.split('_')[0]}_bin") for c in CUBES)
+
+
+def test_arm_over_the_table_at_the_start_moves_out_of_view_before_the_first_look() -> None:
+    # with this ready pose the wrist hangs over the table and hides the (single) cube from the camera
+    raw = base()
+    raw["actuators"]["arm"]["ready_pose"] = {"panda_joint1": 0.0, "panda_joint2": -0.3, "panda_joint4": -2.2,
+                                             "panda_joint6": 1.9, "panda_joint7": 0.785}
+    raw["bodies"]["red"]["count"] = 1
+    del raw["bodies"]["blue"]
+    raw["sensors"]["truth"]["bodies"] = ["red"]
+    raw["sensors"]["camera"]["segmentation"] = True
+    with build(raw, seed=2) as sim:
+        hidden = sim.readings["camera"].body_mask("red").sum()
+        assert hidden == 0, "the scene no longer shows the occlusion this test is about"
+        res = run(sim)
+        assert sim.outcome.status == "succeeded" and res["red_sorted"] == 1
+        assert in_bin(sim, "red", "red_bin")
+        assert states_visited(sim, "behaviour")[:2] == ["LOOK", "PICK_PLACE"]
+        assert sim.trace[0]["t"] > 0.1  # the first look came after the move out of view
