@@ -258,7 +258,7 @@ class NavConfig(Schema):
     scan: str = "scan"
     tolerance: float = Field(0.2, gt=0)
     align_deg: float = Field(20.0, gt=0, lt=90)
-    avoidance: AvoidanceConfig = AvoidanceConfig()
+    avoidance: AvoidanceConfig = Field(default_factory=AvoidanceConfig)  # type: ignore[arg-type]
 
 
 class Navigating:

@@ -10,7 +10,7 @@ it holds and where the last one was taken, never which body or where others are.
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, ClassVar
 
 from pydantic import Field
 from robokit_plugins.mobile_types import Collect, CollectorState
@@ -47,6 +47,14 @@ class Collector(Actuator):
     """Front scoop: takes a small loose object within reach and stows it in the robot's bin."""
 
     reading_type = CollectorState
+    example: ClassVar[dict[str, Any]] = {
+        "config": {"robot": "robot", "armed": True},
+        "bodies": {"plane": {"urdf": "plane.urdf", "position": [0, 0, 0]},
+                   "can": {"shape": "cylinder", "radius": 0.05, "height": 0.2, "mass": 0.2,
+                           "position": [0.22, 0, 0.1]}},
+        "robots": {"robot": {"urdf": "robots/diffbot.urdf", "position": [0, 0, 0.06]}},
+        "commands": [(24, Collect(False))],
+    }
 
     def setup(self, ctx: SetupContext) -> None:
         super().setup(ctx)

@@ -11,7 +11,7 @@ travelled, and the names of bodies touching the robot (collision counting).
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, ClassVar
 
 from pydantic import Field
 from robokit_plugins.mobile_types import STOP, DriveState, Twist, WheelSpeeds, wrap_angle
@@ -55,6 +55,12 @@ class DiffDrive(Actuator):
     """Differential/skid-steer drive: (v, omega) or raw wheel speeds; pose, velocity and wheel odometry."""
 
     reading_type = DriveState
+    example: ClassVar[dict[str, Any]] = {
+        "config": {"robot": "robot"},
+        "bodies": {"plane": {"urdf": "plane.urdf", "position": [0, 0, 0]}},
+        "robots": {"robot": {"urdf": "robots/diffbot.urdf", "position": [0, 0, 0.06]}},
+        "commands": [(0, Twist(0.2, 0.0)), (24, Twist(0.0, 1.0))],
+    }
 
     def setup(self, ctx: SetupContext) -> None:
         super().setup(ctx)

@@ -11,7 +11,7 @@ and read. In GUI mode ``draw = true`` draws each scan (red = hit, green = free),
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 from pydantic import Field, model_validator
@@ -73,6 +73,12 @@ class Lidar(Sensor):
     """A planar laser scanner: N rays over a field of view on a named link; ROS LaserScan readings."""
 
     reading_type = LaserScan
+    example: ClassVar[dict[str, Any]] = {
+        "config": {"robot": "robot", "link": "lidar_link", "rays": 36, "range_max": 3.0},
+        "bodies": {"plane": {"urdf": "plane.urdf", "position": [0, 0, 0]},
+                   "wall": {"shape": "box", "size": [0.1, 2, 0.5], "mass": 0, "position": [1, 0, 0.25]}},
+        "robots": {"robot": {"urdf": "robots/diffbot.urdf", "position": [0, 0, 0.06]}},
+    }
 
     def setup(self, ctx: SetupContext) -> None:
         super().setup(ctx)

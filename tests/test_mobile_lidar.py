@@ -1,0 +1,84 @@
+"""lidar: LaserScan fields, ranges against the analytic distance to a wall, own body ignored, config errors."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from robokit_plugins.mobile_types import LaserScan
+
+from robokit.cli import main
+from robokit.testing import PLANE, make_sim
+
+WALL_X = 2.0  # near face of the wall, m
+
+
+def scene(yaw_deg: float = 0.0, **lidar: object) -> dict:
+    return {
+        "bodies": {"plane": PLANE,
+                   "wall": {"shape": "box", "size": [0.1, 8.0, 0.5], "mass": 0, "position": [WALL_X + 0.05, 0, 0.25]}},
+        "robots": {"robot": {"urdf": "robots/diffbot.urdf", "position": [0, 0, 0.06], "rpy_deg": [0, 0, yaw_deg]}},
+        "sensors": {"scan": {"type": "lidar", "rate_hz": 10, **lidar}},
+    }
+
+
+@pytest.mark.parametrize("yaw_deg", [0.0, 20.0])
+def test_ranges_match_the_analytic_wall_distance_within_1cm(yaw_deg: float) -> None:
+    with make_sim(scene(yaw_deg, rays=360, range_max=6.0)) as sim:
+        scan: LaserScan = sim.readings["scan"]
+    ox = scan.origin[0]
+    world_angles = scan.angles + math.radians(yaw_deg)
+    facing = np.abs(world_angles) < math.radians(50)
+    expected = (WALL_X - ox) / np.cos(world_angles[facing])
+    assert np.isfinite(scan.ranges[facing]).all()
+    assert np.max(np.abs(scan.ranges[facing] - expected)) < 0.01
+    assert np.allclose(scan.points[facing][:, 0], WALL_X, atol=0.01)  # end points are world frame
+    back = np.abs(world_angles) > math.radians(100)
+    assert np.isinf(scan.ranges[back]).all() and (scan.ranges[back] > 0).all()  # +inf: no return
+
+
+def test_laserscan_fields_follow_ros_conventions() -> None:
+    with make_sim(scene(rays=90, fov_deg=180.0, range_min=0.1, range_max=4.0)) as sim:
+        scan = sim.readings["scan"]
+    assert scan.angle_min == pytest.approx(-math.pi / 2)
+    assert scan.angle_max == pytest.approx(math.pi / 2)
+    assert scan.angle_increment == pytest.approx(math.pi / 89)
+    assert (scan.range_min, scan.range_max) == (0.1, 4.0)
+    assert len(scan.ranges) == 90 and scan.points.shape == (90, 3)
+    with make_sim(scene(rays=360)) as sim:
+        full = sim.readings["scan"]
+    assert full.angle_increment == pytest.approx(2 * math.pi / 360)  # no duplicated ray at +-180 degrees
+    assert full.angle_max == pytest.approx(math.pi - full.angle_increment)
+
+
+def test_own_body_is_not_seen_and_one_batch_per_scan() -> None:
+    # mounted at the chassis centre, inside the robot's own box: every ray starts inside the robot
+    cfg = scene(link="base_link", range_min=0.01, range_max=1.5)
+    with make_sim(cfg) as sim:
+        calls = []
+        client = sim.world.client
+        real = client.rayTestBatch
+
+        def counting(*args, **kwargs):
+            calls.append(1)
+            return real(*args, **kwargs)
+
+        client.rayTestBatch = counting
+        scan = sim.readings["scan"]
+        sim.step(48)  # 0.2 s at 240 Hz: the 10 Hz sensor is due twice more
+        sim.readings["scan"]
+    assert np.isinf(scan.ranges).all()  # the wall is 2 m away, beyond 1.5 m; the robot itself is ignored
+    assert len(calls) == 2
+
+
+def test_lidar_on_unknown_link_is_one_line_at_validate(tmp_path, capsys) -> None:
+    path = tmp_path / "bad.toml"
+    path.write_text(
+        '[robots.robot]\nurdf = "robots/diffbot.urdf"\nposition = [0, 0, 0.06]\n'
+        '[sensors.scan]\ntype = "lidar"\nrate_hz = 10\nlink = "laser"\n'
+    )
+    assert main(["validate", str(path)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1
+    assert "sensors.scan.link" in err and "unknown link 'laser'" in err and "lidar_link" in err
