@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -61,3 +63,10 @@ def test_graph_sort_prints_mermaid(capsys: pytest.CaptureFixture[str]) -> None:
                  "CLEAR_VIEW --> LOOK: view_clear", "LOOK --> DONE: clear", "LOOK --> FAILED: exhausted",
                  "PICK_PLACE --> FAILED: stuck"):
         assert edge in text, text
+
+
+def test_sort_and_vision_types_do_not_import_pybullet_or_cv2() -> None:
+    code = ("import sys, robokit_behaviours.sort, robokit_plugins.vision_types; "
+            "print('pybullet' in sys.modules, 'cv2' in sys.modules)")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert proc.stdout.strip() == "False False", proc.stderr
