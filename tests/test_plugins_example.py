@@ -32,7 +32,10 @@ IGNORE = shutil.ignore_patterns("__pycache__", "*.egg-info", "build", "dist", "r
 def _can_build_wheels() -> bool:
     if importlib.util.find_spec("wheel") is not None:
         return True
-    version = tuple(int(p) for p in md.version("setuptools").split(".")[:2])
+    try:
+        version = tuple(int(p) for p in md.version("setuptools").split(".")[:2])
+    except (md.PackageNotFoundError, ValueError):
+        return False
     return version >= (70, 1)  # setuptools >= 70.1 builds wheels without the wheel package
 
 
@@ -58,7 +61,8 @@ def venv(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     python = tmp / "venv" / bindir / ("python.exe" if os.name == "nt" else "python")
     site = Path(_run([python, "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"], tmp)
                 .stdout.strip())
-    (site / "00_robokit_deps.pth").write_text(sysconfig.get_paths()["purelib"] + "\n")
+    paths = dict.fromkeys(sysconfig.get_paths()[key] for key in ("purelib", "platlib"))
+    (site / "00_robokit_deps.pth").write_text("".join(f"{path}\n" for path in paths))
     src = tmp / "src"
     for part in ("robokit", "plugins", "behaviours"):
         shutil.copytree(ROOT / part, src / "robokit" / part, ignore=IGNORE)
