@@ -138,6 +138,7 @@ class PickPlace(MachineBehaviour):
         self.finished_at: float | None = None
         self.failures: list[str] = []
         self.final_position: Vec3 | None = None
+        self.final_yaw: float | None = None
         self.placement_error: float | None = None
         self._entry_due = False
         self._yaw = 0.0
@@ -151,7 +152,8 @@ class PickPlace(MachineBehaviour):
 
         Its transitions go to the run's trace under ``machine=name``. Options are :class:`PickPlaceConfig` fields.
         """
-        config = PickPlaceConfig.model_validate({"arm": arm, "gripper": gripper, "max_attempts": max_attempts, **options})
+        fields = {"arm": arm, "gripper": gripper, "max_attempts": max_attempts, **options}
+        config = PickPlaceConfig.model_validate(fields)
         machine = cls(name, config)
         machine.setup(parent_ctx)
         return machine
@@ -188,7 +190,7 @@ class PickPlace(MachineBehaviour):
             self.fire("reset")
         self.task, self.outcome, self.attempts, self.failures = task, None, 0, []
         self.t = self.started_at = self.entered_at = t
-        self.finished_at, self.final_position, self.placement_error = None, None, None
+        self.finished_at, self.final_position, self.final_yaw, self.placement_error = None, None, None, None
         self.phase_times = {}
         self._go("begin")
 
@@ -348,7 +350,7 @@ class PickPlace(MachineBehaviour):
             self._retry(f"grasp failed: fingers closed to {g.width * 1000:.1f} mm without holding")
 
     def do_lift(self, readings: Mapping[str, Any], t: float) -> None:
-        self._carry(readings, "hold_verified")
+        self._carry(readings, "hold_verified")  # reached the transport altitude still holding: hold verified
 
     def do_transport(self, readings: Mapping[str, Any], t: float) -> None:
         self._carry(readings, "above_place")
@@ -380,7 +382,7 @@ class PickPlace(MachineBehaviour):
         cfg: PickPlaceConfig = self.config
         located = self._locate(readings) if cfg.pose_sensor is not None else None
         if located is not None:
-            self.final_position = located[0]
+            self.final_position, self.final_yaw = located
             self.placement_error = math.dist(located[0], self.task.place_position)
             if self.placement_error > cfg.place_tolerance:
                 self._retry(f"placed {self.placement_error * 1000:.0f} mm from the target")
@@ -404,6 +406,7 @@ class PickPlace(MachineBehaviour):
             "pick_position": list(task.pick_position) if task else None,
             "place_position": list(task.place_position) if task else None,
             "final_position": list(self.final_position) if self.final_position else None,
+            "final_yaw": self.final_yaw,
             "placement_error": self.placement_error,
             "sim_time": round(end - self.started_at, 6),
             "phase_times": {k: round(v, 6) for k, v in self.phase_times.items()},
