@@ -47,3 +47,17 @@ def test_unknown_scripted_key_is_a_config_error(tmp_path: Path) -> None:
     config = {"sensors": {"keys": {"type": "keyboard", "script": [{"at": 0, "keys": ["f13"]}]}}}
     with pytest.raises(ConfigError, match=r"sensors.keys.script\[0\].keys: unknown key 'f13'"):
         make_sim(config)
+
+
+def test_joint_teleop_selects_joints_and_turns_them() -> None:
+    with make_sim(CONFIGS / "kuka_teleop.toml") as sim:
+        result = sim.run()
+        positions = sim.readings["joints"].positions
+    assert result.outcome == "succeeded"
+    assert result.result["selections"] == ["lbr_iiwa_joint_1", "lbr_iiwa_joint_4"]
+    # right held 1 s at 1 rad/s on joint 1, left held 0.5 s on joint 4; the others stay at 0
+    assert result.result["targets"]["lbr_iiwa_joint_1"] == pytest.approx(1.0, abs=0.01)
+    assert result.result["targets"]["lbr_iiwa_joint_4"] == pytest.approx(-0.5, abs=0.01)
+    assert positions["lbr_iiwa_joint_1"] == pytest.approx(1.0, abs=0.05)  # the arm really moved there
+    assert positions["lbr_iiwa_joint_4"] == pytest.approx(-0.5, abs=0.05)
+    assert positions["lbr_iiwa_joint_2"] == pytest.approx(0.0, abs=0.05)
