@@ -127,13 +127,14 @@ class SortedObject:
     body: str | None = None
     detection_error: float | None = None
     failures: list[str] = field(default_factory=list)
+    handling_time: float = 0.0
 
     def report(self) -> dict[str, Any]:
         """JSON-ready summary."""
         err = None if self.detection_error is None else round(self.detection_error, 5)
         return {"colour": self.colour, "detected_position": [round(v, 4) for v in self.detected],
                 "detection_error": err, "body": self.body, "bin": self.bin, "attempts": self.attempts,
-                "outcome": self.outcome, "reason": self.reason}
+                "outcome": self.outcome, "reason": self.reason, "pick_place_time": round(self.handling_time, 4)}
 
 
 class Sort(MachineBehaviour):
@@ -283,6 +284,7 @@ class Sort(MachineBehaviour):
             return commands
         obj = self.current
         assert obj is not None
+        obj.handling_time += float(self.pp.result().get("sim_time") or 0.0)
         if self.pp.outcome.status == "succeeded":
             obj.outcome, obj.reason = "sorted", ""
             self.fire("placed")
