@@ -19,6 +19,7 @@ freezes every joint where it is (position mode, holding) and ignores further tar
 from __future__ import annotations
 
 import math
+from functools import partial
 from typing import Any, ClassVar, Literal
 
 from pydantic import Field
@@ -88,6 +89,8 @@ class JointControl(Actuator):
         self.modes: dict[str, str] = {}
         self.values: dict[str, float] = {n: v for n, v in cfg.targets.items()}
         self.program = dict(cfg.sine)
+        self._plan: list[tuple[Any, list[str]]] | None = None  # motor calls grouped by mode (see _make_plan)
+        self._waves: list[tuple[str, float, float, float, float]] | None = None
         for name in set(cfg.targets) | set(cfg.sine):
             self._set_mode(name, cfg.mode)
         self.force: float | None = cfg.max_force
@@ -109,6 +112,7 @@ class JointControl(Actuator):
             c = self.world.client
             c.setJointMotorControl2(self.body, self.joints[name].index, c.VELOCITY_CONTROL, force=0.0)
         self.modes[name] = mode
+        self._plan = None
 
     def command(self, cmd: Any) -> None:
         """Accept a :class:`JointCommand`; the named joints leave the config program."""
@@ -121,8 +125,10 @@ class JointControl(Actuator):
             self._set_mode(name, cmd.mode)
             self.values[name] = float(value)
             self.program.pop(name, None)
+        self._plan = self._waves = None
         if cmd.max_force is not None:
             self.force = cmd.max_force
+            self._plan = None
         if cmd.max_velocity is not None:
             self.max_velocity = cmd.max_velocity
 
@@ -134,12 +140,43 @@ class JointControl(Actuator):
                 self._stop(contact)
         if self.stopped:
             return
-        t = self.world.time
-        for name, wave in self.program.items():
-            self.values[name] = wave.offset + wave.amplitude * math.sin(
-                2 * math.pi * wave.frequency_hz * t + math.radians(wave.phase_deg))
-        for name, value in self.values.items():
-            self._drive(name, self.modes[name], value)
+        t, values, sin = self.world.time, self.values, math.sin
+        if self._waves is None:
+            self._waves = [(n, w.offset, w.amplitude, 2 * math.pi * w.frequency_hz, math.radians(w.phase_deg))
+                           for n, w in self.program.items()]
+        for name, offset, amplitude, omega, phase in self._waves:
+            values[name] = offset + amplitude * sin(omega * t + phase)
+        if self.max_velocity:  # only the per-joint call takes a velocity limit
+            for name, value in values.items():
+                self._drive(name, self.modes[name], value)
+            return
+        for call, names in self._plan or self._make_plan():
+            call([values[n] for n in names])
+
+    def _make_plan(self) -> list[tuple[Any, list[str]]]:
+        """Group the joints by mode into one ``setJointMotorControlArray`` call each (rebuilt on mode changes)."""
+        c = self.world.client
+        groups: dict[str, list[str]] = {}
+        for name in self.values:
+            groups.setdefault(self.modes[name], []).append(name)
+        plan: list[tuple[Any, list[str]]] = []
+        for mode, names in groups.items():
+            idx = [self.joints[n].index for n in names]
+            forces = [self.force or (self.joints[n].max_force if self.joints[n].max_force > 0 else 100.0)
+                      for n in names]
+            if mode == "position":
+                gains = [self.config.position_gain] * len(names)
+                call = partial(c.setJointMotorControlArray, self.body, idx, c.POSITION_CONTROL, forces=forces,
+                               positionGains=gains)
+                plan.append((lambda v, f=call: f(targetPositions=v), names))
+            elif mode == "velocity":
+                call = partial(c.setJointMotorControlArray, self.body, idx, c.VELOCITY_CONTROL, forces=forces)
+                plan.append((lambda v, f=call: f(targetVelocities=v), names))
+            else:
+                call = partial(c.setJointMotorControlArray, self.body, idx, c.TORQUE_CONTROL)
+                plan.append((lambda v, f=call: f(forces=v), names))
+        self._plan = plan
+        return plan
 
     def _drive(self, name: str, mode: str, value: float) -> None:
         c, info = self.world.client, self.joints[name]
@@ -167,6 +204,7 @@ class JointControl(Actuator):
             c.setJointMotorControl2(self.body, info.index, c.POSITION_CONTROL, targetPosition=state[0],
                                     targetVelocity=0.0, force=force, positionGain=self.config.position_gain)
         self.program.clear()
+        self._plan = self._waves = None
 
     def _torque(self, name: str, motor_torque: float) -> float:
         """Applied torque: the motor's (position/velocity modes) or the commanded one (torque mode)."""
