@@ -3,9 +3,10 @@
 The sensor sits on a named link of a robot (plus an offset in that link's frame) and scans in the link's xy-plane.
 Readings follow ROS ``sensor_msgs/LaserScan`` (see :class:`~robokit_plugins.mobile_types.LaserScan`): ranges in
 metres, ``+inf`` for no return, plus the hit points in the world frame. Rays start ``range_min`` from the sensor,
-so a sensor inside or next to its robot's shapes does not see the robot itself; a ray that still hits the robot
-it is mounted on reports no return. Set ``rate_hz`` (e.g. 10) in the config: the scan is computed only when due
-and read. In GUI mode ``draw = true`` draws each scan (red = hit, green = free), as lesson 04 does.
+and the robot's own links are left out of the ray test (they are put in a collision group of their own, which
+changes none of their collisions): a sensor inside or next to its robot's shapes does not see the robot itself.
+Set ``rate_hz`` (e.g. 10) in the config: the scan is computed only when due and read. In GUI mode
+``draw = true`` draws each scan (red = hit, green = free), as lesson 04 does.
 """
 
 from __future__ import annotations
@@ -21,6 +22,11 @@ from robokit import hookimpl
 from robokit.components import Sensor, SetupContext
 from robokit.config import Schema, Vec3
 from robokit.errors import ConfigError, LookupNameError
+
+OWN_BODY_GROUP = 0x100
+"""Collision group the lidar puts its robot's links in (their collisions with other bodies are unchanged)."""
+RAY_MASK = -1 ^ OWN_BODY_GROUP
+"""Rays hit every collision group but the robot's own."""
 
 
 class LidarConfig(Schema):
@@ -90,10 +96,24 @@ class Lidar(Sensor):
             self.link = self.world.link(self.body, cfg.link)
         except LookupNameError as exc:
             raise ConfigError(str(exc), key="link") from None
+        self._exclude_own_body()
         self.angle_min, self.angle_max, self.angle_inc = scan_angles(cfg.rays, cfg.fov_deg)
         angles = self.angle_min + self.angle_inc * np.arange(cfg.rays) + math.radians(cfg.yaw_offset_deg)
         self.local_dirs = np.stack([np.cos(angles), np.sin(angles), np.zeros_like(angles)], axis=1)
         self.scans = 0
+
+    def _exclude_own_body(self) -> None:
+        """Put the robot's links in collision group ``OWN_BODY_GROUP`` so that the rays can skip them.
+
+        Its collisions with everything else are unchanged (the masks still accept every group). Without this,
+        every ray whose box overlaps the robot's shapes (all of them, near the sensor) pays a narrow-phase test
+        against each of the robot's links: about two thirds of the scan's cost on the diffbot.
+        """
+        c = self.world.client
+        static = c.getDynamicsInfo(self.body, -1)[0] == 0
+        mask = -1 ^ 2 if static else -1  # Bullet's defaults: static bodies ignore other static ones
+        for link in range(-1, c.getNumJoints(self.body)):
+            c.setCollisionFilterGroupMask(self.body, link, OWN_BODY_GROUP, mask)
 
     def _sensor_frame(self) -> tuple[np.ndarray, np.ndarray]:
         """Sensor origin (world, m) and the link's rotation matrix (3x3)."""
@@ -109,7 +129,8 @@ class Lidar(Sensor):
         dirs = self.local_dirs @ rot.T
         starts = origin + dirs * cfg.range_min
         ends = origin + dirs * cfg.range_max
-        results = self.world.client.rayTestBatch(starts, ends, numThreads=cfg.num_threads)
+        results = self.world.client.rayTestBatch(starts, ends, numThreads=cfg.num_threads,
+                                                 collisionFilterMask=RAY_MASK)
         columns = list(zip(*results, strict=True))
         ids, frac = np.array(columns[0], dtype=int), np.array(columns[2], dtype=float)
         hit = (ids >= 0) & (ids != self.body)
