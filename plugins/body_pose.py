@@ -13,7 +13,6 @@ import pybullet as p
 from robokit import hookimpl
 from robokit.components import Sensor, SetupContext
 from robokit.config import Schema
-from robokit.errors import ConfigError, LookupNameError
 
 Vec3 = tuple[float, float, float]
 
@@ -47,8 +46,7 @@ class BodyPoseSensor(Sensor):
         super().setup(ctx)
         names = self.config.bodies if self.config else ()
         for i, name in enumerate(names):
-            if not self.world.has_body(name):
-                raise ConfigError(str(LookupNameError("body", name, self.world.body_names)), key=f"bodies[{i}]")
+            ctx.body(name, key=f"bodies[{i}]")
         if not names:
             client = self.world.client
             names = tuple(n for n in self.world.body_names if client.getDynamicsInfo(self.world.body(n), -1)[0] > 0)

@@ -23,7 +23,6 @@ from robokit_plugins.vision_types import CameraFrame
 from robokit import hookimpl
 from robokit.components import Sensor, SetupContext
 from robokit.config import Schema
-from robokit.errors import ConfigError, LookupNameError
 
 Vec3 = tuple[float, float, float]
 
@@ -76,14 +75,9 @@ class Camera(Sensor):
         self.link: int | None = None
         self.body_id: int | None = None
         if cfg.mount_body is not None:
-            if not self.world.has_body(cfg.mount_body):
-                raise ConfigError(str(LookupNameError("body", cfg.mount_body, self.world.body_names)),
-                                  key="mount_body")
+            ctx.body(cfg.mount_body, key="mount_body")
             assert cfg.mount_link is not None
-            try:
-                self.link = self.world.link(cfg.mount_body, cfg.mount_link)
-            except LookupNameError as exc:
-                raise ConfigError(str(exc), key="mount_link") from None
+            self.link = ctx.link(cfg.mount_body, cfg.mount_link, key="mount_link")
             self.body_id = self.world.body(cfg.mount_body)
         client = self.world.client
         self.projection = tuple(client.computeProjectionMatrixFOV(

@@ -15,7 +15,7 @@ from robokit_plugins.arm_types import ContactState
 from robokit import hookimpl
 from robokit.components import Sensor, SetupContext
 from robokit.config import Schema
-from robokit.errors import ConfigError, UserError
+from robokit.errors import ConfigError
 
 
 class ContactConfig(Schema):
@@ -49,17 +49,10 @@ class ContactSensor(Sensor):
         self.other_link = self._link(cfg.other, cfg.other_link, "other_link") if cfg.other else None
 
     def _body(self, name: str, key: str) -> int:
-        if not self.world.has_body(name):
-            raise ConfigError(f"unknown body {name!r}; bodies: {', '.join(self.world.body_names)}", key=key)
-        return self.world.body(name)
+        return self.ctx.body(name, key=key)
 
     def _link(self, body: str, link: str | None, key: str) -> int | None:
-        if link is None:
-            return None
-        try:
-            return self.world.link(body, link)
-        except UserError as exc:
-            raise ConfigError(str(exc), key=key) from None
+        return None if link is None else self.ctx.link(body, link, key=key)
 
     def read(self) -> ContactState:
         """Contact points now (from the last physics step)."""

@@ -20,7 +20,7 @@ from robokit_plugins.arm_types import GripperCommand, GripperState
 from robokit import hookimpl
 from robokit.components import Actuator, SetupContext
 from robokit.config import Schema
-from robokit.errors import ConfigError, UserError
+from robokit.errors import ConfigError
 
 
 class GripperConfig(Schema):
@@ -56,15 +56,10 @@ class Gripper(Actuator):
         super().setup(ctx)
         cfg: GripperConfig = self.config
         w = self.world
-        if not w.has_body(cfg.body):
-            raise ConfigError(f"unknown body {cfg.body!r}; bodies: {', '.join(w.body_names)}", key="body")
-        self.body = w.body(cfg.body)
+        self.body = ctx.body(cfg.body)
         self.fingers = []
         for i, name in enumerate(cfg.finger_joints):
-            try:
-                info = w.joint(cfg.body, name)
-            except UserError as exc:
-                raise ConfigError(str(exc), key=f"finger_joints[{i}]") from None
+            info = ctx.joint(cfg.body, name, key=f"finger_joints[{i}]")
             if info.type != "prismatic":
                 raise ConfigError(f"finger joint {name!r} must be prismatic, got {info.type}",
                                   key=f"finger_joints[{i}]")

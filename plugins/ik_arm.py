@@ -36,7 +36,7 @@ from robokit_plugins.arm_types import ArmState, HoldArm, MoveTo, Quat, Vec3, qua
 from robokit import hookimpl
 from robokit.components import Actuator, SetupContext
 from robokit.config import Schema
-from robokit.errors import ConfigError, UserError
+from robokit.errors import ConfigError
 
 
 class IkArmConfig(Schema):
@@ -110,13 +110,8 @@ class IkArm(Actuator):
         super().setup(ctx)
         cfg: IkArmConfig = self.config
         w = self.world
-        if not w.has_body(cfg.body):
-            raise ConfigError(f"unknown body {cfg.body!r}; bodies: {', '.join(w.body_names)}", key="body")
-        self.body = w.body(cfg.body)
-        try:
-            self.ee = w.link(cfg.body, cfg.ee_link)
-        except UserError as exc:
-            raise ConfigError(str(exc), key="ee_link") from None
+        self.body = ctx.body(cfg.body)
+        self.ee = ctx.link(cfg.body, cfg.ee_link, key="ee_link")
         if self.ee < 0:
             raise ConfigError(f"the end-effector link must not be the base link {cfg.ee_link!r}", key="ee_link")
         self.movable = [j for j in w.joints(cfg.body) if j.movable]

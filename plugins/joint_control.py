@@ -28,7 +28,7 @@ from robokit_plugins.arm_types import ContactState, JointCommand, JointStates
 from robokit import hookimpl
 from robokit.components import Actuator, SetupContext
 from robokit.config import Schema
-from robokit.errors import ConfigError, UserError
+from robokit.errors import ConfigError
 
 Mode = Literal["position", "velocity", "torque"]
 
@@ -71,9 +71,7 @@ class JointControl(Actuator):
         super().setup(ctx)
         cfg: JointControlConfig = self.config
         w = self.world
-        if not w.has_body(cfg.body):
-            raise ConfigError(f"unknown body {cfg.body!r}; bodies: {', '.join(w.body_names)}", key="body")
-        self.body = w.body(cfg.body)
+        self.body = ctx.body(cfg.body)
         names = cfg.joints or tuple(j.name for j in w.joints(cfg.body) if j.movable)
         self.joints = {name: self._joint(name, f"joints[{i}]") for i, name in enumerate(names)}
         for key, table in (("targets", cfg.targets), ("sine", cfg.sine)):
@@ -99,10 +97,7 @@ class JointControl(Actuator):
         self.stopped_at: float | None = None
 
     def _joint(self, name: str, key: str) -> Any:
-        try:
-            info = self.world.joint(self.config.body, name)
-        except UserError as exc:
-            raise ConfigError(str(exc), key=key) from None
+        info = self.ctx.joint(self.config.body, name, key=key)
         if not info.movable:
             raise ConfigError(f"joint {name!r} is {info.type}, not movable", key=key)
         return info

@@ -19,8 +19,10 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
+from robokit.errors import ConfigError, LookupNameError
+
 if TYPE_CHECKING:
-    from robokit.world import World
+    from robokit.world import JointInfo, World
 
 OUTCOMES = ("succeeded", "failed", "aborted")
 
@@ -60,6 +62,29 @@ class SetupContext:
     config_dir: Any
     trace: Callable[..., None]
     extras: dict[str, Any] = field(default_factory=dict)
+
+    def body(self, name: str, *, key: str = "body") -> int:
+        """Body id of a named body; a config error at ``key`` (listing the bodies) if there is none."""
+        try:
+            return self.world.body(name)
+        except LookupNameError as exc:
+            raise ConfigError(str(exc), key=key) from None
+
+    def link(self, body: str, link: str, *, key: str = "link") -> int:
+        """Link index by name (``-1`` = base); a config error at ``key`` (listing the links) if there is none."""
+        self.body(body)
+        try:
+            return self.world.link(body, link)
+        except LookupNameError as exc:
+            raise ConfigError(str(exc), key=key) from None
+
+    def joint(self, body: str, joint: str, *, key: str = "joint") -> JointInfo:
+        """A joint by name; a config error at ``key`` (listing the joints) if there is none."""
+        self.body(body)
+        try:
+            return self.world.joint(body, joint)
+        except LookupNameError as exc:
+            raise ConfigError(str(exc), key=key) from None
 
 
 class Sensor:
