@@ -43,6 +43,7 @@ class LidarConfig(Schema):
         range_max: Longest range, m.
         draw: Draw the rays in GUI mode (no effect headless).
         num_threads: Threads for ``rayTestBatch`` (0 = all cores).
+        range_noise: Standard deviation of Gaussian noise added to each returned range, m (seeded).
     """
 
     robot: str = "robot"
@@ -55,6 +56,7 @@ class LidarConfig(Schema):
     range_max: float = Field(5.0, gt=0)
     draw: bool = False
     num_threads: int = Field(1, ge=0)
+    range_noise: float = Field(0.0, ge=0)
 
     @model_validator(mode="after")
     def _ranges(self) -> LidarConfig:
@@ -134,8 +136,12 @@ class Lidar(Sensor):
         columns = list(zip(*results, strict=True))
         ids, frac = np.array(columns[0], dtype=int), np.array(columns[2], dtype=float)
         hit = (ids >= 0) & (ids != self.body)
-        ranges = np.where(hit, cfg.range_min + frac * (cfg.range_max - cfg.range_min), np.inf)
-        points = np.where(hit[:, None], starts + dirs * (frac * (cfg.range_max - cfg.range_min))[:, None], ends)
+        ranges = cfg.range_min + frac * (cfg.range_max - cfg.range_min)
+        if cfg.range_noise > 0:
+            ranges = np.clip(ranges + self.ctx.rng.normal(0.0, cfg.range_noise, len(ranges)), cfg.range_min,
+                             cfg.range_max)
+        points = np.where(hit[:, None], origin + dirs * ranges[:, None], ends)
+        ranges = np.where(hit, ranges, np.inf)
         self.scans += 1
         if cfg.draw and self.world.gui:
             self._draw(starts, points, hit)

@@ -82,3 +82,15 @@ def test_lidar_on_unknown_link_is_one_line_at_validate(tmp_path, capsys) -> None
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1
     assert "sensors.scan.link" in err and "unknown link 'laser'" in err and "lidar_link" in err
+
+
+def test_range_noise_is_seeded_and_of_the_configured_size() -> None:
+    scans = []
+    for _ in range(2):
+        with make_sim(scene(rays=360, range_max=6.0, range_noise=0.01), seed=5) as sim:
+            scans.append(sim.readings["scan"])
+    a, b = scans
+    assert np.array_equal(a.ranges, b.ranges)  # same seed, same noise
+    facing = np.abs(a.angles) < math.radians(50)
+    error = a.ranges[facing] - (WALL_X - a.origin[0]) / np.cos(a.angles[facing])
+    assert 0.007 < np.std(error) < 0.013 and abs(np.mean(error)) < 0.004
