@@ -136,7 +136,7 @@ class Discovery:
             if track is None:
                 self.tracks.append(Track(len(self.tracks), float(centre[0]), float(centre[1]), 1.0))
                 continue
-            if track.status in ("collected",):
+            if track.status == "collected":
                 continue
             w = track.weight
             track.x, track.y = (w * track.x + centre[0]) / (w + 1), (w * track.y + centre[1]) / (w + 1)

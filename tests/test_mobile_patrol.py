@@ -89,3 +89,35 @@ def test_patrol_robot_config_runs_headless_and_exits_0(tmp_path) -> None:
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert "outcome: succeeded" in proc.stdout
     assert "objects_collected: 4" in proc.stdout and "collisions: 0" in proc.stdout
+
+
+def test_behaviours_import_no_pybullet() -> None:
+    code = ("import sys, robokit_behaviours.go_to_goal, robokit_behaviours.patrol, robokit_behaviours.patrol_collect; "
+            "sys.exit(int(any(m.startswith('pybullet') for m in sys.modules)))")
+    assert subprocess.run([sys.executable, "-c", code], timeout=60).returncode == 0
+
+
+def synthetic_scan(points: list[tuple[float, float]]):
+    """A LaserScan from the origin whose hits are exactly ``points`` (world xy, z = 0.12), in angle order."""
+    import numpy as np
+    from robokit_plugins.mobile_types import LaserScan
+
+    pts = sorted(points, key=lambda p: math.atan2(p[1], p[0]))
+    xyz = np.array([[x, y, 0.12] for x, y in pts])
+    ranges = np.hypot(xyz[:, 0], xyz[:, 1])
+    return LaserScan(-math.pi, math.pi, 0.01, 0.05, 5.0, ranges, xyz, (0.0, 0.0, 0.12), 0.0, 0.0)
+
+
+def test_discovery_ignores_the_known_map_and_large_unknowns() -> None:
+    from robokit_behaviours.discovery import Discovery, DiscoveryConfig
+
+    can = [(2.0 + 0.05 * math.cos(a), 0.05 * math.sin(a)) for a in (2.6, 2.9, 3.1416, 3.4, 3.7)]
+    wall = [(3.0, y / 10) for y in range(-10, 11)]  # the known map: a box at x 3.0..3.2
+    crate = [(-1.5, 1.0 + y / 20) for y in range(0, 12)]  # unknown but 0.55 m wide: an obstacle, not an object
+    disc = Discovery(DiscoveryConfig(confirm_scans=2), [((3.0, -1.5), (3.2, 1.5))])
+    scan = synthetic_scan(can + wall + crate)
+    assert disc.update(scan) == []  # seen once: not yet found
+    found = disc.update(scan)
+    assert len(found) == 1 and len(disc.tracks) == 1
+    assert math.dist(found[0].xy, (2.0, 0.0)) < 0.005  # circle fit of the known radius
+    assert disc.update(scan) == []  # found (and logged) once only
