@@ -3,16 +3,17 @@ an obstacle avoider that gets around concave corners.
 
 How it decides (every behaviour step, from the latest :class:`~robokit_plugins.mobile_types.LaserScan` and pose):
 
-1. Scan hit points (world frame) are put in the robot frame. For each of ``headings`` candidate directions the
-   *clearance* is how far the robot could drive that way before a point enters its corridor (half-width
-   ``corridor``, m).
+1. Scan hit points (world frame; floor returns dropped) are put in the robot frame. The robot is a disk of radius
+   ``corridor``; for each of ``headings`` candidate directions the *clearance* is how far that disk can move
+   before touching a point (:func:`clearances`).
 2. If the goal direction is clear (up to the goal, or at least ``free_distance`` m) the robot heads for the goal.
-3. Otherwise it *commits to a side* (left = counter-clockwise, right = clockwise: whichever free heading is nearer
-   the goal) and takes the first free heading met when turning from the goal direction that way. Keeping the same
-   side makes it follow the obstacle's boundary, which is what gets it out of a concave corner where lesson 07's
-   "turn while blocked" turns back and forth forever. It leaves the boundary (Bug2's rule) when the goal direction
-   is clear *and* it is closer to the goal than where it committed.
-4. If no progress is made for ``stall_time`` sim seconds it switches side (escape from a local minimum).
+3. Otherwise it *commits to a side* (counter-clockwise or clockwise: whichever free heading is nearer the goal
+   direction) and then *follows the boundary*: it sweeps from the nearest obstacle point towards the committed side
+   and takes the first free heading. Keeping the same side is what gets it out of a concave corner, where lesson
+   07's "turn while blocked" turns back into the pocket forever. It leaves the boundary when the goal direction is
+   clear for ``leave_distance`` m, or (Bug2's rule) when the goal is clear and it is closer to the goal than where
+   it committed.
+4. If the goal has not come 0.1 m closer for ``stall_time`` sim seconds it switches side (local-minimum escape).
 
 The heading controller is smooth turn-then-drive: yaw rate proportional to the heading error, forward speed
 scaled by ``cos(error)^2`` (zero beyond 90 degrees, so it turns in place first), by the clearance straight ahead
