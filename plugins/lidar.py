@@ -150,9 +150,14 @@ class Lidar(Sensor):
                          points, (float(origin[0]), float(origin[1]), float(origin[2])), yaw, self.world.time)
 
     def _draw(self, starts: np.ndarray, points: np.ndarray, hit: np.ndarray) -> None:
-        life = 0.1
+        """Draw the scan (GUI only). Rendering is paused meanwhile: each debug line is a round trip to the GUI
+        thread, which otherwise waits for a rendered frame per line."""
+        c = self.world.client
+        c.configureDebugVisualizer(c.COV_ENABLE_RENDERING, 0)
+        life = 0.1  # s: a 10 Hz scan replaces the last one
         for s, e, h in zip(starts, points, hit, strict=True):
             self.world.debug_line(s, e, (1.0, 0.0, 0.0) if h else (0.0, 1.0, 0.0), lifetime=life)
+        c.configureDebugVisualizer(c.COV_ENABLE_RENDERING, 1)
 
     def info(self) -> dict[str, Any]:
         """Static description of the scan (for reports)."""

@@ -2,7 +2,12 @@
 
 from __future__ import annotations
 
+import json
 import math
+import shutil
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -12,6 +17,7 @@ from robokit.cli import main
 from robokit.testing import PLANE, make_sim
 
 WALL_X = 2.0  # near face of the wall, m
+CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 
 
 def scene(yaw_deg: float = 0.0, **lidar: object) -> dict:
@@ -94,3 +100,17 @@ def test_range_noise_is_seeded_and_of_the_configured_size() -> None:
     facing = np.abs(a.angles) < math.radians(50)
     error = a.ranges[facing] - (WALL_X - a.origin[0]) / np.cos(a.angles[facing])
     assert 0.007 < np.std(error) < 0.013 and abs(np.mean(error)) < 0.004
+
+
+XVFB_RUN = shutil.which("xvfb-run")
+
+
+@pytest.mark.skipif(XVFB_RUN is None, reason="no virtual display: install xvfb (apt-get install xvfb)")
+def test_gui_draws_rays_without_stalling(tmp_path) -> None:
+    # 360 debug lines per scan: each is a round trip to the GUI thread; with rendering on, 1 s of sim took minutes
+    cmd = [XVFB_RUN or "", "-a", "-s", "-screen 0 640x480x24", sys.executable, "-m", "robokit.cli", "run",
+           str(CONFIGS / "go_to_goal.toml"), "--gui", "--max-time", "1.0", "--json"]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=300, cwd=tmp_path)
+    result = json.loads(proc.stdout)
+    assert result["outcome"] == "aborted" and "max_time" in result["reason"]  # ran its second, drawing 10 scans
+    assert result["wall_time"] < 30.0
