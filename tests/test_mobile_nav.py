@@ -80,3 +80,10 @@ def test_avoidance_escapes_a_concave_trap() -> None:
         assert sim.outcome.status == "succeeded", sim.outcome
         assert touched == set()
         assert sim.behaviour.result()["distance_travelled"] > 4.0  # it went out of the U and round it
+
+
+def test_husky_goes_round_a_crate_by_config() -> None:
+    with make_sim(CONFIGS / "husky_go_to_goal.toml") as sim:
+        touched = run_to_end(sim, 50)
+        assert sim.outcome.status == "succeeded", sim.outcome
+        assert touched == set() and "AVOIDING" in states_visited(sim)
