@@ -103,7 +103,8 @@ def lidar_cost(config: Path, seconds: float, repeats: int, threads: int = 1) -> 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--trials", type=int, default=20, help="seeds to run (0 .. N-1)")
+    parser.add_argument("--trials", type=int, default=20, help="seeds to run")
+    parser.add_argument("--start-seed", type=int, default=0, help="first seed")
     parser.add_argument("--workers", type=int, default=2, help="processes")
     parser.add_argument("--config", type=Path, default=CONFIG)
     parser.add_argument("--cost-seconds", type=float, default=30.0, help="sim seconds per lidar cost run")
@@ -123,14 +124,14 @@ def main(argv: list[str] | None = None) -> int:
 
 def report_trials(args: argparse.Namespace) -> None:
     """Run the seeds in worker processes and print the aggregate figures."""
-    jobs = [(str(args.config), seed) for seed in range(args.trials)]
+    jobs = [(str(args.config), seed) for seed in range(args.start_seed, args.start_seed + args.trials)]
     with ProcessPoolExecutor(max_workers=args.workers) as pool:
         rows = list(pool.map(trial, jobs))
     complete = sum(r["complete"] for r in rows)
     objects, collected = sum(r["objects"] for r in rows), sum(r["collected"] for r in rows)
     errors = [e for r in rows for e in r["errors"]]
     rtf = sum(r["sim_time"] for r in rows) / sum(r["wall"] for r in rows)
-    print(f"trials: {len(rows)} seeds (0..{len(rows) - 1}) of {args.config.name}")
+    print(f"trials: {len(rows)} seeds ({rows[0]['seed']}..{rows[-1]['seed']}) of {args.config.name}")
     print(f"every waypoint, zero collisions: {complete}/{len(rows)} = {complete / len(rows):.1%}   (target >= 95%)")
     print(f"objects collected: {collected}/{objects} = {collected / objects:.1%}   (target >= 95%)")
     print(f"objects found: {sum(r['found'] for r in rows)}/{objects}")
