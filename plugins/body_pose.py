@@ -51,15 +51,18 @@ class BodyPoseSensor(Sensor):
             client = self.world.client
             names = tuple(n for n in self.world.body_names if client.getDynamicsInfo(self.world.body(n), -1)[0] > 0)
         self.names = names
-        self._ids = [(name, self.world.body(name)) for name in names]  # looked up once, at load
+        self._all = [(name, self.world.body(name)) for name in names]  # looked up once, at load
+        self._ids, self._removals = list(self._all), 0
 
     def read(self) -> dict[str, BodyState]:
-        cid, alive = self.world.cid, self.world.body_name
-        pose, velocity = p.getBasePositionAndOrientation, p.getBaseVelocity
-        return {
-            name: BodyState(*pose(bid, physicsClientId=cid), *velocity(bid, physicsClientId=cid))
+        world = self.world
+        if world.removals != self._removals:  # a body was removed during the run: drop it from the list
+            self._ids = [(n, b) for n, b in self._all if world.body_name(b) == n]
+            self._removals = world.removals
+        cid, pose, velocity, new = world.cid, p.getBasePositionAndOrientation, p.getBaseVelocity, tuple.__new__
+        return {  # tuple.__new__ builds the named tuple without its Python-level __new__ (hot path)
+            name: new(BodyState, pose(bid, physicsClientId=cid) + velocity(bid, physicsClientId=cid))
             for name, bid in self._ids
-            if alive(bid) == name  # it may have been removed during the run
         }
 
 

@@ -117,24 +117,31 @@ class TickScheduler:
     def __post_init__(self) -> None:
         self.slots: dict[str, Slot] = {**self.sensors, **self.actuators}
         self.readings = Readings(self.slots)
+        self._sensor_list = list(self.sensors.values())
+        self._actuator_list = list(self.actuators.values())
 
     def tick(self) -> None:
-        """Run one tick (see the module docstring for the order)."""
+        """Run one tick (see the module docstring for the order). This is the hot loop: kept lean on purpose."""
         k = self.world.tick
-        for slot in self.sensors.values():
-            if slot.due(k):
+        for slot in self._sensor_list:
+            if k % slot.period == 0:
                 slot.stale = True
                 if not slot.lazy:
                     slot.get()
-        for slot in self.actuators.values():
+        for slot in self._actuator_list:
             slot.stale = True  # actuator state is cheap; recomputed on read each tick
-        if self.behaviour is not None and k % self.behaviour_period == 0 and self.behaviour.outcome is None:
+        behaviour = self.behaviour
+        if behaviour is not None and k % self.behaviour_period == 0 and behaviour.outcome is None:
             self._step_behaviour()
-        for slot in self.actuators.values():
-            if slot.due(k):
-                guarded(slot, "update", slot.component.update)
-        for action in self.events.pop(k, ()):
-            action()
+        for slot in self._actuator_list:
+            if k % slot.period == 0:
+                try:
+                    slot.component.update()
+                except Exception:  # noqa: BLE001 - re-raised by guarded() with the component named
+                    guarded(slot, "update", _reraise)
+        if self.events:
+            for action in self.events.pop(k, ()):
+                action()
         self.world.step()
 
     def _step_behaviour(self) -> None:
@@ -166,3 +173,8 @@ class TickScheduler:
         ahead = self.world.time - (now - self._wall_start)
         if ahead > 0:
             time.sleep(ahead)
+
+
+def _reraise() -> None:
+    """Re-raise the exception being handled (lets :func:`guarded` wrap an error caught in the hot loop)."""
+    raise  # noqa: PLE0704

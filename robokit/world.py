@@ -128,6 +128,8 @@ class World:
         self._bodies: dict[str, int] = {}
         self._names: dict[int, str] = {}
         self._joint_cache: dict[int, list[JointInfo]] = {}
+        self.removals = 0
+        """Bodies removed so far: lets components cache id lookups until it changes."""
         self.client.setAdditionalSearchPath(pybullet_data.getDataPath())
         self.client.setGravity(*gravity)
         self.client.setPhysicsEngineParameter(fixedTimeStep=self.time_step, numSolverIterations=solver_iterations)
@@ -282,6 +284,7 @@ class World:
         del self._bodies[name]
         del self._names[body]
         self._joint_cache.pop(body, None)
+        self.removals += 1
 
     @property
     def body_names(self) -> list[str]:
