@@ -54,7 +54,10 @@ class Slot:
     def get(self) -> Any:
         """The latest reading, computing it first if the slot is stale."""
         if self.stale:
-            self.value = guarded(self, "read", self.component.read)
+            try:
+                self.value = self.component.read()
+            except Exception:  # noqa: BLE001 - re-raised by guarded() with the component named
+                guarded(self, "read", _reraise)
             self.stamp = self.clock()
             self.stale = False
             self.computed += 1
@@ -165,11 +168,16 @@ class TickScheduler:
                 )
             guarded(slot, "command", slot.component.command, cmd)
 
+    def start_pacing(self) -> None:
+        """GUI only: take the wall-clock time that corresponds to the current sim time (call before the loop)."""
+        self._wall_start = time.perf_counter() - self.world.time
+
     def pace(self) -> None:
         """GUI only: sleep so that sim time does not run ahead of wall-clock time."""
         now = time.perf_counter()
         if self._wall_start is None:
-            self._wall_start = now - self.world.time
+            self.start_pacing()
+            return
         ahead = self.world.time - (now - self._wall_start)
         if ahead > 0:
             time.sleep(ahead)

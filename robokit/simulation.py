@@ -194,6 +194,8 @@ class Simulation:
         with self._signals():
             try:
                 self.plugins.call("robokit_run_start", simulation=self)
+                if pace:
+                    self.scheduler.start_pacing()
                 while self.world.tick < max_ticks and self.outcome is None and not self.interrupted:
                     self.scheduler.tick()
                     if pace:

@@ -128,6 +128,7 @@ class World:
         self._bodies: dict[str, int] = {}
         self._names: dict[int, str] = {}
         self._joint_cache: dict[int, list[JointInfo]] = {}
+        self._cid = int(self.client._client)
         self.removals = 0
         """Bodies removed so far: lets components cache id lookups until it changes."""
         self.client.setAdditionalSearchPath(pybullet_data.getDataPath())
@@ -139,7 +140,7 @@ class World:
     @property
     def cid(self) -> int:
         """The client id, for hot loops that call ``pybullet.f(..., physicsClientId=world.cid)`` directly."""
-        return int(self.client._client)
+        return self._cid
 
     # ----------------------------------------------------------------- clock
     @property
