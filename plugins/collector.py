@@ -18,7 +18,6 @@ from robokit_plugins.mobile_types import Collect, CollectorState
 from robokit import hookimpl
 from robokit.components import Actuator, SetupContext
 from robokit.config import Schema, Vec2
-from robokit.errors import ConfigError, LookupNameError
 
 
 class CollectorConfig(Schema):
@@ -59,13 +58,8 @@ class Collector(Actuator):
     def setup(self, ctx: SetupContext) -> None:
         super().setup(ctx)
         cfg = self.config
-        if not self.world.has_body(cfg.robot):
-            raise ConfigError(str(LookupNameError("body", cfg.robot, self.world.body_names)), key="robot")
-        self.body = self.world.body(cfg.robot)
-        try:
-            self.bin = self.world.link(self.body, cfg.bin_link)
-        except LookupNameError as exc:
-            raise ConfigError(str(exc), key="bin_link") from None
+        self.body = ctx.body(cfg.robot, key="robot")
+        self.bin = ctx.link(cfg.robot, cfg.bin_link, key="bin_link")
         self.armed = cfg.armed
         self.held: list[str] = []
         self.constraints: list[int] = []

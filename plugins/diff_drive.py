@@ -65,9 +65,7 @@ class DiffDrive(Actuator):
     def setup(self, ctx: SetupContext) -> None:
         super().setup(ctx)
         cfg = self.config
-        if not self.world.has_body(cfg.robot):
-            raise ConfigError(str(LookupNameError("body", cfg.robot, self.world.body_names)), key="robot")
-        self.body = self.world.body(cfg.robot)
+        self.body = ctx.body(cfg.robot, key="robot")
         self.left = self._joints(cfg.left_wheels, "left_wheels")
         self.right = self._joints(cfg.right_wheels, "right_wheels")
         default_caster = "passive_joints" not in cfg.model_fields_set  # robots without a caster skip it

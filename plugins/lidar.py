@@ -21,7 +21,6 @@ from robokit_plugins.mobile_types import LaserScan
 from robokit import hookimpl
 from robokit.components import Sensor, SetupContext
 from robokit.config import Schema, Vec3
-from robokit.errors import ConfigError, LookupNameError
 
 OWN_BODY_GROUP = 0x100
 """Collision group the lidar puts its robot's links in (their collisions with other bodies are unchanged)."""
@@ -91,13 +90,8 @@ class Lidar(Sensor):
     def setup(self, ctx: SetupContext) -> None:
         super().setup(ctx)
         cfg = self.config
-        if not self.world.has_body(cfg.robot):
-            raise ConfigError(str(LookupNameError("body", cfg.robot, self.world.body_names)), key="robot")
-        self.body = self.world.body(cfg.robot)
-        try:
-            self.link = self.world.link(self.body, cfg.link)
-        except LookupNameError as exc:
-            raise ConfigError(str(exc), key="link") from None
+        self.body = ctx.body(cfg.robot, key="robot")
+        self.link = ctx.link(cfg.robot, cfg.link, key="link")
         self._exclude_own_body()
         self.angle_min, self.angle_max, self.angle_inc = scan_angles(cfg.rays, cfg.fov_deg)
         angles = self.angle_min + self.angle_inc * np.arange(cfg.rays) + math.radians(cfg.yaw_offset_deg)

@@ -65,26 +65,25 @@ class SetupContext:
 
     def body(self, name: str, *, key: str = "body") -> int:
         """Body id of a named body; a config error at ``key`` (listing the bodies) if there is none."""
-        try:
-            return self.world.body(name)
-        except LookupNameError as exc:
-            raise ConfigError(str(exc), key=key) from None
+        return _as_config_error(key, self.world.body, name)  # type: ignore[no-any-return]
 
     def link(self, body: str, link: str, *, key: str = "link") -> int:
         """Link index by name (``-1`` = base); a config error at ``key`` (listing the links) if there is none."""
         self.body(body)
-        try:
-            return self.world.link(body, link)
-        except LookupNameError as exc:
-            raise ConfigError(str(exc), key=key) from None
+        return _as_config_error(key, self.world.link, body, link)  # type: ignore[no-any-return]
 
     def joint(self, body: str, joint: str, *, key: str = "joint") -> JointInfo:
         """A joint by name; a config error at ``key`` (listing the joints) if there is none."""
         self.body(body)
-        try:
-            return self.world.joint(body, joint)
-        except LookupNameError as exc:
-            raise ConfigError(str(exc), key=key) from None
+        return _as_config_error(key, self.world.joint, body, joint)  # type: ignore[no-any-return]
+
+
+def _as_config_error(key: str, lookup: Callable[..., Any], *args: Any) -> Any:
+    """Call a World lookup; an unknown name becomes a ConfigError placed at ``key``."""
+    try:
+        return lookup(*args)
+    except LookupNameError as exc:
+        raise ConfigError(str(exc), key=key) from None
 
 
 class Sensor:
