@@ -66,6 +66,41 @@ def run_until(sim: Simulation, predicate: Callable[[Simulation], bool], max_tick
     return sim.run_until(predicate, max_ticks)
 
 
+def edited_config(source: str | Path, folder: str | Path, old: str, new: str, *, name: str = "edited.toml") -> Path:
+    """Write a copy of a config file with ``old`` replaced by ``new`` (which must occur) into ``folder``.
+
+    For testing config errors against a real, shipped config: ``edited_config(CONFIG, tmp_path, 'a = 1', 'a = -1')``.
+    """
+    text = Path(source).read_text(encoding="utf-8")
+    if old not in text:
+        raise AssertionError(f"{old!r} does not occur in {source}")
+    path = Path(folder) / name
+    path.write_text(text.replace(old, new, 1), encoding="utf-8")
+    return path
+
+
+def validate_error(config: str | Path) -> str:
+    """Run ``robokit validate`` on a config that must be rejected and return its error line.
+
+    Asserts what every config error must be: exit code 2, exactly one line on stderr naming the file, nothing on
+    stdout, no traceback.
+    """
+    import contextlib
+    import io
+
+    from robokit.cli import main
+
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main(["validate", str(config)])
+    lines = err.getvalue().strip().splitlines()
+    assert code == 2, f"exit code {code}, expected 2: {err.getvalue()}"
+    assert out.getvalue() == "" and "Traceback" not in err.getvalue(), err.getvalue()
+    assert len(lines) == 1, f"expected one line, got: {err.getvalue()}"
+    assert lines[0].startswith(f"robokit: error: {config}: "), lines[0]
+    return lines[0]
+
+
 # Conformance checks for plugin types (see robokit.conformance for what they verify).
 from robokit.conformance import (  # noqa: E402
     ConformanceError,

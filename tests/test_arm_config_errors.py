@@ -8,16 +8,9 @@ from pathlib import Path
 import pytest
 
 from robokit.cli import main
+from robokit.testing import edited_config, validate_error
 
 CONFIG = Path(__file__).resolve().parents[1] / "configs" / "pick_place.toml"
-
-
-def broken(tmp_path: Path, old: str, new: str) -> Path:
-    text = CONFIG.read_text(encoding="utf-8")
-    assert old in text
-    path = tmp_path / "broken.toml"
-    path.write_text(text.replace(old, new, 1), encoding="utf-8")
-    return path
 
 
 CASES = [
@@ -40,14 +33,8 @@ CASES = [
                                                                   "contact_body"])
 def test_validate_gives_one_clear_line(tmp_path: Path, capsys: pytest.CaptureFixture[str], old: str, new: str,
                                        expected: str) -> None:
-    path = broken(tmp_path, old, new)
-    assert main(["validate", str(path)]) == 2
-    out = capsys.readouterr()
-    lines = [line for line in out.err.splitlines() if line.strip()]
-    assert len(lines) == 1, out.err
-    assert lines[0].startswith(f"robokit: error: {path}: "), lines[0]
-    assert re.search(expected, lines[0]), lines[0]
-    assert "Traceback" not in out.err + out.out
+    line = validate_error(edited_config(CONFIG, tmp_path, old, new, name="broken.toml"))
+    assert re.search(expected, line), line
 
 
 def test_the_shipped_arm_configs_validate(capsys: pytest.CaptureFixture[str]) -> None:

@@ -9,22 +9,13 @@ from pathlib import Path
 import pytest
 
 from robokit.cli import main
+from robokit.testing import edited_config, validate_error
 
 CONFIG = Path(__file__).resolve().parents[1] / "configs" / "sort_robot.toml"
 
 
 def validate(tmp_path: Path, old: str, new: str, capsys: pytest.CaptureFixture[str]) -> tuple[int, str]:
-    text = CONFIG.read_text(encoding="utf-8")
-    assert old in text
-    path = tmp_path / "sort.toml"
-    path.write_text(text.replace(old, new), encoding="utf-8")
-    code = main(["validate", str(path)])
-    out, err = capsys.readouterr()
-    assert out == "" and "Traceback" not in err
-    lines = err.strip().splitlines()
-    assert len(lines) == 1, err
-    assert str(path) in lines[0]
-    return code, lines[0]
+    return 2, validate_error(edited_config(CONFIG, tmp_path, old, new, name="sort.toml"))
 
 
 def test_sort_robot_validates(capsys: pytest.CaptureFixture[str]) -> None:

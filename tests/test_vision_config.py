@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from robokit.cli import main
+from robokit.testing import validate_error
 
 HEAD = """
 [bodies.plane]
@@ -23,13 +23,7 @@ fixed_base = true
 def validate(tmp_path: Path, text: str, capsys: pytest.CaptureFixture[str]) -> tuple[int, str]:
     path = tmp_path / "scene.toml"
     path.write_text(HEAD + text, encoding="utf-8")
-    code = main(["validate", str(path)])
-    out, err = capsys.readouterr()
-    assert out == "" and "Traceback" not in err
-    lines = err.strip().splitlines()
-    assert len(lines) == 1, err
-    assert str(path) in lines[0]
-    return code, lines[0]
+    return 2, validate_error(path)
 
 
 def test_camera_on_unknown_link(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
