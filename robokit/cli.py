@@ -15,6 +15,7 @@ from typing import Any
 
 from robokit import __version__
 from robokit.errors import PluginError, UserError
+from robokit.plugins import PluginLoadWarning
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_PLUGIN, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
 
@@ -179,8 +180,18 @@ def cmd_graph(args: argparse.Namespace) -> int:
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``robokit`` console script; returns the exit code."""
     args = _parser().parse_args(argv)
-    warnings.filterwarnings("default")
-    warnings.formatwarning = lambda msg, cat, *a, **k: f"robokit: warning: {msg}\n"  # type: ignore[assignment]
+    with warnings.catch_warnings():  # restores the caller's warning settings (main() is also called in-process)
+        warnings.simplefilter("always", PluginLoadWarning)
+        warnings.showwarning = _show_warning
+        return _dispatch(args)
+
+
+def _show_warning(message: Warning | str, category: type[Warning], *_args: Any, **_kwargs: Any) -> None:
+    print(f"robokit: warning: {message}", file=sys.stderr)
+
+
+def _dispatch(args: argparse.Namespace) -> int:
+    """Run the chosen command; user errors become one line and an exit code."""
     try:
         code: int = args.func(args)
     except UserError as exc:

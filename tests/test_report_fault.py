@@ -83,7 +83,8 @@ def test_a_run_killed_right_after_its_post_resends_with_the_same_key(tmp_path: P
     try:
         procs.append(subprocess.Popen(
             [sys.executable, "-m", "robokit.cli", "run", str(DROP_TEST), "--report-url", server.url,
-             "--student", "kim", "--project", "A"], cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE))
+             "--student", "kim", "--project", "A"], cwd=tmp_path, stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL))
         procs[0].wait(120)
         assert procs[0].returncode == -9
         [entry] = Outbox(tmp_path / "outbox").entries()  # the write-ahead entry survived the crash
