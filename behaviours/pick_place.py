@@ -206,12 +206,12 @@ class PickPlace(MachineBehaviour):
         limit = self.timeouts.get(self.state_name)
         if limit is not None and self.time_in_state > limit:
             self.on_timeout(self.state_name)
-        handler = getattr(self, f"do_{self.state_name.lower()}", None)
+        handler = self.handler("do")
         if handler is not None and self.outcome is None and not self._entry_due:
             handler(readings, t)
         if self._entry_due and self.outcome is None:
             self._entry_due = False
-            enter = getattr(self, f"enter_{self.state_name.lower()}", None)
+            enter = self.handler("enter")
             return enter(readings) if enter else None
         return None
 

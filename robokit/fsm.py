@@ -56,6 +56,7 @@ class MachineBehaviour(Behaviour):
         self.phase_times: dict[str, float] = {}
         self._trace: Any = None
         self._trigger = ""
+        self._handlers: dict[tuple[str, Any], Any] = {}
         self.machine = Machine(
             model=self,
             states=self.STATES,
@@ -95,6 +96,15 @@ class MachineBehaviour(Behaviour):
             self._trace("transition", machine=self.name, trigger=self._trigger, source_state=self._from,
                         dest_state=self.state_name)
 
+    def handler(self, prefix: str = "do") -> Any:
+        """The current state's method ``<prefix>_<state name lower-case>`` or None (looked up once per state)."""
+        key = (prefix, self.state)
+        try:
+            return self._handlers[key]
+        except KeyError:
+            found = self._handlers[key] = getattr(self, f"{prefix}_{self.state_name.lower()}", None)
+            return found
+
     @property
     def time_in_state(self) -> float:
         """Sim seconds since the current state was entered."""
@@ -108,7 +118,7 @@ class MachineBehaviour(Behaviour):
             self.on_timeout(self.state_name)
             if self.outcome is not None:
                 return None
-        handler = getattr(self, f"do_{self.state_name.lower()}", None)
+        handler = self.handler("do")
         if handler is None:
             return None
         return handler(readings, t)  # type: ignore[no-any-return]
