@@ -14,7 +14,7 @@ Lifecycle, in order, for sensors, actuators and behaviours:
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
@@ -61,7 +61,6 @@ class SetupContext:
     components: Mapping[str, Any]
     config_dir: Any
     trace: Callable[..., None]
-    extras: dict[str, Any] = field(default_factory=dict)
 
     def body(self, name: str, *, key: str = "body") -> int:
         """Body id of a named body; a config error at ``key`` (listing the bodies) if there is none."""

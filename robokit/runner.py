@@ -6,7 +6,6 @@ import datetime as dt
 import json
 import uuid
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import IO, Any
 
 from robokit import __version__
@@ -130,8 +129,3 @@ def summary(out: RunOutput) -> str:
     if not out.stored:
         lines.append("WARNING: the result could not be delivered or stored anywhere")
     return "\n".join(lines)
-
-
-def write_json(path: Path, data: Any) -> None:
-    """Write indented JSON (helper for CLI options that save files)."""
-    path.write_text(json.dumps(data, indent=2) + "\n", encoding="utf-8")

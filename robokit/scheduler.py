@@ -47,10 +47,6 @@ class Slot:
     stamp: int = -1
     computed: int = 0
 
-    def due(self, tick: int) -> bool:
-        """True when the component runs at this tick."""
-        return tick % self.period == 0
-
     def get(self) -> Any:
         """The latest reading, computing it first if the slot is stale."""
         if self.stale:
