@@ -25,6 +25,8 @@ from robokit.config import Schema, Vec3
 OWN_BODY_GROUP = 0x100
 """Collision group the lidar puts its robot's links in (their collisions with other bodies are unchanged)."""
 RAY_MASK = -1 ^ OWN_BODY_GROUP
+SELF_MARGIN = 0.03
+"""m: the robot's own box is grown by this much (Bullet grows broadphase boxes by its 0.02 m contact threshold)."""
 """Rays hit every collision group but the robot's own."""
 
 
@@ -97,6 +99,8 @@ class Lidar(Sensor):
         angles = self.angle_min + self.angle_inc * np.arange(cfg.rays) + math.radians(cfg.yaw_offset_deg)
         self.local_dirs = np.stack([np.cos(angles), np.sin(angles), np.zeros_like(angles)], axis=1)
         self.scans = 0
+        self._links = range(-1, self.world.client.getNumJoints(self.body))
+        self._zeros = np.zeros(cfg.rays)
 
     def _exclude_own_body(self) -> None:
         """Put the robot's links in collision group ``OWN_BODY_GROUP`` so that the rays can skip them.
@@ -118,19 +122,37 @@ class Lidar(Sensor):
         origin = np.asarray(pos, float) + rot @ np.asarray(self.config.offset, float)
         return origin, rot
 
+    def _exit_distances(self, origin: np.ndarray, dirs: np.ndarray) -> np.ndarray:
+        """Per ray, how far it runs (m) before it leaves the robot's own bounding box (grown by the broadphase margin).
+
+        Rays start there: the robot cannot see through itself, and a ray that starts inside the robot's box pays
+        Bullet's per-object cost for each of the robot's links it overlaps even though they are filtered out
+        (measured on the diffbot in the patrol arena: 1.77 ms a 360-ray scan from inside, 0.84 ms from outside).
+        """
+        aabb = self.world.client.getAABB
+        boxes = [aabb(self.body, link) for link in self._links]
+        lo_ = np.array([min(b[0][i] for b in boxes) for i in range(3)]) - SELF_MARGIN
+        hi_ = np.array([max(b[1][i] for b in boxes) for i in range(3)]) + SELF_MARGIN
+        if not np.all((origin > lo_) & (origin < hi_)):
+            return self._zeros
+        with np.errstate(divide="ignore"):
+            inv = 1.0 / dirs  # +-inf where a direction has no component: that axis never bounds the exit
+        return np.asarray(np.maximum((hi_ - origin) * inv, (lo_ - origin) * inv).min(axis=1))
+
     def read(self) -> LaserScan:
         """Cast every ray once (one ``rayTestBatch``) and return the scan."""
         cfg = self.config
         origin, rot = self._sensor_frame()
         dirs = self.local_dirs @ rot.T
-        starts = origin + dirs * cfg.range_min
+        near = np.maximum(cfg.range_min, self._exit_distances(origin, dirs))
+        starts = origin + dirs * near[:, None]
         ends = origin + dirs * cfg.range_max
         results = self.world.client.rayTestBatch(starts, ends, numThreads=cfg.num_threads,
                                                  collisionFilterMask=RAY_MASK)
         columns = list(zip(*results, strict=True))
         ids, frac = np.array(columns[0], dtype=int), np.array(columns[2], dtype=float)
         hit = (ids >= 0) & (ids != self.body)
-        ranges = cfg.range_min + frac * (cfg.range_max - cfg.range_min)
+        ranges = near + frac * (cfg.range_max - near)
         if cfg.range_noise > 0:
             ranges = np.clip(ranges + self.ctx.rng.normal(0.0, cfg.range_noise, len(ranges)), cfg.range_min,
                              cfg.range_max)
