@@ -90,6 +90,8 @@ class BodyConfig(Schema):
     joint_positions: dict[str, float] = Field(default_factory=dict)
     count: int = Field(1, ge=1, le=10_000)
     self_collision: bool = False
+    collision: Literal["convex", "mesh"] = Field(
+        "convex", description="'mesh': a static box's collision shape as triangles (cheaper for lidar rays)")
 
     @model_validator(mode="after")
     def _one_kind(self) -> BodyConfig:
@@ -101,6 +103,8 @@ class BodyConfig(Schema):
             raise ValueError("give 'rpy_deg' or 'quaternion', not both")
         if self.quaternion is not None and math.isclose(sum(v * v for v in self.quaternion), 0.0):
             raise ValueError("'quaternion' must not be all zeros")
+        if self.collision == "mesh" and (self.shape != "box" or self.mass != 0):
+            raise ValueError("collision = 'mesh' is for static boxes only (shape = 'box', mass = 0)")
         if self.count > 1 and self.region is None:
             raise ValueError("'count' > 1 needs a 'region' to scatter the copies in")
         return self

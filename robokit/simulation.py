@@ -334,7 +334,7 @@ def _spawn_one(world: World, key: str, name: str, body: BodyConfig, position: An
                 position=pos, orientation=orn, rgba=body.rgba, lateral_friction=body.lateral_friction,
                 rolling_friction=body.rolling_friction, spinning_friction=body.spinning_friction,
                 restitution=body.restitution, linear_damping=body.linear_damping,
-                angular_damping=body.angular_damping,
+                angular_damping=body.angular_damping, mesh_collision=body.collision == "mesh",
             )
         else:
             assert body.urdf is not None

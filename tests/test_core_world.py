@@ -122,3 +122,17 @@ def test_close_twice_and_duplicate_names() -> None:
         w.add_primitive("a", "box", position=(0, 0, 0))
     w.close()
     w.close()
+
+
+def test_static_box_as_triangle_mesh_collides_and_is_hit_by_rays(world: World) -> None:
+    world.add_primitive("wall", "box", size=(0.2, 2.0, 1.0), mass=0.0, position=(1.0, 0.0, 0.5), mesh_collision=True)
+    world.add_primitive("ledge", "box", size=(1.0, 1.0, 0.2), mass=0.0, position=(-2.0, 0.0, 0.1),
+                        mesh_collision=True)
+    world.add_primitive("cube", "box", size=(0.1, 0.1, 0.1), mass=0.5, position=(-2.0, 0.0, 1.0))
+    for _ in range(480):
+        world.step()
+    assert world.pose("cube")[0][2] == pytest.approx(0.25, abs=0.005)  # resting on the mesh ledge's top face
+    hit = world.client.rayTestBatch([[0.0, 0.0, 0.5]], [[3.0, 0.0, 0.5]])[0]
+    assert hit[0] == world.body("wall") and hit[3][0] == pytest.approx(0.9, abs=1e-4)  # the wall's near face
+    with pytest.raises(UserError, match="mass = 0"):
+        world.add_primitive("bad", "box", mass=1.0, position=(0, 3, 1), mesh_collision=True)
