@@ -79,7 +79,10 @@ def yaw_of(quaternion: Sequence[float]) -> float:
     return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
 
 
-_BOX_TRIANGLES = [0, 1, 2, 1, 3, 2, 4, 6, 5, 5, 6, 7, 0, 4, 1, 1, 4, 5, 2, 3, 6, 3, 7, 6, 0, 2, 4, 2, 6, 4, 1, 5, 3, 3, 5, 7]
+_BOX_TRIANGLES = [
+    0, 1, 2, 1, 3, 2,  4, 6, 5, 5, 6, 7,  0, 4, 1, 1, 4, 5,
+    2, 3, 6, 3, 7, 6,  0, 2, 4, 2, 6, 4,  1, 5, 3, 3, 5, 7,
+]
 """The 12 triangles of a box whose corner ``i`` has signs ``(x, y, z) = bits (4, 2, 1)`` of ``i``, facing out."""
 
 
