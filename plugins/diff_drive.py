@@ -142,21 +142,17 @@ class DiffDrive(Actuator):
         self.distance += math.hypot(x - self.last_pose[0], y - self.last_pose[1])
         self.last_pose = (x, y)
 
-    def _wheel_angles(self) -> tuple[float, float]:
+    def _wheel_means(self, field: int) -> tuple[float, float]:
+        """Mean joint state ``field`` (0 = angle, rad; 1 = speed, rad/s) of the left and the right wheels."""
         c = self.world.client
-        sides = []
-        for joints in (self.left, self.right):
-            states = c.getJointStates(self.body, joints)
-            sides.append(sum(s[0] for s in states) / len(states))
-        return sides[0], sides[1]
+        left, right = (c.getJointStates(self.body, joints) for joints in (self.left, self.right))
+        return sum(s[field] for s in left) / len(left), sum(s[field] for s in right) / len(right)
+
+    def _wheel_angles(self) -> tuple[float, float]:
+        return self._wheel_means(0)
 
     def _wheel_speeds(self) -> tuple[float, float]:
-        c = self.world.client
-        sides = []
-        for joints in (self.left, self.right):
-            states = c.getJointStates(self.body, joints)
-            sides.append(sum(s[1] for s in states) / len(states))
-        return sides[0], sides[1]
+        return self._wheel_means(1)
 
     def _pose(self) -> tuple[float, float, float]:
         (x, y, _), orn = self.world.pose(self.body)

@@ -99,7 +99,6 @@ class Lidar(Sensor):
         angles = self.angle_min + self.angle_inc * np.arange(cfg.rays) + math.radians(cfg.yaw_offset_deg)
         self.local_dirs = np.stack([np.cos(angles), np.sin(angles), np.zeros_like(angles)], axis=1)
         self.scans = 0
-        self._links = range(-1, self.world.client.getNumJoints(self.body))
         self._zeros = np.zeros(cfg.rays)
 
     def _exclude_own_body(self) -> None:
@@ -129,10 +128,8 @@ class Lidar(Sensor):
         Bullet's per-object cost for each of the robot's links it overlaps even though they are filtered out
         (measured on the diffbot in the patrol arena: 1.77 ms a 360-ray scan from inside, 0.84 ms from outside).
         """
-        aabb = self.world.client.getAABB
-        boxes = [aabb(self.body, link) for link in self._links]
-        lo_ = np.array([min(b[0][i] for b in boxes) for i in range(3)]) - SELF_MARGIN
-        hi_ = np.array([max(b[1][i] for b in boxes) for i in range(3)]) + SELF_MARGIN
+        lo, hi = self.world.body_aabb(self.body)
+        lo_, hi_ = np.asarray(lo) - SELF_MARGIN, np.asarray(hi) + SELF_MARGIN
         if not np.all((origin > lo_) & (origin < hi_)):
             return self._zeros
         with np.errstate(divide="ignore"):

@@ -428,12 +428,13 @@ class World:
         return tuple(lo), tuple(hi)  # type: ignore[return-value]
 
     def body_aabb(self, body: str | int) -> tuple[Vec3, Vec3]:
-        """Bounding box of a whole body (all links)."""
+        """Bounding box of a whole body (all links). Plain Python, no numpy: the lidar calls it on every scan."""
         bid = self.body(body)
-        boxes = [self.client.getAABB(bid, link) for link in range(-1, self.client.getNumJoints(bid))]
-        lo = np.min([b[0] for b in boxes], axis=0)
-        hi = np.max([b[1] for b in boxes], axis=0)
-        return tuple(float(v) for v in lo), tuple(float(v) for v in hi)  # type: ignore[return-value]
+        aabb = self.client.getAABB
+        boxes = [aabb(bid, link) for link in range(-1, len(self.joints(bid)))]
+        lo = tuple(min(b[0][i] for b in boxes) for i in range(3))
+        hi = tuple(max(b[1][i] for b in boxes) for i in range(3))
+        return lo, hi  # type: ignore[return-value]
 
     def apply_force(
         self,
