@@ -28,7 +28,13 @@ from dataclasses import dataclass
 from typing import Any
 
 from pydantic import Field, field_validator
-from robokit_plugins.arm_types import (
+
+from robokit import hookimpl
+from robokit.components import GoalCheck, SetupContext
+from robokit.config import Schema
+from robokit.errors import ConfigError
+from robokit.fsm import MachineBehaviour
+from robokit.msgs.arm import (
     ArmState,
     GripperCommand,
     GripperState,
@@ -37,12 +43,6 @@ from robokit_plugins.arm_types import (
     cube_grasp_yaw,
     yaw_of,
 )
-
-from robokit import hookimpl
-from robokit.components import GoalCheck, SetupContext
-from robokit.config import Schema
-from robokit.errors import ConfigError
-from robokit.fsm import MachineBehaviour
 
 
 class Phase(enum.Enum):

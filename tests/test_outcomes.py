@@ -23,7 +23,8 @@ from robokit.testing import make_sim
 
 ROOT = Path(__file__).resolve().parents[1]
 SORT = ROOT / "configs" / "sort_robot.toml"
-TWO_CUBES = [("count = 2", "count = 1"), ('bodies = ["red_0", "red_1", "blue_0", "blue_1"]', 'bodies = ["red", "blue"]')]
+TWO_CUBES = [("count = 2", "count = 1"),
+             ('bodies = ["red_0", "red_1", "blue_0", "blue_1"]', 'bodies = ["red", "blue"]')]
 
 
 def robokit(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
