@@ -129,12 +129,15 @@ class RegionConfig(Schema):
 
 
 def check_unit_colour(value: Any) -> Any:
-    """A before-validator for colours: refuse 0-255 values with the 0-1 equivalent (other checks follow)."""
+    """A before-validator for colours: components above 1 are refused, with the 0-1 equivalent when they look like
+    0-255 values (the per-component checks follow: finite, 0 to 1)."""
     if isinstance(value, (list, tuple)) and all(isinstance(v, (int, float)) and not isinstance(v, bool)
-                                                for v in value):
-        if any(v > 1 for v in value) and all(0 <= v <= 255 for v in value):
-            scaled = ", ".join(f"{v / 255:.3g}" for v in value)
-            raise ValueError(f"colours are 0-1 floats, not 0-255: for {list(value)} write [{scaled}]")
+                                                and math.isfinite(v) for v in value):
+        if any(v > 1 for v in value):
+            hint = ""
+            if all(0 <= v <= 255 for v in value):
+                hint = f" (for 0-255 values write [{', '.join(f'{v / 255:.3g}' for v in value)}])"
+            raise ValueError(f"colour components must be 0-1 floats, got {list(value)}{hint}")
     return value
 
 
