@@ -28,6 +28,7 @@ from pydantic import Field, field_validator, model_validator
 from robokit import __version__, hookimpl
 from robokit.components import Delivery, Reporter
 from robokit.config import Schema
+from robokit.errors import Interrupted
 from robokit.outbox import Entry, Outbox, SendResult
 
 RETRY_STATUSES = frozenset([408, 429, *range(500, 600)])
@@ -269,6 +270,22 @@ def _redact(result: SendResult, token: str | None) -> SendResult:
 class HttpReporter(Reporter):
     """POSTs the payload; on failure the payload waits in the outbox (see :mod:`robokit.outbox`)."""
 
+    sends = True
+
+    def keep(self, payload: dict[str, Any]) -> Delivery:
+        """The run was interrupted: queue the payload in the outbox without sending it (a flush sends it)."""
+        cfg: HttpReportConfig = self.config
+        outbox = Outbox(cfg.outbox)
+        try:
+            with outbox.lock(str(payload["run_id"])):
+                entry = outbox.put(payload, cfg.url, HttpOptions.from_mapping(cfg).to_dict(),
+                                   last_error="not sent: the run was interrupted (Ctrl-C / SIGTERM)")
+        except OSError as exc:
+            return Delivery(False, None, f"not sent (interrupted) and the outbox {outbox.root} could not be "
+                            f"written: {exc}")
+        return Delivery(False, str(entry.path), f"not sent (interrupted); result kept in the outbox {entry.path} - "
+                        f"`robokit outbox flush --dir {outbox.root}` sends it")
+
     def report(self, payload: dict[str, Any]) -> Delivery:
         cfg: HttpReportConfig = self.config
         opts = HttpOptions.from_mapping(cfg)
@@ -288,6 +305,13 @@ class HttpReporter(Reporter):
             with outbox.lock(str(payload["run_id"])):
                 entry = outbox.put(payload, url, opts.to_dict())  # write-ahead: a crash from here on resends
                 outcome, entry, result = outbox.attempt(entry, sender)
+        except Interrupted as exc:  # Ctrl-C while sending: the entry was written first, so it waits in the outbox
+            path = outbox.path_for(str(payload["run_id"]))
+            kept = path if path.exists() else None
+            return Delivery(False, str(kept) if kept else None,
+                            f"interrupted ({exc.reason}) while sending; "
+                            + (f"result kept in the outbox {kept} - `robokit outbox flush --dir {outbox.root}` "
+                               "sends it" if kept else "not kept in the outbox"))
         except OSError as exc:  # the outbox cannot be written: still try to deliver, without a safety net
             result = sender(Entry(outbox.path_for(str(payload["run_id"])), {
                 "run_id": payload["run_id"], "url": url, "payload": payload, "options": opts.to_dict()}))

@@ -133,12 +133,33 @@ def cmd_run(args: argparse.Namespace) -> int:
                              on_problem=None if args.quiet else _warn_problem)
     finally:
         if trace is not None:
-            trace.close()
+            try:
+                trace.close()
+            except OSError as exc:  # already reported by the trace writer when a record failed
+                print(f"robokit: warning: --trace {args.trace}: {exc.strerror or exc}", file=sys.stderr)
     if args.json:
         print(json.dumps(out.result.to_dict(), indent=2))
     if not args.quiet:
         print(summary(out), file=sys.stderr if args.json else sys.stdout)
+    if out.error is not None:
+        _report_error(args, out, cfg)
+    if out.interrupted and not args.quiet:
+        print("robokit: interrupted; the result was kept (see above)", file=sys.stderr)
     return out.exit_code
+
+
+def _report_error(args: argparse.Namespace, out: Any, cfg: Any) -> None:
+    """A run that ended in ``error``: the full traceback goes to the run folder (and stderr with --debug)."""
+    from robokit.runner import results_root
+
+    assert out.error is not None
+    text = traceback_text(out.error)
+    path = write_traceback(text, results_root(cfg) / out.result.run_id)
+    if getattr(args, "debug", False):
+        print(text, file=sys.stderr, end="")
+    if path is not None and not args.quiet:
+        print(f"robokit: full traceback: {path}" + ("" if args.debug else " (or run with --debug)"),
+              file=sys.stderr)
 
 
 def _open_trace(path: str) -> Any:
@@ -149,7 +170,8 @@ def _open_trace(path: str) -> Any:
     if not os.path.isdir(parent):
         raise UserError(f"--trace {path}: the folder {parent} does not exist")
     try:
-        return open(path, "w", encoding="utf-8")  # noqa: SIM115 - closed by cmd_run
+        # line-buffered: a write that fails (a full disk) fails at the record it was writing, not at close
+        return open(path, "w", encoding="utf-8", buffering=1)  # noqa: SIM115 - closed by cmd_run
     except OSError as exc:
         raise UserError(f"--trace {path}: cannot write: {exc.strerror or exc}") from None
 
@@ -246,7 +268,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         print("robokit: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     args.debug = debug
-    with warnings.catch_warnings():  # restores the caller's warning settings (main() is also called in-process)
+    from robokit.interrupts import StopGuard
+
+    with warnings.catch_warnings(), StopGuard.ensure():  # restores the caller's warning settings and signals
         warnings.simplefilter("always", PluginLoadWarning)
         warnings.showwarning = _show_warning
         return _dispatch(args)

@@ -268,6 +268,8 @@ class Reporter:
     """Base class of reporters: deliver a finished run's payload somewhere. Runs after the simulation ended."""
 
     kind: ClassVar[str] = "reporter"
+    sends: ClassVar[bool] = False
+    """True for reporters that send over a network (they run after the local ones)."""
 
     def __init__(self, name: str, config: Any) -> None:
         self.name = name
@@ -276,3 +278,9 @@ class Reporter:
     def report(self, payload: dict[str, Any]) -> Delivery:
         """Deliver the payload (the RunResult dict plus course fields). Must not raise for delivery failures."""
         raise NotImplementedError
+
+    def keep(self, payload: dict[str, Any]) -> Delivery:
+        """Keep the payload without sending it: called instead of :meth:`report` once the user pressed Ctrl-C (or
+        sent SIGTERM), who wants the process to end now. The default calls :meth:`report` (right for reporters that
+        write local files); reporters that send over a network queue the payload for a later delivery."""
+        return self.report(payload)

@@ -65,6 +65,28 @@ class PluginError(Exception):
         super().__init__(message)
 
 
+class Interrupted(KeyboardInterrupt):
+    """Raised by robokit's own signal handler (Ctrl-C, SIGTERM) or its wall-clock watchdog, never by plugins.
+
+    A plain ``KeyboardInterrupt`` or ``SystemExit`` raised by plugin code is a plugin fault, not a request to stop.
+
+    Attributes:
+        reason: ``"SIGINT"``, ``"SIGTERM"`` or ``"max_wall_time"``.
+    """
+
+    def __init__(self, reason: str = "SIGINT") -> None:
+        self.reason = reason
+        super().__init__(reason)
+
+
+def plugin_fault(exc: BaseException) -> str:
+    """What a plugin raised and where, on one line: ``"TypeError: message (at path/file.py:42)"``."""
+    from robokit.crash import describe, where_raised
+
+    where = where_raised(exc)
+    return describe(exc) + (f" (at {where})" if where else "")
+
+
 def did_you_mean(name: str, candidates: Iterable[str]) -> str:
     """Return ``" (did you mean 'x'?)"`` for the closest candidate, or ``""``."""
     close = difflib.get_close_matches(name, list(candidates), n=1, cutoff=0.6)

@@ -142,12 +142,13 @@ class Outbox:
         self.locks_dir.mkdir(parents=True, exist_ok=True)
         return FileLock(str(self.locks_dir / f"{run_id}.lock"), timeout=timeout)
 
-    def put(self, payload: dict[str, Any], url: str, options: dict[str, Any] | None = None) -> Entry:
+    def put(self, payload: dict[str, Any], url: str, options: dict[str, Any] | None = None, *,
+            last_error: str | None = None) -> Entry:
         """Write a new entry atomically (call with the entry's lock held). Returns it."""
         run_id = str(payload["run_id"])
         now = time.time()
         data = {"schema": SCHEMA, "run_id": run_id, "url": url, "created_at": now, "created": _now_iso(),
-                "attempts": 0, "last_error": None, "last_attempt": None, "options": dict(options or {}),
+                "attempts": 0, "last_error": last_error, "last_attempt": None, "options": dict(options or {}),
                 "payload": payload}
         entry = Entry(self.path_for(run_id), data)
         write_json_atomic(entry.path, data, overwrite=True)
@@ -201,7 +202,12 @@ class Outbox:
         data = {**entry.data, "attempts": entry.attempts + 1, "last_error": IN_FLIGHT, "last_attempt": _now_iso()}
         entry = Entry(entry.path, data)
         write_json_atomic(entry.path, data, overwrite=True)
-        result = send(entry)
+        try:
+            result = send(entry)
+        except KeyboardInterrupt:  # Ctrl-C mid-send: say so in the entry (it is sent again by the next flush)
+            stopped = {**data, "last_error": "interrupted (Ctrl-C / SIGTERM) while sending; no answer recorded"}
+            write_json_atomic(entry.path, stopped, overwrite=True)
+            raise
         if result.ok:
             entry.path.unlink(missing_ok=True)
             return "delivered", entry, result

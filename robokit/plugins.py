@@ -15,7 +15,7 @@ from typing import Any
 import pluggy
 
 from robokit import hookspecs
-from robokit.errors import LookupNameError, PluginError, UserError
+from robokit.errors import Interrupted, LookupNameError, PluginError, UserError, plugin_fault
 
 ENTRY_POINT_GROUP = "robokit"
 KINDS = ("sensor", "actuator", "behaviour", "reporter")
@@ -97,8 +97,10 @@ class Plugins:
         for impl in reversed(getattr(self.pm.hook, hook_name).get_hookimpls()):
             try:
                 impl.function(**{k: v for k, v in kwargs.items() if k in impl.argnames})
-            except Exception as exc:
-                raise PluginError(f"plugin {impl.plugin_name} raised in {hook_name}: {type(exc).__name__}: {exc}",
+            except Interrupted:
+                raise
+            except BaseException as exc:  # SystemExit and KeyboardInterrupt from a plugin are plugin faults too
+                raise PluginError(f"plugin {impl.plugin_name} raised in {hook_name}: {plugin_fault(exc)}",
                                   type_name=hook_name, distribution=impl.plugin_name) from exc
 
 

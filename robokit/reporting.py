@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from robokit.components import Delivery
+from robokit.errors import Interrupted, plugin_fault
 from robokit.result import RunResult
 
 COURSE_FIELDS = ("red_sorted", "blue_sorted", "failures", "total_time")
@@ -35,14 +36,26 @@ def build_payload(
     return payload
 
 
-def deliver(reporters: Iterable[Any], payload: dict[str, Any]) -> list[tuple[str, Delivery]]:
-    """Run every reporter; a reporter that raises counts as a failed, unstored delivery (never propagates)."""
+def deliver(reporters: Iterable[Any], payload: dict[str, Any], *, stop: Any = None) -> list[tuple[str, Delivery]]:
+    """Run every reporter; a reporter that raises counts as a failed, unstored delivery (never propagates).
+
+    Once ``stop`` (a :class:`robokit.interrupts.StopGuard`) has seen Ctrl-C / SIGTERM, reporters are asked to
+    ``keep()`` the payload instead (store it without sending: an HTTP reporter queues it in its outbox), so
+    stopping never waits on a network; local reporters are run first.
+    """
     out = []
-    for reporter in reporters:
+    for reporter in sorted(reporters, key=lambda r: getattr(r, "sends", False)):
         try:
-            delivery = reporter.report(payload)
-        except Exception as exc:  # noqa: BLE001 - reporting never changes the run's outcome
-            delivery = Delivery(False, None, f"{reporter.name}: {type(exc).__name__}: {exc}")
+            if stop is not None and stop.signalled and hasattr(reporter, "keep"):
+                delivery = reporter.keep(payload)
+            else:
+                delivery = reporter.report(payload)
+        except Interrupted as exc:
+            delivery = Delivery(False, None, f"{reporter.name}: interrupted ({exc.reason}) before the result was kept")
+        except BaseException as exc:  # noqa: BLE001 - reporting never changes the run's outcome
+            if isinstance(exc, KeyboardInterrupt) and not getattr(stop, "installed", False):
+                raise  # no guard: this is the user's Ctrl-C, not a plugin fault
+            delivery = Delivery(False, None, f"{reporter.name}: {plugin_fault(exc)}")
         out.append((reporter.name, delivery))
     return out
 

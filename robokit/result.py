@@ -29,6 +29,8 @@ class RunResult:
     started_at: str
     result: dict[str, Any] = field(default_factory=dict)
     interrupted: bool = False
+    warnings: list[str] = field(default_factory=list)
+    """Things the outcome does not show: e.g. a sensor that returned NaN (see :mod:`robokit.reading_check`)."""
     schema: str = SCHEMA
 
     def to_dict(self) -> dict[str, Any]:

@@ -7,15 +7,17 @@ import json
 import uuid
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import IO, Any
 
 from robokit import __version__
 from robokit.components import Delivery
 from robokit.config import Config
-from robokit.errors import ConfigError, PluginError
+from robokit.errors import ConfigError, Interrupted, PluginError, plugin_fault
+from robokit.interrupts import StopGuard
 from robokit.plugins import Plugins
 from robokit.reporting import build_payload, deliver
-from robokit.result import RunResult
+from robokit.result import OUTCOME_EXIT_CODES, RunResult
 from robokit.simulation import Simulation
 
 EXIT_NOT_STORED = 4
@@ -24,11 +26,18 @@ EXIT_NOT_STORED = 4
 
 @dataclass
 class RunOutput:
-    """A finished run: its result, the payload delivered, what each reporter did, and the exit code."""
+    """A finished run: its result, the payload delivered, what each reporter did, and the exit code.
+
+    ``interrupted`` is true when Ctrl-C / SIGTERM arrived at any point (start-up, the loop, delivery): the exit
+    code is then 130 whatever the outcome. ``error`` is what ended the run with outcome ``error`` (its traceback
+    goes to the run folder).
+    """
 
     result: RunResult
     payload: dict[str, Any]
     deliveries: list[tuple[str, Delivery]] = field(default_factory=list)
+    interrupted: bool = False
+    error: BaseException | None = None
 
     @property
     def stored(self) -> bool:
@@ -37,7 +46,9 @@ class RunOutput:
 
     @property
     def exit_code(self) -> int:
-        """The run's exit code, or :data:`EXIT_NOT_STORED` when the result was kept nowhere."""
+        """130 if interrupted; else the run's exit code, or :data:`EXIT_NOT_STORED` when kept nowhere."""
+        if self.interrupted or self.result.interrupted:
+            return OUTCOME_EXIT_CODES["interrupted"]
         return self.result.exit_code if self.stored else EXIT_NOT_STORED
 
 
@@ -51,9 +62,11 @@ def make_reporters(cfg: Config, plugins: Plugins) -> list[Any]:
         ptype = plugins.get("reporter", spec.type)
         try:
             reporters.append(ptype.cls(spec.name, spec.params))
-        except Exception as exc:  # noqa: BLE001 - a broken reporter must not cost the result
+        except Interrupted:
+            raise
+        except BaseException as exc:  # noqa: BLE001 - a broken reporter must not cost the result
             reporters.append(_UnbuiltReporter(spec.name, f"reporter {spec.type!r} ({ptype.origin}) failed to "
-                                                         f"build: {type(exc).__name__}: {exc}"))
+                                                         f"build: {plugin_fault(exc)}"))
     return reporters
 
 
@@ -68,13 +81,14 @@ class _UnbuiltReporter:
         return Delivery(False, None, self.message)
 
 
-def error_result(cfg: Config, seed: int, reason: str) -> RunResult:
-    """A RunResult for a run that failed before its first tick (a plugin raised during setup)."""
+def error_result(cfg: Config, seed: int, reason: str, *, run_id: str | None = None, outcome: str = "error",
+                 interrupted: bool = False) -> RunResult:
+    """A RunResult for a run that ended before its first tick (a plugin raised during setup, or Ctrl-C)."""
     return RunResult(
-        run_id=str(uuid.uuid4()), robokit_version=__version__, config=cfg.source,
-        behaviour=cfg.behaviour.type if cfg.behaviour else None, seed=seed, outcome="error", reason=reason,
+        run_id=run_id or str(uuid.uuid4()), robokit_version=__version__, config=cfg.source,
+        behaviour=cfg.behaviour.type if cfg.behaviour else None, seed=seed, outcome=outcome, reason=reason,
         ticks=0, sim_time=0.0, wall_time=0.0,
-        started_at=dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"),
+        started_at=dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"), interrupted=interrupted,
     )
 
 
@@ -85,6 +99,7 @@ def run_config(
     gui: bool | None = None,
     seed: int | None = None,
     max_time: float | None = None,
+    max_wall: float | None = None,
     trace: IO[str] | None = None,
     report: bool = True,
     on_problem: Callable[[ConfigError], None] | None = None,
@@ -94,32 +109,69 @@ def run_config(
     With ``on_problem``, the preflight checks run first and each problem found is handed to it (``robokit run``
     prints them as warnings and runs anyway: the goal check then reports what happened).
     A plugin that raises during setup or the run gives outcome ``error``; whatever result exists is still reported.
+    Ctrl-C / SIGTERM at any point (see :mod:`robokit.interrupts`) stops promptly: during start-up the run ends
+    ``aborted`` with no ticks, during the loop at a tick boundary, during delivery at once; the result is kept
+    (reporters that send it somewhere slow keep it in their outbox instead) and :attr:`RunOutput.exit_code` is 130.
     """
     run_seed = cfg.world.seed if seed is None else seed
-    try:
-        sim = Simulation(cfg, plugins, gui=gui, seed=seed)
-        if on_problem is not None:
-            try:
-                for problem in sim.preflight():
-                    on_problem(problem)
-            except BaseException:
-                sim.close()
-                raise
-    except PluginError as exc:
-        result = error_result(cfg, run_seed, str(exc))
-    else:
-        if trace is not None:
-            def write(record: dict[str, Any], out: IO[str] = trace) -> None:
-                out.write(json.dumps(record) + "\n")
-
-            sim.trace_listeners.append(write)
+    run_id = str(uuid.uuid4())
+    error: BaseException | None = None
+    with StopGuard.ensure() as guard:
         try:
-            result = sim.run(max_time=max_time)
-        finally:
-            sim.close()
-    payload = build_payload(result, student=cfg.report.student, project=cfg.report.project)
-    deliveries = deliver(make_reporters(cfg, plugins), payload) if report else []
-    return RunOutput(result, payload, deliveries)
+            sim = Simulation(cfg, plugins, gui=gui, seed=seed, run_id=run_id)
+            if on_problem is not None:
+                try:
+                    for problem in sim.preflight():
+                        on_problem(problem)
+                except BaseException:
+                    sim.close()
+                    raise
+        except PluginError as exc:
+            result, error = error_result(cfg, run_seed, str(exc), run_id=run_id), exc
+        except Interrupted as exc:
+            result = error_result(cfg, run_seed, f"interrupted by {exc.reason} during start-up", run_id=run_id,
+                                  outcome="aborted", interrupted=True)
+        else:
+            writer = TraceWriter(trace) if trace is not None else None
+            if writer is not None:
+                sim.trace_listeners.append(writer)
+            try:
+                result = sim.run(max_time=max_time, max_wall=max_wall)
+                error = sim.error
+            finally:
+                sim.close()
+            if writer is not None and writer.failure:
+                result.warnings.append(writer.failure)
+        payload = build_payload(result, student=cfg.report.student, project=cfg.report.project)
+        deliveries = deliver(make_reporters(cfg, plugins), payload, stop=guard) if report else []
+        return RunOutput(result, payload, deliveries, interrupted=guard.signalled, error=error)
+
+
+class TraceWriter:
+    """Writes trace records as JSON lines. A write that fails (a full disk, a file that went away) stops the trace
+    and is reported as the trace writer's failure, never blamed on the component whose record it was writing."""
+
+    def __init__(self, out: IO[str]) -> None:
+        self.out = out
+        self.failure: str | None = None
+
+    def __call__(self, record: dict[str, Any]) -> None:
+        if self.failure is not None:
+            return
+        try:
+            self.out.write(json.dumps(record, default=str) + "\n")
+        except OSError as exc:
+            name = getattr(self.out, "name", "the trace file")
+            self.failure = (f"trace writer: writing {name} failed at tick {record.get('tick', '?')}: "
+                            f"{exc.strerror or exc}; the trace stops there")
+
+
+def results_root(cfg: Config) -> Path:
+    """Where run folders go: the local reporter's ``dir`` (``[report.local] dir``), default ``results``."""
+    for spec in cfg.reporters:
+        if spec.type == "local" and spec.params is not None and getattr(spec.params, "dir", None):
+            return Path(spec.params.dir)
+    return Path("results")
 
 
 def summary(out: RunOutput) -> str:
@@ -135,6 +187,8 @@ def summary(out: RunOutput) -> str:
             value = json.dumps(value, default=str)
             value = value if len(value) <= 200 else value[:197] + "..."
         lines.append(f"  {key}: {value}")
+    for warning in r.warnings:
+        lines.append(f"warning: {warning}")
     for name, d in out.deliveries:
         lines.append(f"report[{name}]: {d.message or ('delivered' if d.delivered else 'not delivered')}")
     if not out.stored:

@@ -19,7 +19,7 @@ from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from robokit.errors import PluginError
+from robokit.errors import Interrupted, PluginError, plugin_fault
 
 
 def period_ticks(rate_hz: float | None, physics_hz: float) -> int:
@@ -46,29 +46,35 @@ class Slot:
     value: Any = None
     stamp: int = -1
     computed: int = 0
+    check: Callable[[Slot], None] | None = None
+    """Called after each computed reading (sensors: flags non-finite values, refuses non-serialisable ones)."""
 
     def get(self) -> Any:
         """The latest reading, computing it first if the slot is stale."""
         if self.stale:
             try:
                 self.value = self.component.read()
-            except Exception:  # noqa: BLE001 - re-raised by guarded() with the component named
+            except BaseException:  # noqa: BLE001 - re-raised by guarded() with the component named
                 guarded(self, "read", _reraise)
             self.stamp = self.clock()
             self.stale = False
             self.computed += 1
+            if self.check is not None:
+                self.check(self)
         return self.value
 
 
 def guarded(slot: Slot, what: str, fn: Callable[..., Any], *args: Any) -> Any:
-    """Call a plugin method; turn any exception into a :class:`PluginError` naming the component and origin."""
+    """Call a plugin method; turn anything it raises (``SystemExit`` and ``KeyboardInterrupt`` included) into a
+    :class:`PluginError` naming the component, its origin, and the file and line that raised. robokit's own
+    :class:`~robokit.errors.Interrupted` (Ctrl-C, the wall-clock watchdog) passes through."""
     try:
         return fn(*args)
-    except PluginError:
+    except (PluginError, Interrupted):
         raise
-    except Exception as exc:
+    except BaseException as exc:
         raise PluginError(
-            f"{slot.component.kind} {slot.name!r} ({slot.origin}) raised during {what}: {type(exc).__name__}: {exc}",
+            f"{slot.component.kind} {slot.name!r} ({slot.origin}) raised during {what}: {plugin_fault(exc)}",
             type_name=slot.origin,
         ) from exc
 
@@ -139,7 +145,7 @@ class TickScheduler:
             if k % slot.period == 0:
                 try:
                     slot.component.update()
-                except Exception:  # noqa: BLE001 - re-raised by guarded() with the component named
+                except BaseException:  # noqa: BLE001 - re-raised by guarded() with the component named
                     guarded(slot, "update", _reraise)
         if self.events:
             for action in self.events.pop(k, ()):
@@ -150,11 +156,11 @@ class TickScheduler:
         assert self.behaviour is not None
         try:
             commands = self.behaviour.step(self.readings, self.world.time)
-        except PluginError:
+        except (PluginError, Interrupted):
             raise
-        except Exception as exc:
+        except BaseException as exc:
             raise PluginError(
-                f"behaviour ({self.behaviour_origin}) raised during step: {type(exc).__name__}: {exc}",
+                f"behaviour ({self.behaviour_origin}) raised during step: {plugin_fault(exc)}",
                 type_name=self.behaviour_origin,
             ) from exc
         for name, cmd in (commands or {}).items():

@@ -4,12 +4,9 @@ from __future__ import annotations
 
 import copy
 import datetime as dt
-import signal
-import threading
 import time
 import uuid
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -18,10 +15,13 @@ import numpy as np
 from robokit import __version__
 from robokit.components import SetupContext
 from robokit.config import BodyConfig, ComponentSpec, Config
-from robokit.errors import ConfigError, PluginError, UserError
+from robokit.errors import ConfigError, Interrupted, PluginError, UserError, plugin_fault
+from robokit.interrupts import StopGuard
 from robokit.plugins import Plugins
+from robokit.reading_check import Unserialisable, nonfinite_path
 from robokit.result import RunResult
 from robokit.scheduler import Slot, TickScheduler, period_ticks
+from robokit.walltime import WallTiming
 from robokit.world import World, to_quaternion
 
 
@@ -35,8 +35,10 @@ class Simulation:
         seed: Override ``world.seed``.
     """
 
-    def __init__(self, config: Config, plugins: Plugins, *, gui: bool | None = None, seed: int | None = None) -> None:
+    def __init__(self, config: Config, plugins: Plugins, *, gui: bool | None = None, seed: int | None = None,
+                 run_id: str | None = None) -> None:
         self.config = config
+        self.run_id = run_id or str(uuid.uuid4())
         self.plugins = plugins
         wc = config.world
         self.seed = wc.seed if seed is None else int(seed)
@@ -57,6 +59,12 @@ class Simulation:
         self._contexts: dict[str, SetupContext] = {}
         self._stop_reason: str | None = None
         self.interrupted = False
+        self._halt = False  # set by interrupt() and the wall-clock watchdog; the loop checks it every tick
+        self._wall_expired = False
+        self.flags: dict[str, dict[str, Any]] = {}
+        """Non-finite readings seen, by sensor name: ``count``, ``first_tick``, ``field`` (see :meth:`run`)."""
+        self.error: BaseException | None = None
+        """What ended the run with outcome ``error`` (its ``__cause__`` is the plugin's own exception)."""
         try:
             self._build()
         except BaseException:
@@ -77,6 +85,8 @@ class Simulation:
             lazy = getattr(comp, "lazy", True) if spec.kind == "sensor" else True
             period = period_ticks(spec.rate_hz, hz)
             slots[spec.name] = Slot(spec.name, comp, period, self._origins[spec.name], lambda: self.world.tick, lazy)
+        for spec in cfg.sensors:
+            slots[spec.name].check = self._check_reading
         sensors = {s.name: slots[s.name] for s in cfg.sensors}
         actuators = {s.name: slots[s.name] for s in cfg.actuators}
         if cfg.behaviour is not None:
@@ -99,9 +109,11 @@ class Simulation:
         self._origins[spec.name] = f"type {spec.type!r} from {ptype.origin}"
         try:
             comp = ptype.cls(spec.name, spec.params)
-        except Exception as exc:
+        except Interrupted:
+            raise
+        except BaseException as exc:
             raise PluginError(f"{spec.key}: {spec.kind} type {spec.type!r} ({ptype.origin}) failed to build: "
-                              f"{type(exc).__name__}: {exc}", type_name=spec.type, distribution=ptype.origin) from exc
+                              f"{plugin_fault(exc)}", type_name=spec.type, distribution=ptype.origin) from exc
         if spec.kind != "behaviour":
             self.components[spec.name] = comp
         return comp
@@ -118,10 +130,28 @@ class Simulation:
             raise exc.within(spec.key, self.config.source) from None
         except UserError as exc:
             raise ConfigError(str(exc), key=spec.key, file=self.config.source) from None
-        except Exception as exc:
+        except Interrupted:
+            raise
+        except BaseException as exc:  # SystemExit and KeyboardInterrupt from a plugin are plugin faults too
             ptype = self.plugins.get(spec.kind, spec.type)
             raise PluginError(f"{spec.key}: {spec.kind} type {spec.type!r} ({ptype.origin}) raised during setup: "
-                              f"{type(exc).__name__}: {exc}", type_name=spec.type, distribution=ptype.origin) from exc
+                              f"{plugin_fault(exc)}", type_name=spec.type, distribution=ptype.origin) from exc
+
+    def _check_reading(self, slot: Slot) -> None:
+        """After a sensor computed a reading: flag non-finite values, refuse ones that cannot be serialised."""
+        try:
+            where = nonfinite_path(slot.value, getattr(slot.component, "allow_inf", False))
+        except Unserialisable as exc:
+            raise PluginError(f"sensor {slot.name!r} ({slot.origin}) returned a reading that cannot be serialised: "
+                              f"{exc} ({type(slot.value).__name__} from read())", type_name=slot.origin) from None
+        if where is None:
+            return
+        flag = self.flags.get(slot.name)
+        if flag is None:
+            self.flags[slot.name] = {"count": 1, "first_tick": self.world.tick, "field": where}
+            self._tracer(slot.name)("nonfinite", field=where)
+        else:
+            flag["count"] += 1
 
     def _tracer(self, source: str) -> Callable[..., None]:
         def trace(kind: str, **data: Any) -> None:
@@ -210,49 +240,66 @@ class Simulation:
             self.scheduler.tick()
         return bool(predicate(self))
 
-    def run(self, *, max_time: float | None = None, wall_clock: Callable[[], float] = time.perf_counter) -> RunResult:
-        """Run until the behaviour ends, ``max_time`` sim seconds pass, or SIGINT/SIGTERM; return the RunResult.
+    def run(self, *, max_time: float | None = None, max_wall: float | None = None,
+            wall_clock: Callable[[], float] = time.perf_counter) -> RunResult:
+        """Run until the behaviour ends, ``max_time`` sim seconds pass, the wall-clock budget (``max_wall``, default
+        ``world.max_wall_time``) runs out, or SIGINT/SIGTERM; return the RunResult.
 
-        A plugin that raises ends the run with outcome ``error``; the behaviour's partial result is kept.
+        A plugin that raises ends the run with outcome ``error``; the behaviour's partial result is kept, and so it
+        is when the run is interrupted (outcome ``aborted``, ``interrupted`` true) or over its wall-clock budget
+        (outcome ``aborted``, the reason names the component that took the most wall time).
         """
         limit = self.config.world.max_time if max_time is None else max_time
+        budget = self.config.world.max_wall_time if max_wall is None else max_wall
         max_ticks = round(limit / self.world.time_step)
         started = dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds")
         t0 = wall_clock()
         outcome, reason = "aborted", ""
         pace = self.world.gui and self.config.world.realtime
-        with self._signals():
+        timing = WallTiming(self.scheduler, wall_clock) if budget is not None else None
+        with StopGuard.ensure() as guard, guard.soft(self.interrupt):
+            if guard.signalled:  # Ctrl-C arrived while the guard was soft elsewhere: stop at once
+                self.interrupt(guard.signal or "SIGINT")
+            if budget is not None:
+                guard.watchdog(budget, self._expire_wall, "max_wall_time")
             try:
                 self.plugins.call("robokit_run_start", simulation=self)
                 if pace:
                     self.scheduler.start_pacing()
-                while self.world.tick < max_ticks and self.outcome is None and not self.interrupted:
+                while self.world.tick < max_ticks and self.outcome is None and not self._halt:
                     self.scheduler.tick()
                     if pace:
                         self.scheduler.pace()
-                if self.outcome is not None:
-                    outcome, reason = self.outcome.status, self.outcome.reason
-                elif self.interrupted:
-                    reason = f"interrupted by {self._stop_reason} at t = {self.world.time:.3f} s"
-                elif self.behaviour is None:  # a scene with no behaviour just runs for max_time
-                    outcome, reason = "succeeded", f"no behaviour: simulated {limit:g} s"
-                elif getattr(self.behaviour, "open_ended", False):  # e.g. teleop: runs until stopped
-                    outcome, reason = "succeeded", f"open-ended behaviour ran for max_time {limit:g} s"
-                else:
-                    reason = f"max_time {limit:g} s reached before the behaviour finished"
             except PluginError as exc:
+                self.error = exc
                 outcome, reason = "error", str(exc)
+            except Interrupted as exc:
+                if exc.reason == "max_wall_time":
+                    self._wall_expired = True
+                else:
+                    self.interrupt(exc.reason)
+            except Exception as exc:  # noqa: BLE001 - a bug in robokit: keep the result, say where the traceback is
+                self.error = exc
+                outcome, reason = "error", f"internal error in robokit: {plugin_fault(exc)}"
+            finally:
+                if timing is not None:
+                    timing.restore()
+        if outcome != "error":
+            outcome, reason = self._ending(limit, budget, timing)
         goal: dict[str, Any] | None = None
         if outcome != "error" and self.behaviour is not None:
             try:
                 outcome, reason, goal = self._check_goal(outcome, reason)
             except PluginError as exc:
+                self.error = exc
                 outcome, reason = "error", str(exc)
+            except Interrupted as exc:  # a second Ctrl-C while checking the goal: keep the result without it
+                self.interrupt(exc.reason)
         behaviour_result = self._behaviour_result()
         if goal is not None:
             behaviour_result["goal"] = goal
         result = RunResult(
-            run_id=str(uuid.uuid4()),
+            run_id=self.run_id,
             robokit_version=__version__,
             config=self.config.source,
             behaviour=self.config.behaviour.type if self.config.behaviour else None,
@@ -265,11 +312,13 @@ class Simulation:
             started_at=started,
             result=behaviour_result,
             interrupted=self.interrupted and self.outcome is None,
+            warnings=self._warnings(),
         )
         try:
             self.plugins.call("robokit_run_end", simulation=self, result=result)
         except PluginError as exc:  # the result survives a faulty run_end hook
             if result.outcome != "error":
+                self.error = exc
                 result.outcome, result.reason = "error", str(exc)
         return result
 
@@ -284,12 +333,14 @@ class Simulation:
             return outcome, reason, None
         try:
             check = hook(self.world)
-        except Exception as exc:
+        except Interrupted:
+            raise
+        except BaseException as exc:
             spec = self.config.behaviour
             assert spec is not None
             ptype = self.plugins.get("behaviour", spec.type)
             raise PluginError(f"behaviour type {spec.type!r} ({ptype.origin}) raised in check_goal: "
-                              f"{type(exc).__name__}: {exc}", type_name=spec.type, distribution=ptype.origin) from exc
+                              f"{plugin_fault(exc)}", type_name=spec.type, distribution=ptype.origin) from exc
         if check is None:
             return outcome, reason, None
         record = {"met": bool(check.met), "reason": check.reason, **dict(check.details)}
@@ -301,35 +352,49 @@ class Simulation:
             return "failed", f"goal not met: {check.reason}{claimed}", record
         return outcome, f"{reason}; goal not met: {check.reason}" if reason else check.reason, record
 
+    def _ending(self, limit: float, budget: float | None, timing: WallTiming | None) -> tuple[str, str]:
+        """Outcome and reason of a run that did not end in an error."""
+        if self.outcome is not None:
+            return self.outcome.status, self.outcome.reason
+        if self.interrupted:
+            return "aborted", f"interrupted by {self._stop_reason} at t = {self.world.time:.3f} s"
+        if self._wall_expired:
+            slow = timing.slowest() if timing is not None else ""
+            return "aborted", (f"max_wall_time {budget:g} s (wall clock) reached at t = {self.world.time:.3f} s"
+                               + (f"; slowest: {slow}" if slow else ""))
+        if self.behaviour is None:  # a scene with no behaviour just runs for max_time
+            return "succeeded", f"no behaviour: simulated {limit:g} s"
+        if getattr(self.behaviour, "open_ended", False):  # e.g. teleop: runs until stopped
+            return "succeeded", f"open-ended behaviour ran for max_time {limit:g} s"
+        return "aborted", f"max_time {limit:g} s reached before the behaviour finished"
+
+    def _expire_wall(self) -> None:
+        """The watchdog's call (from its thread): stop at the next tick boundary."""
+        self._wall_expired = True
+        self._halt = True
+
+    def _warnings(self) -> list[str]:
+        lines = []
+        for name, flag in self.flags.items():
+            lines.append(f"sensor {name!r} ({self._origins.get(name, '?')}) returned non-finite values in "
+                         f"{flag['count']} reading(s); first at tick {flag['first_tick']} ({flag['field']})")
+        return lines
+
     def _behaviour_result(self) -> dict[str, Any]:
         if self.behaviour is None:
             return {}
         try:
             return dict(self.behaviour.result())
-        except Exception as exc:  # noqa: BLE001 - the run's result must survive a faulty behaviour
-            return {"result_error": f"{type(exc).__name__}: {exc}"}
-
-    @contextmanager
-    def _signals(self) -> Iterator[None]:
-        if threading.current_thread() is not threading.main_thread():
-            yield
-            return
-
-        def handler(signum: int, _frame: Any) -> None:
-            self.interrupted = True
-            self._stop_reason = signal.Signals(signum).name
-
-        old = {s: signal.signal(s, handler) for s in (signal.SIGINT, signal.SIGTERM)}
-        try:
-            yield
-        finally:
-            for s, h in old.items():
-                signal.signal(s, h)
+        except Interrupted:
+            raise
+        except BaseException as exc:  # noqa: BLE001 - the run's result must survive a faulty behaviour
+            return {"result_error": plugin_fault(exc)}
 
     def interrupt(self, reason: str = "request") -> None:
         """Ask the loop to stop at the next tick boundary (what Ctrl-C does)."""
         self.interrupted = True
         self._stop_reason = reason
+        self._halt = True
 
     # ----------------------------------------------------------------- lifetime
     def close(self) -> None:
@@ -337,7 +402,9 @@ class Simulation:
         for comp in list(self.components.values()) + ([self.behaviour] if self.behaviour else []):
             try:
                 comp.close()
-            except Exception:  # noqa: BLE001, S110 - closing must reach the world
+            except Interrupted:
+                raise
+            except BaseException:  # noqa: BLE001, S110 - closing must reach the world
                 pass
         self.components.clear()
         self.world.close()

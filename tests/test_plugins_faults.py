@@ -71,6 +71,11 @@ def faulty(tmp_path, monkeypatch):
     return tmp_path
 
 
+def line_of(source: str, text: str) -> int:
+    """The line number of ``text`` in a plugin module written by make_dist (which dedents, keeping lines)."""
+    return next(i for i, line in enumerate(source.splitlines(), 1) if text in line)
+
+
 def stored_results(folder: Path) -> list[dict]:
     return [json.loads(p.read_text()) for p in sorted((folder / "results").glob("*.json"))]
 
@@ -104,7 +109,8 @@ def test_sensor_raising_in_setup_ends_with_error_and_is_still_reported(faulty, c
     assert main(["run", str(config)]) == 3
     out = capsys.readouterr().out
     assert out.startswith("outcome: error (sensors.sonar: sensor type 'flaky_setup' (fault-dist 1.0) raised during "
-                          "setup: RuntimeError: calibration file missing)")
+                          "setup: RuntimeError: calibration file missing (at site/fault_dist_")
+    assert out.splitlines()[0].endswith(f".py:{line_of(FAULTY_SENSORS, 'calibration file missing')}))")
     assert "result saved to results/" in out
     (stored,) = stored_results(faulty)
     assert stored["outcome"] == "error" and "flaky_setup" in stored["reason"] and "fault-dist 1.0" in stored["reason"]
@@ -130,8 +136,9 @@ def test_a_raising_run_start_hook_is_an_error_naming_its_plugin(tmp_path, monkey
     plugins = load_plugins()
     out = run_config(load_config(config, plugins), plugins)
     assert out.result.outcome == "error" and out.exit_code == 3
-    assert out.result.reason == ("plugin telemetry-dist:telemetry raised in robokit_run_start: RuntimeError: "
-                                 "telemetry server unreachable")
+    assert out.result.reason.startswith("plugin telemetry-dist:telemetry raised in robokit_run_start: RuntimeError: "
+                                        "telemetry server unreachable (at telemetry_dist_")
+    assert out.result.reason.endswith(f".py:{line_of(RAISING_RUN_START, 'telemetry server unreachable')})")
     assert out.stored
 
 
@@ -170,6 +177,7 @@ def test_robokit_run_process_exits_3_promptly_with_the_reason(faulty):
     assert proc.returncode == 3 == OUTCOME_EXIT_CODES["error"], proc.stderr
     first = proc.stdout.splitlines()[0]
     assert first.startswith("outcome: error (sensor 'sonar' (type 'flaky_read' from fault-dist 1.0) raised during "
-                            "read: RuntimeError: sensor bus timeout)")
+                            "read: RuntimeError: sensor bus timeout (at site/fault_dist_")
+    assert first.endswith(f".py:{line_of(FAULTY_SENSORS, 'sensor bus timeout')}))")
     assert '  recorded: {"poses": 3, "sonar": 2}' in proc.stdout.splitlines()
     assert "Traceback" not in proc.stderr
