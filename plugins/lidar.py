@@ -82,6 +82,7 @@ class Lidar(Sensor):
     """A planar laser scanner: N rays over a field of view on a named link; ROS LaserScan readings."""
 
     reading_type = LaserScan
+    allow_inf = True  # REP 117: +inf in ranges means "no return"
     example: ClassVar[dict[str, Any]] = {
         "config": {"robot": "robot", "link": "lidar_link", "rays": 36, "range_max": 3.0},
         "bodies": {"plane": {"urdf": "plane.urdf", "position": [0, 0, 0]},

@@ -131,6 +131,8 @@ class Sensor:
 
     kind: ClassVar[str] = "sensor"
     lazy: ClassVar[bool] = True
+    allow_inf: ClassVar[bool] = False
+    """True if ``+inf``/``-inf`` are valid values in readings (a lidar's "no return"); NaN is always flagged."""
     reading_type: ClassVar[type] = object
     """The type every reading is an instance of (checked by :func:`robokit.testing.check_sensor`)."""
     example: ClassVar[dict[str, Any] | None] = None

@@ -18,7 +18,7 @@ from robokit.config import BodyConfig, ComponentSpec, Config
 from robokit.errors import ConfigError, Interrupted, PluginError, UserError, plugin_fault
 from robokit.interrupts import StopGuard
 from robokit.plugins import Plugins
-from robokit.reading_check import Unserialisable, nonfinite_path
+from robokit.reading_check import ReadingCheck, Unserialisable
 from robokit.result import RunResult
 from robokit.scheduler import Slot, TickScheduler, period_ticks
 from robokit.walltime import WallTiming
@@ -62,6 +62,7 @@ class Simulation:
         self._halt = False  # set by interrupt() and the wall-clock watchdog; the loop checks it every tick
         self._wall_expired = False
         self.flags: dict[str, dict[str, Any]] = {}
+        self._checks: dict[str, ReadingCheck] = {}
         """Non-finite readings seen, by sensor name: ``count``, ``first_tick``, ``field`` (see :meth:`run`)."""
         self.error: BaseException | None = None
         """What ended the run with outcome ``error`` (its ``__cause__`` is the plugin's own exception)."""
@@ -86,7 +87,7 @@ class Simulation:
             period = period_ticks(spec.rate_hz, hz)
             slots[spec.name] = Slot(spec.name, comp, period, self._origins[spec.name], lambda: self.world.tick, lazy)
         for spec in cfg.sensors:
-            slots[spec.name].check = self._check_reading
+            slots[spec.name].check = self._reading_check(slots[spec.name])
         sensors = {s.name: slots[s.name] for s in cfg.sensors}
         actuators = {s.name: slots[s.name] for s in cfg.actuators}
         if cfg.behaviour is not None:
@@ -137,21 +138,29 @@ class Simulation:
             raise PluginError(f"{spec.key}: {spec.kind} type {spec.type!r} ({ptype.origin}) raised during setup: "
                               f"{plugin_fault(exc)}", type_name=spec.type, distribution=ptype.origin) from exc
 
-    def _check_reading(self, slot: Slot) -> None:
-        """After a sensor computed a reading: flag non-finite values, refuse ones that cannot be serialised."""
-        try:
-            where = nonfinite_path(slot.value, getattr(slot.component, "allow_inf", False))
-        except Unserialisable as exc:
-            raise PluginError(f"sensor {slot.name!r} ({slot.origin}) returned a reading that cannot be serialised: "
-                              f"{exc} ({type(slot.value).__name__} from read())", type_name=slot.origin) from None
-        if where is None:
-            return
-        flag = self.flags.get(slot.name)
-        if flag is None:
-            self.flags[slot.name] = {"count": 1, "first_tick": self.world.tick, "field": where}
-            self._tracer(slot.name)("nonfinite", field=where)
-        else:
-            flag["count"] += 1
+    def _reading_check(self, slot: Slot) -> Callable[[Slot], None]:
+        """The check run after each reading a sensor computes: non-finite values are flagged (in the trace and the
+        result's warnings), values that cannot be serialised end the run naming the sensor."""
+        check = ReadingCheck(allow_inf=bool(getattr(slot.component, "allow_inf", False)))
+        self._checks[slot.name] = check
+
+        def after_read(slot: Slot) -> None:
+            try:
+                where = check(slot.value)
+            except Unserialisable as exc:
+                raise PluginError(f"sensor {slot.name!r} ({slot.origin}) returned a reading that cannot be "
+                                  f"serialised: {exc} ({type(slot.value).__name__} from read())",
+                                  type_name=slot.origin) from None
+            if where is None:
+                return
+            flag = self.flags.get(slot.name)
+            if flag is None:
+                self.flags[slot.name] = {"count": 1, "first_tick": self.world.tick, "field": where}
+                self._tracer(slot.name)("nonfinite", field=where)
+            else:
+                flag["count"] += 1
+
+        return after_read
 
     def _tracer(self, source: str) -> Callable[..., None]:
         def trace(kind: str, **data: Any) -> None:
@@ -376,8 +385,10 @@ class Simulation:
     def _warnings(self) -> list[str]:
         lines = []
         for name, flag in self.flags.items():
+            checked = self._checks[name].checked
             lines.append(f"sensor {name!r} ({self._origins.get(name, '?')}) returned non-finite values in "
-                         f"{flag['count']} reading(s); first at tick {flag['first_tick']} ({flag['field']})")
+                         f"{flag['count']} of {checked} reading(s) checked; first at tick {flag['first_tick']} "
+                         f"({flag['field']})")
         return lines
 
     def _behaviour_result(self) -> dict[str, Any]:
