@@ -53,6 +53,8 @@ def to_jsonable(value: Any, max_array: int = 64) -> Any:
         return {str(k): to_jsonable(v, max_array) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
         return [to_jsonable(v, max_array) for v in value]
+    if isinstance(value, (set, frozenset)):
+        return sorted((to_jsonable(v, max_array) for v in value), key=repr)
     if hasattr(value, "tolist") and hasattr(value, "shape"):
         if getattr(value, "size", 0) > max_array:
             return {"shape": list(value.shape), "dtype": str(value.dtype)}

@@ -1,7 +1,7 @@
 """Checking sensor readings: non-finite numbers are flagged, values that cannot be serialised are refused.
 
 A reading may be made of ``None``, bools, ints, floats, strings, enums, numpy scalars and numeric arrays, and
-tuples (named or not), lists, dicts and dataclasses of those: what :func:`robokit_behaviours.record.to_jsonable`
+tuples (named or not), lists, sets, dicts and dataclasses of those: what :func:`robokit_behaviours.record.to_jsonable`
 and the result writer turn into JSON without guessing. Anything else (a socket, a lock, an open file, a custom
 object) cannot go into a trace or a result, and the sensor that returned it is named.
 
@@ -117,7 +117,7 @@ def _walker_for(kind: type) -> Walker:  # noqa: PLR0911 - one return per kind of
         return _array
     if issubclass(kind, tuple) and hasattr(kind, "_fields"):
         return _named(tuple(kind._fields))  # type: ignore[attr-defined]
-    if issubclass(kind, (tuple, list)):
+    if issubclass(kind, (tuple, list, set, frozenset)):
         return _sequence
     if issubclass(kind, Mapping):
         return _mapping
