@@ -167,7 +167,15 @@ class HttpSender:
         self.token_env = token_env
         self._sessions: dict[HttpOptions, Any] = {}
 
+    def target(self, entry: Entry) -> str:
+        """Where an entry is really sent (the override URL, else the entry's own)."""
+        return self.url or entry.url
+
     def __call__(self, entry: Entry) -> SendResult:
+        url = self.target(entry)
+        problem = url_problem(url)
+        if problem:  # it can never be delivered: refuse it for good (to failed/), do not block the others
+            return SendResult(False, True, None, f"malformed URL {url!r}: {problem}; not sent")
         opts = HttpOptions.from_mapping(entry.options)
         if self.token_env is not None:
             opts = HttpOptions.from_mapping({**opts.to_dict(), "token_env": self.token_env})
@@ -180,7 +188,7 @@ class HttpSender:
             return SendResult(False, False, None, f"environment variable {opts.token_env} is not set: not sent")
         if opts not in self._sessions:
             self._sessions[opts] = make_session(opts)
-        result = post(self._sessions[opts], self.url or entry.url, body, entry.run_id, opts, token)
+        result = post(self._sessions[opts], url, body, entry.run_id, opts, token)
         return _redact(result, token)
 
     def close(self) -> None:
@@ -198,8 +206,13 @@ def post(session: Any, url: str, body: bytes, run_id: str, opts: HttpOptions, to
     try:
         resp = session.post(url, data=body, headers=headers, timeout=(opts.connect_timeout, opts.read_timeout),
                             verify=opts.verify, allow_redirects=False, auth=_Bearer(token) if token else None)
+    except (requests.exceptions.InvalidURL, requests.exceptions.InvalidSchema,
+            requests.exceptions.MissingSchema) as exc:  # can never work: refused for good
+        return SendResult(False, True, None, f"malformed URL {url!r}: {' '.join(str(exc).split())[:160]}")
     except requests.RequestException as exc:
         return SendResult(False, False, None, _describe(exc, opts))
+    except OSError as exc:  # not the network: e.g. the CA bundle named by `verify` cannot be read
+        return SendResult(False, False, None, f"could not send ({type(exc).__name__}: {exc})")
     text = resp.text[:_MAX_BODY]
     first_line = " ".join(text.split())[:200]
     if 200 <= resp.status_code < 300:
@@ -305,6 +318,7 @@ class HttpReporter(Reporter):
             with outbox.lock(str(payload["run_id"])):
                 entry = outbox.put(payload, url, opts.to_dict())  # write-ahead: a crash from here on resends
                 outcome, entry, result = outbox.attempt(entry, sender)
+                outbox.drop_lock_file(str(payload["run_id"]))
         except Interrupted as exc:  # Ctrl-C while sending: the entry was written first, so it waits in the outbox
             path = outbox.path_for(str(payload["run_id"]))
             kept = path if path.exists() else None
@@ -312,7 +326,7 @@ class HttpReporter(Reporter):
                             f"interrupted ({exc.reason}) while sending; "
                             + (f"result kept in the outbox {kept} - `robokit outbox flush --dir {outbox.root}` "
                                "sends it" if kept else "not kept in the outbox"))
-        except OSError as exc:  # the outbox cannot be written: still try to deliver, without a safety net
+        except OSError as exc:  # the outbox cannot be written (sending never raises it): deliver without a net
             result = sender(Entry(outbox.path_for(str(payload["run_id"])), {
                 "run_id": payload["run_id"], "url": url, "payload": payload, "options": opts.to_dict()}))
             if result.ok:

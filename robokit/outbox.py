@@ -56,6 +56,17 @@ class SendResult:
     body: str = ""
 
 
+class OutboxError(OSError):
+    """The outbox's own files could not be written or removed (a filesystem problem, not a network one)."""
+
+
+def _write(path: Path, data: dict[str, Any]) -> None:
+    try:
+        write_json_atomic(path, data, overwrite=True)
+    except OSError as exc:
+        raise OutboxError(f"outbox {path}: cannot write: {exc.strerror or exc}") from None
+
+
 Sender = Callable[["Entry"], SendResult]
 """Sends one entry (``entry.url``, ``entry.payload``, ``entry.options``) and says what happened."""
 
@@ -142,6 +153,16 @@ class Outbox:
         self.locks_dir.mkdir(parents=True, exist_ok=True)
         return FileLock(str(self.locks_dir / f"{run_id}.lock"), timeout=timeout)
 
+    def drop_lock_file(self, run_id: str) -> None:
+        """Delete a settled entry's lock file (call with the lock held, after the entry was delivered or moved).
+
+        Safe because every sender re-reads the entry under the lock: whoever locks the old or a new lock file
+        afterwards finds no entry and sends nothing. (A waiting entry keeps its lock file: two senders holding
+        different lock files for it could both send it.)
+        """
+        if not self.path_for(run_id).exists():
+            (self.locks_dir / f"{run_id}.lock").unlink(missing_ok=True)
+
     def put(self, payload: dict[str, Any], url: str, options: dict[str, Any] | None = None, *,
             last_error: str | None = None) -> Entry:
         """Write a new entry atomically (call with the entry's lock held). Returns it."""
@@ -151,7 +172,7 @@ class Outbox:
                 "attempts": 0, "last_error": last_error, "last_attempt": None, "options": dict(options or {}),
                 "payload": payload}
         entry = Entry(self.path_for(run_id), data)
-        write_json_atomic(entry.path, data, overwrite=True)
+        _write(entry.path, data)
         return entry
 
     def load(self, run_id: str) -> Entry | None:
@@ -170,9 +191,29 @@ class Outbox:
         """Entries the server refused, oldest first."""
         return self._read_all(self.failed_dir)
 
-    def unreadable(self) -> list[Path]:
-        """Entry files that are not valid JSON entries (never produced by robokit's atomic writes)."""
-        return [p for p in sorted(self.root.glob("*.json")) if self._read(p) is None]
+    def unreadable(self) -> list[tuple[Path, str]]:
+        """Entry files that cannot be used, with why: not readable (a filesystem error, said as such), not a JSON
+        entry (never produced by robokit's atomic writes), or a run id that cannot name an outbox file."""
+        found = []
+        for path in sorted(self.root.glob("*.json")):
+            why = self._problem(path)
+            if why is not None:
+                found.append((path, why))
+        return found
+
+    @classmethod
+    def _problem(cls, path: Path) -> str | None:
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+        except OSError as exc:
+            return f"cannot be read: {exc.strerror or exc}"
+        except ValueError:
+            return "not a robokit outbox entry (not JSON)"
+        if not isinstance(data, dict) or not {"run_id", "url", "payload"} <= data.keys():
+            return "not a robokit outbox entry (no run_id, url and payload)"
+        if not _SAFE_ID.match(str(data["run_id"])):
+            return f"run id {str(data['run_id'])[:40]!r} cannot name an outbox file: skipped"
+        return None
 
     @classmethod
     def _read_all(cls, folder: Path) -> list[Entry]:
@@ -186,6 +227,8 @@ class Outbox:
         except (OSError, ValueError):
             return None
         if not isinstance(data, dict) or not {"run_id", "url", "payload"} <= data.keys():
+            return None
+        if not _SAFE_ID.match(str(data["run_id"])):
             return None
         return Entry(path, data)
 
@@ -201,42 +244,62 @@ class Outbox:
         """
         data = {**entry.data, "attempts": entry.attempts + 1, "last_error": IN_FLIGHT, "last_attempt": _now_iso()}
         entry = Entry(entry.path, data)
-        write_json_atomic(entry.path, data, overwrite=True)
+        _write(entry.path, data)
         try:
             result = send(entry)
         except KeyboardInterrupt:  # Ctrl-C mid-send: say so in the entry (it is sent again by the next flush)
             stopped = {**data, "last_error": "interrupted (Ctrl-C / SIGTERM) while sending; no answer recorded"}
-            write_json_atomic(entry.path, stopped, overwrite=True)
+            _write(entry.path, stopped)
             raise
         if result.ok:
-            entry.path.unlink(missing_ok=True)
+            try:
+                entry.path.unlink(missing_ok=True)
+            except OSError as exc:  # delivered, but it would be sent again (the server dedups by run id)
+                raise OutboxError(f"outbox {entry.path}: delivered, but the entry cannot be removed: "
+                                  f"{exc.strerror or exc}") from None
             return "delivered", entry, result
         if result.permanent:
             return "failed", self._move_to_failed(entry, result), result
         data = {**data, "last_error": result.detail or "not delivered"}
-        write_json_atomic(entry.path, data, overwrite=True)
+        _write(entry.path, data)
         return "waiting", Entry(entry.path, data), result
 
     def _move_to_failed(self, entry: Entry, result: SendResult) -> Entry:
         data = {**entry.data, "last_error": result.detail,
                 "server_answer": {"status": result.status, "body": result.body, "at": _now_iso()}}
         failed = Entry(self.failed_dir / entry.path.name, data)
-        write_json_atomic(failed.path, data, overwrite=True)
-        entry.path.unlink(missing_ok=True)
+        _write(failed.path, data)
+        try:
+            entry.path.unlink(missing_ok=True)
+        except OSError as exc:
+            raise OutboxError(f"outbox {entry.path}: cannot remove the entry: {exc.strerror or exc}") from None
         return failed
 
     def flush(self, send: Sender, *, stop_on_transient: bool = True, url: str | None = None) -> FlushReport:
         """Deliver waiting entries, oldest first, one at a time under each entry's lock.
 
+        An entry that can never be delivered (refused with a 4xx, a malformed URL) moves to ``failed/`` and the
+        flush goes on; entries whose file cannot be used (unreadable, not an entry, a bad run id) are skipped with
+        a warning line.
+
         Args:
-            send: Delivers one entry (see :data:`Sender`).
-            stop_on_transient: Stop at the first entry that could not be delivered for a reason that may pass
-                (server down, 5xx, timeout): the later entries are left for the next flush, in order.
+            send: Delivers one entry (see :data:`Sender`); its ``target`` attribute, if any, maps an entry to where
+                it is really sent (a flush with ``--url`` sends every entry to one place).
+            stop_on_transient: After an entry could not be delivered for a reason that may pass (server down,
+                5xx, timeout), leave the later entries *for the same destination* for the next flush, in order;
+                entries for other servers are still tried.
             url: Only entries made for this URL (None: all).
         """
+        target = getattr(send, "target", None) or (lambda e: e.url)
         report = FlushReport()
+        for path, why in self.unreadable():
+            report.lines.append(f"warning: {path}: {why}")
         pending = [e for e in self.entries() if url is None or e.url == url]
-        for i, snapshot in enumerate(pending):
+        down: set[str] = set()  # destinations that just failed for a passing reason (server down, 5xx)
+        for snapshot in pending:
+            if stop_on_transient and target(snapshot) in down:
+                report.not_tried.append(snapshot.run_id)  # same server: try again later, in order
+                continue
             lock = self.lock(snapshot.run_id, timeout=0)
             try:
                 lock.acquire()
@@ -248,13 +311,13 @@ class Outbox:
                 if entry is None:
                     continue
                 outcome, entry, result = self.attempt(entry, send)
+                self.drop_lock_file(snapshot.run_id)
             finally:
                 lock.release()
             getattr(report, outcome).append(entry.run_id)
             report.lines.append(_line(outcome, entry, result))
-            if outcome == "waiting" and stop_on_transient:
-                report.not_tried.extend(e.run_id for e in pending[i + 1:])
-                break
+            if outcome == "waiting":
+                down.add(target(snapshot))
         return report
 
 

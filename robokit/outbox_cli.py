@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import json
+from pathlib import Path
 from typing import Any
 
 DEFAULT_DIR = "outbox"
@@ -20,13 +21,13 @@ def add_outbox_command(sub: Any) -> None:
     cmds.required = True
 
     lst = cmds.add_parser("list", help="show waiting results: run id, age, attempts, last error")
-    lst.add_argument("--dir", default=DEFAULT_DIR, help=f"outbox folder (default: ./{DEFAULT_DIR})")
+    lst.add_argument("--dir", help=f"outbox folder (default: ./{DEFAULT_DIR})")
     lst.add_argument("--json", action="store_true", help="print the entries as JSON (without payloads)")
     lst.add_argument("--failed", action="store_true", help="show the entries in failed/ (refused by the server)")
     lst.set_defaults(func=cmd_list)
 
     flush = cmds.add_parser("flush", help="deliver waiting results, oldest first")
-    flush.add_argument("--dir", default=DEFAULT_DIR, help=f"outbox folder (default: ./{DEFAULT_DIR})")
+    flush.add_argument("--dir", help=f"outbox folder (default: ./{DEFAULT_DIR})")
     flush.add_argument("--url", help="send every entry to this URL instead of the one it was made for")
     flush.add_argument("--token-env", metavar="NAME",
                        help="read the bearer token from this environment variable instead of the entry's")
@@ -52,15 +53,34 @@ def _row(entry: Any) -> dict[str, Any]:
             "last_error": entry.last_error, "url": entry.url, "created": entry.data.get("created")}
 
 
+def _folder(args: argparse.Namespace) -> Path:
+    """The outbox folder: ``--dir`` must be an existing folder; the default ``./outbox`` may be missing (nothing
+    was ever queued)."""
+    from robokit.errors import UserError
+
+    if args.dir is None:
+        path = Path(DEFAULT_DIR)
+        if path.exists() and not path.is_dir():
+            raise UserError(f"outbox {path}: is not a folder")
+        return path
+    path = Path(args.dir)
+    if not path.exists():
+        raise UserError(f"--dir {path}: no such folder")
+    if not path.is_dir():
+        raise UserError(f"--dir {path}: is not a folder")
+    return path
+
+
 def cmd_list(args: argparse.Namespace) -> int:
     """Print what waits (oldest first), then how many entries were refused and sit in ``failed/``."""
     from robokit.outbox import Outbox
 
-    box = Outbox(args.dir)
+    box = Outbox(_folder(args))
     waiting, failed, broken = box.entries(), box.failed(), box.unreadable()
     if args.json:
         print(json.dumps({"dir": str(box.root), "waiting": [_row(e) for e in waiting],
-                          "failed": [_row(e) for e in failed], "unreadable": [str(p) for p in broken]}, indent=2))
+                          "failed": [_row(e) for e in failed],
+                          "unreadable": [{"path": str(p), "why": why} for p, why in broken]}, indent=2))
         return 0
     shown = failed if args.failed else waiting
     if shown:
@@ -68,29 +88,34 @@ def cmd_list(args: argparse.Namespace) -> int:
     for e in shown:
         print(f"{e.run_id:<36}  {_age(e.age):>7}  {e.attempts:>8}  {e.last_error or '-'}")
     print(f"{len(waiting)} waiting in {box.root}; {len(failed)} refused in {box.failed_dir}")
-    for path in broken:
-        print(f"unreadable (not a robokit outbox entry): {path}")
+    for path, why in broken:
+        print(f"warning: {path}: {why}")
     return 0
 
 
 def cmd_flush(args: argparse.Namespace) -> int:
     """Deliver oldest first; print one line per entry and a count. Exit 0 only if nothing is left waiting."""
-    from robokit_plugins.http_report import HttpSender
+    from robokit_plugins.http_report import HttpSender, url_problem
 
     from robokit.errors import UserError
-    from robokit.outbox import Outbox
+    from robokit.outbox import Outbox, OutboxError
 
-    box = Outbox(args.dir)
+    if args.url is not None and url_problem(args.url):
+        raise UserError(f"--url {args.url!r}: {url_problem(args.url)}")
+    box = Outbox(_folder(args))
     sender = HttpSender(url=args.url, token_env=args.token_env)
     try:
         report = box.flush(sender, stop_on_transient=not args.keep_going)
+    except OutboxError as exc:  # a filesystem problem, said as such
+        raise UserError(str(exc)) from None
     except OSError as exc:
-        raise UserError(f"outbox {box.root}: {exc}") from None
+        raise UserError(f"outbox {box.root}: {exc.strerror or exc}") from None
     finally:
         sender.close()
     for line in report.lines:
         print(line)
     if report.not_tried:
-        print(f"{len(report.not_tried)} newer entries not tried after a failure (use --keep-going to try them)")
+        print(f"{len(report.not_tried)} newer entries for a server that just failed were not tried "
+              "(use --keep-going to try them)")
     print(f"outbox {box.root}: {report.counts()}")
     return 0 if report.clean else 1
