@@ -65,11 +65,6 @@ class IkArmConfig(Schema):
     velocity_gain: float = Field(1.0, ge=0)
 
 
-def _smoothstep(x: float) -> float:
-    x = min(1.0, max(0.0, x))
-    return x * x * (3.0 - 2.0 * x)
-
-
 def _rotvec(current: Quat, target: Quat) -> np.ndarray:
     """Rotation vector (world frame, radians) taking ``current`` to ``target``."""
     cx, cy, cz, cw = current
@@ -270,36 +265,46 @@ class IkArm(Actuator):
         self.path = qs
         self.t0 = self.world.time
         self.duration = max(1.5 * dist / speed, 1.5 * ang / cfg.angular_speed, cfg.min_duration)
+        self._profile()
         return ""
+
+    def _profile(self) -> None:
+        """Joint targets and feed-forward velocities for every tick of the path, computed once (numpy).
+
+        Row ``k`` is what the motors get ``k`` ticks after the command: the waypoints interpolated at the smooth
+        (zero end-velocity) time profile, and the difference to the next row over one time step.
+        """
+        assert self.path is not None
+        dt = self.world.time_step
+        ks = np.arange(math.ceil(self.duration / dt) + 2)
+        x = ks * dt / self.duration
+        s = np.clip(x, 0.0, 1.0)
+        s = s * s * (3.0 - 2.0 * s) * (len(self.path) - 1)
+        points = np.array(self.path)
+        if len(points) > 1:
+            k = np.minimum(s.astype(int), len(points) - 2)
+            f = (s - k)[:, None]
+            q = (1.0 - f) * points[k] + f * points[k + 1]
+        else:
+            q = np.repeat(points, len(ks), axis=0)
+        self._rows = int(np.count_nonzero(x < 1.0))  # rows while the path runs; then the last point is held
+        self._q, self._qd = q, (q[1:] - q[:-1]) / dt
+        self._tick0 = self.world.tick
 
     # ------------------------------------------------------------------ per tick
     def update(self) -> None:
-        """Send this tick's interpolated joint targets (with feed-forward velocity) to the motors; once the path
-        is over (or with no path), the hold target is sent once and nothing after it."""
-        if self.path is None:
-            if not self._holding:
-                self._apply(self.q_cmd, None)
-            return
-        dt = self.world.time_step
-        tau = (self.world.time - self.t0) / self.duration
-        if tau >= 1.0:
+        """Send this tick's joint targets (with feed-forward velocity) to the motors; once the path is over (or
+        with no path), the hold target is sent once and nothing after it."""
+        if self.path is not None:
+            row = self.world.tick - self._tick0
+            if row < self._rows:
+                self.q_cmd = self._q[row]
+                self._apply(self.q_cmd, self._qd[row])
+                return
             if not self._holding:
                 self.q_cmd = self.path[-1]
-                self._apply(self.q_cmd, None)
-            return
-        q_now = self._interp(_smoothstep(tau))
-        q_next = self._interp(_smoothstep(tau + dt / self.duration))
-        self.q_cmd = q_now
-        self._apply(q_now, (q_next - q_now) / dt)
-
-    def _interp(self, s: float) -> np.ndarray:
-        assert self.path is not None
-        x = s * (len(self.path) - 1)
-        k = min(int(x), len(self.path) - 2) if len(self.path) > 1 else 0
-        if len(self.path) == 1:
-            return self.path[0]
-        f = x - k
-        return (1 - f) * self.path[k] + f * self.path[k + 1]  # type: ignore[no-any-return]
+        if not self._holding:
+            self._apply(self.q_cmd, None)
 
     def _apply(self, q: np.ndarray, qd: np.ndarray | None) -> None:
         """Send joint targets (``qd`` None: hold, zero target velocity)."""
@@ -320,7 +325,8 @@ class IkArm(Actuator):
         target = self.target
         if target is not None:
             ep = math.dist(pos, target[0])
-            eo = quat_angle(orn, target[1])
+            to = target[1]
+            eo = 2.0 * math.acos(min(1.0, abs(orn[0] * to[0] + orn[1] * to[1] + orn[2] * to[2] + orn[3] * to[3])))
         self._update_status(ep, eo)
         states = client.getJointStates(self.body, self._movable_indices)
         return ArmState(

@@ -136,8 +136,12 @@ class Chain:
 
     def fk(self, q: np.ndarray) -> tuple[np.ndarray, tuple[float, float, float, float]]:
         """Position (m, world) and orientation ``(x, y, z, w)`` of the end link's URDF frame at joints ``q``."""
-        frame, _, _ = self.frames(q)
-        return frame[:3, 3].copy(), quaternion_of(frame[:3, :3])
+        motions = self._motions(q)
+        t = self.constants[0] @ motions[0] if len(motions) else np.eye(4)
+        for i in range(1, len(motions)):
+            t = t @ self.constants[i] @ motions[i]
+        t = t @ self.tail
+        return t[:3, 3].copy(), quaternion_of(t[:3, :3])
 
     def jacobian(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, tuple[float, float, float, float]]:
         """6 x n geometric Jacobian (linear rows first) of the end link's frame origin over :attr:`columns`,
