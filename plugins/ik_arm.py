@@ -44,6 +44,9 @@ class IkArmConfig(Schema):
 
     body: str = Field(description="the robot's body name")
     ee_link: str = Field(description="end-effector link, e.g. panda_grasptarget")
+    ee_offset: tuple[float, float, float] = Field(
+        (0.0, 0.0, 0.0), description="tool-centre point in the end-effector link's frame, metres (e.g. between "
+                                     "the fingertips of a gripper whose model has no such link)")
     ready_pose: dict[str, float] = Field(default_factory=dict, description="joint name -> start position")
     rest_pose: dict[str, float] = Field(default_factory=dict, description="null-space rest; default ready_pose")
     limits: dict[str, tuple[float, float]] = Field(default_factory=dict, description="override URDF limits")
@@ -114,6 +117,12 @@ class IkArm(Actuator):
         self.ee = ctx.link(cfg.body, cfg.ee_link, key="ee_link")
         if self.ee < 0:
             raise ConfigError(f"the end-effector link must not be the base link {cfg.ee_link!r}", key="ee_link")
+        self.offset = np.asarray(cfg.ee_offset, float)
+        self._has_offset = bool(np.any(self.offset))
+        # calculateJacobian wants the point in the link's centre-of-mass frame, not its URDF frame.
+        inertial = w.client.getLinkState(self.body, self.ee)[2:4]
+        ipos, iorn = w.client.invertTransform(inertial[0], inertial[1])
+        self.jac_point = list(w.client.multiplyTransforms(ipos, iorn, list(self.offset), [0, 0, 0, 1])[0])
         self.movable = [j for j in w.joints(cfg.body) if j.movable]
         self.arm = self._arm_joints()
         if not self.arm:
@@ -189,7 +198,14 @@ class IkArm(Actuator):
         for j, q in zip(self.movable, q_all, strict=True):
             client.resetJointState(self.body, j.index, float(q))
         s = client.getLinkState(self.body, self.ee, computeForwardKinematics=True)
-        return np.array(s[4]), tuple(s[5])  # type: ignore[return-value]
+        return self._tcp(s[4], s[5]), tuple(s[5])  # type: ignore[return-value]
+
+    def _tcp(self, link_pos: Any, link_orn: Any) -> np.ndarray:
+        """The tool-centre point (world frame) from the end-effector link's frame."""
+        if not self._has_offset:
+            return np.array(link_pos)
+        rot = np.array(self.world.client.getMatrixFromQuaternion(link_orn)).reshape(3, 3)
+        return np.array(link_pos) + rot @ self.offset
 
     def _solve(self, q_all: np.ndarray, pos: np.ndarray, orn: Quat) -> tuple[np.ndarray, float, float]:
         """Damped least squares from ``q_all``; returns (solution, position residual m, angle residual rad)."""
@@ -203,7 +219,7 @@ class IkArm(Actuator):
             ep, eo = pos - cur, _rotvec(corn, orn)
             if np.linalg.norm(ep) < cfg.ik_tolerance and np.linalg.norm(eo) < cfg.ik_tolerance * 4:
                 break
-            jl, ja = self.world.client.calculateJacobian(self.body, self.ee, [0.0, 0.0, 0.0], list(q), zeros, zeros)
+            jl, ja = self.world.client.calculateJacobian(self.body, self.ee, self.jac_point, list(q), zeros, zeros)
             jac = np.vstack([np.asarray(jl), np.asarray(ja)])[:, cols]
             err = np.concatenate([ep, eo])
             jjt = jac @ jac.T + 1e-4 * np.eye(6)
@@ -292,7 +308,7 @@ class IkArm(Actuator):
     def read(self) -> ArmState:
         """End-effector pose and the state of the current target (see :class:`ArmState`)."""
         s = self.world.client.getLinkState(self.body, self.ee, computeForwardKinematics=True)
-        pos, orn = tuple(s[4]), tuple(s[5])
+        pos, orn = tuple(float(v) for v in self._tcp(s[4], s[5])), tuple(s[5])
         ep = eo = 0.0
         if self.target is not None:
             ep = float(np.linalg.norm(np.subtract(pos, self.target[0])))
