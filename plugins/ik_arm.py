@@ -47,6 +47,9 @@ class IkArmConfig(Schema):
     ee_offset: tuple[float, float, float] = Field(
         (0.0, 0.0, 0.0), description="tool-centre point in the end-effector link's frame, metres (e.g. between "
                                      "the fingertips of a gripper whose model has no such link)")
+    ee_rpy_deg: tuple[float, float, float] = Field(
+        (0.0, 0.0, 0.0), description="tool frame's orientation in the end-effector link's frame (roll, pitch, yaw), "
+                                     "degrees: targets are poses of this frame")
     ready_pose: dict[str, float] = Field(default_factory=dict, description="joint name -> start position")
     rest_pose: dict[str, float] = Field(default_factory=dict, description="null-space rest; default ready_pose")
     limits: dict[str, tuple[float, float]] = Field(default_factory=dict, description="override URDF limits")
@@ -119,6 +122,8 @@ class IkArm(Actuator):
             raise ConfigError(f"the end-effector link must not be the base link {cfg.ee_link!r}", key="ee_link")
         self.offset = np.asarray(cfg.ee_offset, float)
         self._has_offset = bool(np.any(self.offset))
+        self.tool_orn = w.client.getQuaternionFromEuler([math.radians(a) for a in cfg.ee_rpy_deg])
+        self._has_tool_orn = any(cfg.ee_rpy_deg)
         # calculateJacobian wants the point in the link's centre-of-mass frame, not its URDF frame.
         inertial = w.client.getLinkState(self.body, self.ee)[2:4]
         ipos, iorn = w.client.invertTransform(inertial[0], inertial[1])
@@ -198,7 +203,7 @@ class IkArm(Actuator):
         for j, q in zip(self.movable, q_all, strict=True):
             client.resetJointState(self.body, j.index, float(q))
         s = client.getLinkState(self.body, self.ee, computeForwardKinematics=True)
-        return self._tcp(s[4], s[5]), tuple(s[5])  # type: ignore[return-value]
+        return self._tcp(s[4], s[5]), self._tool_orientation(s[5])
 
     def _tcp(self, link_pos: Any, link_orn: Any) -> np.ndarray:
         """The tool-centre point (world frame) from the end-effector link's frame."""
@@ -206,6 +211,12 @@ class IkArm(Actuator):
             return np.array(link_pos)
         rot = np.array(self.world.client.getMatrixFromQuaternion(link_orn)).reshape(3, 3)
         return np.array(link_pos) + rot @ self.offset
+
+    def _tool_orientation(self, link_orn: Any) -> Quat:
+        """The tool frame's orientation (world frame) from the end-effector link's."""
+        if not self._has_tool_orn:
+            return tuple(link_orn)  # type: ignore[return-value]
+        return quat_multiply(tuple(link_orn), self.tool_orn)  # type: ignore[arg-type]
 
     def _solve(self, q_all: np.ndarray, pos: np.ndarray, orn: Quat) -> tuple[np.ndarray, float, float]:
         """Damped least squares from ``q_all``; returns (solution, position residual m, angle residual rad)."""
@@ -308,7 +319,7 @@ class IkArm(Actuator):
     def read(self) -> ArmState:
         """End-effector pose and the state of the current target (see :class:`ArmState`)."""
         s = self.world.client.getLinkState(self.body, self.ee, computeForwardKinematics=True)
-        pos, orn = tuple(float(v) for v in self._tcp(s[4], s[5])), tuple(s[5])
+        pos, orn = tuple(float(v) for v in self._tcp(s[4], s[5])), self._tool_orientation(s[5])
         ep = eo = 0.0
         if self.target is not None:
             ep = float(np.linalg.norm(np.subtract(pos, self.target[0])))

@@ -139,6 +139,8 @@ class World:
             except p.error as exc:
                 raise UserError(f"could not start PyBullet ({'GUI: is a display available?' if gui else exc})") from exc
         self._bodies: dict[str, int] = {}
+        self.mounts: dict[int, int] = {}
+        """Mounted body id -> the body id it is mounted on (see :meth:`mount`)."""
         self._names: dict[int, str] = {}
         self._joint_cache: dict[int, list[JointInfo]] = {}
         self._cid = int(self.client._client)
@@ -384,7 +386,22 @@ class World:
         constraint = c.createConstraint(pid, link, cid, -1, c.JOINT_FIXED, [0, 0, 0], fpos, cpos,
                                         parentFrameOrientation=forn, childFrameOrientation=corn)
         c.changeConstraint(constraint, maxForce=max_force)
+        # The tool sits against the flange: those two must not collide (it would fight the joint).
+        c.setCollisionFilterPair(pid, cid, link, -1, 0)
+        self.mounts[cid] = pid
         return int(constraint)
+
+    def attached(self, body: str | int) -> set[int]:
+        """Ids of the bodies joined to ``body`` by mounts, directly or through others (``body`` included)."""
+        group = {self.body(body)}
+        grew = True
+        while grew:
+            grew = False
+            for child, parent in self.mounts.items():
+                if (child in group) != (parent in group):
+                    group |= {child, parent}
+                    grew = True
+        return group
 
     def remove_body(self, name: str) -> None:
         """Remove a body from the simulation and the registry."""
