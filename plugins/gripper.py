@@ -115,6 +115,8 @@ class Gripper(Actuator):
             ratio = (self.open_q[1] - self.closed_q[1]) / (self.open_q[0] - self.closed_q[0])
             self.gears.append(self._gear(a.index, b.index, ratio))
         for follower, ratio in self.followers:
+            # A follower is moved by its gear only: switch off the default velocity motor that would hold it.
+            w.client.setJointMotorControl2(self.body, follower.index, w.client.VELOCITY_CONTROL, force=0.0)
             self.gears.append(self._gear(self.fingers[0].index, follower.index, ratio))
         self.action, self.force = "open", cfg.force
         self.target = self.open_width if cfg.start_open else 0.0

@@ -484,16 +484,19 @@ class World:
     def link(self, body: str | int, link_name: str) -> int:
         """Link index by name: ``-1`` for the base link, else the index of the joint whose child it is.
 
+        ``"base"`` names the base link of any body. A primitive body (``shape = ...``) has only that link, which
+        pybullet calls ``link0``; both names work.
+
         Raises:
             LookupNameError: The body has no such link; the message lists its links.
         """
-        if link_name == self.base_link_name(body):
+        if link_name == "base" or link_name == self.base_link_name(body):
             return -1
         infos = self.joints(body)
         for info in infos:
             if info.child_link == link_name:
                 return info.index
-        valid = [self.base_link_name(body)] + [j.child_link for j in infos]
+        valid = ["base", self.base_link_name(body)] + [j.child_link for j in infos]
         raise LookupNameError("link", link_name, valid, where=self._label(body))
 
     def link_names(self, body: str | int) -> list[str]:
