@@ -16,7 +16,7 @@ With two fingers they are coupled by a gear constraint (ratio from their travel 
 when contact forces push them unevenly; each is position-controlled with a moderate force limit. Finger lateral
 friction is raised (default 1.2) so a squeezed object is held by friction, as on a real robot; nothing is welded.
 
-Readings (:class:`~robokit_plugins.arm_types.GripperState`): ``width``, ``settled`` (width steady for
+Readings (:class:`~robokit.msgs.arm.GripperState`): ``width``, ``settled`` (width steady for
 ``settle_time``), ``holding`` (both fingers — each finger joint's child link and every link below it, or the links
 named in ``finger_links`` — touch the same body and the width is above ``empty_width``) and the held body's name.
 """
@@ -26,12 +26,12 @@ from __future__ import annotations
 from typing import Any, ClassVar
 
 from pydantic import Field, model_validator
-from robokit_plugins.arm_types import GripperCommand, GripperState
 
 from robokit import hookimpl
 from robokit.components import Actuator, SetupContext
 from robokit.config import Schema
 from robokit.errors import ConfigError
+from robokit.msgs.arm import GripperCommand, GripperState
 
 
 class GripperConfig(Schema):

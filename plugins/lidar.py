@@ -4,7 +4,7 @@ The sensor sits on a named link of a robot (plus an offset in that link's frame)
 or, with ``position`` (and ``rpy_deg``) instead of ``robot``/``link``, at a fixed pose in the world (a sensor on a
 stand: lesson 04's single ray pointing down is ``rays = 1`` with ``rpy_deg = [0, 90, 0]``, its ray along the
 sensor's +x turned to point at the floor).
-Readings follow ROS ``sensor_msgs/LaserScan`` (see :class:`~robokit_plugins.mobile_types.LaserScan`): ranges in
+Readings follow ROS ``sensor_msgs/LaserScan`` (see :class:`~robokit.msgs.mobile.LaserScan`): ranges in
 metres, ``+inf`` for no return, plus the hit points in the world frame. Rays start ``range_min`` from the sensor,
 and the robot's own links are left out of the ray test (they are put in a collision group of their own, which
 changes none of their collisions): a sensor inside or next to its robot's shapes does not see the robot itself.
@@ -19,11 +19,11 @@ from typing import Any, ClassVar
 
 import numpy as np
 from pydantic import Field, model_validator
-from robokit_plugins.mobile_types import LaserScan
 
 from robokit import hookimpl
 from robokit.components import Sensor, SetupContext
 from robokit.config import Schema, Vec3
+from robokit.msgs.mobile import LaserScan
 
 OWN_BODY_GROUP = 0x100
 """Collision group the lidar puts its robot's links in (their collisions with other bodies are unchanged)."""
@@ -136,7 +136,8 @@ class Lidar(Sensor):
 
     def _sensor_frame(self) -> tuple[np.ndarray, np.ndarray]:
         """Sensor origin (world, m) and the link's rotation matrix (3x3)."""
-        if self._fixed_frame is not None:
+        if self._fixed_frame is not None or self.body is None:
+            assert self._fixed_frame is not None
             return self._fixed_frame
         pos, orn = self.world.pose(self.body, self.link)
         rot = np.asarray(self.world.client.getMatrixFromQuaternion(orn), float).reshape(3, 3)

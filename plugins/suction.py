@@ -1,14 +1,15 @@
 """``suction`` actuator: a suction cup that holds what it touches, modelled as a constraint.
 
 There is no air flow in pybullet, so suction is modelled the way most simulators model it: while the cup is on
-(``GripperCommand("close")``), the first body other than the robot that touches the cup's link is attached to it
-(never the robot itself, nor a body mounted on it or it on) with a fixed constraint at their relative pose at that moment, with a force limit (``max_force``, newtons: pull
-harder — a collision, a heavy object swinging — and the constraint yields). ``open`` removes the constraint and the
+(``GripperCommand("close")``), the first body that touches the cup's link is attached to it (never the robot
+itself, nor a body mounted on it or it on) with a fixed constraint at their relative pose at that moment, with a
+force limit (``max_force``, newtons: pull harder — a collision, a heavy object swinging — and the constraint
+yields). ``open`` removes the constraint and the
 object falls free. Nothing is attached while the cup is off, and only a body in contact can be picked: a cup that
 stops short of the object holds nothing.
 
-It reads and takes the same messages as ``gripper`` (:class:`~robokit_plugins.arm_types.GripperCommand` in,
-:class:`~robokit_plugins.arm_types.GripperState` out), so ``pick_place`` and ``sort`` drive it unchanged: set their
+It reads and takes the same messages as ``gripper`` (:class:`~robokit.msgs.arm.GripperCommand` in,
+:class:`~robokit.msgs.arm.GripperState` out), so ``pick_place`` and ``sort`` drive it unchanged: set their
 ``grasp_offset`` so that the tool-centre point lands on the object's top face (half the object's height). The
 reported ``width`` is ``open_width`` while the cup is off and 0 while it is on, so a behaviour waiting for an
 opened gripper sees it open at once.
@@ -19,11 +20,11 @@ from __future__ import annotations
 from typing import Any, ClassVar
 
 from pydantic import Field
-from robokit_plugins.arm_types import GripperCommand, GripperState
 
 from robokit import hookimpl
 from robokit.components import Actuator, SetupContext
 from robokit.config import Schema
+from robokit.msgs.arm import GripperCommand, GripperState
 
 
 class SuctionConfig(Schema):

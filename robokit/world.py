@@ -347,7 +347,8 @@ class World:
         for i, body in enumerate(ids):
             rel = c.multiplyTransforms(*inv_first, *link_frame(body))
             new_frame = c.multiplyTransforms(list(position), list(orientation), *rel)
-            c.resetBasePositionAndOrientation(body, *c.multiplyTransforms(*new_frame, *c.getDynamicsInfo(body, -1)[3:5]))
+            inertial = c.getDynamicsInfo(body, -1)[3:5]
+            c.resetBasePositionAndOrientation(body, *c.multiplyTransforms(*new_frame, *inertial))
             if fixed_base:
                 c.changeDynamics(body, -1, mass=0.0)
             self._register(name if i == 0 else f"{name}_{i}", body)

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from robokit.errors import ConfigError
+from robokit.msgs.arm import GripperCommand, JointCommand
 from robokit.testing import make_sim
-from robokit_plugins.arm_types import GripperCommand, JointCommand
 
 ROOT = Path(__file__).resolve().parents[1]
 PLANE = {"urdf": "plane.urdf", "position": [0, 0, 0]}
