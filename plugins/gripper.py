@@ -129,9 +129,13 @@ class Gripper(Actuator):
             w.client.resetJointState(self.body, j.index, q)
         self._speeds = [cfg.finger_speed * abs(o - c) / (self.open_width / 2)
                         for o, c in zip(self.open_q, self.closed_q, strict=True)]
+        self._indices = [j.index for j in self.fingers]
+        self._spans = [o - c for o, c in zip(self.open_q, self.closed_q, strict=True)]
+        self._dirty = True  # motor targets to send at the next update
         self._last_width = self._width()
         self._still_since: float | None = self.world.time
         self._last_t = self.world.time
+        self._tracking = True  # watching the width every tick until it has been still for settle_time
 
     def _finger_link_sets(self, ctx: SetupContext) -> list[set[int]]:
         """Link indices of each finger: configured by name, or each finger joint's child link and its subtree."""
@@ -179,26 +183,45 @@ class Gripper(Actuator):
         else:
             assert cmd.width is not None
             target = min(max(cmd.width, 0.0), self.max_width)
+        force = cmd.force if cmd.force is not None else self.config.force
         if (cmd.action, target) != (self.action, self.target):
             self._still_since = None
-        self.action, self.target = cmd.action, target
-        self.force = cmd.force if cmd.force is not None else self.config.force
+            self._watch()
+        if (cmd.action, target, force) != (self.action, self.target, self.force):
+            self._dirty = True
+        self.action, self.target, self.force = cmd.action, target, force
 
     def update(self) -> None:
-        """Drive the fingers to the target width, within the force and speed limits; hold the held joints."""
-        c = self.world.client
-        for j, q, v in zip(self.fingers, self._joint_targets(self.target), self._speeds, strict=True):
-            c.setJointMotorControl2(self.body, j.index, c.POSITION_CONTROL, targetPosition=q,
-                                    force=self.force, maxVelocity=v)
-        for j, q in self.held_joints:
-            c.setJointMotorControl2(self.body, j.index, c.POSITION_CONTROL, targetPosition=q, force=self.force)
-        self._track_settling()
+        """Drive the fingers to the target width, within the force and speed limits, and hold the held joints
+        (sent when the command changes: the motors keep their targets); watch the width while it may be moving."""
+        if self._dirty:
+            c = self.world.client
+            for j, q, v in zip(self.fingers, self._joint_targets(self.target), self._speeds, strict=True):
+                c.setJointMotorControl2(self.body, j.index, c.POSITION_CONTROL, targetPosition=q,
+                                        force=self.force, maxVelocity=v)
+            for j, q in self.held_joints:
+                c.setJointMotorControl2(self.body, j.index, c.POSITION_CONTROL, targetPosition=q, force=self.force)
+            self._dirty = False
+        if self._tracking:
+            self._track_settling()
+
+    def _width_and_rate(self) -> tuple[float, float]:
+        """Fingertip distance (m) and its rate (m/s), from the finger joints' travel between closed and open
+        (the mean over the fingers)."""
+        states = self.world.client.getJointStates(self.body, self._indices)
+        n = len(states)
+        frac = sum((s[0] - c) / span for s, c, span in zip(states, self.closed_q, self._spans, strict=True)) / n
+        rate = sum(s[1] / span for s, span in zip(states, self._spans, strict=True)) / n
+        return float(self.open_width * frac), float(self.open_width * rate)
 
     def _width(self) -> float:
-        """Fingertip distance (m) from the finger joints' travel between closed and open (mean over fingers)."""
-        states = self.world.client.getJointStates(self.body, [j.index for j in self.fingers])
-        fractions = [(s[0] - c) / (o - c) for s, o, c in zip(states, self.open_q, self.closed_q, strict=True)]
-        return float(self.open_width * sum(fractions) / len(fractions))
+        return self._width_and_rate()[0]
+
+    def _watch(self) -> None:
+        """Start watching the width every tick again (after a new command, or fingers found moving)."""
+        if not self._tracking:
+            self._tracking = True
+            self._last_width, self._last_t = self._width(), self.world.time
 
     def _track_settling(self) -> None:
         cfg: GripperConfig = self.config
@@ -209,6 +232,8 @@ class Gripper(Actuator):
             self._still_since = None
         elif self._still_since is None:
             self._still_since = now
+        elif now - self._still_since >= cfg.settle_time:
+            self._tracking = False  # settled: from now on a read checks the finger speed instead
         self._last_width, self._last_t = width, now
 
     def _finger_touches(self) -> tuple[list[set[int]], int]:
@@ -228,7 +253,10 @@ class Gripper(Actuator):
     def read(self) -> GripperState:
         """Width, settling, and whether (and what) the fingers hold."""
         cfg: GripperConfig = self.config
-        width = self._width()
+        width, rate = self._width_and_rate()
+        if not self._tracking and abs(rate) > cfg.settle_speed:
+            self._still_since = None  # settled fingers pushed open or shut: moving again
+            self._watch()
         touched, total = self._finger_touches()
         common = sorted(touched[0] & touched[1])
         holding = bool(common) and self.action != "open" and width > cfg.empty_width
