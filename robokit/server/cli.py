@@ -106,11 +106,12 @@ def cmd_serve(args: argparse.Namespace) -> int:
           f"waitress, {args.threads} threads; data {folder}) - Ctrl-C stops", flush=True)
     signal.signal(signal.SIGTERM, _raise_interrupt)
     try:
-        server.run()
+        server.run()  # returns on Ctrl-C / SIGTERM (waitress catches the KeyboardInterrupt and closes)
     except KeyboardInterrupt:
-        print("robokit serve: stopped", file=sys.stderr)
+        pass
     finally:
         server.close()
+    print("robokit serve: stopped", file=sys.stderr)
     return 0
 
 
