@@ -33,15 +33,16 @@ def robokit(*args: str, cwd: Path, env: dict[str, str] | None = None, check: boo
 class Server:
     """``robokit serve --data DIR --port P`` in a subprocess; its output is collected for checks."""
 
-    def __init__(self, data: Path, port: int, env: dict[str, str] | None = None) -> None:
-        self.data, self.port = data, port
+    def __init__(self, data: Path, port: int, env: dict[str, str] | None = None, extra: tuple[str, ...] = ()) -> None:
+        self.data, self.port, self.extra = data, port, extra
         self.url = f"http://127.0.0.1:{port}"
         self.env = {**os.environ, **(env or {})}
         self.lines: list[str] = []
         self.proc: subprocess.Popen[str] | None = None
 
     def start(self) -> Server:
-        self.proc = subprocess.Popen([*ROBOKIT, "serve", "--data", str(self.data), "--port", str(self.port)],
+        self.proc = subprocess.Popen([*ROBOKIT, "serve", "--data", str(self.data), "--port", str(self.port),
+                                      *self.extra],
                                      stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=self.env)
         assert self.proc.stdout is not None
         for line in self.proc.stdout:  # blocks until the server says it listens (or exits)
