@@ -247,3 +247,9 @@ def test_artifacts_are_served_only_to_who_may_see_the_run(client: Any, course: C
     resp = client.get(url)
     assert resp.status_code == 200 and resp["Content-Type"] == "image/svg+xml"
     assert "sandbox" in resp["Content-Security-Policy"] and resp["X-Content-Type-Options"] == "nosniff"
+
+
+def test_migrations_match_the_models() -> None:
+    from django.core.management import call_command
+
+    call_command("makemigrations", "course", "--check", "--dry-run", verbosity=0)  # exits 1 if a change is missing
