@@ -205,6 +205,10 @@ CASES: dict[str, Case] = {
     "joint_control unknown joint": Case(actuator(PANDA, "joint_control", 'body = "panda"\n'
                                                                          'targets = { elbow = 1.0 }'),
                                         "actuators.a", "elbow"),
+    "suction max_force zero": Case(actuator(PANDA, "suction", 'body = "panda"\nmax_force = 0'),
+                                   "actuators.a.max_force", "greater than 0"),
+    "suction unknown link": Case(actuator(PANDA, "suction", 'body = "panda"\nlink = "cup"'), "actuators.a.link",
+                                 "panda_hand"),
     "collector max_mass zero": Case(actuator(ROBOT, "collector", "max_mass = 0"), "actuators.a.max_mass",
                                     "greater than 0"),
     # ----------------------------------------------------------------- [behaviour]

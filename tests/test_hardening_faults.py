@@ -270,7 +270,7 @@ def test_nan_readings_are_flagged_in_the_result_and_the_trace(site: Path, capsys
     assert result["outcome"] == "succeeded"
     # reads 3, 4, ... return NaN: 60 Hz for 1 s = reads at ticks 0, 4, ..., 240 -> 61 reads, 59 of them NaN
     assert result["warnings"] == ["sensor 'probe' (type 'misbehaving' from misbehave-dist 0.3) returned non-finite "
-                                  "values in 59 reading(s); first at tick 8 ((value))"]
+                                  "values in 59 of 61 reading(s) checked; first at tick 8 ((value))"]
     records = [json.loads(line) for line in trace.read_text().splitlines()]
     flagged = [r for r in records if r["kind"] == "nonfinite"]
     assert flagged == [{"tick": 8, "t": round(8 / 240, 6), "source": "probe", "kind": "nonfinite", "field": "(value)"}]
