@@ -2,10 +2,15 @@
 
 from __future__ import annotations
 
+import io
 import os
+import re
 import sys
+import tempfile
+from collections import Counter
 from collections.abc import Iterator
 from contextlib import contextmanager
+from dataclasses import dataclass
 
 
 @contextmanager
@@ -67,3 +72,66 @@ def c_stdout_to_stderr() -> Iterator[None]:
         sys.stdout.flush()
         os.dup2(saved, out_fd)
         os.close(saved)
+
+
+_ARGV = re.compile(r"^argv\[\d+\]=\s*$")
+
+
+@dataclass
+class CapturedOutput:
+    """What C code wrote to file descriptor 1 while :func:`capture_c_stdout` was active."""
+
+    text: str = ""
+
+    def lines(self) -> list[str]:
+        """Non-empty lines, without pybullet's empty start-up echo (``argv[0]=``)."""
+        return [line.rstrip() for line in self.text.splitlines() if line.strip() and not _ARGV.match(line)]
+
+    def summary(self) -> str | None:
+        """One line for stderr: how many lines pybullet printed and the most frequent one (None if it printed none)."""
+        lines = self.lines()
+        if not lines:
+            return None
+        counts = Counter(lines)
+        top, n = counts.most_common(1)[0]
+        top = top if len(top) <= 140 else top[:137] + "..."
+        return (f"robokit: pybullet printed {len(lines)} line(s) of its own ({len(counts)} distinct), most often "
+                f"({n}x): {top}")
+
+
+@contextmanager
+def capture_c_stdout() -> Iterator[CapturedOutput]:
+    """Send file descriptor 1 (C libraries' ``printf``: pybullet's b3Warning lines, GUI chatter) to a temporary file.
+
+    Python's ``sys.stdout`` keeps writing to the real standard output: when it is file descriptor 1 it is re-opened
+    on a duplicate of it for the duration. The captured text is in the yielded object afterwards.
+    """
+    captured = CapturedOutput()
+    try:
+        sys.stdout.flush()
+        real = sys.stdout.fileno() == 1
+    except (AttributeError, OSError, ValueError):  # captured or replaced stream (pytest): only fd 1 is redirected
+        real = False
+    _flush_c_stdio()
+    saved = os.dup(1)
+    old_stdout = sys.stdout
+    with tempfile.TemporaryFile() as sink:
+        os.dup2(sink.fileno(), 1)
+        if real:
+            sys.stdout = io.TextIOWrapper(os.fdopen(os.dup(saved), "wb"), encoding=old_stdout.encoding,
+                                          errors=old_stdout.errors, line_buffering=True)
+        try:
+            yield captured
+        finally:
+            _flush_c_stdio()
+            if real:
+                try:
+                    sys.stdout.flush()
+                    sys.stdout.close()
+                except OSError:  # a closed pipe (robokit ... | head): nothing left to write to
+                    pass
+                sys.stdout = old_stdout
+            os.dup2(saved, 1)
+            os.close(saved)
+            sink.seek(0)
+            captured.text = sink.read().decode("utf-8", errors="replace")

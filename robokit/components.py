@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
@@ -52,6 +53,8 @@ class SetupContext:
         components: Every sensor and actuator instance by name (to check what another one is).
         config_dir: Folder of the config file (resolve relative paths against it).
         trace: ``trace(kind, **data)`` appends a record to the run's trace at the current tick.
+        run_dir: The run's record folder (``results/<run_id>``) when the run keeps one, else None.
+        save_frames: True when the user asked every camera to save the frames it renders (``--save-frames``).
     """
 
     world: World
@@ -61,6 +64,8 @@ class SetupContext:
     components: Mapping[str, Any]
     config_dir: Any
     trace: Callable[..., None]
+    run_dir: Path | None = None
+    save_frames: bool = False
 
     def body(self, name: str, *, key: str = "body") -> int:
         """Body id of a named body; a config error at ``key`` (listing the bodies) if there is none."""

@@ -143,6 +143,24 @@ class ReportConfig(Schema):
     keep_local: bool = Field(True, description="always add the local reporter")
 
 
+class RecordConfig(Schema):
+    """``[record]``: what a ``robokit run`` keeps in its run folder besides the result and the trace."""
+
+    pose_hz: float = Field(30.0, ge=0, description="pose log samples per sim second; 0 = no pose log")
+    save_frames: bool = Field(False, description="every camera saves the frames it renders as PNGs")
+
+
+class GuiConfig(Schema):
+    """``[gui]``: the PyBullet window's camera and panels (used with ``--gui`` only)."""
+
+    distance: float = Field(1.6, gt=0, description="camera distance from the target, metres")
+    yaw: float = Field(45.0, description="degrees")
+    pitch: float = Field(-35.0, ge=-89.9, le=89.9, description="degrees")
+    target: Vec3 | None = Field(None, description="point looked at (world, metres); default: the scene's centre")
+    panels: bool = Field(False, description="show PyBullet's side panels (sliders, camera previews)")
+    shadows: bool = True
+
+
 @dataclass(frozen=True)
 class ComponentSpec:
     """A validated plugin section: ``name`` (its key), ``type``, ``rate_hz`` (None = every tick), ``params``."""
@@ -172,9 +190,12 @@ class Config:
     reporters: tuple[ComponentSpec, ...]
     events: tuple[EventConfig, ...]
     raw: Mapping[str, Any]
+    record: RecordConfig = RecordConfig()
+    gui: GuiConfig = GuiConfig()
 
 
-SECTIONS = ("world", "regions", "bodies", "robots", "sensors", "actuators", "behaviour", "report", "events")
+SECTIONS = ("world", "regions", "bodies", "robots", "sensors", "actuators", "behaviour", "report", "events", "record",
+            "gui")
 _COMPONENT_KEYS = ("type", "rate_hz")
 
 
@@ -385,8 +406,10 @@ def _build(raw: Mapping[str, Any], plugins: Any, source: str, base_dir: Path) ->
             raise ConfigError(
                 f"unknown body {event.body!r}{did_you_mean(event.body, all_bodies)}", key=f"events[{i}].body"
             )
+    record = validate_model(RecordConfig, _table(raw, "record"), "record")
+    gui = validate_model(GuiConfig, _table(raw, "gui"), "gui")
     return Config(source, base_dir, world, regions, bodies, robots, sensors, actuators, behaviour, report,
-                  reporters, events, copy.deepcopy(dict(raw)))
+                  reporters, events, copy.deepcopy(dict(raw)), record, gui)
 
 
 def load_config(path: str | Path, plugins: Any, overrides: Mapping[str, Any] | None = None) -> Config:
