@@ -11,7 +11,7 @@ import copy
 import math
 import sys
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
@@ -190,8 +190,8 @@ class Config:
     reporters: tuple[ComponentSpec, ...]
     events: tuple[EventConfig, ...]
     raw: Mapping[str, Any]
-    record: RecordConfig = RecordConfig()
-    gui: GuiConfig = GuiConfig()
+    record: RecordConfig = field(default_factory=lambda: RecordConfig.model_validate({}))
+    gui: GuiConfig = field(default_factory=lambda: GuiConfig.model_validate({}))
 
 
 SECTIONS = ("world", "regions", "bodies", "robots", "sensors", "actuators", "behaviour", "report", "events", "record",

@@ -146,7 +146,7 @@ class Recorder:
         self._trace = None
         if self.period:
             tmp = self.folder / (POSES_FILE + ".tmp.npz")
-            np.savez_compressed(tmp, **self.poses())
+            np.savez_compressed(tmp, **self.poses())  # type: ignore[arg-type]
             tmp.replace(self.folder / POSES_FILE)
         if self._on_trace in self.sim.trace_listeners:
             self.sim.trace_listeners.remove(self._on_trace)
