@@ -216,6 +216,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     with warnings.catch_warnings():  # restores the caller's warning settings (main() is also called in-process)
         warnings.simplefilter("always", PluginLoadWarning)
+        warnings.simplefilter("always", UserWarning)
         warnings.showwarning = _show_warning
         with capture_c_stdout() as captured:
             code = _dispatch(args)

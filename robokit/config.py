@@ -158,7 +158,7 @@ class GuiConfig(Schema):
     pitch: float = Field(-35.0, ge=-89.9, le=89.9, description="degrees")
     target: Vec3 | None = Field(None, description="point looked at (world, metres); default: the scene's centre")
     panels: bool = Field(False, description="show PyBullet's side panels (sliders, camera previews)")
-    shadows: bool = True
+    shadows: bool | None = Field(None, description="shadows on/off (default: PyBullet's own setting)")
 
 
 @dataclass(frozen=True)

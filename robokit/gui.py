@@ -48,7 +48,8 @@ def apply_view(world: Any, gui: Any) -> None:
     client = world.client
     target = list(gui.target) if gui.target is not None else list(scene_centre(world))
     client.configureDebugVisualizer(p.COV_ENABLE_GUI, 1 if gui.panels else 0)
-    client.configureDebugVisualizer(p.COV_ENABLE_SHADOWS, 1 if gui.shadows else 0)
+    if gui.shadows is not None:
+        client.configureDebugVisualizer(p.COV_ENABLE_SHADOWS, 1 if gui.shadows else 0)
     client.resetDebugVisualizerCamera(cameraDistance=gui.distance, cameraYaw=gui.yaw, cameraPitch=gui.pitch,
                                       cameraTargetPosition=target)
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import datetime as dt
 import json
 import uuid
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
@@ -102,7 +103,7 @@ def run_config(
     """
     run_seed = cfg.world.seed if seed is None else seed
     run_id = str(uuid.uuid4())
-    run_dir = results_root(cfg) / run_id if record else None
+    run_dir = _make_run_dir(results_root(cfg) / run_id) if record else None
     try:
         sim = Simulation(cfg, plugins, gui=gui, seed=seed, run_id=run_id, run_dir=run_dir, save_frames=save_frames)
     except PluginError as exc:
@@ -134,6 +135,20 @@ def run_config(
     payload = build_payload(result, student=cfg.report.student, project=cfg.report.project)
     deliveries = deliver(make_reporters(cfg, plugins), payload) if report else []
     return RunOutput(result, payload, deliveries)
+
+
+def _make_run_dir(folder: Path) -> Path | None:
+    """Create the run's record folder; on failure warn in one line and run without a record (None)."""
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        warnings.warn(f"no run record: cannot create {folder}: {exc.strerror or exc}", RecordWarning, stacklevel=3)
+        return None
+    return folder
+
+
+class RecordWarning(UserWarning):
+    """The run record could not be kept (the run itself goes on)."""
 
 
 def results_root(cfg: Config) -> Path:
