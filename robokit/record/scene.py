@@ -7,7 +7,6 @@ frame then sets each body's base pose and joint positions from the pose log, whi
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -147,7 +146,7 @@ def choose_view(scene: Scene, spec: str | None, aspect: float) -> View:
     return orbit_view(lo, hi, *NAMED_VIEWS[spec], aspect=aspect)
 
 
-def orbit_view(lo: Sequence[float], hi: Sequence[float], yaw: float, pitch: float, *, aspect: float,
+def orbit_view(lo: Any, hi: Any, yaw: float, pitch: float, *, aspect: float,
                fov: float = 50.0) -> View:
     """A camera at ``yaw``/``pitch`` (degrees) around a box's centre, far enough back for the whole box to fit."""
     lo_, hi_ = np.asarray(lo, float), np.asarray(hi, float)
