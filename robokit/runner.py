@@ -6,6 +6,7 @@ import datetime as dt
 import json
 import uuid
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
@@ -13,7 +14,7 @@ from typing import IO, Any
 from robokit import __version__
 from robokit.components import Delivery
 from robokit.config import Config
-from robokit.errors import PluginError
+from robokit.errors import ConfigError, PluginError
 from robokit.plugins import Plugins
 from robokit.reporting import build_payload, deliver
 from robokit.result import RunResult
@@ -92,6 +93,7 @@ def run_config(
     pose_hz: float | None = None,
     save_frames: bool = False,
     after_run: Any = None,
+    on_problem: Callable[[ConfigError], None] | None = None,
 ) -> RunOutput:
     """Build the simulation, run it, close it, then hand the payload to every reporter.
 
@@ -99,6 +101,8 @@ def run_config(
     :mod:`robokit.record`): the trace with its header, the pose log at ``pose_hz`` (default ``[record] pose_hz``),
     camera frames when ``save_frames``; the local reporter adds ``result.json``. ``after_run(sim)`` is called
     after the last tick, before the world closes (``--gui-hold`` uses it).
+    With ``on_problem``, the preflight checks run first and each problem found is handed to it (``robokit run``
+    prints them as warnings and runs anyway: the goal check then reports what happened).
     A plugin that raises during setup or the run gives outcome ``error``; whatever result exists is still reported.
     """
     run_seed = cfg.world.seed if seed is None else seed
@@ -106,6 +110,13 @@ def run_config(
     run_dir = _make_run_dir(results_root(cfg) / run_id) if record else None
     try:
         sim = Simulation(cfg, plugins, gui=gui, seed=seed, run_id=run_id, run_dir=run_dir, save_frames=save_frames)
+        if on_problem is not None:
+            try:
+                for problem in sim.preflight():
+                    on_problem(problem)
+            except BaseException:
+                sim.close()
+                raise
     except PluginError as exc:
         result = error_result(cfg, run_seed, str(exc))
         result.run_id = run_id
