@@ -74,7 +74,7 @@ def c_stdout_to_stderr() -> Iterator[None]:
         os.close(saved)
 
 
-_ARGV = re.compile(r"^argv\[\d+\]=\s*$")
+_ARGV = re.compile(r"^(argv\[\d+\]=\s*|pybullet build time: .*)$")
 
 
 @dataclass
@@ -101,37 +101,43 @@ class CapturedOutput:
 
 @contextmanager
 def capture_c_stdout() -> Iterator[CapturedOutput]:
-    """Send file descriptor 1 (C libraries' ``printf``: pybullet's b3Warning lines, GUI chatter) to a temporary file.
+    """Send file descriptors 1 and 2 of C code (pybullet's b3Warning lines, build banner, GUI chatter) to a file.
 
-    Python's ``sys.stdout`` keeps writing to the real standard output: when it is file descriptor 1 it is re-opened
-    on a duplicate of it for the duration. The captured text is in the yielded object afterwards.
+    Python's ``sys.stdout`` and ``sys.stderr`` keep writing to the real streams: when they are descriptors 1 and 2
+    they are re-opened on duplicates for the duration. The captured text is in the yielded object afterwards.
     """
     captured = CapturedOutput()
-    try:
-        sys.stdout.flush()
-        real = sys.stdout.fileno() == 1
-    except (AttributeError, OSError, ValueError):  # captured or replaced stream (pytest): only fd 1 is redirected
-        real = False
     _flush_c_stdio()
-    saved = os.dup(1)
-    old_stdout = sys.stdout
+    streams = ("stdout", "stderr")
+    saved = {fd: os.dup(fd) for fd in (1, 2)}
+    olds = {name: getattr(sys, name) for name in streams}
+    swapped = []
     with tempfile.TemporaryFile() as sink:
-        os.dup2(sink.fileno(), 1)
-        if real:
-            sys.stdout = io.TextIOWrapper(os.fdopen(os.dup(saved), "wb"), encoding=old_stdout.encoding,
-                                          errors=old_stdout.errors, line_buffering=True)
+        for fd, name in zip((1, 2), streams, strict=True):
+            stream = olds[name]
+            try:
+                stream.flush()
+                real = stream.fileno() == fd
+            except (AttributeError, OSError, ValueError):  # captured or replaced stream (pytest): fd only
+                real = False
+            os.dup2(sink.fileno(), fd)
+            if real:
+                setattr(sys, name, io.TextIOWrapper(os.fdopen(os.dup(saved[fd]), "wb"), encoding=stream.encoding,
+                                                    errors=stream.errors, line_buffering=True))
+                swapped.append(name)
         try:
             yield captured
         finally:
             _flush_c_stdio()
-            if real:
+            for name in swapped:
                 try:
-                    sys.stdout.flush()
-                    sys.stdout.close()
+                    getattr(sys, name).flush()
+                    getattr(sys, name).close()
                 except OSError:  # a closed pipe (robokit ... | head): nothing left to write to
                     pass
-                sys.stdout = old_stdout
-            os.dup2(saved, 1)
-            os.close(saved)
+                setattr(sys, name, olds[name])
+            for fd, old in saved.items():
+                os.dup2(old, fd)
+                os.close(old)
             sink.seek(0)
             captured.text = sink.read().decode("utf-8", errors="replace")

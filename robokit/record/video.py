@@ -7,6 +7,7 @@ current state, and encoded by the ffmpeg that ``imageio-ffmpeg`` ships (OpenCV's
 
 from __future__ import annotations
 
+import json
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -138,4 +139,10 @@ def render_video(rec: RunRecord, out: Path, *, fps: float | None = None, size: t
             count += 1
     finally:
         writer.close()
-    return VideoStats(count, w, h, rate, count / busy if busy > 0 else 0.0)
+    stats = VideoStats(count, w, h, rate, count / busy if busy > 0 else 0.0)
+    note = {"path": str(out.resolve()), "frames": count, "width": w, "height": h, "fps": rate}
+    try:  # lets `robokit view` embed this video instead of rendering another one
+        (rec.folder / "video.json").write_text(json.dumps(note), encoding="utf-8")
+    except OSError:
+        pass
+    return stats
