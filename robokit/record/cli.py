@@ -36,6 +36,8 @@ def add_record_commands(sub: Any) -> None:
     vid.add_argument("--size", default="640x480", metavar="WxH", help="frame size in pixels (default 640x480)")
     vid.add_argument("--view", metavar="NAME|EYE,TARGET", help="a named view (front, side, top, iso, or a camera "
                      "sensor's name) or 'ex,ey,ez,tx,ty,tz' (default: iso)")
+    vid.add_argument("--frame", type=float, metavar="S", help="write one PNG of the scene at sim time S instead of "
+                     "a video (-o defaults to <run folder>/frame_<S>.png)")
     _dir(vid)
     vid.set_defaults(func=cmd_video)
 
@@ -91,6 +93,13 @@ def cmd_video(args: argparse.Namespace) -> int:
 
     size = _parse_size(args.size)
     rec = find_run(args.run, args.dir)
+    if args.frame is not None:
+        from robokit.record.video import render_still
+
+        out = Path(args.output) if args.output else rec.folder / f"frame_{args.frame:g}.png"
+        t = render_still(rec, out, at=args.frame, size=size, view=args.view)
+        print(f"{out}: the scene at t = {t:.3f} s, {size[0]}x{size[1]}")
+        return 0
     out = Path(args.output) if args.output else rec.folder / "video.mp4"
     stats = render_video(rec, out, fps=args.fps, size=size, view=args.view)
     print(f"{out}: {stats.frames} frames, {stats.width}x{stats.height}, {stats.fps:g} fps, H.264 "

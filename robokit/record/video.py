@@ -105,6 +105,27 @@ def frames(rec: RunRecord, *, fps: float | None = None, size: tuple[int, int] = 
             scene.close()
 
 
+def render_still(rec: RunRecord, out: Path, *, at: float, size: tuple[int, int] = (640, 480),
+                 view: str | None = None) -> float:
+    """Write one PNG of the scene at sim time ``at`` (the pose sample at or before it), with the overlay.
+
+    Returns the sim time of the sample drawn.
+    """
+    import cv2
+
+    t = rec.poses["t"]
+    i = int(np.clip(np.searchsorted(t, at + 1e-9, side="right") - 1, 0, len(t) - 1))
+    with rebuild(rec) as scene:
+        scene.set_frame(i)
+        renderer = Renderer(scene, choose_view(scene, view, size[0] / size[1]), size)
+        now = float(t[i])
+        image = overlay(renderer.render(), now, rec.state_at(rec.spans(), now))
+    out.parent.mkdir(parents=True, exist_ok=True)
+    if not cv2.imwrite(str(out), cv2.cvtColor(image, cv2.COLOR_RGB2BGR), [cv2.IMWRITE_PNG_COMPRESSION, 9]):
+        raise UserError(f"could not write {out} (give a .png file name)")
+    return now
+
+
 def render_video(rec: RunRecord, out: Path, *, fps: float | None = None, size: tuple[int, int] = (640, 480),
                  view: str | None = None) -> VideoStats:
     """Write the record's video to ``out`` (H.264, yuv420p, ``+faststart`` so browsers start playing at once).

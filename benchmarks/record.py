@@ -1,0 +1,97 @@
+"""Cost of the run record on the main job, and how fast `robokit video` renders.
+
+1. **Recording overhead**: the whole main job (``configs/sort_robot.toml``: build, run to the end, close) timed
+   with the recorder's pose log at 30 Hz (plus the trace file) and without any record, alternating, ``--repeats``
+   pairs. Prints each pair and the ratio of the medians (target: <= 1.03). Both runs must end identically.
+2. **Video render rate**: frames per second of ``robokit video`` for the recorded run (rebuild the scene once, then
+   set the poses and render each frame with TinyRenderer; encoding included), at ``--size``.
+
+    python benchmarks/record.py [--repeats 7] [--size 640x480] [--video-frames 60]
+
+The machine's load (``os.getloadavg``) is printed with the figures: re-measure on an idle machine.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+from robokit.config import load_config
+from robokit.plugins import load_plugins
+from robokit.record.format import RunRecord
+from robokit.runner import run_config
+
+CONFIG = Path(__file__).resolve().parent.parent / "configs" / "sort_robot.toml"
+
+
+def one_run(plugins: object, record: bool, folder: Path) -> tuple[float, dict]:
+    """Wall seconds for one whole main-job run (build + run + close + record files), and its behaviour result."""
+    cwd = os.getcwd()
+    os.chdir(folder)
+    try:
+        cfg = load_config(CONFIG, plugins)
+        start = time.perf_counter()
+        out = run_config(cfg, plugins, record=record, report=False)
+        elapsed = time.perf_counter() - start
+    finally:
+        os.chdir(cwd)
+    return elapsed, {k: v for k, v in out.result.to_dict().items() if k not in ("run_id", "wall_time", "started_at")}
+
+
+def overhead(repeats: int, folder: Path) -> Path:
+    plugins = load_plugins()
+    with_rec, without = [], []
+    reference = None
+    for i in range(repeats):
+        order = (True, False) if i % 2 == 0 else (False, True)
+        for record in order:
+            t, result = one_run(plugins, record, folder)
+            (with_rec if record else without).append(t)
+            reference = reference or result
+            assert result == reference, "recording changed the run"
+        print(f"  pair {i + 1}: with record {with_rec[-1]:.3f} s, without {without[-1]:.3f} s, "
+              f"ratio {with_rec[-1] / without[-1]:.3f}")
+    ratio = statistics.median(with_rec) / statistics.median(without)
+    print(f"recording overhead (sort_robot, pose log 30 Hz + trace): median with {statistics.median(with_rec):.3f} s"
+          f" / without {statistics.median(without):.3f} s = {ratio:.3f}  (target <= 1.03)")
+    runs = sorted((folder / "results").iterdir(), key=lambda d: d.stat().st_mtime)
+    return runs[-1]
+
+
+def render_rate(run: Path, size: tuple[int, int], limit: int) -> None:
+    from robokit.record.scene import choose_view, rebuild
+    from robokit.record.video import Renderer, frame_indices
+
+    rec = RunRecord(run)
+    with rebuild(rec) as scene:
+        renderer = Renderer(scene, choose_view(scene, None, size[0] / size[1]), size)
+        indices = frame_indices(rec.poses["t"], 30.0)[:limit]
+        start = time.perf_counter()
+        for i in indices:
+            scene.set_frame(i)
+            renderer.render()
+        elapsed = time.perf_counter() - start
+    print(f"video render rate at {size[0]}x{size[1]} (TinyRenderer, pose + render, no encoding): "
+          f"{len(indices) / elapsed:.1f} frames/s over {len(indices)} frames")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--repeats", type=int, default=7)
+    ap.add_argument("--size", default="640x480")
+    ap.add_argument("--video-frames", type=int, default=60)
+    args = ap.parse_args()
+    print(f"load average before: {' '.join(f'{v:.2f}' for v in os.getloadavg())}")
+    with tempfile.TemporaryDirectory() as tmp:
+        run = overhead(args.repeats, Path(tmp))
+        w, h = (int(v) for v in args.size.split("x"))
+        render_rate(run, (w, h), args.video_frames)
+    print(f"load average after: {' '.join(f'{v:.2f}' for v in os.getloadavg())}")
+
+
+if __name__ == "__main__":
+    main()
