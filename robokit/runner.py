@@ -139,6 +139,10 @@ def run_config(
                 recorder.close(result)
             if after_run is not None:
                 after_run(sim)
+        except BaseException as exc:
+            if run_dir is not None:  # the CLI writes traceback.txt into the run's folder
+                exc.robokit_run_dir = run_dir  # type: ignore[attr-defined]
+            raise
         finally:
             if recorder is not None:
                 recorder.close()
