@@ -98,8 +98,8 @@ def plot_states(rec: RunRecord, plt: Any) -> Any:
 def _robot_of(rec: RunRecord) -> str | None:
     for section in ("actuators", "sensors"):
         for spec in _sections(rec, section).values():
-            if spec.get("type") in ("diff_drive", "lidar") and spec.get("robot"):
-                return str(spec["robot"])
+            if spec.get("type") in ("diff_drive", "lidar"):
+                return str(spec.get("robot", "robot"))  # the types' default robot name
     return None
 
 
