@@ -19,6 +19,7 @@ import statistics
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 from robokit.config import load_config
 from robokit.plugins import load_plugins
@@ -28,7 +29,7 @@ from robokit.runner import run_config
 CONFIG = Path(__file__).resolve().parent.parent / "configs" / "sort_robot.toml"
 
 
-def one_run(plugins: object, record: bool, folder: Path) -> tuple[float, dict]:
+def one_run(plugins: Any, record: bool, folder: Path) -> tuple[float, dict]:
     """Wall seconds for one whole main-job run (build + run + close + record files), and its behaviour result."""
     cwd = os.getcwd()
     os.chdir(folder)
@@ -42,9 +43,10 @@ def one_run(plugins: object, record: bool, folder: Path) -> tuple[float, dict]:
     return elapsed, {k: v for k, v in out.result.to_dict().items() if k not in ("run_id", "wall_time", "started_at")}
 
 
-def overhead(repeats: int, folder: Path) -> Path:
+def overhead(repeats: int, folder: Path) -> tuple[Path, float]:
     plugins = load_plugins()
-    with_rec, without = [], []
+    with_rec: list[float] = []
+    without: list[float] = []
     reference = None
     for i in range(repeats):
         order = (True, False) if i % 2 == 0 else (False, True)
@@ -59,7 +61,22 @@ def overhead(repeats: int, folder: Path) -> Path:
     print(f"recording overhead (sort_robot, pose log 30 Hz + trace): median with {statistics.median(with_rec):.3f} s"
           f" / without {statistics.median(without):.3f} s = {ratio:.3f}  (target <= 1.03)")
     runs = sorted((folder / "results").iterdir(), key=lambda d: d.stat().st_mtime)
-    return runs[-1]
+    return runs[-1], statistics.median(without)
+
+
+def sample_cost(samples: int = 2000) -> float:
+    """Microseconds per pose sample on the main job's scene (the recorder's whole per-sample work)."""
+    from robokit.record.recorder import Recorder
+    from robokit.testing import make_sim
+
+    with tempfile.TemporaryDirectory() as tmp, make_sim(CONFIG) as sim:
+        rec = Recorder(sim, Path(tmp), pose_hz=30)
+        start = time.perf_counter()
+        for k in range(samples):
+            rec.sample(k)
+        cost = (time.perf_counter() - start) / samples * 1e6
+        rec.close()
+    return cost
 
 
 def render_rate(run: Path, size: tuple[int, int], limit: int) -> None:
@@ -87,7 +104,11 @@ def main() -> None:
     args = ap.parse_args()
     print(f"load average before: {' '.join(f'{v:.2f}' for v in os.getloadavg())}")
     with tempfile.TemporaryDirectory() as tmp:
-        run = overhead(args.repeats, Path(tmp))
+        run, plain = overhead(args.repeats, Path(tmp))
+        cost = sample_cost()
+        n = len(RunRecord(run).poses["t"])
+        print(f"pose sample cost: {cost:.1f} us per sample x {n} samples = {cost * 1e-6 * n:.4f} s = "
+              f"{100 * cost * 1e-6 * n / plain:.2f} % of the median unrecorded run ({plain:.2f} s)")
         w, h = (int(v) for v in args.size.split("x"))
         render_rate(run, (w, h), args.video_frames)
     print(f"load average after: {' '.join(f'{v:.2f}' for v in os.getloadavg())}")
