@@ -66,6 +66,9 @@ def _add_extra_commands(sub: Any) -> None:
     except ImportError:
         return
     add_outbox_command(sub)
+    from robokit.sweep.cli import add_sweep_command
+
+    add_sweep_command(sub)
 
 
 def _overrides(args: argparse.Namespace) -> dict[str, Any]:
