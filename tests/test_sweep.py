@@ -76,6 +76,9 @@ def test_a_sweep_file_gives_the_same_trials_as_the_command_line(tmp_path: Path) 
     grid, fixed = parse_set(["behaviour.speed=0.8,1.2", "behaviour.slow_speed=0.3,0.45,0.6"])
     assert [t.key for t in spec.trials()] == [t.key for t in SweepSpec(PICK, range(4), grid, fixed).trials()]
     assert spec.metrics == ("attempts",)
+    shipped, options = load_sweep_file(ROOT / "configs" / "sweeps" / "pick_place_speed.toml")
+    assert shipped.cells() == spec.cells()
+    assert len(shipped.trials()) == 120 and options["trial_timeout"] == 300
 
 
 def test_wilson_interval_and_percentile() -> None:

@@ -101,6 +101,7 @@ def run_trial(task: TrialTask) -> dict[str, Any]:
     t0 = time.perf_counter()
     plugins = plugins_for(task.plugins)
     extra: Mapping[str, Any] = {}
+    run_wall = 0.0
     try:
         cfg = build_trial_config(task.config_text, task.source, task.base_dir, task.overrides, plugins)
     except UserError as exc:
@@ -112,18 +113,21 @@ def run_trial(task: TrialTask) -> dict[str, Any]:
         result = error_result(cfg, task.seed, str(exc))
     else:
         try:
+            t_run = time.perf_counter()
             if task.before is not None:
                 task.before(sim, task.seed)
             result = sim.run()
+            run_wall = time.perf_counter() - t_run
             if task.after is not None:
                 extra = task.after(sim, result)
         finally:
             sim.close()
     result.run_id = task.run_id
-    return _row(task, result, extra, t0)
+    return _row(task, result, extra, t0, run_wall)
 
 
-def _row(task: TrialTask, result: Any, extra: Mapping[str, Any], t0: float, error: str = "") -> dict[str, Any]:
+def _row(task: TrialTask, result: Any, extra: Mapping[str, Any], t0: float, run_wall: float = 0.0,
+         error: str = "") -> dict[str, Any]:
     from robokit.result import jsonable
 
     wall = time.perf_counter() - t0
@@ -133,9 +137,11 @@ def _row(task: TrialTask, result: Any, extra: Mapping[str, Any], t0: float, erro
     row = {"key": task.key, "cell": task.cell, "overrides": dict(task.overrides), "seed": task.seed,
            "run_id": task.run_id, "outcome": result.outcome, "reason": result.reason,
            "figures": {**figures, **extra}, "sim_time": result.sim_time, "ticks": result.ticks,
-           "wall_time": round(wall, 4), "worker": worker_name(), "interrupted": result.interrupted,
+           "wall_time": round(wall, 4), "run_wall_time": round(run_wall, 4), "worker": worker_name(),
+           "interrupted": result.interrupted,
            "result": result.to_dict()}
     return jsonable(row)  # type: ignore[no-any-return]
+
 
 def run_trial_safely(task: TrialTask) -> dict[str, Any]:
     """:func:`run_trial`, with anything it raises turned into an ``error`` row (a worker never dies of a trial)."""
