@@ -2,6 +2,7 @@
 
     python benchmarks/sweep.py --trials 12 --repeats 2          # 1 vs 2 local workers, then Ray vs local (sort)
     python benchmarks/sweep.py --skip-speed --skip-ray --memory-trials 500   # RSS of one worker over 500 trials
+    python benchmarks/sweep.py --skip-speed --skip-ray --memory-trials 500 --memory-max-time 0.5   # cheaper
 
 1. **Speed-up**: the same ``--trials`` seeds of ``configs/sort_robot.toml`` through ``run_sweep`` with 1 and with 2
    local workers, alternated ``--repeats`` times (best of each kept); trials per second and their ratio (target on 2
@@ -41,14 +42,15 @@ def load() -> str:
     return f"load average {one:.2f} {five:.2f} {fifteen:.2f} on {os.cpu_count()} CPUs"
 
 
-def timed_sweep(config: Path, seeds: range, **options: Any) -> tuple[float, list[dict[str, Any]]]:
+def timed_sweep(config: Path, seeds: range, fixed: dict[str, Any] | None = None,
+                **options: Any) -> tuple[float, list[dict[str, Any]]]:
     """Wall seconds of one ``run_sweep`` (no output folder) and its rows."""
     from robokit.sweep import SweepOptions, SweepSpec, run_sweep
 
     t0 = time.perf_counter()
-    run = run_sweep(SweepSpec(config, seeds), SweepOptions(**options))
+    run = run_sweep(SweepSpec(config, seeds, fixed=fixed or {}), SweepOptions(**options))
     wall = time.perf_counter() - t0
-    bad = [r for r in run.rows if r["outcome"] != "succeeded"]
+    bad = [r for r in run.rows if r["outcome"] not in ("succeeded", "aborted" if fixed else "succeeded")]
     if bad:
         print(f"  warning: {len(bad)} trial(s) did not succeed: {bad[0]['reason']}")
     return wall, run.rows
@@ -87,12 +89,14 @@ def ray_overhead(config: Path, trials: int, repeats: int) -> None:
         ray.shutdown()
 
 
-def memory(config: Path, trials: int) -> None:
-    _, rows = timed_sweep(config, range(trials), workers=1, max_tasks_per_child=trials + 1, after=rss_mb)
+def memory(config: Path, trials: int, max_time: float | None) -> None:
+    fixed = {"world.max_time": max_time} if max_time else None
+    _, rows = timed_sweep(config, range(trials), fixed, workers=1, max_tasks_per_child=trials + 1, after=rss_mb)
     pids = {r["figures"]["pid"] for r in rows}
     rss = [r["figures"]["rss_mb"] for r in rows]
     warm = min(10, len(rss) - 1)
-    print(f"memory, one worker (pids {sorted(pids)}), {trials} trials of {config.name}: RSS after trial 1 "
+    what = f"{config.name}" + (f" cut at {max_time:g} sim s" if max_time else "")
+    print(f"memory, one worker (pids {sorted(pids)}), {trials} trials of {what}: RSS after trial 1 "
           f"{rss[0]:.1f} MB, after trial {warm + 1} {rss[warm]:.1f} MB, after trial {trials} {rss[-1]:.1f} MB, "
           f"peak {max(rss):.1f} MB -> growth {rss[-1] - rss[warm]:.1f} MB after warm-up "
           f"({(rss[-1] - rss[warm]) / max(1, trials - warm - 1) * 1024:.0f} kB per trial)   (target < 50 MB)")
@@ -107,6 +111,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--skip-ray", action="store_true")
     parser.add_argument("--memory-trials", type=int, default=0, help="trials for the memory figure (0: skip)")
     parser.add_argument("--memory-config", type=Path, default=PICK)
+    parser.add_argument("--memory-max-time", type=float, metavar="S",
+                        help="cut each memory trial at S sim seconds (the full scene is still built and torn down)")
     args = parser.parse_args(argv)
     print(f"[{load()}]")
     if not args.skip_speed:
@@ -114,7 +120,7 @@ def main(argv: list[str] | None = None) -> int:
     if not args.skip_ray:
         ray_overhead(args.config, args.trials, args.repeats)
     if args.memory_trials > 0:
-        memory(args.memory_config, args.memory_trials)
+        memory(args.memory_config, args.memory_trials, args.memory_max_time)
     return 0
 
 

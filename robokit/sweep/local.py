@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import multiprocessing as mp
 import os
+import signal
 import time
 from collections import deque
 from collections.abc import Iterator, Sequence
@@ -30,6 +31,7 @@ def _worker_main(conn: Connection, plugins: tuple[str, ...], max_tasks: int) -> 
     """A worker: load the plugins once, then run trials sent over ``conn`` until told to stop or recycled."""
     from robokit.sweep.trial import plugins_for, run_trial_safely, worker_name
 
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle: it stops the workers
     devnull = os.open(os.devnull, os.O_WRONLY)
     os.dup2(devnull, 1)  # pybullet prints banners at C level; they must not break the parent's progress bar
     plugins_for(plugins)
