@@ -1,7 +1,7 @@
 """Lidar-driven navigation shared by ``go_to_goal``, ``patrol`` and ``patrol_collect``: a heading controller and
 an obstacle avoider that gets around concave corners.
 
-How it decides (every behaviour step, from the latest :class:`~robokit_plugins.mobile_types.LaserScan` and pose):
+How it decides (every behaviour step, from the latest :class:`~robokit.msgs.mobile.LaserScan` and pose):
 
 1. Scan hit points (world frame; floor returns dropped) are put in the robot frame. The robot is a disk of radius
    ``corridor``; for each of ``headings`` candidate directions the *clearance* is how far that disk can move
@@ -29,11 +29,11 @@ from typing import Any
 
 import numpy as np
 from pydantic import Field
-from robokit_plugins.mobile_types import LaserScan, Pose2D, Twist, wrap_angle
 
 from robokit.components import SetupContext
 from robokit.config import Schema
 from robokit.errors import ConfigError
+from robokit.msgs.mobile import LaserScan, Pose2D, Twist, wrap_angle
 
 
 class AvoidanceConfig(Schema):

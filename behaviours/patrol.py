@@ -17,13 +17,13 @@ from typing import Any
 
 from pydantic import Field
 from robokit_behaviours.avoidance import MOTION_STATES, MOTION_TRANSITIONS, NavConfig, Navigating
-from robokit_plugins.mobile_types import STOP
 
 from robokit import hookimpl
 from robokit.components import SetupContext
 from robokit.config import Vec2
 from robokit.errors import ConfigError
 from robokit.fsm import MachineBehaviour
+from robokit.msgs.mobile import STOP
 
 
 class Phase(enum.Enum):

@@ -20,11 +20,11 @@ from pydantic import Field
 from robokit_behaviours.avoidance import MOTION_STATES
 from robokit_behaviours.discovery import Discovery, DiscoveryConfig, Track
 from robokit_behaviours.patrol import PATROL_TRANSITIONS, Patrol, PatrolConfig
-from robokit_plugins.mobile_types import STOP, Collect
 
 from robokit import hookimpl
 from robokit.components import SetupContext
 from robokit.errors import ConfigError
+from robokit.msgs.mobile import STOP, Collect
 
 
 class Phase(enum.Enum):

@@ -24,7 +24,13 @@ from dataclasses import dataclass
 from typing import Any
 
 from pydantic import Field, field_validator
-from robokit_plugins.arm_types import (
+
+from robokit import hookimpl
+from robokit.components import SetupContext
+from robokit.config import Schema
+from robokit.errors import ConfigError
+from robokit.fsm import MachineBehaviour
+from robokit.msgs.arm import (
     ArmState,
     GripperCommand,
     GripperState,
@@ -33,12 +39,6 @@ from robokit_plugins.arm_types import (
     cube_grasp_yaw,
     yaw_of,
 )
-
-from robokit import hookimpl
-from robokit.components import SetupContext
-from robokit.config import Schema
-from robokit.errors import ConfigError
-from robokit.fsm import MachineBehaviour
 
 
 class Phase(enum.Enum):

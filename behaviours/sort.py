@@ -25,14 +25,14 @@ from typing import Any
 
 from pydantic import Field
 from robokit_behaviours.pick_place import PickPlace, PickPlaceTask
-from robokit_plugins.arm_types import ArmState, GripperCommand, MoveTo
-from robokit_plugins.vision_types import Detection, Detections
 
 from robokit import hookimpl
 from robokit.components import SetupContext
 from robokit.config import Schema
 from robokit.errors import ConfigError, LookupNameError, did_you_mean
 from robokit.fsm import MachineBehaviour
+from robokit.msgs.arm import ArmState, GripperCommand, MoveTo
+from robokit.msgs.vision import Detection, Detections
 
 Vec3 = tuple[float, float, float]
 

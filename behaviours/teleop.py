@@ -10,13 +10,13 @@ from collections.abc import Mapping
 from typing import Any, ClassVar
 
 from pydantic import Field
-from robokit_plugins.arm_types import JointCommand
-from robokit_plugins.mobile_types import Twist
 
 from robokit import hookimpl
 from robokit.components import Behaviour, SetupContext
 from robokit.config import Schema
 from robokit.errors import ConfigError
+from robokit.msgs.arm import JointCommand
+from robokit.msgs.mobile import Twist
 
 
 def _need(ctx: SetupContext, name: str, key: str, what: str) -> None:

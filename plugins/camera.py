@@ -18,11 +18,11 @@ import math
 
 import numpy as np
 from pydantic import Field, model_validator
-from robokit_plugins.vision_types import CameraFrame
 
 from robokit import hookimpl
 from robokit.components import Sensor, SetupContext
 from robokit.config import Schema
+from robokit.msgs.vision import CameraFrame
 
 Vec3 = tuple[float, float, float]
 

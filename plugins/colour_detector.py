@@ -19,12 +19,12 @@ from typing import Any
 import cv2
 import numpy as np
 from pydantic import Field, model_validator
-from robokit_plugins.vision_types import CameraFrame, Detection, Detections
 
 from robokit import hookimpl
 from robokit.components import Sensor, SetupContext
 from robokit.config import Schema
 from robokit.errors import ConfigError, LookupNameError
+from robokit.msgs.vision import CameraFrame, Detection, Detections
 
 Vec2 = tuple[float, float]
 

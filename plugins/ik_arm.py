@@ -4,7 +4,7 @@ Any fixed-base arm URDF works; the end-effector link is named in config (Panda: 
 joints are the movable joints between the base and that link, found from the URDF tree; IK arrays (limits, ranges,
 rest poses) are sized to *all* movable joints of the robot (9 on the Panda, fingers included).
 
-How a :class:`~robokit_plugins.arm_types.MoveTo` is executed:
+How a :class:`~robokit.msgs.arm.MoveTo` is executed:
 
 1. The straight path from the current pose to the target is cut into waypoints (``waypoint_spacing`` metres,
    ``waypoint_angle`` radians). Each waypoint is solved by damped least squares on the arm's Jacobian, seeded by the
@@ -31,12 +31,12 @@ from typing import Any, ClassVar
 
 import numpy as np
 from pydantic import Field
-from robokit_plugins.arm_types import ArmState, HoldArm, MoveTo, Quat, Vec3, quat_angle, quat_multiply
 
 from robokit import hookimpl
 from robokit.components import Actuator, SetupContext
 from robokit.config import Schema
 from robokit.errors import ConfigError
+from robokit.msgs.arm import ArmState, HoldArm, MoveTo, Quat, Vec3, quat_angle, quat_multiply
 
 
 class IkArmConfig(Schema):

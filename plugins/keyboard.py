@@ -11,12 +11,12 @@ import string
 
 import pybullet as p
 from pydantic import Field
-from robokit_plugins.keyboard_types import KeyState
 
 from robokit import hookimpl
 from robokit.components import Sensor, SetupContext
 from robokit.config import Schema
 from robokit.errors import ConfigError
+from robokit.msgs.keyboard import KeyState
 
 SPECIAL = {
     p.B3G_UP_ARROW: "up",

@@ -6,8 +6,8 @@ import math
 from pathlib import Path
 
 from robokit_behaviours.pick_place import PickPlace, PickPlaceTask
-from robokit_plugins.arm_types import cube_grasp_yaw
 
+from robokit.msgs.arm import cube_grasp_yaw
 from robokit.testing import make_sim, states_visited
 
 CONFIG = Path(__file__).resolve().parents[1] / "configs" / "pick_place.toml"

@@ -11,9 +11,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from robokit_plugins.mobile_types import LaserScan
 
 from robokit.cli import main
+from robokit.msgs.mobile import LaserScan
 from robokit.testing import PLANE, make_sim
 
 WALL_X = 2.0  # near face of the wall, m
