@@ -1,17 +1,13 @@
-"""The issue's end-to-end sweeps (slow): a 2x3 grid x 4 seeds of pick_place locally, the same sweep interrupted by a
-real SIGINT and resumed, and on a real two-node Ray cluster on 127.0.0.1 — all giving the same per-trial results."""
+"""The issue's end-to-end sweeps on the local backend (slow): a 2x3 grid x 4 seeds of pick_place, and the same sweep
+interrupted by a real SIGINT and resumed, giving exactly the trials of the uninterrupted one. (The Ray backend on a
+real two-node cluster is tested against the same sweep in test_sweep_ray.py.)"""
 
 from __future__ import annotations
 
-import os
 import signal
-import socket
 import subprocess
 import sys
-import tempfile
-from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
 
 import pytest
 from test_sweep import PICK, stable
@@ -69,57 +65,3 @@ def test_interrupted_by_sigint_and_resumed_gives_exactly_the_uninterrupted_trial
     rows = list(read_trials(out / "trials.jsonl").values())
     assert len(rows) == 24
     assert sorted(stable(rows), key=lambda r: r["key"]) == sorted(stable(local_run.rows), key=lambda r: r["key"])
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
-def _ray_node(args: list[str], temp_dir: str) -> subprocess.Popen[str]:
-    """``ray start ... --block`` in the foreground: it stops its own processes when terminated (never `ray stop`,
-    which would stop every Ray on the machine). Returns once the node says it started."""
-    ray = str(Path(sys.executable).parent / "ray")
-    proc = subprocess.Popen([ray, "start", *args, "--node-ip-address", "127.0.0.1", "--num-cpus", "1", "--block",
-                             "--disable-usage-stats"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                            env={**os.environ, "RAY_TMPDIR": temp_dir,
-                                 "RAY_raylet_start_wait_time_s": "600"})  # a loaded machine registers slowly
-    assert proc.stdout is not None
-    seen = []
-    for line in proc.stdout:
-        seen.append(line)
-        if "Ray runtime started" in line:
-            return proc
-    raise AssertionError("ray start ended without starting:\n" + "".join(seen))
-
-
-@pytest.fixture
-def ray_cluster() -> Iterator[str]:
-    """A head and a second node on 127.0.0.1, one CPU each; stopped by terminating exactly these two processes."""
-    pytest.importorskip("ray", reason="the Ray backend needs robokit[ray] (in the test extra)")
-    temp_dir = tempfile.mkdtemp(prefix="rk", dir="/tmp")  # short: Ray's socket paths must fit 107 bytes
-    port = _free_port()
-    nodes: list[subprocess.Popen[str]] = []
-    try:
-        nodes.append(_ray_node(["--head", "--port", str(port), "--include-dashboard", "false",
-                                "--temp-dir", temp_dir], temp_dir))
-        nodes.append(_ray_node(["--address", f"127.0.0.1:{port}"], temp_dir))
-        yield f"127.0.0.1:{port}"
-    finally:
-        for node in reversed(nodes):
-            node.terminate()
-            try:
-                node.wait(timeout=60)
-            except subprocess.TimeoutExpired:
-                node.kill()
-                node.wait()
-
-
-def test_the_ray_backend_on_a_two_node_cluster_gives_the_local_per_trial_results(
-        local_run: SweepRun, ray_cluster: str, tmp_path: Path) -> None:
-    run = run_sweep(pick_spec(), SweepOptions(out=tmp_path / "out", backend="ray", address=ray_cluster))
-    assert len(run.rows) == 24
-    assert stable(run.rows) == stable(local_run.rows)
-    workers: set[Any] = {r["worker"] for r in run.rows}
-    assert len(workers) >= 2  # both nodes ran trials
