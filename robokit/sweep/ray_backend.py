@@ -60,7 +60,7 @@ class RayBackend:
             return
         started_here = self._connect()
         ray = self.ray
-        remote = ray.remote(run_trial_safely).options(num_cpus=1, max_retries=1, max_calls=MAX_CALLS)
+        remote = ray.remote(num_cpus=1, max_retries=1, max_calls=MAX_CALLS)(run_trial_safely)
         capacity = max(1, int(ray.cluster_resources().get("CPU", 1)))
         queue: deque[TrialTask] = deque(tasks)
         pending: dict[Any, tuple[TrialTask, float]] = {}
