@@ -52,6 +52,9 @@ class HttpReportConfig(Schema):
     max_payload_bytes: int = Field(1_000_000, ge=1)
     outbox: str = Field("outbox", min_length=1)
     flush_outbox: bool = Field(True, description="after delivering, send entries waiting in the outbox")
+    upload_artifacts: bool = Field(False, description="after delivering, upload the run folder's video, plots, "
+                                   "trace and config to <url><run_id>/artifacts/")
+    artifacts_dir: str = Field("results", min_length=1, description="folder holding run folders <run_id>/")
 
     @model_validator(mode="before")
     @classmethod
@@ -74,9 +77,37 @@ class HttpReportConfig(Schema):
     def _http_url(cls, url: str) -> str:
         if not url:
             raise ValueError('missing: give url = "http://host/api/robotics/result/" or --report-url URL')
-        if not url.startswith(("http://", "https://")):
-            raise ValueError(f"expected an http:// or https:// URL, got {url!r}")
+        problem = url_problem(url)
+        if problem:
+            raise ValueError(f"{problem}, got {url!r}")
         return url
+
+    @field_validator("verify")
+    @classmethod
+    def _ca_bundle(cls, verify: bool | str) -> bool | str:
+        if isinstance(verify, str) and not os.path.exists(verify):
+            raise ValueError(f"expected true, false or the path of a CA bundle; {verify!r} does not exist")
+        return verify
+
+
+def url_problem(url: str) -> str | None:
+    """Why ``url`` can never be POSTed to (no scheme or host, a bad port, a space...), or None if it looks fine."""
+    from urllib.parse import urlsplit
+
+    if any(ch.isspace() or ord(ch) < 32 or ord(ch) == 127 for ch in url):
+        return "a URL cannot contain spaces or control characters (encode a space as %20)"
+    if not url.startswith(("http://", "https://")):
+        return "expected an http:// or https:// URL"
+    try:
+        parts = urlsplit(url)
+        port = parts.port  # raises ValueError for a port that is not a number in 0-65535
+    except ValueError as exc:
+        return f"not a valid URL ({exc})"
+    if not parts.hostname:
+        return "the URL has no host name"
+    if port == 0:
+        return "port 0 cannot be connected to"
+    return None
 
 
 @dataclass(frozen=True)
@@ -248,6 +279,8 @@ class HttpReporter(Reporter):
         sender = HttpSender()
         try:
             delivery = self._send_own(outbox, sender, payload, opts)
+            if delivery.delivered and cfg.upload_artifacts:
+                delivery = _with_artifacts(delivery, cfg, payload)
             if delivery.delivered and cfg.flush_outbox:
                 delivery = _with_flush(delivery, outbox, sender, cfg.url)
             return delivery
@@ -273,6 +306,21 @@ class HttpReporter(Reporter):
             return Delivery(False, str(entry.path), f"refused by the server ({result.detail}); kept in {entry.path}")
         return Delivery(False, str(entry.path), f"not delivered ({result.detail}); result kept in the outbox "
                         f"{entry.path} - `robokit outbox flush --dir {outbox.root}` sends it later")
+
+
+def _with_artifacts(delivery: Delivery, cfg: HttpReportConfig, payload: dict[str, Any]) -> Delivery:
+    """After the result arrived, upload its run folder's files; a failure is told, never changes the delivery."""
+    from robokit.artifact_upload import find_artifacts, upload_artifacts
+
+    run_id = str(payload["run_id"])
+    files = find_artifacts(os.path.join(cfg.artifacts_dir, run_id), payload.get("config"))
+    if not files:
+        return delivery
+    opts = HttpOptions.from_mapping(cfg)
+    token = os.environ.get(cfg.token_env) if cfg.token_env else None
+    note = upload_artifacts(cfg.url, run_id, files, token=token, verify=opts.verify,
+                            timeout=(opts.connect_timeout, max(opts.read_timeout, 60.0)))
+    return Delivery(True, None, f"{delivery.message}; {note}")
 
 
 def _with_flush(delivery: Delivery, outbox: Outbox, sender: HttpSender, url: str) -> Delivery:
