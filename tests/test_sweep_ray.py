@@ -78,9 +78,16 @@ def _stop_node(node: subprocess.Popen[str]) -> None:
 
 
 @pytest.fixture
-def ray_cluster() -> Iterator[str]:
-    """A head and a second node on 127.0.0.1, one CPU each; stopped by ending exactly these two process groups."""
+def ray_cluster(monkeypatch: pytest.MonkeyPatch, tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
+    """A head and a second node on 127.0.0.1, one CPU each; stopped by ending exactly these two process groups.
+
+    HOME is a fresh folder for the nodes and this driver: a ``~/.ray/auth_token`` left by anyone would otherwise
+    switch the head to token authentication (Ray enables it when it finds a token) and the second node, without
+    it, could not join."""
     pytest.importorskip("ray", reason="the Ray backend needs robokit[ray] (in the test extra)")
+    home = tmp_path_factory.mktemp("home")
+    monkeypatch.setenv("HOME", str(home))
+    monkeypatch.delenv("RAY_AUTH_TOKEN_PATH", raising=False)
     nodes: list[subprocess.Popen[str]] = []
     try:
         for attempt in range(3):  # on a heavily loaded machine Ray's agents can start too late for the raylet
