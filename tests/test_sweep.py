@@ -94,7 +94,7 @@ def test_wilson_interval_and_percentile() -> None:
 @pytest.mark.parametrize(("option", "expected"), [
     ("behaviour.sped=1,2", "behaviour.sped: unknown key 'sped' (did you mean 'speed'?)"),
     ("behaviour.speed=-1,1", "behaviour.speed: input should be greater than 0, got -1"),
-    ("world.seed.x=1,2", "world.seed.x"),
+    ("world.seed.x=1,2", "pick_place.toml: world.seed: expected a table to set 'x' in, got 1"),
 ])
 def test_a_bad_key_or_value_is_one_line_before_any_trial_runs(tmp_path: Path, option: str, expected: str) -> None:
     out = tmp_path / "out"

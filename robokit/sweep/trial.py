@@ -86,6 +86,8 @@ def build_trial_config(config_text: str, source: str, base_dir: str | Path, over
     for dotted, value in overrides.items():
         try:
             set_dotted(raw, dotted, value)
+        except ConfigError as exc:
+            raise exc.within(file=source) from None
         except (AttributeError, TypeError):
             raise ConfigError(f"cannot set {dotted}: a part of the path is not a table", file=source) from None
     return build_config(raw, plugins, source=source, base_dir=Path(base_dir))
