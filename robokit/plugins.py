@@ -18,12 +18,13 @@ from robokit import hookspecs
 from robokit.errors import LookupNameError, PluginError, UserError
 
 ENTRY_POINT_GROUP = "robokit"
-KINDS = ("sensor", "actuator", "behaviour", "reporter")
+KINDS = ("sensor", "actuator", "behaviour", "reporter", "task")
 _HOOK_OF_KIND = {
     "sensor": "robokit_register_sensors",
     "actuator": "robokit_register_actuators",
     "behaviour": "robokit_register_behaviours",
     "reporter": "robokit_register_reporters",
+    "task": "robokit_register_tasks",
 }
 
 
