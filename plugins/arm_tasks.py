@@ -6,7 +6,10 @@
 
 Positions are metres, world frame. The end effector is read from an ``ee_delta`` actuator (``ee``); objects by body
 name. Goals are drawn uniformly in ``goal_low``..``goal_high`` (object starts in ``object_low``..``object_high``,
-at least ``min_goal_distance`` from the goal) from the episode's generator. A ``goal_marker`` body, if named, is
+at least ``min_goal_distance`` from the goal) from the episode's generator. Observation entries: ``task.goal``,
+``task.achieved`` (end effector or object), ``task.goal_delta`` (goal minus achieved); with an object also
+``task.object_position``, ``object_orientation``, ``object_velocity``, ``object_angular_velocity`` and
+``object_delta`` (object minus end effector). A ``goal_marker`` body, if named, is
 moved to the goal and made collision-free. Dense reward is minus the distance (end effector → goal for ``reach``,
 object → goal otherwise); sparse is 0 on success, -1 otherwise.
 """
@@ -70,7 +73,8 @@ class ReachTask(Task):
         return self.ctx.readings[self.config.ee].position
 
     def observe(self) -> dict[str, Any]:
-        return {"goal": self.goal, "achieved": self.achieved()}
+        achieved = self.achieved()
+        return {"goal": self.goal, "achieved": achieved, "goal_delta": self.goal - np.asarray(achieved)}
 
     def error(self) -> float:
         """Distance from the goal, m."""
@@ -111,8 +115,10 @@ class PushTask(ReachTask):
 
     def observe(self) -> dict[str, Any]:
         (pos, orn), (lin, ang) = self.world.pose(self.object), self.world.velocity(self.object)
-        return {"goal": self.goal, "achieved": pos, "object_position": pos, "object_orientation": orn,
-                "object_velocity": lin, "object_angular_velocity": ang}
+        ee = np.asarray(self.ctx.readings[self.config.ee].position)
+        return {"goal": self.goal, "achieved": pos, "goal_delta": self.goal - np.asarray(pos),
+                "object_position": pos, "object_orientation": orn, "object_velocity": lin,
+                "object_angular_velocity": ang, "object_delta": np.asarray(pos) - ee}
 
     def failure(self) -> str | None:
         z = self.world.pose(self.object)[0][2]

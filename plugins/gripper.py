@@ -73,10 +73,15 @@ class Gripper(Actuator):
         self.gear = None
         if cfg.couple:
             self._couple()
+        self.reset()
+
+    def reset(self, rng: Any = None) -> None:
+        """The start state (also between robokit.gym episodes): fingers open or closed as configured, at rest."""
+        cfg: GripperConfig = self.config
         self.action, self.target, self.force = "open", self.open_width, cfg.force
         start = self.open_width / 2 if cfg.start_open else 0.0
         for j in self.fingers:
-            w.client.resetJointState(self.body, j.index, start)
+            self.world.client.resetJointState(self.body, j.index, start, 0.0)
         self.target = self.open_width if cfg.start_open else 0.0
         self._last_width = self._width()
         self._still_since: float | None = self.world.time

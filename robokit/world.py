@@ -499,8 +499,14 @@ class World:
 
     # ----------------------------------------------------------------- episodes (robokit.gym)
     def snapshot(self) -> dict[str, Any]:
-        """Every registered body's base pose and velocity and joint states, for :meth:`restore` (a cheap reset)."""
+        """Every registered body's base pose and velocity and joint states, for :meth:`restore` (a cheap reset).
+
+        Also makes Bullet sort its overlapping pairs, so that contacts are solved in the same order after a
+        restore whatever the broadphase's history (without it, episodes after the first differ in contact-rich
+        scenes).
+        """
         c, out = self.client, {}
+        c.setPhysicsEngineParameter(deterministicOverlappingPairs=1)
         for name, bid in self._bodies.items():
             n = c.getNumJoints(bid)
             joints = [s[:2] for s in c.getJointStates(bid, list(range(n)))] if n else []
