@@ -15,9 +15,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from pydantic import Field
-from robokit_plugins.mobile_types import LaserScan
 
 from robokit.config import Schema
+from robokit.msgs.mobile import LaserScan
 
 
 class DiscoveryConfig(Schema):

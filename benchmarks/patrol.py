@@ -57,7 +57,7 @@ class ScriptedDrive:
         self.scan = "scan" in ctx.components
 
     def step(self, readings: Any, t: float) -> Any:
-        from robokit_plugins.mobile_types import Twist
+        from robokit.msgs.mobile import Twist
 
         if self.scan:
             readings["scan"]  # noqa: B018 - computes the scan when it is due (10 Hz)

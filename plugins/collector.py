@@ -13,11 +13,11 @@ import math
 from typing import Any, ClassVar
 
 from pydantic import Field
-from robokit_plugins.mobile_types import Collect, CollectorState
 
 from robokit import hookimpl
 from robokit.components import Actuator, SetupContext
 from robokit.config import Schema, Vec2
+from robokit.msgs.mobile import Collect, CollectorState
 
 
 class CollectorConfig(Schema):

@@ -1,7 +1,7 @@
 """``contact`` sensor (lesson 04): contacts between a named body (or one of its links) and others.
 
 ``other`` names the body to watch for (default: anything but the body itself); ``link`` and ``other_link`` narrow
-either side to one link. The reading (:class:`~robokit_plugins.arm_types.ContactState`) gives whether there is
+either side to one link. The reading (:class:`~robokit.msgs.arm.ContactState`) gives whether there is
 contact, the number of contact points, the total normal force (N) and the names of the bodies touched.
 """
 
@@ -10,12 +10,12 @@ from __future__ import annotations
 from typing import Any, ClassVar
 
 from pydantic import Field
-from robokit_plugins.arm_types import ContactState
 
 from robokit import hookimpl
 from robokit.components import Sensor, SetupContext
 from robokit.config import Schema
 from robokit.errors import ConfigError
+from robokit.msgs.arm import ContactState
 
 
 class ContactConfig(Schema):

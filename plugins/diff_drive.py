@@ -1,10 +1,10 @@
 """``diff_drive`` actuator (lesson 07): a differential- or skid-steer drive with wheel joints found by name.
 
-A command is a :class:`~robokit_plugins.mobile_types.Twist` ``(v, omega)`` in m/s and rad/s, turned into wheel
-speeds with the wheel radius and track width, or raw :class:`~robokit_plugins.mobile_types.WheelSpeeds` in rad/s.
+A command is a :class:`~robokit.msgs.mobile.Twist` ``(v, omega)`` in m/s and rad/s, turned into wheel
+speeds with the wheel radius and track width, or raw :class:`~robokit.msgs.mobile.WheelSpeeds` in rad/s.
 Every listed wheel joint of a side gets that side's speed under velocity control, limited by ``max_wheel_force``.
 Passive joints (a caster) have their default velocity motor switched off. The reading is a
-:class:`~robokit_plugins.mobile_types.DriveState`: ground-truth planar pose and velocity, wheel odometry, distance
+:class:`~robokit.msgs.mobile.DriveState`: ground-truth planar pose and velocity, wheel odometry, distance
 travelled, and the names of bodies touching the robot (collision counting).
 """
 
@@ -14,12 +14,12 @@ import math
 from typing import Any, ClassVar
 
 from pydantic import Field
-from robokit_plugins.mobile_types import STOP, DriveState, Twist, WheelSpeeds, wrap_angle
 
 from robokit import hookimpl
 from robokit.components import Actuator, SetupContext
 from robokit.config import Schema
 from robokit.errors import ConfigError, LookupNameError
+from robokit.msgs.mobile import STOP, DriveState, Twist, WheelSpeeds, wrap_angle
 
 
 class DiffDriveConfig(Schema):

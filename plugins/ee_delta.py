@@ -13,36 +13,24 @@ end-effector position and linear velocity (m, m/s, world frame), orientation, an
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 import numpy as np
 from pydantic import Field
-from robokit_plugins.arm_types import Quat, Vec3, down_quaternion
-from robokit_plugins.ik_arm import _rotvec
 
 from robokit import hookimpl
 from robokit.components import Actuator, SetupContext
 from robokit.config import Schema
 from robokit.errors import ConfigError
+from robokit.msgs.arm import Quat, down_quaternion, quat_multiply
+from robokit.msgs.control import EEDelta, EEState
 
 
-@dataclass(frozen=True)
-class EEDelta:
-    """Move the end effector by ``delta`` metres (world frame ``(dx, dy, dz)``) from where it is now."""
-
-    delta: Vec3
-
-
-@dataclass(frozen=True)
-class EEState:
-    """End-effector position (m) and linear velocity (m/s), world frame; orientation ``(x, y, z, w)``; the arm's
-    joint positions by name (rad)."""
-
-    position: Vec3
-    velocity: Vec3
-    orientation: Quat
-    joint_positions: dict[str, float] = field(default_factory=dict)
+def _tilt(current: Quat, target: Quat) -> np.ndarray:
+    """Small-angle rotation vector (rad, world frame) from ``current`` to ``target``: twice the vector part of
+    ``target * conj(current)``, taken the short way round."""
+    x, y, z, w = quat_multiply(target, (-current[0], -current[1], -current[2], current[3]))
+    return np.array([x, y, z]) * (2.0 if w >= 0 else -2.0)
 
 
 class EEDeltaConfig(Schema):
@@ -125,7 +113,7 @@ class EEDeltaArm(Actuator):
         pos = np.array(s[4])
         goal = pos + delta
         goal[2] = max(goal[2], self.config.min_height)
-        err = np.concatenate([goal - pos, _rotvec(tuple(s[5]), self.down)])  # type: ignore[arg-type]
+        err = np.concatenate([goal - pos, _tilt(s[5], self.down)])
         jl, ja = c.calculateJacobian(self.body, self.ee, [0.0, 0.0, 0.0], q_all, self.zeros, self.zeros)
         jac = np.vstack([np.asarray(jl), np.asarray(ja)])[:, self.cols]
         pinv = jac.T @ np.linalg.inv(jac @ jac.T + self.config.damping * np.eye(6))

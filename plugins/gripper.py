@@ -5,7 +5,7 @@ symmetric when contact forces push them unevenly; both are also position-control
 moderate force limit. Finger lateral friction is raised (default 1.2) so a squeezed object is held by friction, as
 on a real robot; nothing is welded to the hand.
 
-Readings (:class:`~robokit_plugins.arm_types.GripperState`): the finger width (metres, the sum of the two finger
+Readings (:class:`~robokit.msgs.arm.GripperState`): the finger width (metres, the sum of the two finger
 joint positions), ``settled`` (width steady for ``settle_time``), ``holding`` (both fingers touch the same body and
 the width is above ``empty_width``, i.e. the fingers did not close on nothing) and the held body's name.
 """
@@ -15,12 +15,12 @@ from __future__ import annotations
 from typing import Any, ClassVar
 
 from pydantic import Field
-from robokit_plugins.arm_types import GripperCommand, GripperState
 
 from robokit import hookimpl
 from robokit.components import Actuator, SetupContext
 from robokit.config import Schema
 from robokit.errors import ConfigError
+from robokit.msgs.arm import GripperCommand, GripperState
 
 
 class GripperConfig(Schema):

@@ -9,7 +9,7 @@ Joints are named in config (default: every movable joint of the body). Each join
 
 Without a behaviour the actuator can run a small **program** from its config: constant ``targets`` and ``sine``
 waves per joint (``offset + amplitude * sin(2*pi*frequency_hz*t + phase)``), e.g. lesson 03's dance. A
-:class:`~robokit_plugins.arm_types.JointCommand` from a behaviour overrides the program for the joints it names.
+:class:`~robokit.msgs.arm.JointCommand` from a behaviour overrides the program for the joints it names.
 
 Safety stop (lesson 04): with ``stop_on = "<contact sensor>"``, the first tick that sensor reports a contact
 freezes every joint where it is (position mode, holding) and ignores further targets; the reading says
@@ -23,12 +23,12 @@ from functools import partial
 from typing import Any, ClassVar, Literal
 
 from pydantic import Field
-from robokit_plugins.arm_types import ContactState, JointCommand, JointStates
 
 from robokit import hookimpl
 from robokit.components import Actuator, SetupContext
 from robokit.config import Schema
 from robokit.errors import ConfigError
+from robokit.msgs.arm import ContactState, JointCommand, JointStates
 
 Mode = Literal["position", "velocity", "torque"]
 

@@ -1,17 +1,18 @@
-"""Reading of the ``keyboard`` sensor, free of pybullet (teleop behaviours import it)."""
+"""Deprecated: moved to :mod:`robokit.msgs.keyboard` (import from there, or from :mod:`robokit.msgs`).
+
+This re-export keeps ``robokit_plugins.keyboard_types`` working for one release (robokit 0.2 removes it). Message types
+belong to robokit itself, so a third-party sensor or behaviour imports only ``robokit``.
+"""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import warnings
 
+from robokit.msgs.keyboard import *  # noqa: F403
+from robokit.msgs.keyboard import __all__  # noqa: F401
 
-@dataclass(frozen=True)
-class KeyState:
-    """Keys held down now, and keys pressed since the previous reading.
-
-    Key names: ``"up"``, ``"down"``, ``"left"``, ``"right"``, ``"space"``, ``"return"``, digits ``"0"``–``"9"``
-    and lower-case letters ``"a"``–``"z"``.
-    """
-
-    down: frozenset[str] = frozenset()
-    pressed: frozenset[str] = frozenset()
+warnings.warn(
+    "robokit_plugins.keyboard_types moved to robokit.msgs.keyboard; the old path goes away in robokit 0.2",
+    DeprecationWarning,
+    stacklevel=2,
+)

@@ -1,7 +1,7 @@
 """``lidar`` sensor (lessons 04 and 07): a planar fan of rays cast with one ``rayTestBatch`` per scan.
 
 The sensor sits on a named link of a robot (plus an offset in that link's frame) and scans in the link's xy-plane.
-Readings follow ROS ``sensor_msgs/LaserScan`` (see :class:`~robokit_plugins.mobile_types.LaserScan`): ranges in
+Readings follow ROS ``sensor_msgs/LaserScan`` (see :class:`~robokit.msgs.mobile.LaserScan`): ranges in
 metres, ``+inf`` for no return, plus the hit points in the world frame. Rays start ``range_min`` from the sensor,
 and the robot's own links are left out of the ray test (they are put in a collision group of their own, which
 changes none of their collisions): a sensor inside or next to its robot's shapes does not see the robot itself.
@@ -16,11 +16,11 @@ from typing import Any, ClassVar
 
 import numpy as np
 from pydantic import Field, model_validator
-from robokit_plugins.mobile_types import LaserScan
 
 from robokit import hookimpl
 from robokit.components import Sensor, SetupContext
 from robokit.config import Schema, Vec3
+from robokit.msgs.mobile import LaserScan
 
 OWN_BODY_GROUP = 0x100
 """Collision group the lidar puts its robot's links in (their collisions with other bodies are unchanged)."""

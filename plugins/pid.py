@@ -16,7 +16,7 @@ through a first-order low-pass filter (``derivative = "difference"``, ``derivati
 would need. Units: radians (metres for prismatic joints), seconds, N·m (N).
 
 Setpoints come from the config (``setpoints``, and a timed ``schedule`` of steps: the tuning program) or from a
-behaviour as :class:`~robokit_plugins.arm_types.JointCommand` in ``position`` mode. The reading is a
+behaviour as :class:`~robokit.msgs.arm.JointCommand` in ``position`` mode. The reading is a
 :class:`PidState` with setpoints, measurements, the torque applied and each term, per joint.
 """
 
@@ -28,12 +28,13 @@ from typing import Any, ClassVar, Literal
 
 import numpy as np
 from pydantic import Field
-from robokit_plugins.arm_types import JointCommand
 
 from robokit import hookimpl
 from robokit.components import Actuator, SetupContext
 from robokit.config import Schema
 from robokit.errors import ConfigError
+from robokit.msgs.arm import JointCommand
+from robokit.msgs.control import PidState
 
 
 class PidGains(Schema):
@@ -63,21 +64,6 @@ class PidConfig(Schema):
     schedule: tuple[ScheduledStep, ...] = ()
     derivative: Literal["velocity", "difference"] = "velocity"
     derivative_filter_hz: float = Field(50.0, gt=0, description="low-pass cut-off of the 'difference' derivative")
-
-
-@dataclass(frozen=True)
-class PidState:
-    """Per joint, by name: setpoint and position (rad), velocity (rad/s), applied torque and its P, I, D terms
-    (N·m), and whether the output hit ``max_torque``."""
-
-    setpoints: dict[str, float]
-    positions: dict[str, float]
-    velocities: dict[str, float]
-    torques: dict[str, float]
-    p_terms: dict[str, float]
-    i_terms: dict[str, float]
-    d_terms: dict[str, float]
-    saturated: dict[str, bool]
 
 
 class Pid(Actuator):

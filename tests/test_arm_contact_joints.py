@@ -7,8 +7,8 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from robokit_plugins.arm_types import JointCommand
 
+from robokit.msgs.arm import JointCommand
 from robokit.testing import PLANE, make_sim
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"

@@ -6,8 +6,8 @@ from typing import Any
 
 import numpy as np
 import pytest
-from robokit_plugins.arm_types import GripperCommand, MoveTo
 
+from robokit.msgs.arm import GripperCommand, MoveTo
 from robokit.testing import make_sim
 
 READY = {"panda_joint2": -0.4, "panda_joint4": -2.2, "panda_joint6": 1.8, "panda_joint7": 0.785}

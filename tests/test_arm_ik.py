@@ -7,8 +7,8 @@ from typing import Any
 
 import numpy as np
 import pytest
-from robokit_plugins.arm_types import HoldArm, MoveTo, down_quaternion, quat_angle
 
+from robokit.msgs.arm import HoldArm, MoveTo, down_quaternion, quat_angle
 from robokit.testing import PLANE, make_sim
 
 PANDA_READY = {"panda_joint2": -0.4, "panda_joint4": -2.2, "panda_joint6": 1.8, "panda_joint7": 0.785}

@@ -5,9 +5,9 @@ from __future__ import annotations
 import math
 
 import pytest
-from robokit_plugins.mobile_types import DriveState, Twist, WheelSpeeds
 
 from robokit.cli import main
+from robokit.msgs.mobile import DriveState, Twist, WheelSpeeds
 from robokit.testing import PLANE, make_sim
 
 DIFFBOT = {"urdf": "robots/diffbot.urdf", "position": [0, 0, 0.06]}

@@ -100,7 +100,8 @@ def test_behaviours_import_no_pybullet() -> None:
 def synthetic_scan(points: list[tuple[float, float]]):
     """A LaserScan from the origin whose hits are exactly ``points`` (world xy, z = 0.12), in angle order."""
     import numpy as np
-    from robokit_plugins.mobile_types import LaserScan
+
+    from robokit.msgs.mobile import LaserScan
 
     pts = sorted(points, key=lambda p: math.atan2(p[1], p[0]))
     xyz = np.array([[x, y, 0.12] for x, y in pts])

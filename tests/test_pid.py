@@ -6,9 +6,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from robokit_plugins.arm_types import JointCommand
 from robokit_plugins.pid import step_metrics
 
+from robokit.msgs import JointCommand
 from robokit.testing import edited_config, make_sim, validate_error
 
 CONFIG = Path(__file__).resolve().parents[1] / "configs" / "pid_kuka.toml"

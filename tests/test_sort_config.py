@@ -57,7 +57,7 @@ def test_graph_sort_prints_mermaid(capsys: pytest.CaptureFixture[str]) -> None:
 
 
 def test_sort_and_vision_types_do_not_import_pybullet_or_cv2() -> None:
-    code = ("import sys, robokit_behaviours.sort, robokit_plugins.vision_types; "
+    code = ("import sys, robokit_behaviours.sort, robokit.msgs.vision; "
             "print('pybullet' in sys.modules, 'cv2' in sys.modules)")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert proc.stdout.strip() == "False False", proc.stderr

@@ -6,8 +6,8 @@ from typing import Any
 
 import numpy as np
 import pytest
-from robokit_plugins.vision_types import CameraFrame
 
+from robokit.msgs.vision import CameraFrame
 from robokit.testing import PLANE
 
 CUBE = {"shape": "box", "size": [0.1, 0.1, 0.1], "mass": 0.0, "position": [0.0, 0.0, 0.05], "rgba": [1, 0, 0, 1]}

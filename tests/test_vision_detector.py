@@ -8,8 +8,8 @@ from typing import Any
 import numpy as np
 import pytest
 from robokit_plugins.colour_detector import fold_yaw
-from robokit_plugins.vision_types import Detections
 
+from robokit.msgs.vision import Detections
 from robokit.testing import PLANE
 from robokit.world import yaw_of
 

@@ -193,9 +193,7 @@ class Actions:
 
     def commands(self, action: Any) -> dict[str, Any]:
         """Commands by actuator name for one action vector (values outside ``[-1, 1]`` are clipped)."""
-        from robokit_plugins.arm_types import GripperCommand, JointCommand
-        from robokit_plugins.ee_delta import EEDelta
-        from robokit_plugins.mobile_types import Twist
+        from robokit.msgs import EEDelta, GripperCommand, JointCommand, Twist
 
         a = _clip(action).reshape(-1)
         if a.shape[0] != self.size:
