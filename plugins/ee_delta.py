@@ -87,6 +87,7 @@ class EEDeltaArm(Actuator):
         self.forces = [cfg.max_force or (j.max_force if j.max_force > 0 else 100.0) for j in self.arm]
         self.down = down_quaternion(cfg.yaw)
         self.zeros = [0.0] * len(self.movable)
+        self.damping, self.eye = cfg.damping * np.eye(6), np.eye(len(self.cols))
         self.reset()
 
     def reset(self, rng: np.random.Generator | None = None) -> None:
@@ -116,9 +117,9 @@ class EEDeltaArm(Actuator):
         err = np.concatenate([goal - pos, _tilt(s[5], self.down)])
         jl, ja = c.calculateJacobian(self.body, self.ee, [0.0, 0.0, 0.0], q_all, self.zeros, self.zeros)
         jac = np.vstack([np.asarray(jl), np.asarray(ja)])[:, self.cols]
-        pinv = jac.T @ np.linalg.inv(jac @ jac.T + self.config.damping * np.eye(6))
+        pinv = jac.T @ np.linalg.inv(jac @ jac.T + self.damping)
         q = np.asarray(q_all)[self.cols]
-        null = (np.eye(len(self.cols)) - pinv @ jac) @ (self.config.null_gain * (self.rest - q))
+        null = (self.eye - pinv @ jac) @ (self.config.null_gain * (self.rest - q))
         self.targets = np.clip(q + pinv @ err + null, self.lower, self.upper)
         self.dirty = True
 

@@ -186,11 +186,13 @@ class RobokitEnv(gym.Env):  # type: ignore[type-arg]
         for _ in range(self.repeat):
             tick()
         self.episode_ticks += self.repeat
-        reward = float(self.task.reward())
-        failure = self.task.failure()
-        terminated = bool(self.task.success() or failure is not None)
+        task = self.task
+        reward = float(task.reward())
+        failure = task.failure()
+        success = bool(task.success())
+        terminated = success or failure is not None
         truncated = not terminated and self.episode_ticks >= self.max_ticks
-        info = self._info()
+        info = self._info(success)
         if failure is not None:
             info["failure"] = failure
         return self._observation(), reward, terminated, truncated, info
@@ -219,6 +221,6 @@ class RobokitEnv(gym.Env):  # type: ignore[type-arg]
         obs = self._observe_raw()
         return obs if self.env_spec.dict_observations else obs["observation"]
 
-    def _info(self) -> dict[str, Any]:
-        return {"is_success": bool(self.task.success()), "sim_time": self.episode_ticks * self.world.time_step,
-                **self.task.info()}
+    def _info(self, success: bool | None = None) -> dict[str, Any]:
+        return {"is_success": bool(self.task.success()) if success is None else success,
+                "sim_time": self.episode_ticks * self.world.time_step, **self.task.info()}

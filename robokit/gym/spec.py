@@ -115,6 +115,8 @@ class EnvSpec(Schema):
 
 def flatten(value: Any) -> list[float]:
     """A reading (number, sequence, mapping, array, dataclass of numbers) as a flat list of floats."""
+    if type(value) is tuple and all(type(v) is float for v in value):  # the common case: a position
+        return list(value)
     if isinstance(value, bool | int | float | np.number):
         return [float(value)]
     if isinstance(value, np.ndarray):

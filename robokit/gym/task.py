@@ -23,6 +23,7 @@ The episode ends (``terminated``) on success or failure, and is truncated when `
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar, Literal
@@ -123,4 +124,4 @@ def hide_from_collisions(world: World, body: int) -> None:
 
 def distance(a: Any, b: Any) -> float:
     """Euclidean distance of two points (any length)."""
-    return float(np.linalg.norm(np.asarray(a, float) - np.asarray(b, float)))
+    return math.dist(a, b)
