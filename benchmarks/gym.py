@@ -4,10 +4,11 @@
     python benchmarks/gym.py --steps 2000 --rounds 5
 
 Both environments are made through ``gymnasium.make`` (so both carry Gymnasium's default wrappers), step with
-uniformly random actions from one seeded generator, and reset when an episode ends. They run the same physics:
+uniformly random actions from seeded generators, and reset when an episode ends. They run the same physics:
 a 0.002 s physics step, 20 physics steps per env step (0.04 sim-s), 50-step episodes, the Panda alone on a table
-(robokit's scene also holds a ground plane and a goal marker, as panda-gym's does). Rounds alternate
-robokit / panda-gym so that machine load hits both alike; the ratio is taken per round and the median reported.
+(robokit's scene also holds a ground plane and a goal marker, as panda-gym's does). Within a round the
+two alternate every ``--chunk`` steps so that machine load hits both alike; the ratio is taken per round and the
+median reported.
 Resets are timed separately (mean of ``--resets`` resets each). Wall-clock figures depend on the machine: the
 load average is printed with them.
 """
@@ -42,20 +43,30 @@ def make_panda_gym() -> Any:
     return gymnasium.make("PandaReach-v3")
 
 
-def steps_per_second(env: Any, steps: int, seed: int) -> tuple[float, int]:
-    """Random-action env steps per wall second, resets included; and how many episodes ended."""
-    rng = np.random.default_rng(seed)
-    low, high = env.action_space.low, env.action_space.high
-    acts = rng.uniform(low, high, (steps, *env.action_space.shape)).astype(np.float32)
-    env.reset(seed=seed)
-    episodes = 0
-    t0 = time.perf_counter()
-    for a in acts:
-        _, _, terminated, truncated, _ = env.step(a)
-        if terminated or truncated:
-            env.reset()
-            episodes += 1
-    return steps / (time.perf_counter() - t0), episodes
+class Runner:
+    """Steps one environment with seeded random actions, resetting when an episode ends; keeps its wall time."""
+
+    def __init__(self, env: Any, seed: int) -> None:
+        self.env, self.rng = env, np.random.default_rng(seed)
+        self.low, self.high = env.action_space.low, env.action_space.high
+        env.reset(seed=seed)
+        self.seconds, self.steps, self.episodes = 0.0, 0, 0
+
+    def run(self, steps: int) -> None:
+        acts = self.rng.uniform(self.low, self.high, (steps, *self.env.action_space.shape)).astype(np.float32)
+        env = self.env
+        t0 = time.perf_counter()
+        for a in acts:
+            _, _, terminated, truncated, _ = env.step(a)
+            if terminated or truncated:
+                env.reset()
+                self.episodes += 1
+        self.seconds += time.perf_counter() - t0
+        self.steps += steps
+
+    @property
+    def rate(self) -> float:
+        return self.steps / self.seconds
 
 
 def reset_ms(env: Any, n: int) -> float:
@@ -75,6 +86,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=2000)
     parser.add_argument("--rounds", type=int, default=5)
+    parser.add_argument("--chunk", type=int, default=50, help="steps per turn when alternating")
     parser.add_argument("--resets", type=int, default=200)
     args = parser.parse_args(argv)
     try:
@@ -86,9 +98,12 @@ def main(argv: list[str] | None = None) -> int:
     rates: dict[str, list[float]] = {n: [] for n in names}
     ratios = []
     for r in range(args.rounds):
+        runners = {n: Runner(envs[n], seed=r) for n in names}
+        for _ in range(args.steps // args.chunk):  # alternate in short chunks: load drift hits both alike
+            for name in names:
+                runners[name].run(args.chunk)
         for name in names:
-            rate, episodes = steps_per_second(envs[name], args.steps, seed=r)
-            rates[name].append(rate)
+            rates[name].append(runners[name].rate)
         ratios.append(rates[names[0]][-1] / rates[names[1]][-1])
         print(f"round {r + 1}: " + "  ".join(f"{n} {rates[n][-1]:7.0f} steps/s" for n in names)
               + f"  ratio {ratios[-1]:.2f}")
