@@ -94,6 +94,9 @@ class Camera(Sensor):
         wanted = cfg.save or getattr(ctx, "save_frames", False)
         self.save_dir = Path(run_dir) / "frames" if wanted and run_dir is not None else None
 
+    def reset(self, rng: np.random.Generator | None = None) -> None:
+        """Nothing to reset between episodes (robokit.gym): a frame depends only on the world."""
+
     def pose(self) -> tuple[Vec3, Vec3, Vec3]:
         """Current ``(eye, target, up)`` of the camera, metres, world frame."""
         cfg = self.cfg

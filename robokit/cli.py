@@ -110,6 +110,9 @@ def _add_extra_commands(sub: Any) -> None:
     from robokit.record.cli import add_record_commands
 
     add_record_commands(sub)
+    from robokit.sweep.cli import add_sweep_command
+
+    add_sweep_command(sub)
 
 
 def _overrides(args: argparse.Namespace) -> dict[str, Any]:

@@ -304,7 +304,8 @@ class Config:
 
 
 SECTIONS = ("world", "regions", "bodies", "robots", "sensors", "actuators", "behaviour", "report", "events", "record",
-            "gui")
+            "gui", "env")
+"""``env`` is read by :mod:`robokit.gym` (a Gymnasium environment made from the config); runs ignore it."""
 _COMPONENT_KEYS = ("type", "rate_hz")
 
 
