@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import datetime as dt
 import json
 import uuid
@@ -14,7 +15,7 @@ from typing import IO, Any
 from robokit import __version__
 from robokit.components import Delivery
 from robokit.config import Config
-from robokit.errors import ConfigError, Interrupted, PluginError, plugin_fault
+from robokit.errors import ConfigError, Interrupted, PluginError, UserError, plugin_fault
 from robokit.interrupts import StopGuard
 from robokit.plugins import Plugins
 from robokit.reporting import build_payload, deliver
@@ -137,6 +138,11 @@ def run_config(
                 except BaseException:
                     sim.close()
                     raise
+        except UserError:
+            if run_dir is not None:  # a config problem found at setup: nothing ran, keep no empty run folder
+                with contextlib.suppress(OSError):
+                    run_dir.rmdir()
+            raise
         except PluginError as exc:
             result, error = error_result(cfg, run_seed, str(exc), run_id=run_id), exc
         except Interrupted as exc:

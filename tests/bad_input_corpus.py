@@ -70,6 +70,11 @@ CASES: dict[str, Case] = {
     "world max_time absurd": Case(world("max_time = 1e9"), "world.max_time", "less than or equal to 1000000"),
     "world max_wall_time negative": Case(world("max_wall_time = -5"), "world.max_wall_time", "greater than 0"),
     "world realtime string": Case(world('realtime = "yes"'), "world.realtime", "valid boolean"),
+    "record pose_hz negative": Case("[record]\npose_hz = -1\n" + BOX, "record.pose_hz",
+                                    "greater than or equal to 0"),
+    "record save_frames string": Case('[record]\nsave_frames = "yes"\n' + BOX, "record.save_frames",
+                                      "valid boolean"),
+    "gui unknown key": Case("[gui]\nbogus = 1\n" + BOX, "gui.bogus", "unknown key 'bogus'"),
     "nothing to run": Case("[world]\nseed = 3\n", "", "nothing to run"),
     # ----------------------------------------------------------------- [regions]
     "region low missing": Case(PLANE + '[regions.r]\nhigh = [1, 1]\n[bodies.b]\nshape = "box"\nregion = "r"\n',
