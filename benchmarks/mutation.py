@@ -40,7 +40,7 @@ TESTS: dict[str, list[str]] = {
     "plugins/gripper.py": ["tests/test_arm_gripper.py", "tests/test_arm_pick_place.py"],
     "robokit/simulation.py": ["tests/test_core_scheduler.py", "tests/test_core_world.py", "tests/test_promises.py",
                               "tests/test_outcomes.py", "tests/test_preflight.py"],
-    "robokit/scheduler.py": ["tests/test_core_scheduler.py", "tests/test_promises.py"],
+    "robokit/scheduler.py": ["tests/test_core_scheduler.py", "tests/test_promises.py", "tests/test_outcomes.py"],
     "robokit/preflight.py": ["tests/test_preflight.py"],
     "behaviours/avoidance.py": ["tests/test_mobile_nav.py", "tests/test_preflight.py"],
 }
