@@ -144,3 +144,48 @@ def test_vector_envs_match_single_envs(vector: str) -> None:
             assert rewards[i] == pytest.approx(float(expected[i][2 + 2 * k][0]))
     venv.close()
     single.close()
+
+
+def test_dict_observations_for_goal_conditioned_learning() -> None:
+    from gymnasium import spaces
+    from gymnasium.utils.env_checker import check_env
+
+    groups = {"observation": ["arm.position", "arm.velocity"], "achieved_goal": "task.achieved",
+              "desired_goal": "task.goal"}
+    env = robokit.gym.make(ROOT / "configs" / "gym" / "reach.toml", env__observations=groups)
+    assert isinstance(env.observation_space, spaces.Dict)
+    assert {k: s.shape for k, s in env.observation_space.spaces.items()} == {
+        "observation": (6,), "achieved_goal": (3,), "desired_goal": (3,)}
+    check_env(env, skip_render_check=True)
+    obs, info = env.reset(seed=1)
+    assert np.allclose(np.linalg.norm(obs["desired_goal"] - obs["achieved_goal"]), info["distance"], atol=1e-6)
+    env.close()
+
+
+KUKA_ENV = {
+    "world": {"time_step": 1 / 240},
+    "robots": {"kuka": {"urdf": "kuka_iiwa/model.urdf", "position": [0, 0, 0], "fixed_base": True}},
+    "actuators": {
+        "joints": {"type": "joint_control", "body": "kuka", "joints": ["lbr_iiwa_joint_1", "lbr_iiwa_joint_2"]},
+        "ee": {"type": "ee_delta", "body": "kuka", "ee_link": "lbr_iiwa_link_7"},
+    },
+    "env": {
+        "control_hz": 24,
+        "observations": ["joints.positions", "ee.position", "task.goal"],
+        "actions": {"joints": {"kind": "joint_targets", "joints": ["lbr_iiwa_joint_1", "lbr_iiwa_joint_2"],
+                               "low": [-1.0, -0.5], "high": [1.0, 0.5]}},
+        "task": {"type": "reach", "ee": "ee", "goal_low": [0.3, -0.3, 0.6], "goal_high": [0.5, 0.3, 1.0],
+                 "max_time": 1.0},
+    },
+}
+
+
+def test_joint_target_actions_drive_named_joints() -> None:
+    """``joint_targets``: -1..1 maps to each joint's low..high; the joints get there under position control."""
+    env = robokit.gym.make(KUKA_ENV)
+    assert env.action_space.shape == (2,) and env.observation_space.shape == (2 + 3 + 3,)
+    obs, _ = env.reset(seed=0)
+    for _ in range(24):
+        obs, *_ = env.step(np.array([0.5, -1.0], np.float32))
+    assert obs[0] == pytest.approx(0.5, abs=0.02) and obs[1] == pytest.approx(-0.5, abs=0.02)
+    env.close()
