@@ -21,7 +21,7 @@ import enum
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 from pydantic import Field, field_validator
 
@@ -127,11 +127,28 @@ class PickPlace(MachineBehaviour):
     TRANSITIONS = TRANSITIONS
     INITIAL = Phase.WAIT
     TIMEOUTS = TIMEOUTS
+    example: ClassVar[dict[str, Any]] = {
+        "world": {"max_time": 12.0},
+        "bodies": {
+            "plane": {"urdf": "plane.urdf", "position": [0, 0, -0.626]},
+            "table": {"urdf": "table/table.urdf", "position": [0.5, 0, -0.626], "fixed_base": True},
+            "cube": {"shape": "box", "size": [0.05, 0.05, 0.05], "mass": 0.1, "position": [0.5, 0.05, 0.025],
+                     "rpy_deg": [0, 0, 20], "lateral_friction": 0.8},
+        },
+        "robots": {"panda": {"urdf": "franka_panda/panda.urdf", "position": [0, 0, 0], "fixed_base": True}},
+        "sensors": {"poses": {"type": "body_pose", "bodies": ["cube"]}},
+        "actuators": {
+            "arm": {"type": "ik_arm", "body": "panda", "ee_link": "panda_grasptarget", "reach": 0.85,
+                    "ready_pose": {"panda_joint1": 0.0, "panda_joint2": -0.4, "panda_joint3": 0.0,
+                                   "panda_joint4": -2.2, "panda_joint5": 0.0, "panda_joint6": 1.8,
+                                   "panda_joint7": 0.785}},
+            "gripper": {"type": "gripper", "body": "panda", "force": 20.0, "lateral_friction": 1.2},
+        },
+        "config": {"pose_sensor": "poses", "object": "cube", "place_position": [0.45, -0.3, 0.027]},
+    }
 
     def __init__(self, name: str, config: Any) -> None:
         super().__init__(name, config or PickPlaceConfig.model_validate({}))
-        cfg: PickPlaceConfig = self.config
-        self.timeouts = {**TIMEOUTS, **cfg.timeouts}
         self.task: PickPlaceTask | None = None
         self.attempts = 0
         self.started_at = 0.0

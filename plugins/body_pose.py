@@ -6,30 +6,18 @@ Perception-based behaviours must use the camera/lidar instead.
 
 from __future__ import annotations
 
-from typing import NamedTuple
-
 import pybullet as p
 
 from robokit import hookimpl
 from robokit.components import Sensor, SetupContext
 from robokit.config import Schema
-
-Vec3 = tuple[float, float, float]
+from robokit.msgs.body import BodyState
 
 
 class BodyPoseConfig(Schema):
     """``bodies``: names to track (empty = every body with mass)."""
 
     bodies: tuple[str, ...] = ()
-
-
-class BodyState(NamedTuple):
-    """Pose and velocity of one body's base: metres, ``(x, y, z, w)`` quaternion, m/s and rad/s, world frame."""
-
-    position: Vec3
-    orientation: tuple[float, float, float, float]
-    linear_velocity: Vec3
-    angular_velocity: Vec3
 
 
 class BodyPoseSensor(Sensor):

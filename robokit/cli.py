@@ -55,6 +55,10 @@ def _parser() -> argparse.ArgumentParser:
     graph = sub.add_parser("graph", help="print a behaviour's state machine as a Mermaid diagram")
     graph.add_argument("behaviour", help="a behaviour type name, e.g. sort")
     graph.set_defaults(func=cmd_graph)
+
+    lint = sub.add_parser("lint", help="check plugin code for wall-clock reads, sleeps and global random generators")
+    lint.add_argument("paths", nargs="+", metavar="PATH", help="Python files or folders")
+    lint.set_defaults(func=cmd_lint)
     _add_extra_commands(sub)
     return parser
 
@@ -175,6 +179,19 @@ def cmd_graph(args: argparse.Namespace) -> int:
         raise UserError(f"behaviour {args.behaviour!r} is not a state machine (it has no mermaid())")
     print(mermaid(), end="")
     return EXIT_OK
+
+
+def cmd_lint(args: argparse.Namespace) -> int:
+    """``robokit lint``: one line per finding (file:line:col: code message); exit 1 if there is any."""
+    from robokit.lint import lint_paths
+
+    try:
+        findings = lint_paths(args.paths)
+    except (FileNotFoundError, SyntaxError) as exc:
+        raise UserError(str(exc)) from None
+    for finding in findings:
+        print(finding)
+    return EXIT_FAILED if findings else EXIT_OK
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -165,6 +165,10 @@ class Behaviour:
     kind: ClassVar[str] = "behaviour"
     open_ended: ClassVar[bool] = False
     """True for behaviours with no natural end (teleop): reaching ``max_time`` then counts as success."""
+    example: ClassVar[dict[str, Any] | None] = None
+    """A minimal runnable scene for :func:`robokit.testing.check_behaviour`: the config sections it needs
+    (``world``, ``bodies``, ``robots``, ``sensors``, ``actuators``) plus ``"config"``, the ``[behaviour]`` section
+    without ``type``. ``world.max_time`` bounds the run: the behaviour must end before it."""
 
     def __init__(self, name: str, config: Any) -> None:
         self.name = name
