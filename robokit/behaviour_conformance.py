@@ -31,6 +31,7 @@ import copy
 import enum
 import inspect
 import json
+import os
 import subprocess
 import sys
 import time
@@ -195,7 +196,8 @@ class _BehaviourCheck:
         module = self.ptype.cls.__module__
         code = (f"import sys; import {module}; "
                 "print(','.join(m for m in ('pybullet', 'cv2') if m in sys.modules))")
-        proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=False)
+        env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in sys.path if p)}  # what this process sees
+        proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=False, env=env)
         if proc.returncode != 0:
             raise self.fail("imports", f"importing {module} failed: {proc.stderr.strip().splitlines()[-1:]}")
         heavy = proc.stdout.strip()
