@@ -262,6 +262,27 @@ class NavConfig(Schema):
     avoidance: AvoidanceConfig = Field(default_factory=AvoidanceConfig)  # type: ignore[arg-type]
 
 
+MAX_RAY_SPACING_DEG = 10.0
+"""The avoider needs a ray at least every this many degrees: a can 10 cm wide, seen at the 0.5 m where it must
+start slowing down, spans about 11 degrees."""
+MIN_FOV_DEG = 180.0
+"""... over at least the half circle ahead."""
+
+
+def check_scan(lidar: Any, name: str) -> None:
+    """Refuse a lidar too coarse for obstacle avoidance (a ConfigError at ``scan``); other types pass unchecked."""
+    cfg = getattr(lidar, "config", None)
+    rays, fov = getattr(cfg, "rays", None), getattr(cfg, "fov_deg", None)
+    if not isinstance(rays, int) or not isinstance(fov, (int, float)):
+        return
+    spacing = fov / (rays if fov >= 360.0 else max(rays - 1, 1)) if rays > 1 else 360.0
+    if rays < 2 or spacing > MAX_RAY_SPACING_DEG or fov < MIN_FOV_DEG:
+        raise ConfigError(
+            f"lidar {name!r} has {rays} ray(s) over {fov:g} deg (one every {spacing:g} deg): obstacle avoidance "
+            f"needs a ray at least every {MAX_RAY_SPACING_DEG:g} deg over at least {MIN_FOV_DEG:g} deg; raise its "
+            f"'rays' (e.g. rays = {math.ceil(max(fov, MIN_FOV_DEG) / MAX_RAY_SPACING_DEG) + 1})", key="scan")
+
+
 class Navigating:
     """Mixin for :class:`robokit.fsm.MachineBehaviour` subclasses whose machines include ``MOTION_TRANSITIONS``.
 
@@ -281,6 +302,8 @@ class Navigating:
                 raise ConfigError(
                     f"no component named {name!r}; components: {', '.join(ctx.components) or '(none)'}", key=key
                 )
+        if cfg.scan:
+            check_scan(ctx.components[cfg.scan], cfg.scan)
         self.avoider = Avoider(cfg.avoidance)
 
     def pose(self, readings: Mapping[str, Any]) -> Pose2D:

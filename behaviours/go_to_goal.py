@@ -14,10 +14,12 @@ from typing import Any
 
 from pydantic import Field
 from robokit_behaviours.avoidance import MOTION_TRANSITIONS, NavConfig, Navigating
+from robokit_behaviours.patrol import known_map, point_problems
 
 from robokit import hookimpl
 from robokit.components import SetupContext
 from robokit.config import Vec2
+from robokit.errors import ConfigError
 from robokit.fsm import MachineBehaviour
 from robokit.msgs.mobile import STOP
 
@@ -55,6 +57,10 @@ class GoToGoal(Navigating, MachineBehaviour):
         super().setup(ctx)
         self.setup_navigation(ctx)
         self.last: Any = None
+
+    def preflight(self, ctx: SetupContext) -> list[ConfigError]:
+        """The goal lies inside the world's bounds and outside the static obstacles."""
+        return point_problems(ctx, [("goal", self.config.goal)], known_map(ctx, ()), self.config.drive, 0.0)
 
     def step(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any] | None:
         if t > self.config.timeout:

@@ -95,6 +95,48 @@ def known_map(ctx: SetupContext, names: tuple[str, ...], key: str = "map_bodies"
     return boxes
 
 
+def world_bounds(ctx: SetupContext, boxes: list[MapBox], drive: str) -> tuple[str, MapBox] | None:
+    """The area the robot can be in (xy, world): the map's extent when it encloses the robot's start (a walled
+    arena), else the floor's (static bodies lying flat on the ground), if finite. None when there is no bound."""
+    world = ctx.world
+    robot = getattr(getattr(ctx.components.get(drive), "config", None), "robot", None)
+    start = world.pose(robot)[0] if robot and world.has_body(robot) else None
+    if boxes and start is not None:
+        extent = MapBox("map", (min(b.lo[0] for b in boxes), min(b.lo[1] for b in boxes)),
+                        (max(b.hi[0] for b in boxes), max(b.hi[1] for b in boxes)))
+        if extent.contains(start[0], start[1]):
+            return "the map's extent", extent
+    floors = []
+    for name in world.body_names:
+        lo, hi = world.body_aabb(name)
+        if hi[2] <= 0.05 and world.client.getDynamicsInfo(world.body(name), -1)[0] == 0:
+            floors.append(MapBox(name, (lo[0], lo[1]), (hi[0], hi[1])))
+    finite = [f for f in floors if max(abs(v) for v in (*f.lo, *f.hi)) < 1e3]
+    if not finite or len(finite) != len(floors):
+        return None
+    return "the floor", MapBox("floor", (min(f.lo[0] for f in finite), min(f.lo[1] for f in finite)),
+                               (max(f.hi[0] for f in finite), max(f.hi[1] for f in finite)))
+
+
+def point_problems(ctx: SetupContext, points: list[tuple[str, Vec2]], boxes: list[MapBox], drive: str,
+                   grow: float) -> list[ConfigError]:
+    """Problems for goal points (``key``, (x, y)) outside the world's bounds or inside a map box grown by ``grow``."""
+    problems = []
+    bounds = world_bounds(ctx, boxes, drive)
+    for key, (x, y) in points:
+        if bounds is not None and not bounds[1].contains(x, y):
+            b = bounds[1]
+            problems.append(ctx.problem(f"({x:g}, {y:g}) is outside {bounds[0]} (x {b.lo[0]:.2f}..{b.hi[0]:.2f}, "
+                                        f"y {b.lo[1]:.2f}..{b.hi[1]:.2f})", key))
+            continue
+        for box in boxes:
+            if box.contains(x, y, grow):
+                problems.append(ctx.problem(f"({x:g}, {y:g}) is inside obstacle {box.name!r} (grown by {grow:g} m)",
+                                            key))
+                break
+    return problems
+
+
 class Patrol(Navigating, MachineBehaviour):
     """Visit waypoints in order for N laps, going around obstacles (lesson 07's A -> B -> C -> A)."""
 
@@ -124,6 +166,12 @@ class Patrol(Navigating, MachineBehaviour):
         self.touching: set[str] = set()
         self.collisions: list[dict[str, Any]] = []
         self.last: Any = None
+
+    def preflight(self, ctx: SetupContext) -> list[ConfigError]:
+        """Every waypoint lies inside the world's bounds (see :func:`world_bounds`)."""
+        cfg = self.config
+        points = [(f"waypoints[{i}]", wp) for i, wp in enumerate(cfg.waypoints)]
+        return point_problems(ctx, points, self.map, cfg.drive, cfg.robot_radius)
 
     # ---------------------------------------------------------------- bookkeeping
     @property

@@ -6,6 +6,10 @@ not explain, in small clusters, fitted as circles. Body ids and true positions a
 anything. To report the localisation error, an optional ``truth_sensor`` (a ``body_pose`` sensor) is read when an
 object is logged, and only into the result. Collection is the ``collector`` actuator (a front scoop, armed while
 approaching); the patrol resumes towards the waypoint it left.
+
+The goal (:meth:`PatrolCollect.check_goal`, on the world after the last tick): every waypoint visit made, every
+collectable (a loose body the collector could take: movable, no joints, at most its ``max_mass``, not on the map)
+stowed in the robot's bin, and no collision with the map. Anything else ends ``failed`` naming what is missing.
 """
 
 from __future__ import annotations
@@ -22,7 +26,7 @@ from robokit_behaviours.discovery import Discovery, DiscoveryConfig, Track
 from robokit_behaviours.patrol import PATROL_TRANSITIONS, Patrol, PatrolConfig
 
 from robokit import hookimpl
-from robokit.components import SetupContext
+from robokit.components import GoalCheck, SetupContext
 from robokit.errors import ConfigError
 from robokit.msgs.mobile import STOP, Collect
 
@@ -43,6 +47,10 @@ TRANSITIONS: list[dict[str, Any]] = [
     {"trigger": "collected", "source": "APPROACHING", "dest": "TURNING"},
     {"trigger": "lost", "source": "APPROACHING", "dest": "TURNING"},
 ]
+
+
+BIN_RADIUS = 0.15
+"""m: an object centre this close (xy) to the bin link, above it, is in the bin."""
 
 
 class PatrolCollectConfig(PatrolConfig):
@@ -85,6 +93,21 @@ class PatrolCollect(Patrol):
         self.approach_started = 0.0
         self.collected_count = 0
         self.scan_stamp = -1.0
+        self.collectables = self._collectables(ctx)
+
+    def _collectables(self, ctx: SetupContext) -> list[str]:
+        """Ground truth for the goal: loose bodies the collector could take (not the robot, not on the map)."""
+        collector = ctx.components.get(self.config.collector)
+        limit = getattr(getattr(collector, "config", None), "max_mass", math.inf)
+        robot = getattr(getattr(collector, "config", None), "robot", None)
+        world, out = ctx.world, []
+        for name in world.body_names:
+            bid = world.body(name)
+            mass = world.client.getDynamicsInfo(bid, -1)[0]
+            if name != robot and name not in self.map_names and world.client.getNumJoints(bid) == 0 \
+                    and 0.0 < mass <= limit:
+                out.append(name)
+        return out
 
     # ---------------------------------------------------------------- perception
     def _discover(self, readings: Mapping[str, Any], t: float) -> None:
@@ -177,6 +200,39 @@ class PatrolCollect(Patrol):
     def _summary(self, t: float) -> str:
         return (f"{len(self.reached)}/{self.legs_total} waypoints, {len(self.found)} objects found, "
                 f"{self.collected_count} collected, t = {t:.2f} s")
+
+    def check_goal(self, world: Any) -> GoalCheck:
+        """Every waypoint visited, every collectable in the robot's bin, no collision (ground truth)."""
+        problems = []
+        if self.missed:
+            problems.append(f"missed {len(self.missed)} of {self.legs_total} waypoint visits")
+        left = [n for n in self.collectables if not self._stowed(world, n)]
+        if left:
+            found = {f.get("body") for f in self.found}
+            why = [f"{n} ({'found, not collected' if n in found else 'not collected'})" for n in left]
+            problems.append(f"{len(left)} of {len(self.collectables)} object(s) not collected: {', '.join(why)}")
+        if self.collisions:
+            hit = sorted({c["body"] for c in self.collisions})
+            problems.append(f"{len(self.collisions)} collision(s) with {', '.join(hit)}")
+        details = {"collectables": len(self.collectables), "not_collected": left, "collisions": len(self.collisions)}
+        if problems:
+            return GoalCheck(False, "; ".join(problems), details)
+        return GoalCheck(True, f"all {len(self.collectables)} object(s) collected, no collision", details)
+
+    def _stowed(self, world: Any, name: str) -> bool:
+        """True if a body rides in the robot's bin (world state): attached to the robot by a constraint, or
+        resting within ``BIN_RADIUS`` of the bin link and above its floor."""
+        cfg = getattr(self.ctx.components.get(self.config.collector), "config", None)
+        if cfg is None or not world.has_body(name) or not world.has_body(cfg.robot):
+            return False
+        client, body, robot = world.client, world.body(name), world.body(cfg.robot)
+        for i in range(client.getNumConstraints()):
+            info = client.getConstraintInfo(client.getConstraintUniqueId(i))
+            if {info[0], info[2]} == {robot, body}:
+                return True
+        (bx, by, bz), _ = world.pose(cfg.robot, world.link(cfg.robot, cfg.bin_link))
+        x, y, z = world.pose(name)[0]
+        return math.hypot(x - bx, y - by) <= BIN_RADIUS and z > bz
 
     def result(self) -> dict[str, Any]:
         out = super().result()

@@ -13,6 +13,10 @@ Two ways to use it:
 Heights: positions are object *centres*, metres, world frame. The tool-centre point (the arm's end-effector link)
 goes to the object centre plus ``grasp_offset`` to grasp and is released ``place_clearance`` above the place
 position.
+
+The goal (top-level use, :meth:`PickPlace.check_goal`, evaluated on the world after the last tick): the object rests
+(slower than ``REST_SPEED``, not touching the robot) with its centre within ``place_tolerance`` of ``place_position``.
+A top-level ``pick_place`` without ``object``, ``pose_sensor`` or ``place_position`` is a config error.
 """
 
 from __future__ import annotations
@@ -26,7 +30,7 @@ from typing import Any, ClassVar
 from pydantic import Field, field_validator
 
 from robokit import hookimpl
-from robokit.components import SetupContext
+from robokit.components import GoalCheck, SetupContext
 from robokit.config import Schema
 from robokit.errors import ConfigError
 from robokit.fsm import MachineBehaviour
@@ -73,6 +77,9 @@ TRANSITIONS: list[dict[str, Any]] = [
     {"trigger": "give_up", "source": ["WAIT", *HANDLING], "dest": "FAILED"},
     {"trigger": "reset", "source": ["DONE", "FAILED"], "dest": "WAIT"},
 ]
+
+REST_SPEED = 0.02
+"""m/s: an object slower than this at the end of a run is resting."""
 
 TIMEOUTS = {"APPROACH": 3.0, "DESCEND": 2.0, "GRASP": 1.0, "LIFT": 2.0, "TRANSPORT": 3.0, "LOWER": 2.0,
             "RELEASE": 1.0, "RETREAT": 2.0}
@@ -158,6 +165,7 @@ class PickPlace(MachineBehaviour):
         self.final_yaw: float | None = None
         self.placement_error: float | None = None
         self._entry_due = False
+        self.is_sub = False
         self._yaw = 0.0
         self._grasp: Vec3 = (0.0, 0.0, 0.0)
 
@@ -172,6 +180,7 @@ class PickPlace(MachineBehaviour):
         fields = {"arm": arm, "gripper": gripper, "max_attempts": max_attempts, **options}
         config = PickPlaceConfig.model_validate(fields)
         machine = cls(name, config)
+        machine.is_sub = True
         machine.setup(parent_ctx)
         return machine
 
@@ -186,6 +195,11 @@ class PickPlace(MachineBehaviour):
         if cfg.object is not None and not ctx.world.has_body(cfg.object):
             raise ConfigError(f"unknown body {cfg.object!r}; bodies: {', '.join(ctx.world.body_names)}",
                               key="object")
+        if not self.is_sub:  # top-level use: the job comes from the config, so all of it must be there
+            for key, why in (("object", "the body to pick"), ("pose_sensor", "a body_pose sensor that sees it"),
+                             ("place_position", "the object centre at the place spot, [x, y, z] m")):
+                if getattr(cfg, key) is None:
+                    raise ConfigError(f"missing: pick_place needs {why}", key=key)
 
     @staticmethod
     def _need(ctx: SetupContext, name: str, key: str, reading: type, type_name: str) -> None:
@@ -408,6 +422,52 @@ class PickPlace(MachineBehaviour):
             self._go("clear")
             self.finished_at = self.t
             self.finish("succeeded", f"placed {self.task.object_name or 'object'} in {self.attempts} attempt(s)")
+
+    # ------------------------------------------------------------------ preflight (before the first tick)
+    def preflight(self, ctx: SetupContext) -> list[ConfigError]:
+        """Top-level use: the object and the place position are within the arm's reach."""
+        cfg: PickPlaceConfig = self.config
+        reach = getattr(ctx.components.get(cfg.arm), "check_reach", None)
+        if self.is_sub or reach is None or cfg.object is None or cfg.place_position is None:
+            return []
+        problems = []
+        x, y, z = cfg.place_position
+        why = reach((x, y, z + cfg.grasp_offset + cfg.place_clearance))
+        if why:
+            problems.append(ctx.problem(f"out of the reach of arm {cfg.arm!r}: {why}", "place_position"))
+        pos = ctx.world.pose(cfg.object)[0]
+        why = reach((pos[0], pos[1], pos[2] + cfg.grasp_offset))
+        if why:
+            problems.append(ConfigError(f"{cfg.object} at ({pos[0]:.3f}, {pos[1]:.3f}, {pos[2]:.3f}) is out of the "
+                                        f"reach of arm {cfg.arm!r}: {why}", key=ctx.body_key(cfg.object)))
+        return problems
+
+    # ------------------------------------------------------------------ goal (ground truth, after the run)
+    def check_goal(self, world: Any) -> GoalCheck | None:
+        """The object rests at ``place_position`` within ``place_tolerance``, not held (top-level use)."""
+        cfg: PickPlaceConfig = self.config
+        if self.is_sub or cfg.object is None or cfg.place_position is None:
+            return None
+        if not world.has_body(cfg.object):
+            return GoalCheck(False, f"{cfg.object} is no longer in the world")
+        pos = world.pose(cfg.object)[0]
+        error = math.dist(pos, cfg.place_position)
+        speed = math.hypot(*world.velocity(cfg.object)[0])
+        arm = getattr(self.ctx.components.get(cfg.arm), "config", None)
+        robot = getattr(arm, "body", None)
+        held = robot is not None and world.has_body(robot) and bool(
+            world.client.getContactPoints(world.body(cfg.object), world.body(robot)))
+        details = {"object": cfg.object, "final_position": [round(v, 4) for v in pos],
+                   "placement_error": round(error, 5), "speed": round(speed, 4), "touching_robot": held}
+        where = (f"{cfg.object} is {error * 1000:.0f} mm from the place position "
+                 f"(tolerance {cfg.place_tolerance * 1000:g} mm)")
+        if error > cfg.place_tolerance:
+            return GoalCheck(False, where, details)
+        if held:
+            return GoalCheck(False, f"{cfg.object} is at the place position but still touches the robot", details)
+        if speed > REST_SPEED:
+            return GoalCheck(False, f"{cfg.object} is still moving ({speed:.2f} m/s)", details)
+        return GoalCheck(True, where.replace(" is ", " rests ", 1), details)
 
     # ------------------------------------------------------------------ result
     def result(self) -> dict[str, Any]:

@@ -13,6 +13,12 @@ read for the report alone: which body a detection was, and how far the detected 
 Identity across looks is by colour and position: an object whose pick failed is the same object as the next
 detection of its colour nearest to where it was last seen. An object that failed ``max_attempts`` times is given
 up and detections near its last position are ignored from then on.
+
+The goal (:meth:`Sort.check_goal`, evaluated on the world after the last tick): every loose object (a movable body
+with no joints) whose true colour (its ``rgba``, classified with the detector's colour classes) has a bin lies in
+that bin, and no loose object has a colour that no class matches. The per-colour counts of the result are counted
+in the world the same way. An object that misses the goal is named with the reason: never seen by the detector,
+its colour matches no class, or the last failure of its picks (unreachable, grasp failed, dropped...).
 """
 
 from __future__ import annotations
@@ -27,7 +33,7 @@ from pydantic import Field
 from robokit_behaviours.pick_place import PickPlace, PickPlaceTask
 
 from robokit import hookimpl
-from robokit.components import SetupContext
+from robokit.components import GoalCheck, SetupContext
 from robokit.config import Schema
 from robokit.errors import ConfigError, LookupNameError, did_you_mean
 from robokit.fsm import MachineBehaviour
@@ -101,12 +107,18 @@ class Bin:
     low: tuple[float, float]
     high: tuple[float, float]
     used: int = 0
+    top: float = math.inf
 
     def next_slot(self) -> Vec3:
         """The next place position (cycles through the slots)."""
         slot = self.slots[self.used % len(self.slots)]
         self.used += 1
         return slot
+
+    def holds(self, position: Vec3) -> bool:
+        """True if an object centre (metres, world) is over the bin's footprint and below its rim."""
+        x, y, z = position
+        return self.low[0] <= x <= self.high[0] and self.low[1] <= y <= self.high[1] and z < self.top
 
     def contains(self, x: float, y: float, margin: float) -> bool:
         """True if ``(x, y)`` lies over the bin's footprint grown by ``margin`` metres."""
@@ -128,6 +140,8 @@ class SortedObject:
     detection_error: float | None = None
     failures: list[str] = field(default_factory=list)
     handling_time: float = 0.0
+    picked: str | None = None
+    """Report only: the loose object (ground truth) the first pick of this object was about."""
 
     def report(self) -> dict[str, Any]:
         """JSON-ready summary."""
@@ -163,6 +177,8 @@ class Sort(MachineBehaviour):
             raise ConfigError(exc.message, key=exc.key) from None
         except (TypeError, ValueError) as exc:
             raise ConfigError(f"bad pick_place option: {exc}".splitlines()[0], key="pick_place") from None
+        self.goal_objects = self._loose_objects(ctx)
+        self.seen: set[str] = set()
         self.objects: list[SortedObject] = []
         self.left: list[dict[str, Any]] = []
         self.current: SortedObject | None = None
@@ -181,6 +197,30 @@ class Sort(MachineBehaviour):
         colours = getattr(det, "colours", None)
         return tuple(colours) if colours is not None else ()
 
+    def _loose_objects(self, ctx: SetupContext) -> dict[str, str | None]:
+        """Ground truth for the goal: every loose body (movable, no joints, not a bin) and its colour class
+        from its true ``rgba`` (None when no class of the detector matches it)."""
+        bins = {b.body for b in self.bins.values()}
+        world, out = ctx.world, {}
+        for name in world.body_names:
+            bid = world.body(name)
+            if name in bins or world.client.getNumJoints(bid) or world.client.getDynamicsInfo(bid, -1)[0] <= 0:
+                continue
+            shapes = world.client.getVisualShapeData(bid)
+            out[name] = self._colour_class(shapes[0][7][:3]) if shapes else None
+        return out
+
+    def _colour_class(self, rgb: Any) -> str | None:
+        """The first colour class of the detector whose HSV ranges contain a true colour (0-1 floats)."""
+        classes = getattr(self.ctx.components.get(self.config.detector), "colours", None)
+        if not isinstance(classes, Mapping):
+            return None
+        for name, cls in classes.items():
+            contains = getattr(cls, "contains_rgb", None)
+            if contains is not None and contains(rgb):
+                return str(name)
+        return None
+
     def _bin(self, ctx: SetupContext, colour: str, cfg: BinConfig) -> Bin:
         if colour not in self.colours:
             known = ", ".join(self.colours)
@@ -194,7 +234,7 @@ class Sort(MachineBehaviour):
         d = cfg.slot_spacing / 2.0
         offsets = [(-d, -d), (d, d), (-d, d), (d, -d), (0.0, 0.0)] if d > 0 else [(0.0, 0.0)]
         slots = [(bx + ox, by + oy, z) for ox, oy in offsets]
-        return Bin(colour, cfg.body, slots, (lo[0], lo[1]), (hi[0], hi[1]))
+        return Bin(colour, cfg.body, slots, (lo[0], lo[1]), (hi[0], hi[1]), top=hi[2])
 
     # ------------------------------------------------------------------ LOOK
     def do_look(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any] | None:
@@ -205,6 +245,8 @@ class Sort(MachineBehaviour):
         if seen.time < self.entered_at - 1e-9:
             return None  # the camera has not been due since LOOK began: wait for a fresh frame
         self.looks += 1
+        for d in seen:
+            self._attribute(d.position)
         sortable, unknown = self._classify(seen)
         self.left = [{"colour": d.colour, "detected_position": [round(v, 4) for v in d.position],
                       "outcome": "left", "reason": f"no bin for {d.colour}"} for d in unknown]
@@ -247,6 +289,9 @@ class Sort(MachineBehaviour):
         obj = self._object_for(d)
         obj.detected, obj.yaw = d.position, d.yaw
         self._record_truth(readings, obj)
+        truth = self._attribute(d.position)
+        obj.picked = obj.picked or truth
+        obj.body = obj.body or truth
         obj.attempts += 1
         self.picks += 1
         self.current = obj
@@ -265,6 +310,16 @@ class Sort(MachineBehaviour):
         obj = SortedObject(d.colour, d.position, d.yaw, self.bins[d.colour].body)
         self.objects.append(obj)
         return obj
+
+    def _attribute(self, position: Vec3) -> str | None:
+        """Report only: the loose object (ground truth) a detection or pick was about, marked as seen."""
+        world = self.ctx.world
+        near = [(math.dist(world.pose(n)[0][:2], position[:2]), n) for n in self.goal_objects if world.has_body(n)]
+        dist, name = min(near, default=(math.inf, None))
+        if name is None or dist > self.config.same_object_radius / 2.0:
+            return None
+        self.seen.add(name)
+        return name
 
     def _record_truth(self, readings: Mapping[str, Any], obj: SortedObject) -> None:
         """Report only: the body nearest to the detected position and the detection error."""
@@ -359,9 +414,8 @@ class Sort(MachineBehaviour):
     def result(self) -> dict[str, Any]:
         """Counts per colour, failures (failed pick attempts), sim time, and one record per object."""
         counts = {f"{c}_sorted": 0 for c in (*self.colours, *self.bins)}
-        for obj in self.objects:
-            if obj.outcome == "sorted":
-                counts[f"{obj.colour}_sorted"] += 1
+        for colour in self._in_bins().values():
+            counts[f"{colour}_sorted"] += 1
         start = self.started_at or 0.0
         end = self.finished_at if self.finished_at is not None else self.t
         frames = self._frames()
@@ -374,6 +428,92 @@ class Sort(MachineBehaviour):
             **({"camera_frames": frames} if frames is not None else {}),
             "objects": [o.report() for o in self.objects] + self.left,
         }
+
+    # ------------------------------------------------------------------ preflight (before the first tick)
+    def preflight(self, ctx: SetupContext) -> list[ConfigError]:
+        """Every loose object's colour is a class of the detector, lies in the camera's view and within the arm's
+        reach; every bin's place slots are within reach."""
+        cfg: SortConfig = self.config
+        problems = []
+        arm = ctx.components.get(cfg.arm)
+        reach = getattr(arm, "check_reach", None)
+        pp: Any = self.pp.config
+        for bin_colour, b in self.bins.items():
+            for x, y, z in b.slots:
+                why = reach((x, y, z + pp.grasp_offset + pp.place_clearance)) if reach else ""
+                if why:
+                    problems.append(ctx.problem(f"bin {b.body!r} is out of the reach of arm {cfg.arm!r}: {why}",
+                                                f"bins.{bin_colour}"))
+                    break
+        camera = self._camera(ctx)
+        for name, colour in self.goal_objects.items():
+            key = ctx.body_key(name)
+            pos = ctx.world.pose(name)[0]
+            where = f"({pos[0]:.3f}, {pos[1]:.3f}, {pos[2]:.3f})"
+            if colour is None:
+                problems.append(ConfigError(self._unknown_colour(ctx, name), key=f"{key}.rgba"))
+                continue
+            if colour not in self.bins:
+                continue
+            if camera is not None and not camera.in_view((pos[0], pos[1], pos[2] + cfg.object_size / 2.0)):
+                problems.append(ConfigError(f"{name} at {where} is outside the view of camera "
+                                            f"{getattr(camera, 'name', '?')!r}: the sort would never see it", key=key))
+            why = reach((pos[0], pos[1], pos[2] + pp.grasp_offset)) if reach else ""
+            if why:
+                problems.append(ConfigError(f"{name} at {where} is out of the reach of arm {cfg.arm!r}: {why}",
+                                            key=key))
+        return problems
+
+    def _camera(self, ctx: SetupContext) -> Any:
+        """The detector's camera component, if it can tell what it sees (``in_view``)."""
+        det = ctx.components.get(self.config.detector)
+        camera = ctx.components.get(getattr(getattr(det, "config", None), "camera", ""))
+        return camera if hasattr(camera, "in_view") else None
+
+    def _unknown_colour(self, ctx: SetupContext, name: str) -> str:
+        rgba = [round(v, 3) for v in ctx.world.client.getVisualShapeData(ctx.world.body(name))[0][7]]
+        classes = getattr(ctx.components.get(self.config.detector), "colours", {}) or {}
+        return (f"colour {rgba} of {name!r} matches no colour class of detector {self.config.detector!r} "
+                f"({', '.join(classes) or 'none'}): the sort could never see it; change the colour or add a class")
+
+    # ------------------------------------------------------------------ goal (ground truth, after the run)
+    def _in_bins(self) -> dict[str, str]:
+        """Loose objects lying in the bin of their true colour now (world poses), name -> colour."""
+        world = self.ctx.world
+        return {name: colour for name, colour in self.goal_objects.items()
+                if colour in self.bins and world.has_body(name) and self.bins[colour].holds(world.pose(name)[0])}
+
+    def check_goal(self, world: Any) -> GoalCheck:
+        """Every loose object of a colour with a bin is in that bin, and every loose object's colour is known."""
+        inside = self._in_bins()
+        missed: dict[str, list[str]] = {}
+        for name, colour in self.goal_objects.items():
+            if name in inside or (colour is not None and colour not in self.bins):
+                continue
+            missed.setdefault(self._why(world, name, colour), []).append(name)
+        total = sum(c is None or c in self.bins for c in self.goal_objects.values())
+        details = {"in_bin": sorted(inside), "missed": {n: why for why, names in missed.items() for n in names}}
+        if not missed:
+            return GoalCheck(True, f"all {total} sortable object(s) in their bins", details)
+        parts = [f"{', '.join(names)} ({why})" for why, names in missed.items()]
+        count = sum(len(n) for n in missed.values())
+        return GoalCheck(False, f"{count} of {total} object(s) not in their bin: " + "; ".join(parts), details)
+
+    def _why(self, world: Any, name: str, colour: str | None) -> str:
+        """Why a loose object is not in its bin (from what the sort did with it)."""
+        if colour is None:
+            return f"its colour matches no colour class of detector {self.config.detector!r}, never detected"
+        if not world.has_body(name):
+            return "removed from the world"
+        picked = [o for o in self.objects if name in (o.picked, o.body)]
+        if picked:
+            obj = picked[-1]
+            if obj.outcome == "sorted":
+                return f"placed in {self.bins[colour].body} but not there at the end"
+            return obj.reason or f"pick {obj.outcome}"
+        if name in self.seen:
+            return "seen by the detector but never picked"
+        return f"never seen by detector {self.config.detector!r}"
 
     def _frames(self) -> int | None:
         camera = getattr(self.ctx.components.get(self.config.detector), "cfg", None)

@@ -102,6 +102,19 @@ class Camera(Sensor):
         target = np.asarray(eye) + forward
         return tuple(eye), tuple(float(v) for v in target), tuple(float(v) for v in -down)  # type: ignore[return-value]
 
+    def in_view(self, point: Vec3) -> bool:
+        """True if a point (metres, world) projects inside the image with the camera's current pose, between
+        the near and far planes (occlusion is not considered)."""
+        eye, target, up = self.pose()
+        client = self.world.client
+        view = np.asarray(client.computeViewMatrix(list(eye), list(target), list(up)), float).reshape(4, 4).T
+        proj = np.asarray(self.projection, float).reshape(4, 4).T
+        clip = proj @ view @ np.array([*point, 1.0])
+        if clip[3] <= 0:
+            return False
+        ndc = clip[:3] / clip[3]
+        return bool(abs(ndc[0]) <= 1.0 and abs(ndc[1]) <= 1.0 and -1.0 <= ndc[2] <= 1.0)
+
     def read(self) -> CameraFrame:
         """Render one frame now (RGB, metric depth, segmentation) with the camera's current pose."""
         cfg, client = self.cfg, self.world.client

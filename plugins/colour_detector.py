@@ -13,6 +13,7 @@ deprojected through the frame's depth, view and projection matrices; the highest
 
 from __future__ import annotations
 
+import colorsys
 import math
 from typing import Any
 
@@ -46,6 +47,13 @@ class ColourClass(Schema):
             if not 0.0 <= lo <= hi <= 1.0:
                 raise ValueError(f"{name} must be [lo, hi] with 0 <= lo <= hi <= 1, got {[lo, hi]}")
         return self
+
+    def contains_rgb(self, rgb: Any) -> bool:
+        """True if a true colour (r, g, b as 0-1 floats, e.g. a body's ``rgba``) lies inside this class."""
+        h, s, v = colorsys.rgb_to_hsv(*(min(1.0, max(0.0, float(c))) for c in tuple(rgb)[:3]))
+        hue, (lo, hi) = h * 360.0, self.hue_deg
+        in_hue = lo <= hue <= hi if lo <= hi else (hue >= lo or hue <= hi)
+        return in_hue and self.saturation[0] <= s <= self.saturation[1] and self.value[0] <= v <= self.value[1]
 
 
 DEFAULT_COLOURS: dict[str, ColourClass] = {

@@ -36,7 +36,7 @@ from robokit import hookimpl
 from robokit.components import Actuator, SetupContext
 from robokit.config import Schema
 from robokit.errors import ConfigError
-from robokit.msgs.arm import ArmState, HoldArm, MoveTo, Quat, Vec3, quat_angle, quat_multiply
+from robokit.msgs.arm import ArmState, HoldArm, MoveTo, Quat, Vec3, down_quaternion, quat_angle, quat_multiply
 
 
 class IkArmConfig(Schema):
@@ -61,6 +61,10 @@ class IkArmConfig(Schema):
     max_force: float | None = Field(None, gt=0, description="N·m per joint; default: the URDF's")
     position_gain: float = Field(0.3, gt=0, le=1)
     velocity_gain: float = Field(1.0, ge=0)
+
+
+REACH_ROUNDS = 4
+"""Extra rounds of ``ik_iterations`` the preflight reach check allows at the target."""
 
 
 def _smoothstep(x: float) -> float:
@@ -211,6 +215,37 @@ class IkArm(Actuator):
             null = (np.eye(len(cols)) - pinv @ jac) @ (0.05 * (self.rest[cols] - q[cols]))
             q[cols] = np.clip(q[cols] + pinv @ err + null, self.lower[cols], self.upper[cols])
         return q, float(np.linalg.norm(ep)), float(np.linalg.norm(eo))
+
+    def check_reach(self, position: Vec3, yaw: float = 0.0, orientation: Quat | None = None) -> str:
+        """Can the end effector be put at ``position`` (metres, world; tool pointing down with ``yaw`` unless an
+        ``orientation`` is given)? Solved from the ready pose with the configured tolerances, before any tick
+        (the arm's state is restored exactly). Returns "" if so, else the reason, starting with "unreachable".
+        """
+        cfg: IkArmConfig = self.config
+        pos = np.asarray(position, float)
+        orn = orientation if orientation is not None else down_quaternion(yaw)
+        where = f"({pos[0]:.3f}, {pos[1]:.3f}, {pos[2]:.3f})"
+        dist_base = float(np.linalg.norm(pos - self.base_pos))
+        if cfg.reach is not None and dist_base > cfg.reach:
+            return f"unreachable: {where} is {dist_base:.3f} m from the base, reach is {cfg.reach:g} m"
+        tolerance = max(cfg.ik_tolerance, 1e-3)
+        q = self.ready.copy()
+        ep = eo = math.inf
+        with self._probe():
+            start_pos, start_orn = self._fk(q)
+            steps = max(1, math.ceil(float(np.linalg.norm(pos - start_pos)) / cfg.waypoint_spacing),
+                        math.ceil(quat_angle(start_orn, orn) / cfg.waypoint_angle))
+            for k in range(1, steps + 1):  # along the straight path from the ready pose, as a move would go
+                s = k / steps
+                q, ep, eo = self._solve(q, start_pos + s * (pos - start_pos), _slerp(start_orn, orn, s))
+            for _ in range(REACH_ROUNDS):
+                if ep <= tolerance and eo <= cfg.orientation_tolerance / 2:
+                    return ""
+                q, ep, eo = self._solve(q, pos, orn)
+        if ep <= tolerance and eo <= cfg.orientation_tolerance / 2:
+            return ""
+        return (f"unreachable: IK residual {ep * 1000:.1f} mm / {math.degrees(eo):.1f} deg at {where} "
+                f"(tolerance {tolerance * 1000:g} mm)")
 
     # ------------------------------------------------------------------ commands
     def command(self, cmd: Any) -> None:

@@ -102,7 +102,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     try:
         with c_stdout_to_stderr():  # pybullet's C-level warnings must not corrupt stdout (--json)
             plugins, cfg = _load(args)
-            out = run_config(cfg, plugins, gui=True if args.gui else None, max_time=args.max_time, trace=trace)
+            out = run_config(cfg, plugins, gui=True if args.gui else None, max_time=args.max_time, trace=trace,
+                             on_problem=None if args.quiet else _warn_problem)
     finally:
         if trace is not None:
             trace.close()
@@ -113,13 +114,23 @@ def cmd_run(args: argparse.Namespace) -> int:
     return out.exit_code
 
 
+def _warn_problem(problem: Exception) -> None:
+    print(f"robokit: warning: {problem}", file=sys.stderr, flush=True)
+
+
 def cmd_validate(args: argparse.Namespace) -> int:
-    """``robokit validate``: validate the config and set every component up in a DIRECT world, without stepping."""
+    """``robokit validate``: validate the config, set every component up in a DIRECT world and run every
+    preflight check (reach, camera view, overlaps, ...), without stepping. Each problem is one line; exit 2."""
     from robokit.simulation import Simulation
 
     plugins, cfg = _load(args)
     with Simulation(cfg, plugins, gui=False) as sim:
         n_bodies = len(sim.world.body_names)
+        problems = sim.preflight()
+    for problem in problems:
+        print(f"robokit: error: {problem}", file=sys.stderr)
+    if problems:
+        return EXIT_USAGE
     parts = [f"{n_bodies} bodies", f"{len(cfg.sensors)} sensors", f"{len(cfg.actuators)} actuators",
              f"behaviour {cfg.behaviour.type if cfg.behaviour else '(none)'}"]
     print(f"{args.config}: ok ({', '.join(parts)})")

@@ -9,12 +9,22 @@ Lifecycle, in order, for sensors, actuators and behaviours:
 3. per tick, at the component's rate (see :mod:`robokit.scheduler`):
    sensors ``read()``, behaviours ``step(readings, t)``, actuators ``update()``.
 4. ``close()`` — once, when the simulation closes; release anything held.
+
+Two optional hooks let any type, built-in or third-party, state what it knows about its task:
+
+- ``preflight(ctx)`` — after every component's ``setup`` and before the first tick (``robokit validate`` runs
+  it too): return a list of problems (:class:`~robokit.errors.ConfigError`, each naming a key) found without
+  running, e.g. a target out of the arm's reach. ``validate`` refuses a config with problems (exit 2); ``run``
+  prints them as warnings and runs, and the goal check then says what happened.
+- ``check_goal(world)`` (behaviours) — once, after the last tick: the task's goal evaluated on the world's
+  ground truth, not on the behaviour's belief. A :class:`GoalCheck` that is not met turns a ``succeeded``
+  outcome into ``failed`` with the check's reason.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
@@ -39,6 +49,21 @@ class Outcome:
             raise ValueError(f"outcome must be one of {OUTCOMES}, got {self.status!r}")
 
 
+@dataclass(frozen=True)
+class GoalCheck:
+    """A behaviour's goal evaluated on the world at the end of a run (ground truth).
+
+    Attributes:
+        met: The goal holds in the world.
+        reason: One line: what was checked, or which objects miss the goal and why.
+        details: JSON-ready facts for the result (``result["goal"]``), e.g. per-object findings.
+    """
+
+    met: bool
+    reason: str = ""
+    details: Mapping[str, Any] = field(default_factory=dict)
+
+
 @dataclass
 class SetupContext:
     """What a component receives in ``setup``.
@@ -52,6 +77,8 @@ class SetupContext:
         components: Every sensor and actuator instance by name (to check what another one is).
         config_dir: Folder of the config file (resolve relative paths against it).
         trace: ``trace(kind, **data)`` appends a record to the run's trace at the current tick.
+        body_keys: Config key of every spawned body by name (``red_0`` -> ``bodies.red``), to name keys in
+            problems.
     """
 
     world: World
@@ -61,6 +88,15 @@ class SetupContext:
     components: Mapping[str, Any]
     config_dir: Any
     trace: Callable[..., None]
+    body_keys: Mapping[str, str] = field(default_factory=dict)
+
+    def problem(self, message: str, key: str = "") -> ConfigError:
+        """A problem placed under this component's section (``key`` relative to it), for ``preflight``."""
+        return ConfigError(message, key=".".join(part for part in (self.key, key) if part))
+
+    def body_key(self, name: str) -> str:
+        """The config key that created body ``name`` (``bodies.red`` for ``red_0``), or ``bodies.<name>``."""
+        return self.body_keys.get(name, f"bodies.{name}")
 
     def body(self, name: str, *, key: str = "body") -> int:
         """Body id of a named body; a config error at ``key`` (listing the bodies) if there is none."""
@@ -114,6 +150,10 @@ class Sensor:
         """Measure now and return a reading (an instance of ``reading_type``)."""
         raise NotImplementedError
 
+    def preflight(self, ctx: SetupContext) -> list[ConfigError]:
+        """Problems found without running (after every component's setup); each names a key. Default: none."""
+        return []
+
     def close(self) -> None:
         """Release what the sensor holds. Runs once when the simulation closes."""
 
@@ -149,6 +189,10 @@ class Actuator:
     def read(self) -> Any:
         """Return the actuator's state as a reading."""
         return None
+
+    def preflight(self, ctx: SetupContext) -> list[ConfigError]:
+        """Problems found without running (after every component's setup); each names a key. Default: none."""
+        return []
 
     def close(self) -> None:
         """Release what the actuator holds (constraints, debug items). Runs once when the simulation closes."""
@@ -191,6 +235,19 @@ class Behaviour:
     def result(self) -> dict[str, Any]:
         """The behaviour's own result, JSON-serialisable. Called at the end, also after an error or interrupt."""
         return {}
+
+    def preflight(self, ctx: SetupContext) -> list[ConfigError]:
+        """Problems found without running (after every component's setup); each names a key. Default: none."""
+        return []
+
+    def check_goal(self, world: World) -> GoalCheck | None:
+        """The task's goal, evaluated once after the last tick on the world's ground truth (body poses, not
+        readings or the behaviour's belief). None (the default) states no goal: the outcome is the behaviour's.
+
+        A check that is not met turns ``succeeded`` into ``failed`` with its reason; name the objects that miss
+        the goal and why (never seen, unreachable, dropped...).
+        """
+        return None
 
     def close(self) -> None:
         """Release what the behaviour holds."""

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from robokit.errors import ConfigError, UserError, did_you_mean
 
@@ -92,6 +92,15 @@ class BodyConfig(Schema):
     self_collision: bool = False
     collision: Literal["convex", "mesh"] = Field(
         "convex", description="'mesh': a static box's collision shape as triangles (cheaper for lidar rays)")
+
+    @field_validator("rgba")
+    @classmethod
+    def _unit_colour(cls, value: Vec4) -> Vec4:
+        if not all(0.0 <= c <= 1.0 for c in value):
+            shown = [round(c, 3) if math.isfinite(c) else c for c in value]
+            hint = f" (for 0-255 values use {[round(c / 255, 3) for c in value]})" if max(value) > 1 else ""
+            raise ValueError(f"colour components must be 0-1 floats, got {shown}{hint}")
+        return value
 
     @model_validator(mode="after")
     def _one_kind(self) -> BodyConfig:

@@ -5,13 +5,14 @@ from __future__ import annotations
 import datetime as dt
 import json
 import uuid
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import IO, Any
 
 from robokit import __version__
 from robokit.components import Delivery
 from robokit.config import Config
-from robokit.errors import PluginError
+from robokit.errors import ConfigError, PluginError
 from robokit.plugins import Plugins
 from robokit.reporting import build_payload, deliver
 from robokit.result import RunResult
@@ -86,14 +87,24 @@ def run_config(
     max_time: float | None = None,
     trace: IO[str] | None = None,
     report: bool = True,
+    on_problem: Callable[[ConfigError], None] | None = None,
 ) -> RunOutput:
     """Build the simulation, run it, close it, then hand the payload to every reporter.
 
+    With ``on_problem``, the preflight checks run first and each problem found is handed to it (``robokit run``
+    prints them as warnings and runs anyway: the goal check then reports what happened).
     A plugin that raises during setup or the run gives outcome ``error``; whatever result exists is still reported.
     """
     run_seed = cfg.world.seed if seed is None else seed
     try:
         sim = Simulation(cfg, plugins, gui=gui, seed=seed)
+        if on_problem is not None:
+            try:
+                for problem in sim.preflight():
+                    on_problem(problem)
+            except BaseException:
+                sim.close()
+                raise
     except PluginError as exc:
         result = error_result(cfg, run_seed, str(exc))
     else:

@@ -53,6 +53,8 @@ class Simulation:
         self.components: dict[str, Any] = {}
         self.behaviour: Any = None
         self._origins: dict[str, str] = {}
+        self.body_keys: dict[str, str] = {}
+        self._contexts: dict[str, SetupContext] = {}
         self._stop_reason: str | None = None
         self.interrupted = False
         try:
@@ -65,7 +67,7 @@ class Simulation:
     def _build(self) -> None:
         cfg = self.config
         try:
-            spawn_bodies(self.world, cfg)
+            spawn_bodies(self.world, cfg, self.body_keys)
         except UserError as exc:
             raise _as_config_error(exc, "bodies", cfg.source) from None
         hz = self.world.physics_hz
@@ -108,7 +110,8 @@ class Simulation:
         comp = self.behaviour if spec.kind == "behaviour" else self.components[spec.name]
         rng = self.world.rng.spawn(1)[0]
         ctx = SetupContext(self.world, rng, spec.key, self.readings, self.components, self.config.base_dir,
-                           self._tracer(spec.name))
+                           self._tracer(spec.name), self.body_keys)
+        self._contexts[spec.key] = ctx
         try:
             comp.setup(ctx)
         except ConfigError as exc:
@@ -161,6 +164,33 @@ class Simulation:
 
         return act
 
+    def preflight(self) -> list[ConfigError]:
+        """What can be checked without running: the core's checks (bodies spawned overlapping), then every
+        component's and the behaviour's ``preflight(ctx)``. Each problem is a ConfigError naming file and key.
+        """
+        from robokit.preflight import overlapping_bodies
+
+        problems = overlapping_bodies(self.world, self.body_keys)
+        specs = list(self.config.sensors + self.config.actuators)
+        if self.behaviour is not None and self.config.behaviour is not None:
+            specs.append(self.config.behaviour)
+        for spec in specs:
+            comp = self.behaviour if spec.kind == "behaviour" else self.components[spec.name]
+            hook = getattr(comp, "preflight", None)
+            if hook is None:
+                continue
+            try:
+                found = list(hook(self._contexts[spec.key]) or ())
+            except UserError as exc:
+                found = [exc if isinstance(exc, ConfigError) else ConfigError(str(exc), key=spec.key)]
+            except Exception as exc:
+                ptype = self.plugins.get(spec.kind, spec.type)
+                raise PluginError(f"{spec.key}: {spec.kind} type {spec.type!r} ({ptype.origin}) raised during "
+                                  f"preflight: {type(exc).__name__}: {exc}", type_name=spec.type,
+                                  distribution=ptype.origin) from exc
+            problems.extend(found)
+        return [p.within(file=self.config.source) for p in problems]
+
     # ----------------------------------------------------------------- stepping
     @property
     def outcome(self) -> Any:
@@ -212,6 +242,15 @@ class Simulation:
                     reason = f"max_time {limit:g} s reached before the behaviour finished"
             except PluginError as exc:
                 outcome, reason = "error", str(exc)
+        goal: dict[str, Any] | None = None
+        if outcome != "error" and self.behaviour is not None:
+            try:
+                outcome, reason, goal = self._check_goal(outcome, reason)
+            except PluginError as exc:
+                outcome, reason = "error", str(exc)
+        behaviour_result = self._behaviour_result()
+        if goal is not None:
+            behaviour_result["goal"] = goal
         result = RunResult(
             run_id=str(uuid.uuid4()),
             robokit_version=__version__,
@@ -224,7 +263,7 @@ class Simulation:
             sim_time=round(self.world.time, 6),
             wall_time=round(wall_clock() - t0, 6),
             started_at=started,
-            result=self._behaviour_result(),
+            result=behaviour_result,
             interrupted=self.interrupted and self.outcome is None,
         )
         try:
@@ -233,6 +272,34 @@ class Simulation:
             if result.outcome != "error":
                 result.outcome, result.reason = "error", str(exc)
         return result
+
+    def _check_goal(self, outcome: str, reason: str) -> tuple[str, str, dict[str, Any] | None]:
+        """Evaluate the behaviour's goal on the world; an unmet goal turns ``succeeded`` into ``failed``.
+
+        Returns the (possibly changed) outcome and reason, and the goal's record for the result (None if the
+        behaviour states no goal).
+        """
+        hook = getattr(self.behaviour, "check_goal", None)
+        if hook is None:
+            return outcome, reason, None
+        try:
+            check = hook(self.world)
+        except Exception as exc:
+            spec = self.config.behaviour
+            assert spec is not None
+            ptype = self.plugins.get("behaviour", spec.type)
+            raise PluginError(f"behaviour type {spec.type!r} ({ptype.origin}) raised in check_goal: "
+                              f"{type(exc).__name__}: {exc}", type_name=spec.type, distribution=ptype.origin) from exc
+        if check is None:
+            return outcome, reason, None
+        record = {"met": bool(check.met), "reason": check.reason, **dict(check.details)}
+        self._tracer("behaviour")("goal", met=record["met"], reason=check.reason)
+        if check.met:
+            return outcome, reason, record
+        if outcome == "succeeded":
+            claimed = f" (the behaviour reported: {reason})" if reason else ""
+            return "failed", f"goal not met: {check.reason}{claimed}", record
+        return outcome, f"{reason}; goal not met: {check.reason}" if reason else check.reason, record
 
     def _behaviour_result(self) -> dict[str, Any]:
         if self.behaviour is None:
@@ -288,12 +355,17 @@ def _as_config_error(exc: UserError, section: str, source: str) -> ConfigError:
     return ConfigError(str(exc), key=section, file=source)
 
 
-def spawn_bodies(world: World, cfg: Config) -> None:
-    """Create every body and robot of a config: fixed ones first, then region-scattered ones, seeded."""
+def spawn_bodies(world: World, cfg: Config, keys: dict[str, str] | None = None) -> None:
+    """Create every body and robot of a config: fixed ones first, then region-scattered ones, seeded.
+
+    ``keys``, if given, receives the config key of every body spawned (``red_0`` -> ``bodies.red``).
+    """
+    keys = {} if keys is None else keys
     groups = {**{n: ("bodies", b) for n, b in cfg.bodies.items()}, **{n: ("robots", b) for n, b in cfg.robots.items()}}
     for name, (section, body) in groups.items():
         if body.region is None:
             _spawn_one(world, f"{section}.{name}", name, body, body.position)
+            keys[name] = f"{section}.{name}"
     for region_name, region in cfg.regions.items():
         members = [(n, s, b) for n, (s, b) in groups.items() if b.region == region_name]
         total = sum(b.count for _, _, b in members)
@@ -314,6 +386,7 @@ def spawn_bodies(world: World, cfg: Config) -> None:
                 x, y = next(points)
                 label = name if body.count == 1 else f"{name}_{i}"
                 _spawn_one(world, f"{section}.{name}", label, body, (x, y, region.z))
+                keys[label] = f"{section}.{name}"
 
 
 def _orientation(world: World, body: BodyConfig) -> tuple[float, float, float, float]:
