@@ -2,10 +2,15 @@
 
 Both behaviours read a ``keyboard`` sensor (GUI keys, or a timed script when headless) and send commands every
 step. They are open-ended: they end when the quit key is pressed, and reaching ``max_time`` counts as success.
+
+A key held moves for as long as it is held; a key tapped between two readings (in ``pressed`` but no longer in
+``down``) still counts for one step. Joint targets stay inside the joints' limits (the URDF's, as the
+``joint_control`` actuator resolved them); continuous joints are not clamped.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from typing import Any, ClassVar
 
@@ -43,16 +48,32 @@ class JointTeleop(Behaviour):
         super().setup(ctx)
         _need(ctx, self.config.keyboard, "keyboard", "a keyboard sensor")
         _need(ctx, self.config.actuator, "actuator", "a joint_control actuator")
+        self.limits = self._limits(ctx)
         self.selected = 0
         self.targets: dict[str, float] = {}
         self.last_t = 0.0
         self.selections: list[str] = []
 
+    def _limits(self, ctx: SetupContext) -> dict[str, tuple[float, float]]:
+        """Lower and upper limit of each teleoperated joint (rad or m), from the actuator's resolved joints."""
+        driven = getattr(ctx.components[self.config.actuator], "joints", None)
+        if not isinstance(driven, Mapping):
+            return {}
+        limits = {}
+        for i, name in enumerate(self.config.joints):
+            if name not in driven:
+                raise ConfigError(f"joint {name!r} is not driven by {self.config.actuator!r}; driven joints: "
+                                  f"{', '.join(driven)}", key=f"joints[{i}]")
+            lower, upper = getattr(driven[name], "lower", 0.0), getattr(driven[name], "upper", -1.0)
+            if upper > lower:  # URDF continuous joints give upper <= lower: no limit
+                limits[name] = (float(lower), float(upper))
+        return limits
+
     def step(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any] | None:
         cfg = self.config
         if not self.targets:
             positions = readings[cfg.actuator].positions
-            self.targets = {name: float(positions[name]) for name in cfg.joints}
+            self.targets = {name: self._clamp(name, float(positions[name])) for name in cfg.joints}
         keys = readings[cfg.keyboard]
         if cfg.quit_key in keys.pressed:
             self.finish("succeeded", f"quit key {cfg.quit_key!r} pressed")
@@ -61,10 +82,15 @@ class JointTeleop(Behaviour):
                 self.selected = i
                 self.selections.append(cfg.joints[i])
         dt, self.last_t = t - self.last_t, t
-        direction = ("right" in keys.down) - ("left" in keys.down)
+        active = keys.down | keys.pressed  # a tap released before this reading still moves one step
+        direction = ("right" in active) - ("left" in active)
         name = cfg.joints[self.selected]
-        self.targets[name] += direction * cfg.speed * dt
+        self.targets[name] = self._clamp(name, self.targets[name] + direction * cfg.speed * dt)
         return {cfg.actuator: JointCommand("position", dict(self.targets))}
+
+    def _clamp(self, name: str, value: float) -> float:
+        lower, upper = self.limits.get(name, (-math.inf, math.inf))
+        return min(upper, max(lower, value))
 
     def result(self) -> dict[str, Any]:
         return {"targets": {k: round(v, 6) for k, v in self.targets.items()}, "selections": self.selections}
@@ -97,8 +123,9 @@ class DriveTeleop(Behaviour):
         keys = readings[cfg.keyboard]
         if cfg.quit_key in keys.pressed:
             self.finish("succeeded", f"quit key {cfg.quit_key!r} pressed")
-        v = cfg.speed * (("up" in keys.down) - ("down" in keys.down))
-        omega = cfg.turn * (("left" in keys.down) - ("right" in keys.down))
+        active = keys.down | keys.pressed  # a tap released before this reading still counts for one step
+        v = cfg.speed * (("up" in active) - ("down" in active))
+        omega = cfg.turn * (("left" in active) - ("right" in active))
         self.commands += 1
         self.pose = tuple(readings[cfg.actuator].pose)  # type: ignore[assignment]
         return {cfg.actuator: Twist(v, omega)}

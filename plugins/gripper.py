@@ -78,9 +78,12 @@ class Gripper(Actuator):
         for j in self.fingers:
             w.client.resetJointState(self.body, j.index, start)
         self.target = self.open_width if cfg.start_open else 0.0
+        self._indices = [j.index for j in self.fingers]
+        self._dirty = True  # motor targets to send at the next update
         self._last_width = self._width()
         self._still_since: float | None = self.world.time
         self._last_t = self.world.time
+        self._tracking = True  # watching the width every tick until it has been still for settle_time
 
     def _couple(self) -> None:
         cfg: GripperConfig = self.config
@@ -102,22 +105,35 @@ class Gripper(Actuator):
         else:
             assert cmd.width is not None
             target = min(max(cmd.width, 0.0), self.max_width)
+        force = cmd.force if cmd.force is not None else self.config.force
         if (cmd.action, target) != (self.action, self.target):
             self._still_since = None
-        self.action, self.target = cmd.action, target
-        self.force = cmd.force if cmd.force is not None else self.config.force
+            self._watch()
+        if (cmd.action, target, force) != (self.action, self.target, self.force):
+            self._dirty = True
+        self.action, self.target, self.force = cmd.action, target, force
 
     def update(self) -> None:
-        """Drive both fingers to half the target width each, within the force and speed limits."""
-        c = self.world.client
-        for j in self.fingers:
-            c.setJointMotorControl2(self.body, j.index, c.POSITION_CONTROL, targetPosition=self.target / 2,
-                                    force=self.force, maxVelocity=self.config.finger_speed)
-        self._track_settling()
+        """Drive both fingers to half the target width each, within the force and speed limits (sent when the
+        command changes; the motors keep their targets), and watch the width while it may still be moving."""
+        if self._dirty:
+            c = self.world.client
+            for j in self.fingers:
+                c.setJointMotorControl2(self.body, j.index, c.POSITION_CONTROL, targetPosition=self.target / 2,
+                                        force=self.force, maxVelocity=self.config.finger_speed)
+            self._dirty = False
+        if self._tracking:
+            self._track_settling()
 
     def _width(self) -> float:
-        states = self.world.client.getJointStates(self.body, [j.index for j in self.fingers])
-        return float(sum(s[0] for s in states))
+        states = self.world.client.getJointStates(self.body, self._indices)
+        return float(states[0][0] + states[1][0])
+
+    def _watch(self) -> None:
+        """Start watching the width every tick again (after a new command, or fingers found moving)."""
+        if not self._tracking:
+            self._tracking = True
+            self._last_width, self._last_t = self._width(), self.world.time
 
     def _track_settling(self) -> None:
         cfg: GripperConfig = self.config
@@ -128,6 +144,8 @@ class Gripper(Actuator):
             self._still_since = None
         elif self._still_since is None:
             self._still_since = now
+        elif now - self._still_since >= cfg.settle_time:
+            self._tracking = False  # settled: from now on a read checks the finger speed instead
         self._last_width, self._last_t = width, now
 
     def _finger_touches(self) -> tuple[list[set[int]], int]:
@@ -146,7 +164,11 @@ class Gripper(Actuator):
     def read(self) -> GripperState:
         """Width, settling, and whether (and what) the fingers hold."""
         cfg: GripperConfig = self.config
-        width = self._width()
+        states = self.world.client.getJointStates(self.body, self._indices)
+        width = float(states[0][0] + states[1][0])
+        if not self._tracking and abs(states[0][1] + states[1][1]) > cfg.settle_speed:
+            self._still_since = None  # settled fingers pushed open or shut: moving again
+            self._watch()
         touched, total = self._finger_touches()
         common = sorted(touched[0] & touched[1])
         holding = bool(common) and self.action != "open" and width > cfg.empty_width

@@ -74,9 +74,37 @@ class HttpReportConfig(Schema):
     def _http_url(cls, url: str) -> str:
         if not url:
             raise ValueError('missing: give url = "http://host/api/robotics/result/" or --report-url URL')
-        if not url.startswith(("http://", "https://")):
-            raise ValueError(f"expected an http:// or https:// URL, got {url!r}")
+        problem = url_problem(url)
+        if problem:
+            raise ValueError(f"{problem}, got {url!r}")
         return url
+
+    @field_validator("verify")
+    @classmethod
+    def _ca_bundle(cls, verify: bool | str) -> bool | str:
+        if isinstance(verify, str) and not os.path.exists(verify):
+            raise ValueError(f"expected true, false or the path of a CA bundle; {verify!r} does not exist")
+        return verify
+
+
+def url_problem(url: str) -> str | None:
+    """Why ``url`` can never be POSTed to (no scheme or host, a bad port, a space...), or None if it looks fine."""
+    from urllib.parse import urlsplit
+
+    if any(ch.isspace() or ord(ch) < 32 or ord(ch) == 127 for ch in url):
+        return "a URL cannot contain spaces or control characters (encode a space as %20)"
+    if not url.startswith(("http://", "https://")):
+        return "expected an http:// or https:// URL"
+    try:
+        parts = urlsplit(url)
+        port = parts.port  # raises ValueError for a port that is not a number in 0-65535
+    except ValueError as exc:
+        return f"not a valid URL ({exc})"
+    if not parts.hostname:
+        return "the URL has no host name"
+    if port == 0:
+        return "port 0 cannot be connected to"
+    return None
 
 
 @dataclass(frozen=True)

@@ -7,10 +7,12 @@ rest poses) are sized to *all* movable joints of the robot (9 on the Panda, fing
 How a :class:`~robokit.msgs.arm.MoveTo` is executed:
 
 1. The straight path from the current pose to the target is cut into waypoints (``waypoint_spacing`` metres,
-   ``waypoint_angle`` radians). Each waypoint is solved by damped least squares on the arm's Jacobian, seeded by the
-   previous waypoint, with a null-space pull towards the rest pose and joint limits enforced, iterated until the
-   forward-kinematics residual is below ``ik_tolerance``. IK runs once per waypoint when the command arrives, not
-   per tick.
+   ``waypoint_angle`` radians). Each waypoint is solved by damped least squares, seeded by the previous waypoint
+   nudged towards the rest pose (a null-space pull): first by PyBullet's ``calculateInverseKinematics`` (in C, the
+   target given in the base's inertial frame, as that function expects), then checked with the arm's own forward
+   kinematics (:mod:`robokit_plugins.kinematics`, numpy). A solution outside the joint limits or above
+   ``ik_tolerance`` is solved again in numpy with the analytic Jacobian, joint limits enforced and the null-space
+   pull in every iteration. IK runs once per waypoint when the command arrives, not per tick.
 2. A waypoint that cannot be solved (outside ``reach`` or residual above tolerance) rejects the whole target: the
    arm does not move and its reading says ``failed`` with the reason.
 3. Each tick, joint targets are interpolated between waypoint solutions with a smooth (zero end-velocity) time
@@ -18,19 +20,19 @@ How a :class:`~robokit.msgs.arm.MoveTo` is executed:
 4. ``reached`` is reported once the path is done and the measured end-effector pose is within ``position_tolerance``
    and ``orientation_tolerance``; ``failed`` if it is not within ``settle_timeout`` after the path ends.
 
-Forward kinematics for IK is evaluated on the arm itself: its joint states are saved, set to each candidate, and
-restored exactly (positions and velocities) before the next physics step, so the simulation is not disturbed.
+No joint state is ever written to evaluate a candidate: forward kinematics and the Jacobian come from a chain of
+constant transforms built once at setup. Joint targets are sent only when they change (every tick along a path,
+once when it ends), and the reading is computed only when something reads it.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
-from contextlib import contextmanager
 from typing import Any, ClassVar
 
 import numpy as np
 from pydantic import Field
+from robokit_plugins.kinematics import Chain
 
 from robokit import hookimpl
 from robokit.components import Actuator, SetupContext
@@ -65,11 +67,6 @@ class IkArmConfig(Schema):
 
 REACH_ROUNDS = 4
 """Extra rounds of ``ik_iterations`` the preflight reach check allows at the target."""
-
-
-def _smoothstep(x: float) -> float:
-    x = min(1.0, max(0.0, x))
-    return x * x * (3.0 - 2.0 * x)
 
 
 def _rotvec(current: Quat, target: Quat) -> np.ndarray:
@@ -119,6 +116,7 @@ class IkArm(Actuator):
         if self.ee < 0:
             raise ConfigError(f"the end-effector link must not be the base link {cfg.ee_link!r}", key="ee_link")
         self.movable = [j for j in w.joints(cfg.body) if j.movable]
+        self._movable_indices = [j.index for j in self.movable]
         self.arm = self._arm_joints()
         if not self.arm:
             raise ConfigError(f"no movable joint between the base and {cfg.ee_link!r}", key="ee_link")
@@ -136,7 +134,17 @@ class IkArm(Actuator):
         self.status, self.reason, self.command_id = "idle", "", 0
         self.target: tuple[Vec3, Quat] | None = None
         self.base_pos = np.array(w.pose(self.body)[0])
-        self._apply(self.q_cmd, np.zeros(len(self.arm)))
+        self.chain = Chain(w.client, self.body, self.ee, {j.index: k for k, j in enumerate(self.movable)})
+        com_pos, com_orn = w.client.getBasePositionAndOrientation(self.body)
+        self._to_base = w.client.invertTransform(com_pos, com_orn)  # world -> the base's inertial frame
+        self._indices = [j.index for j in self.arm]
+        self._names = [j.name for j in self.movable]
+        self._ik_options = {"jointDamping": [0.01] * len(self.movable), "maxNumIterations": cfg.ik_iterations,
+                            "residualThreshold": cfg.ik_tolerance / 10.0}
+        self._gains = ([cfg.position_gain] * len(self.arm), [cfg.velocity_gain] * len(self.arm))
+        self._zero = [0.0] * len(self.arm)
+        self._holding = False  # the last target sent was a hold (zero velocity): nothing to resend
+        self._apply(self.q_cmd, None)
 
     def _arm_joints(self) -> list[Any]:
         """Movable joints on the chain from the base to the end-effector link, base first."""
@@ -173,42 +181,43 @@ class IkArm(Actuator):
 
     # ------------------------------------------------------------------ kinematics
     def _measured_all(self) -> np.ndarray:
-        states = self.world.client.getJointStates(self.body, [j.index for j in self.movable])
+        states = self.world.client.getJointStates(self.body, self._movable_indices)
         return np.array([s[0] for s in states])
 
-    @contextmanager
-    def _probe(self) -> Iterator[None]:
-        """Evaluate kinematics on the arm, then restore its exact joint states."""
-        client = self.world.client
-        idx = [j.index for j in self.movable]
-        saved = client.getJointStates(self.body, idx)
-        try:
-            yield
-        finally:
-            for i, s in zip(idx, saved, strict=True):
-                client.resetJointState(self.body, i, s[0], s[1])
-
-    def _fk(self, q_all: np.ndarray) -> tuple[np.ndarray, Quat]:
-        client = self.world.client
-        for j, q in zip(self.movable, q_all, strict=True):
-            client.resetJointState(self.body, j.index, float(q))
-        s = client.getLinkState(self.body, self.ee, computeForwardKinematics=True)
-        return np.array(s[4]), tuple(s[5])  # type: ignore[return-value]
-
     def _solve(self, q_all: np.ndarray, pos: np.ndarray, orn: Quat) -> tuple[np.ndarray, float, float]:
-        """Damped least squares from ``q_all``; returns (solution, position residual m, angle residual rad)."""
+        """One waypoint from ``q_all``; returns (solution, position residual m, angle residual rad).
+
+        PyBullet's IK first (C, a few tens of microseconds), seeded a little towards the rest pose; if its answer
+        breaks a joint limit or misses the tolerance, the numpy solver below takes over.
+        """
+        cfg: IkArmConfig = self.config
+        cols = self.arm_cols
+        seed = q_all.copy()
+        seed[cols] += 0.05 * (self.rest[cols] - q_all[cols])
+        client = self.world.client
+        local_pos, local_orn = client.multiplyTransforms(self._to_base[0], self._to_base[1], pos.tolist(), orn)
+        found = client.calculateInverseKinematics(self.body, self.ee, local_pos, local_orn,
+                                                  currentPositions=seed.tolist(), **self._ik_options)
+        q = q_all.copy()
+        q[cols] = np.asarray(found)[cols]
+        if np.all(q[cols] >= self.lower[cols]) and np.all(q[cols] <= self.upper[cols]):
+            cur, corn = self.chain.fk(q)
+            ep, eo = float(np.linalg.norm(pos - cur)), float(np.linalg.norm(_rotvec(corn, orn)))
+            if ep < cfg.ik_tolerance and eo < cfg.ik_tolerance * 4:
+                return q, ep, eo
+        return self._solve_numpy(q_all, pos, orn)
+
+    def _solve_numpy(self, q_all: np.ndarray, pos: np.ndarray, orn: Quat) -> tuple[np.ndarray, float, float]:
+        """Damped least squares on the analytic Jacobian, joint limits enforced, null-space pull to the rest pose."""
         cfg: IkArmConfig = self.config
         q = q_all.copy()
         cols = self.arm_cols
-        zeros = [0.0] * len(q)
         ep, eo = np.zeros(3), np.zeros(3)
         for _ in range(cfg.ik_iterations):
-            cur, corn = self._fk(q)
+            jac, cur, corn = self.chain.jacobian(q)
             ep, eo = pos - cur, _rotvec(corn, orn)
             if np.linalg.norm(ep) < cfg.ik_tolerance and np.linalg.norm(eo) < cfg.ik_tolerance * 4:
                 break
-            jl, ja = self.world.client.calculateJacobian(self.body, self.ee, [0.0, 0.0, 0.0], list(q), zeros, zeros)
-            jac = np.vstack([np.asarray(jl), np.asarray(ja)])[:, cols]
             err = np.concatenate([ep, eo])
             jjt = jac @ jac.T + 1e-4 * np.eye(6)
             pinv = jac.T @ np.linalg.inv(jjt)
@@ -219,7 +228,7 @@ class IkArm(Actuator):
     def check_reach(self, position: Vec3, yaw: float = 0.0, orientation: Quat | None = None) -> str:
         """Can the end effector be put at ``position`` (metres, world; tool pointing down with ``yaw`` unless an
         ``orientation`` is given)? Solved from the ready pose with the configured tolerances, before any tick
-        (the arm's state is restored exactly). Returns "" if so, else the reason, starting with "unreachable".
+        (no joint state is written). Returns "" if so, else the reason, starting with "unreachable".
         """
         cfg: IkArmConfig = self.config
         pos = np.asarray(position, float)
@@ -231,17 +240,16 @@ class IkArm(Actuator):
         tolerance = max(cfg.ik_tolerance, 1e-3)
         q = self.ready.copy()
         ep = eo = math.inf
-        with self._probe():
-            start_pos, start_orn = self._fk(q)
-            steps = max(1, math.ceil(float(np.linalg.norm(pos - start_pos)) / cfg.waypoint_spacing),
-                        math.ceil(quat_angle(start_orn, orn) / cfg.waypoint_angle))
-            for k in range(1, steps + 1):  # along the straight path from the ready pose, as a move would go
-                s = k / steps
-                q, ep, eo = self._solve(q, start_pos + s * (pos - start_pos), _slerp(start_orn, orn, s))
-            for _ in range(REACH_ROUNDS):
-                if ep <= tolerance and eo <= cfg.orientation_tolerance / 2:
-                    return ""
-                q, ep, eo = self._solve(q, pos, orn)
+        start_pos, start_orn = self.chain.fk(q)
+        steps = max(1, math.ceil(float(np.linalg.norm(pos - start_pos)) / cfg.waypoint_spacing),
+                    math.ceil(quat_angle(start_orn, orn) / cfg.waypoint_angle))
+        for k in range(1, steps + 1):  # along the straight path from the ready pose, as a move would go
+            s = k / steps
+            q, ep, eo = self._solve(q, start_pos + s * (pos - start_pos), _slerp(start_orn, orn, s))
+        for _ in range(REACH_ROUNDS):
+            if ep <= tolerance and eo <= cfg.orientation_tolerance / 2:
+                return ""
+            q, ep, eo = self._solve_numpy(q, pos, orn)
         if ep <= tolerance and eo <= cfg.orientation_tolerance / 2:
             return ""
         return (f"unreachable: IK residual {ep * 1000:.1f} mm / {math.degrees(eo):.1f} deg at {where} "
@@ -255,6 +263,7 @@ class IkArm(Actuator):
             self.q_cmd = self._measured_all()[self.arm_cols]
             self.status, self.reason = "idle", ""
             self.command_id += 1
+            self._holding = False  # send the new hold target
             return
         if not isinstance(cmd, MoveTo):
             raise ValueError(f"ik_arm takes MoveTo or HoldArm, got {type(cmd).__name__}")
@@ -276,70 +285,89 @@ class IkArm(Actuator):
             return f"unreachable: target {where} is {dist_base:.3f} m from the base, reach is {cfg.reach:g} m"
         q_all = self._measured_all()
         q_all[self.arm_cols] = self.q_cmd
-        with self._probe():
-            start_pos, start_orn = self._fk(q_all)
-            dist, ang = float(np.linalg.norm(pos - start_pos)), quat_angle(start_orn, orn)
-            n = max(1, math.ceil(dist / cfg.waypoint_spacing), math.ceil(ang / cfg.waypoint_angle))
-            qs = [q_all[self.arm_cols].copy()]
-            for k in range(1, n + 1):
-                s = k / n
-                q_all, ep, eo = self._solve(q_all, start_pos + s * (pos - start_pos), _slerp(start_orn, orn, s))
-                if ep > max(cfg.ik_tolerance, 1e-3) or eo > cfg.orientation_tolerance / 2:
-                    return (f"unreachable: IK residual {ep * 1000:.1f} mm / {math.degrees(eo):.1f} deg at "
-                            f"waypoint {k}/{n} towards {where} (tolerance {cfg.ik_tolerance * 1000:g} mm)")
-                qs.append(q_all[self.arm_cols].copy())
+        start_pos, start_orn = self.chain.fk(q_all)
+        dist, ang = float(np.linalg.norm(pos - start_pos)), quat_angle(start_orn, orn)
+        n = max(1, math.ceil(dist / cfg.waypoint_spacing), math.ceil(ang / cfg.waypoint_angle))
+        qs = [q_all[self.arm_cols].copy()]
+        for k in range(1, n + 1):
+            s = k / n
+            q_all, ep, eo = self._solve(q_all, start_pos + s * (pos - start_pos), _slerp(start_orn, orn, s))
+            if ep > max(cfg.ik_tolerance, 1e-3) or eo > cfg.orientation_tolerance / 2:
+                return (f"unreachable: IK residual {ep * 1000:.1f} mm / {math.degrees(eo):.1f} deg at "
+                        f"waypoint {k}/{n} towards {where} (tolerance {cfg.ik_tolerance * 1000:g} mm)")
+            qs.append(q_all[self.arm_cols].copy())
         self.path = qs
         self.t0 = self.world.time
         self.duration = max(1.5 * dist / speed, 1.5 * ang / cfg.angular_speed, cfg.min_duration)
+        self._profile()
         return ""
+
+    def _profile(self) -> None:
+        """Joint targets and feed-forward velocities for every tick of the path, computed once (numpy).
+
+        Row ``k`` is what the motors get ``k`` ticks after the command: the waypoints interpolated at the smooth
+        (zero end-velocity) time profile, and the difference to the next row over one time step.
+        """
+        assert self.path is not None
+        dt = self.world.time_step
+        ks = np.arange(math.ceil(self.duration / dt) + 2)
+        x = ks * dt / self.duration
+        s = np.clip(x, 0.0, 1.0)
+        s = s * s * (3.0 - 2.0 * s) * (len(self.path) - 1)
+        points = np.array(self.path)
+        if len(points) > 1:
+            k = np.minimum(s.astype(int), len(points) - 2)
+            f = (s - k)[:, None]
+            q = (1.0 - f) * points[k] + f * points[k + 1]
+        else:
+            q = np.repeat(points, len(ks), axis=0)
+        self._rows = int(np.count_nonzero(x < 1.0))  # rows while the path runs; then the last point is held
+        self._q, self._qd = q, (q[1:] - q[:-1]) / dt
+        self._tick0 = self.world.tick
 
     # ------------------------------------------------------------------ per tick
     def update(self) -> None:
-        """Send this tick's interpolated joint targets (with feed-forward velocity) to the motors."""
-        if self.path is None:
-            self._apply(self.q_cmd, np.zeros(len(self.arm)))
-            return
-        dt = self.world.time_step
-        tau = (self.world.time - self.t0) / self.duration
-        q_now = self._interp(_smoothstep(tau))
-        q_next = self._interp(_smoothstep(tau + dt / self.duration))
-        self.q_cmd = q_now
-        self._apply(q_now, (q_next - q_now) / dt)
+        """Send this tick's joint targets (with feed-forward velocity) to the motors; once the path is over (or
+        with no path), the hold target is sent once and nothing after it."""
+        if self.path is not None:
+            row = self.world.tick - self._tick0
+            if row < self._rows:
+                self.q_cmd = self._q[row]
+                self._apply(self.q_cmd, self._qd[row])
+                return
+            if not self._holding:
+                self.q_cmd = self.path[-1]
+        if not self._holding:
+            self._apply(self.q_cmd, None)
 
-    def _interp(self, s: float) -> np.ndarray:
-        assert self.path is not None
-        x = s * (len(self.path) - 1)
-        k = min(int(x), len(self.path) - 2) if len(self.path) > 1 else 0
-        if len(self.path) == 1:
-            return self.path[0]
-        f = x - k
-        return (1 - f) * self.path[k] + f * self.path[k + 1]  # type: ignore[no-any-return]
-
-    def _apply(self, q: np.ndarray, qd: np.ndarray) -> None:
-        cfg: IkArmConfig = self.config
-        n = len(self.arm)
-        self.world.client.setJointMotorControlArray(
-            self.body, [j.index for j in self.arm], self.world.client.POSITION_CONTROL,
-            targetPositions=[float(v) for v in q], targetVelocities=[float(v) for v in qd], forces=self.forces,
-            positionGains=[cfg.position_gain] * n, velocityGains=[cfg.velocity_gain] * n,
+    def _apply(self, q: np.ndarray, qd: np.ndarray | None) -> None:
+        """Send joint targets (``qd`` None: hold, zero target velocity)."""
+        self._holding = qd is None
+        client = self.world.client
+        client.setJointMotorControlArray(
+            self.body, self._indices, client.POSITION_CONTROL, targetPositions=q.tolist(),
+            targetVelocities=self._zero if qd is None else qd.tolist(), forces=self.forces,
+            positionGains=self._gains[0], velocityGains=self._gains[1],
         )
 
     def read(self) -> ArmState:
         """End-effector pose and the state of the current target (see :class:`ArmState`)."""
-        s = self.world.client.getLinkState(self.body, self.ee, computeForwardKinematics=True)
-        pos, orn = tuple(s[4]), tuple(s[5])
+        client = self.world.client
+        s = client.getLinkState(self.body, self.ee, computeForwardKinematics=True)
+        pos, orn = s[4], s[5]
         ep = eo = 0.0
-        if self.target is not None:
-            ep = float(np.linalg.norm(np.subtract(pos, self.target[0])))
-            eo = quat_angle(orn, self.target[1])
+        target = self.target
+        if target is not None:
+            ep = math.dist(pos, target[0])
+            to = target[1]
+            eo = 2.0 * math.acos(min(1.0, abs(orn[0] * to[0] + orn[1] * to[1] + orn[2] * to[2] + orn[3] * to[3])))
         self._update_status(ep, eo)
-        q = self._measured_all()
+        states = client.getJointStates(self.body, self._movable_indices)
         return ArmState(
-            position=pos, orientation=orn, status=self.status, reason=self.reason,  # type: ignore[arg-type]
-            target_position=self.target[0] if self.target else None,
-            target_orientation=self.target[1] if self.target else None,
+            position=pos, orientation=orn, status=self.status, reason=self.reason,
+            target_position=target[0] if target else None, target_orientation=target[1] if target else None,
             position_error=ep, orientation_error=eo, command_id=self.command_id,
-            joint_positions={j.name: float(v) for j, v in zip(self.movable, q, strict=True)},
+            joint_positions=dict(zip(self._names, [st[0] for st in states], strict=True)),
         )
 
     def _update_status(self, ep: float, eo: float) -> None:

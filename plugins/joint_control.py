@@ -85,6 +85,7 @@ class JointControl(Actuator):
                 raise ConfigError(f"{cfg.stop_on!r} is not a contact sensor; sensors: "
                                   f"{', '.join(ctx.components)}", key="stop_on")
         self.modes: dict[str, str] = {}
+        self._any_torque = False
         self.values: dict[str, float] = {n: v for n, v in cfg.targets.items()}
         self.program = dict(cfg.sine)
         self._plan: list[tuple[Any, list[str]]] | None = None  # motor calls grouped by mode (see _make_plan)
@@ -95,6 +96,8 @@ class JointControl(Actuator):
         self.max_velocity = cfg.max_velocity
         self.stopped, self.stop_reason = False, ""
         self.stopped_at: float | None = None
+        self._dirty = True  # targets changed since they were last sent (a program changes them every update)
+        self._indices = [j.index for j in self.joints.values()]
 
     def _joint(self, name: str, key: str) -> Any:
         info = self.ctx.joint(self.config.body, name, key=key)
@@ -107,6 +110,7 @@ class JointControl(Actuator):
             c = self.world.client
             c.setJointMotorControl2(self.body, self.joints[name].index, c.VELOCITY_CONTROL, force=0.0)
         self.modes[name] = mode
+        self._any_torque = "torque" in self.modes.values()  # PyBullet applies a torque for one step only
         self._plan = None
 
     def command(self, cmd: Any) -> None:
@@ -121,6 +125,7 @@ class JointControl(Actuator):
             self.values[name] = float(value)
             self.program.pop(name, None)
         self._plan = self._waves = None
+        self._dirty = True
         if cmd.max_force is not None:
             self.force = cmd.max_force
             self._plan = None
@@ -128,13 +133,15 @@ class JointControl(Actuator):
             self.max_velocity = cmd.max_velocity
 
     def update(self) -> None:
-        """Check the contact stop, evaluate the program at the current sim time, and drive every joint."""
+        """Check the contact stop, evaluate the program at the current sim time, and drive every joint (motor
+        targets are sent when they change: every update with a program, once after a command otherwise)."""
         if not self.stopped and self.config.stop_on is not None:
             contact: ContactState = self.ctx.readings[self.config.stop_on]
             if contact.in_contact:
                 self._stop(contact)
-        if self.stopped:
+        if self.stopped or not (self._dirty or self.program or self._any_torque):
             return
+        self._dirty = False
         t, values, sin = self.world.time, self.values, math.sin
         if self._waves is None:
             self._waves = [(n, w.offset, w.amplitude, 2 * math.pi * w.frequency_hz, math.radians(w.phase_deg))
@@ -200,6 +207,7 @@ class JointControl(Actuator):
                                     targetVelocity=0.0, force=force, positionGain=self.config.position_gain)
         self.program.clear()
         self._plan = self._waves = None
+        self._any_torque = False
 
     def _torque(self, name: str, motor_torque: float) -> float:
         """Applied torque: the motor's (position/velocity modes) or the commanded one (torque mode)."""
@@ -209,7 +217,7 @@ class JointControl(Actuator):
 
     def read(self) -> JointStates:
         """Position, velocity and applied torque (N·m or N) of every driven joint, by name."""
-        states = self.world.client.getJointStates(self.body, [j.index for j in self.joints.values()])
+        states = self.world.client.getJointStates(self.body, self._indices)
         names = list(self.joints)
         modes = set(self.modes.values())
         return JointStates(

@@ -3,11 +3,16 @@
 In GUI mode it reads ``getKeyboardEvents`` of the World's own client. A ``script`` of timed key presses makes the
 same teleop configs run headless and deterministic (tests, demos): each entry holds ``keys`` down from ``at`` for
 ``hold`` sim seconds.
+
+A key tapped between two readings (pressed and released before the sensor was due again) is not lost: PyBullet
+flags it ``KEY_WAS_TRIGGERED`` without ``KEY_IS_DOWN``, and the reading lists it in ``pressed`` (not in ``down``).
+A scripted press shorter than the sensor's period behaves the same way.
 """
 
 from __future__ import annotations
 
 import string
+from collections.abc import Mapping
 
 import pybullet as p
 from pydantic import Field
@@ -63,23 +68,41 @@ class KeyboardSensor(Sensor):
         self.use_gui = self.world.gui and not (self.config and self.config.script_in_gui)
         self.previous: frozenset[str] = frozenset()
 
-    def _scripted(self) -> frozenset[str]:
+        self.last_read = -1.0
+
+    def _scripted(self) -> tuple[frozenset[str], frozenset[str]]:
+        """Keys held now, and keys whose press began since the last reading (even if already released)."""
         t = self.world.time
         held: set[str] = set()
+        began: set[str] = set()
         for press in self.config.script if self.config else ():
             if press.at <= t < press.at + press.hold:
                 held.update(press.keys)
-        return frozenset(held)
-
-    def _gui(self) -> frozenset[str]:
-        events = self.world.client.getKeyboardEvents()
-        return frozenset(KEY_NAMES[k] for k, state in events.items() if k in KEY_NAMES and state & p.KEY_IS_DOWN)
+            if self.last_read < press.at <= t:
+                began.update(press.keys)
+        self.last_read = t
+        return frozenset(held), frozenset(began)
 
     def read(self) -> KeyState:
-        down = self._gui() if self.use_gui else self._scripted()
-        state = KeyState(down=down, pressed=down - self.previous)
-        self.previous = down
+        if self.use_gui:
+            state = decode_events(self.world.client.getKeyboardEvents(), self.previous)
+        else:
+            down, began = self._scripted()
+            state = KeyState(down=down, pressed=(down - self.previous) | began)
+        self.previous = state.down
         return state
+
+
+def decode_events(events: Mapping[int, int], previous: frozenset[str]) -> KeyState:
+    """A :class:`KeyState` from PyBullet's ``getKeyboardEvents()`` (key code -> state flags since the last call).
+
+    ``down``: keys flagged ``KEY_IS_DOWN``. ``pressed``: keys flagged ``KEY_WAS_TRIGGERED`` (also a tap released
+    before this call) plus keys down now that were not down at the previous reading.
+    """
+    down = frozenset(KEY_NAMES[k] for k, flags in events.items() if k in KEY_NAMES and flags & p.KEY_IS_DOWN)
+    triggered = frozenset(KEY_NAMES[k] for k, flags in events.items()
+                          if k in KEY_NAMES and flags & p.KEY_WAS_TRIGGERED)
+    return KeyState(down=down, pressed=triggered | (down - previous))
 
 
 @hookimpl

@@ -1,28 +1,55 @@
 """The ``robokit`` command. Heavy imports (pybullet, cv2) happen only inside the commands that need them.
 
 Exit codes: 0 succeeded; 1 the behaviour failed or was aborted (e.g. ``max_time`` reached); 2 usage or config
-error; 3 a plugin raised (outcome ``error``); 4 the result could be neither delivered nor stored; 130 interrupted.
+error; 3 a plugin (or robokit itself) raised (outcome ``error``); 4 the result could be neither delivered nor
+stored; 130 interrupted (Ctrl-C / SIGTERM).
+
+No input gives a Python traceback: user errors are one line; anything unexpected is one line naming what raised and
+where, plus the path of a file with the full traceback. ``--debug`` (anywhere on the command line, or
+``ROBOKIT_DEBUG=1``) prints the traceback too.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
+import os
 import sys
 import warnings
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, NoReturn
 
 from robokit import __version__
+from robokit.crash import describe, one_line, traceback_text, where_raised, write_traceback
 from robokit.errors import PluginError, UserError
 from robokit.plugins import PluginLoadWarning
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_PLUGIN, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
 
 
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose usage errors are one line (exit 2), naming the command's ``--help``."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(EXIT_USAGE, f"robokit: error: {message} (see: {self.prog} --help)\n")
+
+
+def _finite_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not math.isfinite(value) or value <= 0:
+        raise argparse.ArgumentTypeError(f"expected a positive, finite number of seconds, got {text!r}")
+    return value
+
+
 def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="robokit", description="Run PyBullet robots from TOML configs.")
+    parser = _Parser(prog="robokit", description="Run PyBullet robots from TOML configs.")
     parser.add_argument("--version", action="version", version=f"robokit {__version__}")
+    parser.add_argument("--debug", action="store_true",
+                        help="show full tracebacks (also accepted after the command; env ROBOKIT_DEBUG=1)")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
 
@@ -30,7 +57,9 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("config", help="path to a TOML config")
     run.add_argument("--gui", action="store_true", help="open the PyBullet GUI (paced to real time)")
     run.add_argument("--seed", type=int, help="override world.seed")
-    run.add_argument("--max-time", type=float, metavar="S", help="override world.max_time (sim seconds)")
+    run.add_argument("--max-time", type=_finite_float, metavar="S", help="override world.max_time (sim seconds)")
+    run.add_argument("--max-wall", type=_finite_float, metavar="S",
+                     help="override world.max_wall_time: end the run (aborted) after S wall-clock seconds")
     run.add_argument("--json", action="store_true", help="print the RunResult JSON alone on stdout")
     run.add_argument("--trace", metavar="FILE", help="write state transitions and events as JSON lines")
     run.add_argument("--quiet", action="store_true", help="print nothing but errors (and --json output)")
@@ -82,6 +111,8 @@ def _overrides(args: argparse.Namespace) -> dict[str, Any]:
         out["report.project"] = args.project
     if getattr(args, "report_url", None) is not None:
         out["report.http.url"] = args.report_url
+    if getattr(args, "max_wall", None) is not None:
+        out["world.max_wall_time"] = args.max_wall
     return out
 
 
@@ -98,7 +129,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     from robokit._quiet import c_stdout_to_stderr
     from robokit.runner import run_config, summary
 
-    trace = open(args.trace, "w", encoding="utf-8") if args.trace else None  # noqa: SIM115
+    trace = _open_trace(args.trace) if args.trace else None
     try:
         with c_stdout_to_stderr():  # pybullet's C-level warnings must not corrupt stdout (--json)
             plugins, cfg = _load(args)
@@ -112,6 +143,19 @@ def cmd_run(args: argparse.Namespace) -> int:
     if not args.quiet:
         print(summary(out), file=sys.stderr if args.json else sys.stdout)
     return out.exit_code
+
+
+def _open_trace(path: str) -> Any:
+    """Open the ``--trace`` file for writing before anything runs; a path that cannot be written is a usage error."""
+    if os.path.isdir(path):
+        raise UserError(f"--trace {path}: is a folder; give a file name, e.g. {os.path.join(path, 'trace.jsonl')}")
+    parent = os.path.dirname(path) or "."
+    if not os.path.isdir(parent):
+        raise UserError(f"--trace {path}: the folder {parent} does not exist")
+    try:
+        return open(path, "w", encoding="utf-8")  # noqa: SIM115 - closed by cmd_run
+    except OSError as exc:
+        raise UserError(f"--trace {path}: cannot write: {exc.strerror or exc}") from None
 
 
 def _warn_problem(problem: Exception) -> None:
@@ -216,7 +260,18 @@ def cmd_lint(args: argparse.Namespace) -> int:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``robokit`` console script; returns the exit code."""
-    args = _parser().parse_args(argv)
+    from robokit.crash import debug_from_env
+
+    argv = list(sys.argv[1:] if argv is None else argv)
+    cut = argv.index("--") if "--" in argv else len(argv)
+    debug = debug_from_env() or "--debug" in argv[:cut]
+    argv = [a for a in argv[:cut] if a != "--debug"] + argv[cut:]
+    try:
+        args = _parser().parse_args(argv)
+    except KeyboardInterrupt:
+        print("robokit: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    args.debug = debug
     with warnings.catch_warnings():  # restores the caller's warning settings (main() is also called in-process)
         warnings.simplefilter("always", PluginLoadWarning)
         warnings.showwarning = _show_warning
@@ -228,19 +283,36 @@ def _show_warning(message: Warning | str, category: type[Warning], *_args: Any, 
 
 
 def _dispatch(args: argparse.Namespace) -> int:
-    """Run the chosen command; user errors become one line and an exit code."""
+    """Run the chosen command; every error becomes one line and an exit code (a traceback only with --debug)."""
     try:
         code: int = args.func(args)
     except UserError as exc:
-        print(f"robokit: error: {exc}", file=sys.stderr)
+        print(f"robokit: error: {one_line(exc, 2000)}", file=sys.stderr)
         return EXIT_USAGE
     except KeyboardInterrupt:
         print("robokit: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     except PluginError as exc:
-        print(f"robokit: error: {exc}", file=sys.stderr)
+        _report_crash(args, exc, f"robokit: error: {one_line(exc, 2000)}")
+        return EXIT_PLUGIN
+    except BrokenPipeError:  # `robokit plugins | head`: the reader left; say nothing more
+        sys.stderr.close()
+        return EXIT_FAILED
+    except Exception as exc:  # noqa: BLE001 - a bug: one line and a traceback file, never a bare traceback
+        where = where_raised(exc)
+        _report_crash(args, exc, f"robokit: internal error: {describe(exc)}" + (f" (at {where})" if where else ""))
         return EXIT_PLUGIN
     return code
+
+
+def _report_crash(args: argparse.Namespace, exc: BaseException, line: str) -> None:
+    """Print ``line``; write the full traceback to the run folder (or a temporary file) and say where."""
+    text = traceback_text(exc)
+    path = write_traceback(text, getattr(exc, "robokit_run_dir", None))
+    if getattr(args, "debug", False):
+        print(text, file=sys.stderr, end="")
+    where = f"; full traceback: {path}" if path else ""
+    print(f"{line}{where}", file=sys.stderr)
 
 
 if __name__ == "__main__":

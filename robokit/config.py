@@ -14,9 +14,18 @@ import sys
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    GetCoreSchemaHandler,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
+from pydantic_core import CoreSchema
 
 from robokit.errors import ConfigError, UserError, did_you_mean
 
@@ -29,21 +38,76 @@ Vec2 = tuple[float, float]
 Vec3 = tuple[float, float, float]
 Vec4 = tuple[float, float, float, float]
 
+FLOAT_LIMIT = 1e9
+"""Every float in a :class:`Schema` is finite and within ``±FLOAT_LIMIT`` unless its field says otherwise."""
+MAX_CONFIG_BYTES = 4 * 1024 * 1024
+"""A config file larger than this is refused unread (a config is a few kilobytes of TOML)."""
+
+Coord = Annotated[float, Field(ge=-1e4, le=1e4, description="metres, world frame")]
+"""A position coordinate in metres: within ±10 km of the origin."""
+Angle = Annotated[float, Field(ge=-720.0, le=720.0, description="degrees")]
+Unit = Annotated[float, Field(ge=0.0, le=1.0)]
+Length = Annotated[float, Field(gt=0, le=1e3, description="metres")]
+Position = tuple[Coord, Coord, Coord]
+Gravity = Annotated[float, Field(ge=-1000.0, le=1000.0, description="m/s^2")]
+Newtons = Annotated[float, Field(ge=-1e6, le=1e6, description="newtons")]
+
+_STRICT_SCALARS = frozenset({"int", "float", "bool", "str"})
+
+
+def _harden(node: Any, owner: type) -> None:
+    """Make every scalar in a core schema strict; floats finite and within ``±FLOAT_LIMIT`` by default.
+
+    Strict scalars refuse ``true`` for a number, ``1`` or ``"no"`` for a bool and numbers for strings, while
+    containers stay lax (a TOML array is accepted for a tuple) and an integer is still accepted for a float.
+    Nested models are left alone: each :class:`Schema` subclass hardens its own fields.
+    """
+    if isinstance(node, dict):
+        if node.get("type") == "model" and node.get("cls") is not owner:
+            return
+        kind = node.get("type")
+        if isinstance(kind, str) and kind in _STRICT_SCALARS:
+            node["strict"] = True
+        if kind == "float":
+            node["allow_inf_nan"] = False
+            if "le" not in node and "lt" not in node:
+                node["le"] = FLOAT_LIMIT
+            if "ge" not in node and "gt" not in node:
+                node["ge"] = -FLOAT_LIMIT
+        for value in node.values():
+            _harden(value, owner)
+    elif isinstance(node, list):
+        for value in node:
+            _harden(value, owner)
+
 
 class Schema(BaseModel):
-    """Base of every config model: frozen, unknown keys rejected. Plugin schemas should subclass it."""
+    """Base of every config model: frozen, unknown keys rejected, strict types, finite numbers.
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    Plugin schemas should subclass it; they inherit the rules: no bool for a number or a number for a bool, no
+    string for a bool, every float finite and within ``±FLOAT_LIMIT`` unless the field declares its own bounds
+    (declare physically meaningful ones with ``Field(ge=..., le=...)``). An integer is accepted for a float.
+    """
+
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+    @classmethod
+    def __get_pydantic_core_schema__(cls, source: Any, handler: GetCoreSchemaHandler) -> CoreSchema:
+        schema = handler(source)
+        _harden(schema, cls)
+        return schema
 
 
 class WorldConfig(Schema):
     """``[world]``: physics and run settings."""
 
-    gravity: Vec3 = (0.0, 0.0, -9.81)
+    gravity: tuple[Gravity, Gravity, Gravity] = (0.0, 0.0, -9.81)
     time_step: float = Field(1.0 / 240.0, gt=0, le=0.1, description="physics step, seconds")
     solver_iterations: int = Field(50, ge=1, le=1000)
-    seed: int = Field(0, ge=0)
-    max_time: float = Field(60.0, gt=0, description="stop after this many sim seconds")
+    seed: int = Field(0, ge=0, le=2**63 - 1)
+    max_time: float = Field(60.0, gt=0, le=1e6, description="stop after this many sim seconds")
+    max_wall_time: float | None = Field(None, gt=0, le=1e6,
+                                        description="wall-clock budget in seconds (a watchdog: ends the run aborted)")
     gui: bool = False
     realtime: bool = Field(True, description="pace the GUI to wall-clock time (GUI only)")
 
@@ -51,12 +115,12 @@ class WorldConfig(Schema):
 class RegionConfig(Schema):
     """``[regions.NAME]``: a rectangle that bodies with ``region = NAME`` are scattered in, seeded."""
 
-    low: Vec2
-    high: Vec2
-    z: float = 0.0
-    min_spacing: float = Field(0.0, ge=0)
+    low: tuple[Coord, Coord]
+    high: tuple[Coord, Coord]
+    z: Coord = 0.0
+    min_spacing: float = Field(0.0, ge=0, le=1e3)
     avoid: tuple[str, ...] = ()
-    clearance: float = Field(0.0, ge=0)
+    clearance: float = Field(0.0, ge=0, le=1e3)
 
     @model_validator(mode="after")
     def _ordered(self) -> RegionConfig:
@@ -65,43 +129,52 @@ class RegionConfig(Schema):
         return self
 
 
+def check_unit_colour(value: Any) -> Any:
+    """A before-validator for colours: components above 1 are refused, with the 0-1 equivalent when they look like
+    0-255 values (the per-component checks follow: finite, 0 to 1)."""
+    if isinstance(value, (list, tuple)) and all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                                                and math.isfinite(v) for v in value):
+        if any(v > 1 for v in value):
+            hint = ""
+            if all(0 <= v <= 255 for v in value):
+                hint = f" (for 0-255 values write [{', '.join(f'{v / 255:.3g}' for v in value)}])"
+            raise ValueError(f"colour components must be 0-1 floats, got {list(value)}{hint}")
+    return value
+
+
 class BodyConfig(Schema):
     """``[bodies.NAME]`` and ``[robots.NAME]``: a primitive (``shape``) or a URDF (``urdf``)."""
 
     shape: Literal["box", "sphere", "cylinder"] | None = None
-    urdf: str | None = None
-    size: Vec3 = Field((0.1, 0.1, 0.1), description="box edge lengths, metres")
-    radius: float = Field(0.05, gt=0)
-    height: float = Field(0.1, gt=0)
-    mass: float = Field(1.0, ge=0, description="kg; 0 = static")
-    position: Vec3 | None = None
+    urdf: str | None = Field(None, min_length=1)
+    size: tuple[Length, Length, Length] = Field((0.1, 0.1, 0.1), description="box edge lengths, metres")
+    radius: Length = 0.05
+    height: Length = 0.1
+    mass: float = Field(1.0, ge=0, le=1e6, description="kg; 0 = static")
+    position: Position | None = None
     region: str | None = None
-    rpy_deg: Vec3 | None = None
-    quaternion: Vec4 | None = None
-    yaw_deg_range: Vec2 | None = None
+    rpy_deg: tuple[Angle, Angle, Angle] | None = None
+    quaternion: Vec4 | None = Field(None, description="x, y, z, w (normalised on load)")
+    yaw_deg_range: tuple[Angle, Angle] | None = None
     fixed_base: bool = False
-    scale: float = Field(1.0, gt=0)
-    rgba: Vec4 = (0.7, 0.7, 0.7, 1.0)
-    lateral_friction: float | None = Field(None, ge=0)
-    rolling_friction: float | None = Field(None, ge=0)
-    spinning_friction: float | None = Field(None, ge=0)
-    restitution: float | None = Field(None, ge=0)
-    linear_damping: float | None = Field(None, ge=0)
-    angular_damping: float | None = Field(None, ge=0)
-    joint_positions: dict[str, float] = Field(default_factory=dict)
+    scale: float = Field(1.0, gt=0, le=1e3)
+    rgba: tuple[Unit, Unit, Unit, Unit] = Field((0.7, 0.7, 0.7, 1.0), description="red, green, blue, alpha in 0-1")
+    lateral_friction: float | None = Field(None, ge=0, le=100)
+    rolling_friction: float | None = Field(None, ge=0, le=100)
+    spinning_friction: float | None = Field(None, ge=0, le=100)
+    restitution: float | None = Field(None, ge=0, le=1)
+    linear_damping: float | None = Field(None, ge=0, le=1)
+    angular_damping: float | None = Field(None, ge=0, le=1)
+    joint_positions: dict[str, Annotated[float, Field(ge=-1e3, le=1e3)]] = Field(default_factory=dict)
     count: int = Field(1, ge=1, le=10_000)
     self_collision: bool = False
     collision: Literal["convex", "mesh"] = Field(
         "convex", description="'mesh': a static box's collision shape as triangles (cheaper for lidar rays)")
 
-    @field_validator("rgba")
+    @field_validator("rgba", mode="before")
     @classmethod
-    def _unit_colour(cls, value: Vec4) -> Vec4:
-        if not all(0.0 <= c <= 1.0 for c in value):
-            shown = [round(c, 3) if math.isfinite(c) else c for c in value]
-            hint = f" (for 0-255 values use {[round(c / 255, 3) for c in value]})" if max(value) > 1 else ""
-            raise ValueError(f"colour components must be 0-1 floats, got {shown}{hint}")
-        return value
+    def _unit_colour(cls, value: Any) -> Any:
+        return check_unit_colour(value)
 
     @model_validator(mode="after")
     def _one_kind(self) -> BodyConfig:
@@ -113,6 +186,8 @@ class BodyConfig(Schema):
             raise ValueError("give 'rpy_deg' or 'quaternion', not both")
         if self.quaternion is not None and math.isclose(sum(v * v for v in self.quaternion), 0.0):
             raise ValueError("'quaternion' must not be all zeros")
+        if self.yaw_deg_range is not None and self.yaw_deg_range[0] > self.yaw_deg_range[1]:
+            raise ValueError(f"yaw_deg_range {list(self.yaw_deg_range)}: the first value must be <= the second")
         if self.collision == "mesh" and (self.shape != "box" or self.mass != 0):
             raise ValueError("collision = 'mesh' is for static boxes only (shape = 'box', mass = 0)")
         if self.count > 1 and self.region is None:
@@ -127,13 +202,13 @@ class EventConfig(Schema):
     ``set_pose``: teleport ``body`` to ``position`` (and ``rpy_deg``); ``remove``: delete ``body``.
     """
 
-    at: float = Field(ge=0, description="sim seconds")
+    at: float = Field(ge=0, le=1e6, description="sim seconds")
     type: Literal["force", "set_pose", "remove"]
     body: str
-    force: Vec3 | None = None
-    duration: float = Field(0.0, ge=0)
-    position: Vec3 | None = None
-    rpy_deg: Vec3 | None = None
+    force: tuple[Newtons, Newtons, Newtons] | None = None
+    duration: float = Field(0.0, ge=0, le=1e6)
+    position: Position | None = None
+    rpy_deg: tuple[Angle, Angle, Angle] | None = None
 
     @model_validator(mode="after")
     def _fields(self) -> EventConfig:
@@ -194,18 +269,49 @@ _COMPONENT_KEYS = ("type", "rate_hz")
 
 
 def read_toml(path: str | Path) -> dict[str, Any]:
-    """Parse a TOML file; syntax errors and missing files become one-line ConfigErrors."""
+    """Parse a TOML config file.
+
+    Raises:
+        ConfigError: One line naming the file: missing, a folder, unreadable, too large, not UTF-8 text (a binary
+            file), a TOML syntax error, or empty (nothing but comments).
+    """
     path = Path(path)
+    data = _read_bytes(path)
+    if b"\x00" in data:
+        raise ConfigError("not a text file (it contains NUL bytes): a config is a TOML text file", file=str(path))
     try:
-        text = path.read_text(encoding="utf-8")
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = data[: exc.start].count(b"\n") + 1
+        raise ConfigError(f"not UTF-8 text (byte 0x{data[exc.start]:02x} on line {line}): save the file as UTF-8",
+                          file=str(path)) from None
+    try:
+        raw = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"TOML syntax error: {' '.join(str(exc).split())}", file=str(path)) from None
+    if not raw:
+        raise ConfigError("the file is empty (no tables, only comments or blank lines): nothing to run",
+                          file=str(path))
+    return raw
+
+
+def _read_bytes(path: Path) -> bytes:
+    try:
+        if path.is_dir():
+            raise ConfigError("is a folder, not a config file", file=str(path))
+        size = path.stat().st_size
+        if size > MAX_CONFIG_BYTES:
+            raise ConfigError(f"too large for a config ({size} bytes; the limit is {MAX_CONFIG_BYTES})",
+                              file=str(path))
+        with path.open("rb") as fh:
+            data = fh.read(MAX_CONFIG_BYTES + 1)  # a growing file or a device (/dev/zero) stops here
     except FileNotFoundError:
         raise ConfigError("file not found", file=str(path)) from None
     except OSError as exc:
-        raise ConfigError(f"cannot read: {exc.strerror}", file=str(path)) from None
-    try:
-        return tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"TOML syntax error: {exc}", file=str(path)) from None
+        raise ConfigError(f"cannot read: {exc.strerror or exc}", file=str(path)) from None
+    if len(data) > MAX_CONFIG_BYTES:
+        raise ConfigError(f"too large for a config (over {MAX_CONFIG_BYTES} bytes)", file=str(path))
+    return data
 
 
 def _describe(value: Any) -> str:
@@ -271,8 +377,8 @@ def _table(raw: Mapping[str, Any], name: str) -> Mapping[str, Any]:
 def _rate(value: Any, key: str, physics_hz: float) -> float | None:
     if value is None:
         return None
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or value <= 0:
-        raise ConfigError(f"expected a positive number of Hz, got {_describe(value)}", key=key)
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
+        raise ConfigError(f"expected a positive, finite number of Hz, got {_describe(value)}", key=key)
     ratio = physics_hz / value
     if ratio < 1 - 1e-9 or abs(ratio - round(ratio)) > 1e-6:
         raise ConfigError(
@@ -393,7 +499,8 @@ def _build(raw: Mapping[str, Any], plugins: Any, source: str, base_dir: Path) ->
                               key=f"monitors.{name}")
     monitors = _components(raw, "monitors", "behaviour", plugins, physics_hz)
     report_raw = _table(raw, "report")
-    report = ReportConfig.model_validate({k: v for k, v in report_raw.items() if k in ReportConfig.model_fields})
+    report = validate_model(ReportConfig, {k: v for k, v in report_raw.items() if k in ReportConfig.model_fields},
+                            "report")
     reporters = _reporters(report_raw, plugins)
     events_raw = raw.get("events", [])
     if not isinstance(events_raw, list):
@@ -405,6 +512,8 @@ def _build(raw: Mapping[str, Any], plugins: Any, source: str, base_dir: Path) ->
             raise ConfigError(
                 f"unknown body {event.body!r}{did_you_mean(event.body, all_bodies)}", key=f"events[{i}].body"
             )
+    if not (bodies or robots or behaviour or sensors or actuators):
+        raise ConfigError("nothing to run: the config has no [bodies], [robots] or [behaviour]")
     return Config(source, base_dir, world, regions, bodies, robots, sensors, actuators, behaviour, report,
                   reporters, events, copy.deepcopy(dict(raw)), monitors)
 
@@ -447,6 +556,9 @@ def set_dotted(raw: dict[str, Any], dotted: str, value: Any) -> None:
     """Set ``raw["a"]["b"] = value`` for ``dotted = "a.b"``, creating tables on the way."""
     *parents, last = dotted.split(".")
     node = raw
-    for part in parents:
+    for i, part in enumerate(parents):
         node = node.setdefault(part, {})
+        if not isinstance(node, dict):
+            where = ".".join(parents[: i + 1])
+            raise ConfigError(f"expected a table to set {last!r} in, got {_describe(node)}", key=where)
     node[last] = value

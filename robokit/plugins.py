@@ -8,7 +8,7 @@ from __future__ import annotations
 import importlib.metadata as md
 import inspect
 import warnings
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator, MutableMapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -18,6 +18,9 @@ from robokit import hookspecs
 from robokit.errors import LookupNameError, PluginError, UserError
 
 ENTRY_POINT_GROUP = "robokit"
+INDEX_GROUP = "robokit.types"
+"""Optional entry-point group naming which module registers which type: ``"KIND.TYPE" = "module"``. A module
+listed there is imported only when a config (or a lookup) needs one of its types."""
 KINDS = ("sensor", "actuator", "behaviour", "reporter")
 _HOOK_OF_KIND = {
     "sensor": "robokit_register_sensors",
@@ -55,14 +58,74 @@ class PluginType:
         return f"{self.distribution} {self.version}".strip()
 
 
+class KindTypes(MutableMapping[str, PluginType]):
+    """The registered types of one kind, by name.
+
+    On lazily loaded plugins (the default, see :func:`load_plugins`), looking a name up imports only the plugin
+    module that provides it; iterating or counting loads every plugin first.
+    """
+
+    def __init__(self, kind: str, owner: Plugins) -> None:
+        self.kind = kind
+        self._owner = owner
+        self.data: dict[str, PluginType] = {}
+
+    def __getitem__(self, name: str) -> PluginType:
+        if name not in self.data:
+            self._owner.want(self.kind, name)
+        return self.data[name]
+
+    def __contains__(self, name: object) -> bool:
+        if isinstance(name, str) and name not in self.data:
+            self._owner.want(self.kind, name)
+        return name in self.data
+
+    def __iter__(self) -> Iterator[str]:
+        self._owner.complete()
+        return iter(self.data)
+
+    def __len__(self) -> int:
+        self._owner.complete()
+        return len(self.data)
+
+    def __setitem__(self, name: str, value: PluginType) -> None:
+        self.data[name] = value
+
+    def __delitem__(self, name: str) -> None:
+        del self.data[name]
+
+
 @dataclass
 class Plugins:
     """A loaded plugin manager and the types its plugins registered, by kind then name."""
 
     pm: pluggy.PluginManager
-    types: dict[str, dict[str, PluginType]] = field(default_factory=lambda: {k: {} for k in KINDS})
+    types: dict[str, KindTypes] = field(init=False)
     broken: dict[str, str] = field(default_factory=dict)
     """Distributions (or plugins) that failed to load, with the reason."""
+
+    def __post_init__(self) -> None:
+        self.types = {k: KindTypes(k, self) for k in KINDS}
+        self._pending: dict[str, md.EntryPoint] = {}  # entry points not imported yet, by module
+        self._index: dict[tuple[str, str], str] = {}  # (kind, type name) -> module that registers it
+        self._origins: dict[str, tuple[str, str]] = {}
+        self._collected: set[tuple[str, str]] = set()  # (kind, plugin name) whose registration hook was called
+
+    def want(self, kind: str, name: str) -> None:
+        """Make sure the type ``kind``/``name`` is loaded if any plugin provides it (imports its module only,
+        when the ``robokit.types`` index names it; every plugin otherwise)."""
+        module = self._index.get((kind, name))
+        if module is not None and module in self._pending:
+            _load_entry_point(self, self._pending.pop(module))
+            if name in self.types[kind].data:
+                return
+        self.complete()
+
+    def complete(self) -> None:
+        """Import every plugin not imported yet (what listing all types needs)."""
+        while self._pending:
+            _load_entry_point(self, self._pending.pop(next(iter(self._pending))))
+        self._index.clear()
 
     def get(self, kind: str, name: str, *, where: str = "") -> PluginType:
         """The registered type of a kind by name.
@@ -102,18 +165,38 @@ class Plugins:
                                   type_name=hook_name, distribution=impl.plugin_name) from exc
 
 
+_LABELS: dict[Any, tuple[str, str]] = {}
+
+
 def _dist_label(dist: md.Distribution | None) -> tuple[str, str]:
+    """``(name, version)`` of a distribution; its metadata is parsed once per process, not once per entry point."""
     if dist is None:
         return ("<local>", "")
-    return (dist.metadata["Name"] or "<unknown>", dist.version or "")
+    key = getattr(dist, "_path", None) or id(dist)
+    label = _LABELS.get(key)
+    if label is None:
+        meta = dist.metadata
+        label = _LABELS[key] = (meta["Name"] or "<unknown>", meta["Version"] or "")
+    return label
 
 
-def _entry_points() -> list[md.EntryPoint]:
-    eps = md.entry_points(group=ENTRY_POINT_GROUP)
+def _entry_points() -> tuple[list[md.EntryPoint], dict[tuple[str, str], str] | None]:
+    """The ``robokit`` entry points (sorted by distribution, then name) and the ``robokit.types`` index.
+
+    The index maps ``(kind, type name)`` to the module that registers it (entry point ``"KIND.TYPE" = "module"``).
+    It is None when two entries claim one type (a full load then reports the clash).
+    """
+    every = md.entry_points()
     seen: dict[tuple[str, str], md.EntryPoint] = {}
-    for ep in eps:  # the same distribution can be visible twice (e.g. editable + path entry)
+    for ep in every.select(group=ENTRY_POINT_GROUP):  # a distribution can be visible twice (editable + path)
         seen.setdefault((ep.name, ep.value), ep)
-    return sorted(seen.values(), key=lambda e: (e.dist.metadata["Name"] if e.dist else "", e.name))
+    eps = sorted(seen.values(), key=lambda e: (_dist_label(e.dist)[0] if e.dist else "", e.name))
+    index: dict[tuple[str, str], str] | None = {}
+    for ep in every.select(group=INDEX_GROUP):
+        kind, _, name = ep.name.partition(".")
+        if index is not None and index.setdefault((kind, name), ep.value) != ep.value:
+            index = None
+    return eps, index
 
 
 def _register_checked(pm: pluggy.PluginManager, plugin: object, name: str) -> str | None:
@@ -131,9 +214,15 @@ def _register_checked(pm: pluggy.PluginManager, plugin: object, name: str) -> st
     return None
 
 
-def load_plugins(extra: Iterable[object] = (), *, entry_points: bool = True) -> Plugins:
+def load_plugins(extra: Iterable[object] = (), *, entry_points: bool = True, lazy: bool = True) -> Plugins:
     """Build a fresh plugin manager, load the ``robokit`` entry points and ``extra`` plugin objects, and collect
     every registered type.
+
+    With ``lazy`` (the default) and every entry point's module named in the ``robokit.types`` index (which type
+    each module registers), a module is imported only when one of its types is looked up: a config that uses no
+    camera never imports OpenCV. Listing the types imports them all. An entry point missing from the index (a
+    third-party package that does not declare its types, or one that only implements lifecycle hooks) makes the
+    load eager, as does ``lazy=False``: everything is imported now.
 
     A distribution whose entry point fails to import, or whose hooks do not match their specs, is skipped with a
     :class:`PluginLoadWarning` naming it; the others still load.
@@ -145,35 +234,54 @@ def load_plugins(extra: Iterable[object] = (), *, entry_points: bool = True) -> 
     pm = pluggy.PluginManager("robokit")
     pm.add_hookspecs(hookspecs)
     plugins = Plugins(pm=pm)
-    origins: dict[str, tuple[str, str]] = {}
     if entry_points:
-        for ep in _entry_points():
-            dist, version = _dist_label(ep.dist)
-            label = f"{dist} (entry point {ep.name!r})"
-            try:
-                obj = ep.load()
-            except Exception as exc:  # noqa: BLE001 - a broken third-party package must not stop the others
-                _reject(plugins, label, f"import failed: {type(exc).__name__}: {exc}")
-                continue
-            name = f"{dist}:{ep.name}"
-            if pm.is_registered(obj):
-                continue
-            reason = _register_checked(pm, obj, name)
-            if reason:
-                _reject(plugins, label, reason)
-                continue
-            origins[name] = (dist, version)
+        eps, index = _entry_points()
+        lazy = lazy and index is not None and all(ep.value in index.values() for ep in eps)
+        for ep in eps:
+            if not lazy:
+                _load_entry_point(plugins, ep, collect=False)
+            elif ep.value not in plugins._pending:
+                plugins._pending[ep.value] = ep
+        if lazy:
+            plugins._index = dict(index or {})
     for i, obj in enumerate(extra):
         name = getattr(obj, "__name__", None) or f"extra-{i}"
-        reason = _register_checked(pm, obj, name)
-        if reason:
-            _reject(plugins, name, reason)
-            continue
-        origins[name] = ("<local>", "") if not hasattr(obj, "__robokit_dist__") else obj.__robokit_dist__
+        origin = ("<local>", "") if not hasattr(obj, "__robokit_dist__") else obj.__robokit_dist__
+        _register(plugins, obj, name, name, origin, collect=False)
     pm.check_pending()
     for kind in KINDS:
-        _collect(plugins, kind, origins)
+        _collect(plugins, kind, plugins._origins)
+    if any((k, n) in plugins._index for k in KINDS for n in plugins.types[k].data):
+        # an extra plugin claims an indexed type: load eagerly, in the usual order, so the clash is named
+        return load_plugins(extra, entry_points=entry_points, lazy=False)
     return plugins
+
+
+def _load_entry_point(plugins: Plugins, ep: md.EntryPoint, *, collect: bool = True) -> None:
+    """Import one entry point, register it and collect the types it registers (or record why not)."""
+    dist, version = _dist_label(ep.dist)
+    label = f"{dist} (entry point {ep.name!r})"
+    try:
+        obj = ep.load()
+    except Exception as exc:  # noqa: BLE001 - a broken third-party package must not stop the others
+        _reject(plugins, label, f"import failed: {type(exc).__name__}: {exc}")
+        return
+    if plugins.pm.is_registered(obj):
+        return
+    _register(plugins, obj, f"{dist}:{ep.name}", label, (dist, version), collect=collect)
+
+
+def _register(plugins: Plugins, obj: object, name: str, label: str, origin: tuple[str, str], *,
+              collect: bool) -> None:
+    """Register a plugin object; with ``collect``, call its registration hooks now (a lazy load)."""
+    reason = _register_checked(plugins.pm, obj, name)
+    if reason:
+        _reject(plugins, label, reason)
+        return
+    plugins._origins[name] = origin
+    if collect:
+        for kind in KINDS:
+            _collect(plugins, kind, plugins._origins, only=name)
 
 
 def _reject(plugins: Plugins, label: str, reason: str) -> None:
@@ -181,29 +289,35 @@ def _reject(plugins: Plugins, label: str, reason: str) -> None:
     warnings.warn(f"robokit plugin {label} not loaded: {reason}", PluginLoadWarning, stacklevel=3)
 
 
-def _collect(plugins: Plugins, kind: str, origins: dict[str, tuple[str, str]]) -> None:
+def _collect(plugins: Plugins, kind: str, origins: dict[str, tuple[str, str]], only: str | None = None) -> None:
+    """Call the registration hook of one kind on every plugin not asked yet (or on the one named ``only``); the
+    types they register join ``plugins.types``."""
     hook = getattr(plugins.pm.hook, _HOOK_OF_KIND[kind])
-    for impl in reversed(hook.get_hookimpls()):  # registration order
+    types = plugins.types[kind].data
+    for impl in reversed(hook.get_hookimpls()):  # pluggy's call order (the last registered first)
+        if (kind, impl.plugin_name) in plugins._collected or (only is not None and impl.plugin_name != only):
+            continue
+        plugins._collected.add((kind, impl.plugin_name))
         dist, version = origins.get(impl.plugin_name, ("<local>", ""))
 
         def register(type_name: str, cls: type, schema: type | None = None, *, _p: str = impl.plugin_name,
                      _d: str = dist, _v: str = version) -> None:
-            existing = plugins.types[kind].get(type_name)
+            existing = types.get(type_name)
             if existing is not None:
                 raise UserError(
                     f"{kind} type {type_name!r} is registered twice: by {existing.origin} "
                     f"({existing.plugin}) and by {_d} {_v} ({_p})".replace("  ", " ")
                 )
-            plugins.types[kind][type_name] = PluginType(kind, type_name, cls, schema, _d, _v, _p)
+            types[type_name] = PluginType(kind, type_name, cls, schema, _d, _v, _p)
 
-        before = set(plugins.types[kind])
+        before = set(types)
         try:
             impl.function(register=register)
         except UserError:
             raise
         except Exception as exc:  # noqa: BLE001 - isolate a faulty plugin
-            for partial in set(plugins.types[kind]) - before:
-                del plugins.types[kind][partial]
+            for partial in set(types) - before:
+                del types[partial]
             _reject(plugins, f"{dist} ({impl.plugin_name})", f"{_HOOK_OF_KIND[kind]} raised {exc!r}")
 
 

@@ -112,6 +112,9 @@ class TickScheduler:
     behaviour_origin: str
     events: dict[int, list[Callable[[], None]]] = field(default_factory=dict)
     _wall_start: float | None = None
+    wall_clock: Callable[[], float] = time.perf_counter
+    """GUI pacing's clock (seconds); replaceable so pacing can be tested without waiting."""
+    sleep: Callable[[float], None] = time.sleep
 
     def __post_init__(self) -> None:
         self.slots: dict[str, Slot] = {**self.sensors, **self.actuators}
@@ -166,17 +169,17 @@ class TickScheduler:
 
     def start_pacing(self) -> None:
         """GUI only: take the wall-clock time that corresponds to the current sim time (call before the loop)."""
-        self._wall_start = time.perf_counter() - self.world.time
+        self._wall_start = self.wall_clock() - self.world.time
 
     def pace(self) -> None:
         """GUI only: sleep so that sim time does not run ahead of wall-clock time."""
-        now = time.perf_counter()
+        now = self.wall_clock()
         if self._wall_start is None:
             self.start_pacing()
             return
         ahead = self.world.time - (now - self._wall_start)
         if ahead > 0:
-            time.sleep(ahead)
+            self.sleep(ahead)
 
 
 def _reraise() -> None:

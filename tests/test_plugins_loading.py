@@ -136,3 +136,38 @@ def test_plugins_command_shows_kind_type_distribution_version_description(broken
     assert row == {"kind": "sensor", "type": "good_probe", "distribution": "good-dist", "version": "2.3.1",
                    "description": "Reads the sim time in seconds (a third-party sensor that works)."}
     assert list(data["broken"]) == ["broken-dist (entry point 'main')"]
+
+
+def test_the_type_index_names_the_module_of_every_builtin_type():
+    """pyproject's "robokit.types" entry points say which module registers each built-in type (lazy loading)."""
+    import importlib.metadata as md
+
+    modules = {ep.name: ep.value for ep in md.entry_points(group="robokit")}
+    index = {ep.name: ep.value for ep in md.entry_points(group="robokit.types")}
+    registered = {f"{t.kind}.{t.name}": modules[t.plugin.split(":", 1)[1]]
+                  for t in load_plugins(lazy=False).all_types() if t.distribution == "robokit"}
+    missing = sorted(f'"{key}" = "{module}"' for key, module in registered.items() if index.get(key) != module)
+    assert not missing, 'add to [project.entry-points."robokit.types"] in pyproject.toml: ' + "; ".join(missing)
+    assert set(index) == set(registered)
+
+
+def test_a_config_imports_only_the_plugin_modules_it_uses():
+    """Loading the patrol config imports the lidar, drive and patrol modules, not the camera's (nor OpenCV)."""
+    import subprocess
+    import sys
+
+    code = ("import sys; from robokit.plugins import load_plugins; from robokit.config import load_config; "
+            "p = load_plugins(); load_config(sys.argv[1], p); "
+            "print(' '.join(sorted(m for m in sys.modules if m.startswith('robokit_') or m == 'cv2')))")
+    config = Path(__file__).resolve().parent.parent / "configs" / "patrol_robot.toml"
+    out = subprocess.run([sys.executable, "-c", code, str(config)], capture_output=True, text=True, check=True)
+    loaded = set(out.stdout.split())
+    assert {"robokit_plugins.lidar", "robokit_plugins.diff_drive", "robokit_behaviours.patrol_collect"} <= loaded
+    assert "cv2" not in loaded and "robokit_plugins.camera" not in loaded and "robokit_behaviours.sort" not in loaded
+
+
+def test_lazy_and_eager_loading_find_the_same_types():
+    lazy, eager = load_plugins(), load_plugins(lazy=False)
+    assert lazy.get("sensor", "lidar").cls is eager.get("sensor", "lidar").cls
+    assert [(t.kind, t.name, t.origin) for t in lazy.all_types()] == [(t.kind, t.name, t.origin)
+                                                                      for t in eager.all_types()]

@@ -61,3 +61,52 @@ def test_joint_teleop_selects_joints_and_turns_them() -> None:
     assert positions["lbr_iiwa_joint_1"] == pytest.approx(1.0, abs=0.05)  # the arm really moved there
     assert positions["lbr_iiwa_joint_4"] == pytest.approx(-0.5, abs=0.05)
     assert positions["lbr_iiwa_joint_2"] == pytest.approx(0.0, abs=0.05)
+
+
+def kuka_teleop(script: list[dict[str, object]], rate_hz: float | None = None) -> dict[str, object]:
+    import tomllib
+
+    raw = tomllib.loads((CONFIGS / "kuka_teleop.toml").read_text(encoding="utf-8"))
+    raw["sensors"]["keys"]["script"] = script
+    if rate_hz is not None:
+        raw["sensors"]["keys"]["rate_hz"] = rate_hz
+        raw["behaviour"]["rate_hz"] = rate_hz
+    return raw
+
+
+def test_teleop_targets_stop_at_the_joint_limits() -> None:
+    # right held for 4 s at 1 rad/s on joint 1 (limits about +-2.97 rad): the target stops at the upper limit
+    raw = kuka_teleop([{"at": 0.1, "keys": ["1"], "hold": 0.05}, {"at": 0.2, "keys": ["right"], "hold": 4.0},
+                       {"at": 4.5, "keys": ["q"]}])
+    with make_sim(raw, base_dir=CONFIGS) as sim:
+        upper = sim.world.joint("kuka", "lbr_iiwa_joint_1").upper
+        result = sim.run()
+        measured = sim.readings["joints"].positions["lbr_iiwa_joint_1"]
+    assert 2.5 < upper < 3.2  # the URDF's limit, read independently of the behaviour
+    assert result.result["targets"]["lbr_iiwa_joint_1"] == pytest.approx(upper, abs=1e-6)
+    assert measured <= upper + 0.02
+
+
+def test_a_tap_between_two_keyboard_readings_still_moves_one_step() -> None:
+    # keyboard and teleop at 10 Hz (readings at 0.5 s and 0.6 s); the tap lasts 10 ms in between
+    raw = kuka_teleop([{"at": 0.1, "keys": ["1"], "hold": 0.01}, {"at": 0.52, "keys": ["right"], "hold": 0.01},
+                       {"at": 1.0, "keys": ["q"]}], rate_hz=10)
+    with make_sim(raw, base_dir=CONFIGS) as sim:
+        result = sim.run()
+    assert result.result["selections"] == ["lbr_iiwa_joint_1"]  # the 10 ms selection tap was not lost either
+    # one step of the 10 Hz behaviour at 1 rad/s
+    assert result.result["targets"]["lbr_iiwa_joint_1"] == pytest.approx(0.1, abs=1e-6)
+
+
+def test_gui_key_events_decode_taps_holds_and_new_presses() -> None:
+    import pybullet as p
+    from robokit_plugins.keyboard import decode_events
+
+    tap = decode_events({ord("a"): p.KEY_WAS_TRIGGERED | p.KEY_WAS_RELEASED}, frozenset())
+    assert tap.down == frozenset() and tap.pressed == {"a"}
+    held = decode_events({p.B3G_LEFT_ARROW: p.KEY_IS_DOWN}, frozenset({"left"}))
+    assert held.down == {"left"} and held.pressed == frozenset()
+    new = decode_events({ord("1"): p.KEY_IS_DOWN | p.KEY_WAS_TRIGGERED, 99999: p.KEY_IS_DOWN}, frozenset())
+    assert new.down == {"1"} and new.pressed == {"1"}  # unknown key codes are ignored
+    missed_trigger = decode_events({p.B3G_UP_ARROW: p.KEY_IS_DOWN}, frozenset())
+    assert missed_trigger.pressed == {"up"}  # down now, not down before: newly pressed

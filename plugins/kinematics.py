@@ -1,0 +1,153 @@
+"""Forward kinematics and the geometric Jacobian of one link of a fixed-base arm, in numpy.
+
+Built once from PyBullet's joint table (:class:`Chain`), then evaluated for any joint vector without touching the
+simulation: no joint state is written and read back, so IK can try candidate configurations between physics steps
+for the price of a few 4x4 products. Used by ``ik_arm``.
+
+Frames follow PyBullet's conventions: a joint's ``parentFramePos``/``parentFrameOrn`` are given in the parent
+link's *inertial* frame; the child's URDF link frame is the joint frame moved by the joint; the child's inertial
+frame is its link frame times its local inertial offset. Positions in metres, world frame; quaternions ``(x, y, z,
+w)``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+
+def transform(position: Sequence[float], quaternion: Sequence[float]) -> np.ndarray:
+    """4x4 homogeneous transform of a position and an ``(x, y, z, w)`` quaternion."""
+    x, y, z, w = quaternion
+    out = np.eye(4)
+    out[:3, :3] = [
+        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+    ]
+    out[:3, 3] = position
+    return out
+
+
+def quaternion_of(rot: np.ndarray) -> tuple[float, float, float, float]:
+    """``(x, y, z, w)`` quaternion (w >= 0) of a 3x3 rotation matrix."""
+    m = rot
+    tr = m[0, 0] + m[1, 1] + m[2, 2]
+    if tr > 0:
+        s = 2.0 * math.sqrt(tr + 1.0)
+        q = ((m[2, 1] - m[1, 2]) / s, (m[0, 2] - m[2, 0]) / s, (m[1, 0] - m[0, 1]) / s, 0.25 * s)
+    elif m[0, 0] > m[1, 1] and m[0, 0] > m[2, 2]:
+        s = 2.0 * math.sqrt(1.0 + m[0, 0] - m[1, 1] - m[2, 2])
+        q = (0.25 * s, (m[0, 1] + m[1, 0]) / s, (m[0, 2] + m[2, 0]) / s, (m[2, 1] - m[1, 2]) / s)
+    elif m[1, 1] > m[2, 2]:
+        s = 2.0 * math.sqrt(1.0 + m[1, 1] - m[0, 0] - m[2, 2])
+        q = ((m[0, 1] + m[1, 0]) / s, 0.25 * s, (m[1, 2] + m[2, 1]) / s, (m[0, 2] - m[2, 0]) / s)
+    else:
+        s = 2.0 * math.sqrt(1.0 + m[2, 2] - m[0, 0] - m[1, 1])
+        q = ((m[0, 2] + m[2, 0]) / s, (m[1, 2] + m[2, 1]) / s, 0.25 * s, (m[1, 0] - m[0, 1]) / s)
+    sign = -1.0 if q[3] < 0 else 1.0
+    return (float(sign * q[0]), float(sign * q[1]), float(sign * q[2]), float(sign * q[3]))
+
+
+def _axis_rotation(axis: np.ndarray, angle: float) -> np.ndarray:
+    """3x3 rotation by ``angle`` radians about a unit ``axis`` (Rodrigues)."""
+    x, y, z = axis
+    c, s = math.cos(angle), math.sin(angle)
+    t = 1.0 - c
+    return np.array([
+        [t * x * x + c, t * x * y - s * z, t * x * z + s * y],
+        [t * x * y + s * z, t * y * y + c, t * y * z - s * x],
+        [t * x * z - s * y, t * y * z + s * x, t * z * z + c],
+    ])
+
+
+class Chain:
+    """The joints from a fixed base to one link, folded into constant transforms between the moving joints.
+
+    Args:
+        client: A PyBullet client (read at construction only).
+        body: Body id of the arm (its base must not move while the chain is used).
+        link: Index of the end link.
+        columns: Joint index -> column in the joint vectors passed to :meth:`fk` / :meth:`jacobian`.
+    """
+
+    def __init__(self, client: Any, body: int, link: int, columns: dict[int, int]) -> None:
+        path = []
+        while link >= 0:
+            path.append(link)
+            link = client.getJointInfo(body, link)[16]
+        path.reverse()
+        pos, orn = client.getBasePositionAndOrientation(body)  # the base's inertial frame, world
+        const = transform(pos, orn)
+        self.constants: list[np.ndarray] = []  # frame before each moving joint, relative to the one after the last
+        axes, prismatic, cols = [], [], []
+        for index in path:
+            info = client.getJointInfo(body, index)
+            x, y, z, w = info[15]  # getJointInfo reports the inverse of the joint frame's orientation
+            const = const @ transform(info[14], (-x, -y, -z, w))
+            col = columns.get(index, -1)
+            if col >= 0:
+                axis = np.asarray(info[13], float)
+                self.constants.append(const)
+                axes.append(axis / max(float(np.linalg.norm(axis)), 1e-12))
+                prismatic.append(info[2] == client.JOINT_PRISMATIC)
+                cols.append(col)
+                const = np.eye(4)
+            if index != path[-1]:  # on to the child's inertial frame, where the next joint frame is given
+                dyn = client.getDynamicsInfo(body, index)
+                const = const @ transform(dyn[3], dyn[4])
+        self.tail = const
+        self.axes = np.array(axes).reshape(-1, 3)
+        self.prismatic = np.array(prismatic, bool)
+        self.columns = cols
+        """Columns of the joint vector that move the link, base first (the Jacobian's columns)."""
+        a = self.axes
+        self._outer = a[:, :, None] * a[:, None, :]
+        self._cross = np.zeros((len(a), 3, 3))
+        self._cross[:, 0, 1], self._cross[:, 0, 2], self._cross[:, 1, 2] = -a[:, 2], a[:, 1], -a[:, 0]
+        self._cross -= self._cross.transpose(0, 2, 1)
+        self._eye = np.eye(3)
+
+    def _motions(self, q: np.ndarray) -> np.ndarray:
+        """4x4 motion of every moving joint at ``q`` (rotations by Rodrigues, all at once)."""
+        angles = np.where(self.prismatic, 0.0, q[self.columns])
+        c, s = np.cos(angles)[:, None, None], np.sin(angles)[:, None, None]
+        out = np.zeros((len(angles), 4, 4))
+        out[:, :3, :3] = c * self._eye + (1.0 - c) * self._outer + s * self._cross
+        out[:, :3, 3] = np.where(self.prismatic[:, None], self.axes * q[self.columns][:, None], 0.0)
+        out[:, 3, 3] = 1.0
+        return out
+
+    def frames(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The end link's frame (4x4, world), and each moving joint's origin and world axis (n x 3 each)."""
+        motions = self._motions(q)
+        n = len(self.columns)
+        origins, axes = np.empty((n, 3)), np.empty((n, 3))
+        t = np.eye(4)
+        for i in range(n):
+            t = t @ self.constants[i]
+            origins[i] = t[:3, 3]
+            axes[i] = t[:3, :3] @ self.axes[i]
+            t = t @ motions[i]
+        return t @ self.tail, origins, axes
+
+    def fk(self, q: np.ndarray) -> tuple[np.ndarray, tuple[float, float, float, float]]:
+        """Position (m, world) and orientation ``(x, y, z, w)`` of the end link's URDF frame at joints ``q``."""
+        motions = self._motions(q)
+        t = self.constants[0] @ motions[0] if len(motions) else np.eye(4)
+        for i in range(1, len(motions)):
+            t = t @ self.constants[i] @ motions[i]
+        t = t @ self.tail
+        return t[:3, 3].copy(), quaternion_of(t[:3, :3])
+
+    def jacobian(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, tuple[float, float, float, float]]:
+        """6 x n geometric Jacobian (linear rows first) of the end link's frame origin over :attr:`columns`,
+        with that frame's position and orientation at ``q``."""
+        frame, origins, axes = self.frames(q)
+        tip = frame[:3, 3].copy()
+        linear = np.where(self.prismatic[:, None], axes, np.cross(axes, tip - origins))
+        angular = np.where(self.prismatic[:, None], 0.0, axes)
+        return np.vstack([linear.T, angular.T]), tip, quaternion_of(frame[:3, :3])
