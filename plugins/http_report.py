@@ -52,6 +52,9 @@ class HttpReportConfig(Schema):
     max_payload_bytes: int = Field(1_000_000, ge=1)
     outbox: str = Field("outbox", min_length=1)
     flush_outbox: bool = Field(True, description="after delivering, send entries waiting in the outbox")
+    upload_artifacts: bool = Field(False, description="after delivering, upload the run folder's video, plots, "
+                                   "trace and config to <url><run_id>/artifacts/")
+    artifacts_dir: str = Field("results", min_length=1, description="folder holding run folders <run_id>/")
 
     @model_validator(mode="before")
     @classmethod
@@ -276,6 +279,8 @@ class HttpReporter(Reporter):
         sender = HttpSender()
         try:
             delivery = self._send_own(outbox, sender, payload, opts)
+            if delivery.delivered and cfg.upload_artifacts:
+                delivery = _with_artifacts(delivery, cfg, payload)
             if delivery.delivered and cfg.flush_outbox:
                 delivery = _with_flush(delivery, outbox, sender, cfg.url)
             return delivery
@@ -301,6 +306,21 @@ class HttpReporter(Reporter):
             return Delivery(False, str(entry.path), f"refused by the server ({result.detail}); kept in {entry.path}")
         return Delivery(False, str(entry.path), f"not delivered ({result.detail}); result kept in the outbox "
                         f"{entry.path} - `robokit outbox flush --dir {outbox.root}` sends it later")
+
+
+def _with_artifacts(delivery: Delivery, cfg: HttpReportConfig, payload: dict[str, Any]) -> Delivery:
+    """After the result arrived, upload its run folder's files; a failure is told, never changes the delivery."""
+    from robokit.artifact_upload import find_artifacts, upload_artifacts
+
+    run_id = str(payload["run_id"])
+    files = find_artifacts(os.path.join(cfg.artifacts_dir, run_id), payload.get("config"))
+    if not files:
+        return delivery
+    opts = HttpOptions.from_mapping(cfg)
+    token = os.environ.get(cfg.token_env) if cfg.token_env else None
+    note = upload_artifacts(cfg.url, run_id, files, token=token, verify=opts.verify,
+                            timeout=(opts.connect_timeout, max(opts.read_timeout, 60.0)))
+    return Delivery(True, None, f"{delivery.message}; {note}")
 
 
 def _with_flush(delivery: Delivery, outbox: Outbox, sender: HttpSender, url: str) -> Delivery:

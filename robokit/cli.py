@@ -99,6 +99,11 @@ def _add_extra_commands(sub: Any) -> None:
     except ImportError:
         return
     add_outbox_command(sub)
+    from robokit.artifact_upload import add_upload_command
+    from robokit.server.cli import add_server_commands  # no Django import until `serve` / `manage` runs
+
+    add_server_commands(sub)
+    add_upload_command(sub)
 
 
 def _overrides(args: argparse.Namespace) -> dict[str, Any]:

@@ -1,0 +1,89 @@
+"""Uploading a run's files (video, plots, trace, config) to the course server, after its result arrived.
+
+The server takes them at ``POST <results url><run_id>/artifacts/`` (multipart). Used by the ``http`` reporter's
+``upload_artifacts = true`` and by ``robokit upload-artifacts`` (for a video or plot made after the run).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+SUFFIXES = (".mp4", ".png", ".svg", ".jsonl")
+MAX_FILES = 20
+
+
+def find_artifacts(run_dir: str | Path, config: Any = None) -> list[tuple[str, Path]]:
+    """``(upload name, path)`` of the files worth uploading from a run folder (two levels deep), plus the
+    run's config file when ``config`` names a TOML file that exists (uploaded as ``config.toml``)."""
+    folder = Path(run_dir)
+    found: dict[str, Path] = {}
+    if folder.is_dir():
+        for path in sorted(folder.glob("*")) + sorted(folder.glob("*/*")):
+            if path.is_file() and path.suffix.lower() in SUFFIXES and path.name not in found:
+                found[path.name] = path
+    if isinstance(config, str) and config.endswith(".toml") and Path(config).is_file():
+        found.setdefault("config.toml", Path(config))
+    return list(found.items())[:MAX_FILES]
+
+
+def artifacts_url(results_url: str, run_id: str) -> str:
+    return f"{results_url.rstrip('/')}/{run_id}/artifacts/"
+
+
+def upload_artifacts(results_url: str, run_id: str, files: list[tuple[str, Path]], *, token: str | None = None,
+                     verify: bool | str = True, timeout: tuple[float, float] = (3.05, 60.0)) -> str:
+    """Upload ``files`` one request each; returns one line saying what happened (never the token)."""
+    import requests
+
+    from robokit import __version__
+
+    url = artifacts_url(results_url, run_id)
+    headers = {"User-Agent": f"robokit/{__version__}"}
+    if token:
+        headers["Authorization"] = f"Bearer {token}"
+    done, problems = 0, []
+    with requests.Session() as session:
+        session.trust_env = True
+        for name, path in files:
+            try:
+                with path.open("rb") as fh:
+                    resp = session.post(url, files={"file": (name, fh)}, headers=headers, timeout=timeout,
+                                        verify=verify, allow_redirects=False)
+            except (OSError, requests.RequestException) as exc:
+                problems.append(f"{name}: {type(exc).__name__}")
+                continue
+            if 200 <= resp.status_code < 300:
+                done += 1
+            else:
+                text = resp.text.replace(token, "***") if token else resp.text
+                problems.append(f"{name}: HTTP {resp.status_code} {' '.join(text.split())[:120]}")
+    note = f"artifacts: {done}/{len(files)} uploaded to {url}"
+    return note + (f" ({'; '.join(problems)})" if problems else "")
+
+
+def add_upload_command(sub: Any) -> None:
+    """``robokit upload-artifacts RUN_ID --url URL``: send a run folder's files (e.g. a video made later)."""
+    cmd = sub.add_parser("upload-artifacts", help="upload a run folder's video, plots and trace to the course server")
+    cmd.add_argument("run_id", help="the run id (its folder is <dir>/<run_id>/)")
+    cmd.add_argument("--url", required=True, help="the results URL, e.g. http://host/api/robotics/result/")
+    cmd.add_argument("--dir", default="results", help="folder holding run folders (default results)")
+    cmd.add_argument("--token-env", metavar="NAME", help="environment variable holding your token")
+    cmd.set_defaults(func=_cmd_upload)
+
+
+def _cmd_upload(args: Any) -> int:
+    import os
+
+    from robokit.errors import UserError
+
+    folder = Path(args.dir) / args.run_id
+    files = find_artifacts(folder)
+    if not files:
+        raise UserError(f"{folder}: no video, plot or trace to upload (*.mp4, *.png, *.svg, *.jsonl)")
+    token = os.environ.get(args.token_env) if args.token_env else None
+    if args.token_env and not token:
+        raise UserError(f"environment variable {args.token_env} is not set")
+    note = upload_artifacts(args.url, args.run_id, files, token=token)
+    print(note)
+    return 0 if note.startswith(f"artifacts: {len(files)}/") else 1

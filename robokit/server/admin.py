@@ -1,0 +1,112 @@
+"""The Django admin for teachers: classes, students (issue / revoke tokens), projects (ranking), results.
+
+A teacher who is not a superuser sees only their own classes and what belongs to them. Tokens are issued by an
+action on students; the new tokens are shown on the next page once and never again.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from django.contrib import admin, messages
+from django.http import HttpRequest, HttpResponse
+from django.shortcuts import render
+
+from robokit.server import tokens
+from robokit.server.models import Artifact, Classroom, Project, Result, Student, Token
+
+
+class OwnClassesMixin:
+    """Limit a non-superuser teacher to rows of the classes they own. ``owner_path`` leads to the owner."""
+
+    owner_path = "classroom__owner"
+
+    def get_queryset(self, request: HttpRequest) -> Any:
+        qs = super().get_queryset(request)  # type: ignore[misc]
+        return qs if request.user.is_superuser else qs.filter(**{self.owner_path: request.user})
+
+    def formfield_for_foreignkey(self, db_field: Any, request: HttpRequest, **kwargs: Any) -> Any:
+        if db_field.name == "classroom" and not request.user.is_superuser:
+            kwargs["queryset"] = Classroom.objects.filter(owner=request.user)
+        return super().formfield_for_foreignkey(db_field, request, **kwargs)  # type: ignore[misc]
+
+
+@admin.register(Classroom)
+class ClassroomAdmin(OwnClassesMixin, admin.ModelAdmin):
+    owner_path = "owner"
+    list_display = ("name", "owner", "allow_unverified", "created_at")
+    list_editable = ("allow_unverified",)
+
+    def get_exclude(self, request: HttpRequest, obj: Any = None) -> Any:
+        return () if request.user.is_superuser else ("owner",)
+
+    def save_model(self, request: HttpRequest, obj: Any, form: Any, change: bool) -> None:
+        if not change and not getattr(obj, "owner_id", None):
+            obj.owner = request.user
+        super().save_model(request, obj, form, change)
+
+
+@admin.register(Student)
+class StudentAdmin(OwnClassesMixin, admin.ModelAdmin):
+    list_display = ("name", "classroom", "has_token", "created_at")
+    list_filter = ("classroom",)
+    search_fields = ("name",)
+    actions = ["issue_tokens", "revoke_tokens"]
+
+    @admin.display(boolean=True, description="active token")
+    def has_token(self, obj: Student) -> bool:
+        return obj.tokens.filter(revoked_at__isnull=True).exists()
+
+    @admin.action(description="Issue a new token (revokes the old one; shown once)")
+    def issue_tokens(self, request: HttpRequest, queryset: Any) -> HttpResponse:
+        issued = [(s, tokens.issue_student_token(s)) for s in queryset.select_related("classroom")]
+        response = render(request, "course/tokens_issued.html", {"issued": issued})
+        response["Cache-Control"] = "no-store"
+        return response
+
+    @admin.action(description="Revoke tokens")
+    def revoke_tokens(self, request: HttpRequest, queryset: Any) -> None:
+        n = sum(tokens.revoke_student_tokens(s) for s in queryset)
+        self.message_user(request, f"{n} token(s) revoked", messages.SUCCESS)
+
+
+@admin.register(Token)
+class TokenAdmin(OwnClassesMixin, admin.ModelAdmin):
+    list_display = ("kind", "owner_name", "classroom", "created_at", "last_used_at", "revoked_at")
+    list_filter = ("kind", "classroom")
+    readonly_fields = ("kind", "classroom", "student", "teacher", "created_at", "last_used_at")
+    actions = ["revoke"]
+
+    def has_add_permission(self, request: HttpRequest) -> bool:
+        return False  # tokens are issued by the student action or `robokit manage issue_token`
+
+    @admin.action(description="Revoke")
+    def revoke(self, request: HttpRequest, queryset: Any) -> None:
+        from django.utils import timezone
+
+        n = queryset.filter(revoked_at__isnull=True).update(revoked_at=timezone.now())
+        self.message_user(request, f"{n} token(s) revoked", messages.SUCCESS)
+
+
+@admin.register(Project)
+class ProjectAdmin(admin.ModelAdmin):
+    list_display = ("name", "ranking", "created_at")
+
+
+class ArtifactInline(admin.TabularInline):
+    model = Artifact
+    extra = 0
+    readonly_fields = ("name", "kind", "content_type", "size", "sha256", "path", "uploaded_at")
+    can_delete = True
+
+
+@admin.register(Result)
+class ResultAdmin(OwnClassesMixin, admin.ModelAdmin):
+    list_display = ("received_at", "student_name", "project", "classroom", "outcome", "verified", "official")
+    list_filter = ("classroom", "project", "verified", "official", "outcome")
+    search_fields = ("student_name", "posted_student", "run_id")
+    readonly_fields = [f.name for f in Result._meta.fields]
+    inlines = [ArtifactInline]
+
+    def has_add_permission(self, request: HttpRequest) -> bool:
+        return False

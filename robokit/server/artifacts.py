@@ -1,0 +1,120 @@
+"""What an uploaded file really is, judged by its bytes (magic numbers), not by its name.
+
+==========  ===================  ===============================================================
+kind        names                accepted when
+==========  ===================  ===============================================================
+video       ``*.mp4``            an ISO base media file: ``ftyp`` box at byte 4
+plot        ``*.png``            the 8-byte PNG signature
+plot        ``*.svg``            UTF-8 XML whose root is ``<svg``, with no script, event handler,
+                                 ``javascript:`` URL or foreignObject
+trace       ``*.jsonl``          UTF-8, every non-empty line a JSON object (robokit's trace)
+config      ``*.toml``           UTF-8 TOML that parses
+==========  ===================  ===============================================================
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import sys
+from dataclasses import dataclass
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,99}$")
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+_SVG_DANGER = re.compile(rb"<script|javascript:|<foreignobject|\son[a-z]+\s*=|<iframe|<embed|<object", re.I)
+
+
+class ArtifactError(Exception):
+    """An upload refused: the message says why (one line)."""
+
+
+@dataclass(frozen=True)
+class Kind:
+    kind: str
+    content_type: str
+    limit_setting: str
+
+
+KINDS = {
+    ".mp4": Kind("video", "video/mp4", "MAX_VIDEO_BYTES"),
+    ".png": Kind("plot", "image/png", "MAX_PLOT_BYTES"),
+    ".svg": Kind("plot", "image/svg+xml", "MAX_PLOT_BYTES"),
+    ".jsonl": Kind("trace", "application/jsonl", "MAX_TRACE_BYTES"),
+    ".toml": Kind("config", "text/plain; charset=utf-8", "MAX_CONFIG_BYTES"),
+}
+
+
+def kind_for(name: str) -> Kind:
+    """The kind an upload claims by its name.
+
+    Raises:
+        ArtifactError: a name with a path, odd characters, or an extension not accepted.
+    """
+    if not NAME.match(name) or ".." in name:
+        raise ArtifactError(f"{name!r}: a file name (letters, digits, '.', '_', '-'; no folders) was expected")
+    ext = "." + name.rsplit(".", 1)[-1].lower() if "." in name else ""
+    if ext not in KINDS:
+        raise ArtifactError(f"{name!r}: only {', '.join(KINDS)} files are accepted")
+    return KINDS[ext]
+
+
+def check_content(name: str, kind: Kind, head: bytes, whole: bytes | None) -> None:
+    """Check the bytes are what the name says.
+
+    Args:
+        name: The file name (for messages).
+        kind: From :func:`kind_for`.
+        head: The first bytes of the file (at least 16 when the file has them).
+        whole: The whole file for text kinds (svg, jsonl, toml); None for binary kinds.
+
+    Raises:
+        ArtifactError: the content does not match.
+    """
+    ext = name.rsplit(".", 1)[-1].lower()
+    if ext == "mp4":
+        if len(head) < 12 or head[4:8] != b"ftyp":
+            raise ArtifactError(f"{name!r} is not an MP4 file (no 'ftyp' box at its start)")
+        return
+    if ext == "png":
+        if not head.startswith(PNG_SIGNATURE):
+            raise ArtifactError(f"{name!r} is not a PNG file (no PNG signature)")
+        return
+    assert whole is not None
+    try:
+        text = whole.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        raise ArtifactError(f"{name!r} is not UTF-8 text") from None
+    if ext == "svg":
+        _check_svg(name, text, whole)
+    elif ext == "jsonl":
+        _check_jsonl(name, text)
+    else:
+        try:
+            tomllib.loads(text)
+        except tomllib.TOMLDecodeError as exc:
+            raise ArtifactError(f"{name!r} is not TOML: {exc}") from None
+
+
+def _check_svg(name: str, text: str, raw: bytes) -> None:
+    start = re.sub(r"^\s*(<\?xml[^>]*\?>\s*)?(<!--.*?-->\s*)*(<!DOCTYPE[^>]*>\s*)?", "", text, flags=re.S)
+    if not start.startswith("<svg"):
+        raise ArtifactError(f"{name!r} is not an SVG image (its root element is not <svg>)")
+    if _SVG_DANGER.search(raw):
+        raise ArtifactError(f"{name!r} contains script or active content; plots must be plain SVG")
+
+
+def _check_jsonl(name: str, text: str) -> None:
+    for number, line in enumerate(text.splitlines(), 1):
+        if not line.strip():
+            continue
+        try:
+            record = json.loads(line)
+        except json.JSONDecodeError:
+            raise ArtifactError(f"{name!r} line {number} is not JSON") from None
+        if not isinstance(record, dict):
+            raise ArtifactError(f"{name!r} line {number} is not a JSON object")

@@ -1,0 +1,151 @@
+"""``robokit serve`` and ``robokit manage``. Django is imported only when one of them runs.
+
+``robokit serve`` serves with waitress: a pure-Python, multi-threaded production WSGI server that runs the same on
+Linux, macOS and Windows (a teacher's laptop), unlike Django's ``runserver`` (a development server, single-purpose,
+not security-audited) or gunicorn (no Windows). For a large deployment, run ``gunicorn robokit.server.wsgi`` behind
+a reverse proxy instead (docs/server.md).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import secrets
+import signal
+import sys
+from pathlib import Path
+from typing import Any
+
+from robokit.errors import UserError
+from robokit.server import DATA_ENV, DEFAULT_DATA_DIR
+
+
+def add_server_commands(sub: Any) -> None:
+    """Register ``serve`` and ``manage`` on the ``robokit`` sub-parser set."""
+    serve = sub.add_parser("serve", help="run the course server (results API and teacher's dashboard; Django)")
+    serve.add_argument("--host", default="127.0.0.1", help="address to listen on (0.0.0.0: every interface)")
+    serve.add_argument("--port", type=int, default=8000)
+    serve.add_argument("--data", metavar="DIR", help=f"data folder: SQLite database, uploads, secret key "
+                       f"(default ${DATA_ENV} or ./{DEFAULT_DATA_DIR})")
+    serve.add_argument("--threads", type=int, default=8, help="worker threads (default 8)")
+    serve.add_argument("--create-teacher", metavar="NAME", help="create a teacher login (password from "
+                       "$ROBOKIT_TEACHER_PASSWORD or a prompt) and exit")
+    serve.set_defaults(func=cmd_serve)
+    manage = sub.add_parser("manage", help="course server management: create_class, add_students, issue_token, "
+                            "revoke_token, teacher_token, create_teacher, or any Django command",
+                            add_help=False)
+    manage.add_argument("--data", metavar="DIR", help="data folder (as for serve)")
+    manage.add_argument("args", nargs=argparse.REMAINDER)
+    manage.set_defaults(func=cmd_manage)
+
+
+def setup(data: str | None) -> Path:
+    """Point Django at the data folder (created, with a secret key file) and set it up; returns the folder."""
+    try:
+        import django
+    except ImportError:
+        raise UserError("the course server needs Django: pip install 'robokit[server]'") from None
+    folder = Path(data or os.environ.get(DATA_ENV) or DEFAULT_DATA_DIR).resolve()
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        key = folder / "secret_key"
+        if not key.exists() and not os.environ.get("ROBOKIT_SECRET_KEY"):
+            fd = os.open(key, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+            with os.fdopen(fd, "w") as fh:
+                fh.write(secrets.token_urlsafe(50))
+    except OSError as exc:
+        raise UserError(f"data folder {folder}: {exc.strerror or exc}") from None
+    os.environ[DATA_ENV] = str(folder)
+    os.environ["DJANGO_SETTINGS_MODULE"] = "robokit.server.settings"
+    django.setup()
+    return folder
+
+
+def describe_database() -> str:
+    """Where the database is, without any password."""
+    from django.conf import settings
+
+    db = settings.DATABASES["default"]
+    if db["ENGINE"].endswith("sqlite3"):
+        return f"SQLite {db['NAME']}"
+    where = f"{db.get('HOST') or 'localhost'}{':' + str(db['PORT']) if db.get('PORT') else ''}"
+    return f"{db['ENGINE'].rsplit('.', 1)[-1]} database {db.get('NAME')!r} on {where} (DATABASE_URL)"
+
+
+def migrate() -> None:
+    from django.core.management import call_command
+    from django.db import DatabaseError
+
+    try:
+        call_command("migrate", interactive=False, verbosity=0)
+    except DatabaseError as exc:
+        raise UserError(f"database {describe_database()}: {exc}") from None
+
+
+def cmd_serve(args: argparse.Namespace) -> int:
+    """``robokit serve``: migrate, say where the database is, serve until Ctrl-C / SIGTERM."""
+    folder = setup(args.data)
+    migrate()
+    if args.create_teacher:
+        return _manage(["create_teacher", args.create_teacher])
+    from django.conf import settings
+    from waitress.server import create_server
+
+    from robokit.server.wsgi import application
+
+    if args.host in ("0.0.0.0", "::") and not os.environ.get("ROBOKIT_ALLOWED_HOSTS"):
+        settings.ALLOWED_HOSTS = ["*"]
+    try:
+        server = create_server(application, host=args.host, port=args.port, threads=args.threads,
+                               max_request_body_size=_max_body(settings), ident="robokit")
+    except OSError as exc:
+        raise UserError(f"cannot listen on {args.host}:{args.port}: {exc.strerror or exc}") from None
+    print(f"robokit serve: database {describe_database()}; uploads in {settings.MEDIA_ROOT}", flush=True)
+    host = f"[{args.host}]" if ":" in args.host else args.host
+    print(f"robokit serve: http://{host}:{server.effective_port}/ (results: POST /api/robotics/result/; "
+          f"waitress, {args.threads} threads; data {folder}) - Ctrl-C stops", flush=True)
+    signal.signal(signal.SIGTERM, _raise_interrupt)
+    try:
+        server.run()  # returns on Ctrl-C / SIGTERM (waitress catches the KeyboardInterrupt and closes)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        server.close()
+    print("robokit serve: stopped", file=sys.stderr)
+    return 0
+
+
+def _raise_interrupt(*_args: Any) -> None:
+    raise KeyboardInterrupt
+
+
+def _max_body(settings: Any) -> int:
+    from robokit.server.api import max_artifact_request
+
+    return max(settings.MAX_RESULT_BYTES, max_artifact_request()) + (1 << 20)
+
+
+def cmd_manage(args: argparse.Namespace) -> int:
+    """``robokit manage COMMAND ...``: a Django management command on the server's database."""
+    if not args.args or args.args[0] in ("-h", "--help"):
+        print("usage: robokit manage [--data DIR] COMMAND [ARGS]\n\ncourse commands: create_teacher NAME | "
+              "create_class NAME --teacher USER [--allow-unverified] | add_students CLASS NAME... [--file F] | "
+              "issue_token CLASS STUDENT | revoke_token CLASS STUDENT | teacher_token CLASS --teacher USER\n"
+              "any Django command works too (migrate, changepassword, dbshell, help ...)")
+        return 0
+    setup(args.data)
+    migrate()
+    return _manage(args.args)
+
+
+def _manage(argv: list[str]) -> int:
+    from django.core.management import CommandError, call_command, execute_from_command_line
+
+    if argv[0] == "help" or argv[0].startswith("-"):
+        execute_from_command_line(["robokit manage", *argv])
+        return 0
+    try:
+        call_command(*argv)
+    except CommandError as exc:
+        raise UserError(str(exc)) from None
+    return 0

@@ -1,0 +1,166 @@
+"""Checking a posted result: lesson 08's six fields, or robokit's full RunResult payload.
+
+Lesson 08 sends ``{"student", "project", "red_sorted", "blue_sorted", "failures", "total_time"}``; robokit's
+``http`` reporter sends the RunResult (``schema``, ``run_id``, ``outcome``, ``result`` ...) with the same six
+fields at top level. Every error names the field it is about.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from dataclasses import dataclass, field
+from typing import Any
+
+MAX_NAME = 100
+RUN_ID = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._:-]{0,63}$")
+OUTCOMES = ("succeeded", "failed", "aborted", "error", "interrupted")
+COURSE_INTS = ("red_sorted", "blue_sorted", "failures")
+
+
+class PayloadError(Exception):
+    """A field is missing or has the wrong type; ``field`` names it (``""`` for the body as a whole)."""
+
+    def __init__(self, field: str, message: str) -> None:
+        super().__init__(f"{field}: {message}" if field else message)
+        self.field = field
+        self.message = message
+
+
+@dataclass
+class Posted:
+    """The checked content of one post."""
+
+    data: dict[str, Any]
+    student: str | None
+    project: str
+    run_id: str | None
+    classroom: str | None
+    figures: dict[str, float | int] = field(default_factory=dict)
+
+
+def _kind(value: Any) -> str:
+    return {dict: "an object", list: "a list", str: "a string", bool: "true/false", type(None): "null"}.get(
+        type(value), "a number" if isinstance(value, (int, float)) else type(value).__name__)
+
+
+def is_number(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def parse(body: bytes) -> dict[str, Any]:
+    """The body as a JSON object.
+
+    Raises:
+        PayloadError: not UTF-8, not JSON, or not an object.
+    """
+    try:
+        data = json.loads(body.decode("utf-8"))
+    except UnicodeDecodeError:
+        raise PayloadError("", "the body is not UTF-8 text") from None
+    except json.JSONDecodeError as exc:
+        raise PayloadError("", f"malformed JSON: {exc.msg} at line {exc.lineno} column {exc.colno}") from None
+    if not isinstance(data, dict):
+        raise PayloadError("", f"expected a JSON object, got {_kind(data)}")
+    return data
+
+
+def _name(data: dict[str, Any], key: str, required: bool) -> str | None:
+    value = data.get(key)
+    if value is None:
+        if required:
+            raise PayloadError(key, "missing")
+        return None
+    if not isinstance(value, str):
+        raise PayloadError(key, f"expected a string, got {_kind(value)}")
+    value = " ".join(value.split())
+    if not value:
+        raise PayloadError(key, "empty")
+    if len(value) > MAX_NAME:
+        raise PayloadError(key, f"longer than {MAX_NAME} characters")
+    return value
+
+
+def _check_types(data: dict[str, Any]) -> None:
+    for key in COURSE_INTS:
+        if key in data and data[key] is not None:
+            v = data[key]
+            if not isinstance(v, int) or isinstance(v, bool):
+                raise PayloadError(key, f"expected a whole number, got {_kind(v)}")
+            if v < 0:
+                raise PayloadError(key, f"expected a number >= 0, got {v}")
+    for key in ("total_time", "sim_time", "wall_time"):
+        v = data.get(key)
+        if v is not None and (not is_number(v) or v < 0):
+            raise PayloadError(key, f"expected a number >= 0 (seconds), got {_kind(v) if not is_number(v) else v}")
+    strings = ("schema", "outcome", "reason", "config", "behaviour", "started_at", "robokit_version")
+    for key in strings:
+        if key in data and data[key] is not None and not isinstance(data[key], str):
+            raise PayloadError(key, f"expected a string, got {_kind(data[key])}")
+    if data.get("outcome") is not None and data["outcome"] not in OUTCOMES:
+        raise PayloadError("outcome", f"expected one of {', '.join(OUTCOMES)}, got {data['outcome']!r}")
+    for key in ("seed", "ticks"):
+        v = data.get(key)
+        if v is not None and (not isinstance(v, int) or isinstance(v, bool)):
+            raise PayloadError(key, f"expected a whole number, got {_kind(v)}")
+    if "result" in data and data["result"] is not None and not isinstance(data["result"], dict):
+        raise PayloadError("result", f"expected an object, got {_kind(data['result'])}")
+    if "interrupted" in data and not isinstance(data["interrupted"], bool):
+        raise PayloadError("interrupted", f"expected true/false, got {_kind(data['interrupted'])}")
+
+
+def check(data: dict[str, Any], *, student_required: bool, idempotency_key: str | None) -> Posted:
+    """Check a parsed body.
+
+    Args:
+        data: The JSON object posted.
+        student_required: A post without a token must say who it is from.
+        idempotency_key: The ``Idempotency-Key`` header, if any; it must agree with ``run_id`` when both are sent.
+
+    Raises:
+        PayloadError: naming the first field that is wrong.
+    """
+    student = _name(data, "student", student_required)
+    project = _name(data, "project", True)
+    assert project is not None
+    classroom = _name(data, "classroom", False)
+    _check_types(data)
+    run_id = data.get("run_id")
+    if run_id is not None and (not isinstance(run_id, str) or not RUN_ID.match(run_id)):
+        raise PayloadError("run_id", "expected 1-64 letters, digits, '.', '_', ':' or '-'")
+    if idempotency_key is not None:
+        if not RUN_ID.match(idempotency_key):
+            raise PayloadError("Idempotency-Key", "expected 1-64 letters, digits, '.', '_', ':' or '-'")
+        if run_id is not None and run_id != idempotency_key:
+            raise PayloadError("Idempotency-Key", "differs from the payload's run_id")
+        run_id = idempotency_key
+    return Posted(data, student, project, run_id, classroom, figures(data))
+
+
+def figures(data: dict[str, Any]) -> dict[str, float | int]:
+    """The run's numbers: the course fields, the behaviour's numeric results, and ``sorted_total`` (the sum of
+    every ``*_sorted`` count) when there are any."""
+    out: dict[str, float | int] = {}
+    result = data["result"] if isinstance(data.get("result"), dict) else {}
+    for source in (result, data):
+        for key, value in source.items():
+            if is_number(value) and key not in ("seed", "ticks", "wall_time", "sim_time"):
+                out[str(key)[:50]] = value
+    sorted_counts = [v for k, v in out.items() if k.endswith("_sorted")]
+    if sorted_counts:
+        out["sorted_total"] = sum(sorted_counts)
+    if is_number(data.get("sim_time")) and "total_time" not in out:
+        out["sim_time"] = data["sim_time"]
+    return dict(list(out.items())[:40])
+
+
+def default_ranking(figs: dict[str, Any]) -> str:
+    """A project's ranking when its first result arrives (the teacher can change it in the admin)."""
+    if "sorted_total" in figs:
+        keys = ["-sorted_total", "failures", "total_time"]
+    elif "collected" in figs or "objects_collected" in figs:
+        keys = ["-collected" if "collected" in figs else "-objects_collected", "collisions", "total_time"]
+    else:
+        keys = ["total_time" if "total_time" in figs else "sim_time"]
+    return ",".join(k for k in keys if k.lstrip("-") in figs) or ",".join(keys)

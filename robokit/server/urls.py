@@ -1,0 +1,24 @@
+"""URLs: the API under /api/robotics/, the teacher's pages, a student's own page, and the admin."""
+
+from django.contrib import admin
+from django.contrib.auth import views as auth_views
+from django.urls import path
+
+from robokit.server import api, pages
+
+urlpatterns = [
+    path("api/robotics/result/", api.post_result, name="api-result"),
+    path("api/robotics/result/<str:run_id>/artifacts/", api.post_artifacts, name="api-artifacts"),
+    path("", pages.home, name="home"),
+    path("accounts/login/", auth_views.LoginView.as_view(), name="login"),
+    path("accounts/logout/", auth_views.LogoutView.as_view(), name="logout"),
+    path("classes/<int:pk>/", pages.classroom, name="classroom"),
+    path("classes/<int:pk>/projects/<int:project_pk>/", pages.leaderboard, name="leaderboard"),
+    path("classes/<int:pk>/students/<int:student_pk>/", pages.student_history, name="history"),
+    path("classes/<int:pk>/results.csv", pages.export_csv, name="export-csv"),
+    path("runs/<str:run_id>/", pages.run_detail, name="run"),
+    path("artifacts/<int:pk>/<str:name>", pages.artifact_file, name="artifact"),
+    path("me/", pages.me, name="me"),
+    path("me/logout/", pages.me_logout, name="me-logout"),
+    path("admin/", admin.site.urls),
+]
