@@ -107,11 +107,15 @@ def run_config(
                 raise
     except PluginError as exc:
         result = error_result(cfg, run_seed, str(exc))
+        if trace is not None:  # the run never started: the trace holds the error alone
+            trace.write(json.dumps({"tick": 0, "t": 0.0, "source": "run", "kind": "error", "reason": str(exc)}) + "\n")
     else:
         if trace is not None:
             def write(record: dict[str, Any], out: IO[str] = trace) -> None:
                 out.write(json.dumps(record) + "\n")
 
+            for record in sim.trace:  # written during setup, before the file was listening
+                write(record)
             sim.trace_listeners.append(write)
         try:
             result = sim.run(max_time=max_time)

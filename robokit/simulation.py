@@ -258,6 +258,7 @@ class Simulation:
                     reason = f"max_time {limit:g} s reached before the behaviour finished"
             except PluginError as exc:
                 outcome, reason = "error", str(exc)
+                self._tracer("run")("error", reason=reason)  # the trace ends with what stopped the run
         goal: dict[str, Any] | None = None
         if outcome != "error" and self.behaviour is not None:
             try:
