@@ -1,20 +1,31 @@
-"""``gripper`` actuator: a parallel two-finger gripper (Panda by default) that grasps by friction.
+"""``gripper`` actuator: any parallel gripper, set up by config, that grasps by friction.
 
-The two finger joints are named in config. They are coupled by a gear constraint (ratio -1) so they stay
-symmetric when contact forces push them unevenly; both are also position-controlled with the same target and a
-moderate force limit. Finger lateral friction is raised (default 1.2) so a squeezed object is held by friction, as
-on a real robot; nothing is welded to the hand.
+Defaults fit the Panda (two prismatic finger joints). Other grippers are described by their joints:
 
-Readings (:class:`~robokit.msgs.arm.GripperState`): the finger width (metres, the sum of the two finger
-joint positions), ``settled`` (width steady for ``settle_time``), ``holding`` (both fingers touch the same body and
-the width is above ``empty_width``, i.e. the fingers did not close on nothing) and the held body's name.
+- ``finger_joints``: one joint per finger (two for a two-finger gripper), prismatic **or** revolute, or a single
+  driven joint whose followers are listed in ``mimic`` (joint name -> ratio to the driven joint; each follower is
+  tied to it with a gear constraint, like a URDF ``<mimic>`` tag, which pybullet does not enforce by itself);
+- ``open_positions`` / ``closed_positions``: each finger joint's position (m or rad) when open and when closed
+  (default: upper limit open, 0 closed, the Panda's convention);
+- ``hold_joints``: other joints held at a fixed position (e.g. fingertip hinges), so they do not flop;
+- ``open_width``: the distance between the fingertips when fully open, metres (default for prismatic fingers: the
+  sum of their open positions). Widths in commands and readings are metres; in between, width is taken as linear
+  in the fingers' travel from closed to open.
+
+With two fingers they are coupled by a gear constraint (ratio from their travel directions) so they stay symmetric
+when contact forces push them unevenly; each is position-controlled with a moderate force limit. Finger lateral
+friction is raised (default 1.2) so a squeezed object is held by friction, as on a real robot; nothing is welded.
+
+Readings (:class:`~robokit.msgs.arm.GripperState`): ``width``, ``settled`` (width steady for
+``settle_time``), ``holding`` (both fingers — each finger joint's child link and every link below it, or the links
+named in ``finger_links`` — touch the same body and the width is above ``empty_width``) and the held body's name.
 """
 
 from __future__ import annotations
 
 from typing import Any, ClassVar
 
-from pydantic import Field
+from pydantic import Field, model_validator
 
 from robokit import hookimpl
 from robokit.components import Actuator, SetupContext
@@ -27,13 +38,20 @@ class GripperConfig(Schema):
     """``[actuators.NAME]`` with ``type = "gripper"``. Widths in metres, forces in newtons, times in sim seconds."""
 
     body: str = Field(description="the robot's body name")
-    finger_joints: tuple[str, str] = ("panda_finger_joint1", "panda_finger_joint2")
-    open_width: float | None = Field(None, gt=0, description="default: both fingers at their upper limit")
-    force: float = Field(20.0, gt=0, description="finger force limit when closing, N")
-    finger_speed: float = Field(0.2, gt=0, description="max finger speed, m/s")
+    finger_joints: list[str] = Field(["panda_finger_joint1", "panda_finger_joint2"], min_length=1, max_length=2,
+                                     description="one joint per finger, or one driven joint with 'mimic'")
+    open_positions: list[float] | None = Field(None, description="per finger joint, m or rad; default upper limit")
+    closed_positions: list[float] | None = Field(None, description="per finger joint, m or rad; default 0")
+    mimic: dict[str, float] = Field(default_factory=dict, description="follower joint -> ratio to the driven one")
+    hold_joints: dict[str, float] = Field(default_factory=dict, description="joint -> position held throughout")
+    finger_links: list[list[str]] | None = Field(
+        None, min_length=2, max_length=2, description="the links of each finger for grasp checks")
+    open_width: float | None = Field(None, gt=0, description="fingertip distance when open, m")
+    force: float = Field(20.0, gt=0, description="finger force limit when closing, N (N·m for revolute)")
+    finger_speed: float = Field(0.2, gt=0, description="max finger speed, m/s of width change per finger")
     lateral_friction: float = Field(1.2, ge=0)
     spinning_friction: float = Field(0.002, ge=0)
-    couple: bool = Field(True, description="gear constraint (ratio -1) between the fingers")
+    couple: bool = Field(True, description="gear constraint between two fingers")
     gear_erp: float = Field(0.1, gt=0, le=1)
     gear_max_force: float = Field(50.0, gt=0)
     empty_width: float = Field(0.004, ge=0, description="closed on nothing below this width")
@@ -41,9 +59,20 @@ class GripperConfig(Schema):
     settle_speed: float = Field(0.01, gt=0, description="width change below this (m/s) counts as still")
     start_open: bool = True
 
+    @model_validator(mode="after")
+    def _shapes(self) -> GripperConfig:
+        n = len(self.finger_joints)
+        for key in ("open_positions", "closed_positions"):
+            value = getattr(self, key)
+            if value is not None and len(value) != n:
+                raise ValueError(f"'{key}' needs one value per finger joint ({n}), got {len(value)}")
+        if n == 1 and self.finger_links is None:
+            raise ValueError("a single driven finger joint needs 'finger_links' (the links of each finger)")
+        return self
+
 
 class Gripper(Actuator):
-    """A two-finger parallel gripper: open / close with a force limit / go to a width; grasps by friction."""
+    """A parallel gripper: open / close with a force limit / go to a width; grasps by friction."""
 
     reading_type = GripperState
     example: ClassVar[dict[str, Any] | None] = {
@@ -60,39 +89,88 @@ class Gripper(Actuator):
         self.fingers = []
         for i, name in enumerate(cfg.finger_joints):
             info = ctx.joint(cfg.body, name, key=f"finger_joints[{i}]")
-            if info.type != "prismatic":
-                raise ConfigError(f"finger joint {name!r} must be prismatic, got {info.type}",
+            if info.type not in ("prismatic", "revolute"):
+                raise ConfigError(f"finger joint {name!r} must be prismatic or revolute, got {info.type}",
                                   key=f"finger_joints[{i}]")
             self.fingers.append(info)
-        self.max_width = sum(j.upper for j in self.fingers)
-        self.open_width = min(cfg.open_width or self.max_width, self.max_width)
-        self.links = {j.index for j in self.fingers}
-        for j in self.fingers:
-            w.client.changeDynamics(self.body, j.index, lateralFriction=cfg.lateral_friction,
+        self.open_q = list(cfg.open_positions or [j.upper for j in self.fingers])
+        self.closed_q = list(cfg.closed_positions or [0.0] * len(self.fingers))
+        if any(o == c for o, c in zip(self.open_q, self.closed_q, strict=True)):
+            raise ConfigError("each finger joint's open and closed positions must differ", key="open_positions")
+        prismatic = all(j.type == "prismatic" for j in self.fingers) and len(self.fingers) == 2
+        default_width = sum(abs(o - c) for o, c in zip(self.open_q, self.closed_q, strict=True)) if prismatic else None
+        if cfg.open_width is None and default_width is None:
+            raise ConfigError("give 'open_width' (fingertip distance when open, metres) for revolute or "
+                              "single-joint fingers", key="open_width")
+        self.max_width = self.open_width = float(cfg.open_width or default_width or 0.0)
+        self.followers = [(ctx.joint(cfg.body, n, key=f"mimic.{n}"), r) for n, r in cfg.mimic.items()]
+        self.held_joints = [(ctx.joint(cfg.body, n, key=f"hold_joints.{n}"), q) for n, q in cfg.hold_joints.items()]
+        self.links = self._finger_link_sets(ctx)
+        for link in set().union(*self.links):
+            w.client.changeDynamics(self.body, link, lateralFriction=cfg.lateral_friction,
                                     spinningFriction=cfg.spinning_friction, frictionAnchor=True)
-        self.gear = None
-        if cfg.couple:
-            self._couple()
-        self.action, self.target, self.force = "open", self.open_width, cfg.force
-        start = self.open_width / 2 if cfg.start_open else 0.0
-        for j in self.fingers:
-            w.client.resetJointState(self.body, j.index, start)
+        self.gears: list[int] = []
+        if cfg.couple and len(self.fingers) == 2:
+            a, b = self.fingers
+            ratio = (self.open_q[1] - self.closed_q[1]) / (self.open_q[0] - self.closed_q[0])
+            self.gears.append(self._gear(a.index, b.index, ratio))
+        for follower, ratio in self.followers:
+            # A follower is moved by its gear only: switch off the default velocity motor that would hold it.
+            w.client.setJointMotorControl2(self.body, follower.index, w.client.VELOCITY_CONTROL, force=0.0)
+            self.gears.append(self._gear(self.fingers[0].index, follower.index, ratio))
+        self.action, self.force = "open", cfg.force
         self.target = self.open_width if cfg.start_open else 0.0
+        for j, q in zip(self.fingers, self._joint_targets(self.target), strict=True):
+            w.client.resetJointState(self.body, j.index, q)
+        for follower, ratio in self.followers:
+            q0 = w.client.getJointState(self.body, self.fingers[0].index)[0]
+            w.client.resetJointState(self.body, follower.index, ratio * q0)
+        for j, q in self.held_joints:
+            w.client.resetJointState(self.body, j.index, q)
+        self._speeds = [cfg.finger_speed * abs(o - c) / (self.open_width / 2)
+                        for o, c in zip(self.open_q, self.closed_q, strict=True)]
         self._indices = [j.index for j in self.fingers]
+        self._spans = [o - c for o, c in zip(self.open_q, self.closed_q, strict=True)]
         self._dirty = True  # motor targets to send at the next update
         self._last_width = self._width()
         self._still_since: float | None = self.world.time
         self._last_t = self.world.time
         self._tracking = True  # watching the width every tick until it has been still for settle_time
 
-    def _couple(self) -> None:
+    def _finger_link_sets(self, ctx: SetupContext) -> list[set[int]]:
+        """Link indices of each finger: configured by name, or each finger joint's child link and its subtree."""
+        cfg: GripperConfig = self.config
+        if cfg.finger_links is not None:
+            return [{ctx.link(cfg.body, name, key=f"finger_links[{i}]") for name in side}
+                    for i, side in enumerate(cfg.finger_links)]
+        parents = {j.index: self.world.client.getJointInfo(self.body, j.index)[16]
+                   for j in self.world.joints(cfg.body)}
+        sets = []
+        for finger in self.fingers:
+            subtree = {finger.index}
+            grew = True
+            while grew:
+                grew = False
+                for link, parent in parents.items():
+                    if parent in subtree and link not in subtree:
+                        subtree.add(link)
+                        grew = True
+            sets.append(subtree)
+        return sets
+
+    def _joint_targets(self, width: float) -> list[float]:
+        """Finger joint positions for a width (linear in each joint's travel from closed to open)."""
+        f = min(max(width / self.open_width, 0.0), 1.0)
+        return [c + f * (o - c) for o, c in zip(self.open_q, self.closed_q, strict=True)]
+
+    def _gear(self, parent: int, child: int, ratio: float) -> int:
+        """Tie ``child`` to ``parent``: child position = ratio × parent (a gear constraint)."""
         cfg: GripperConfig = self.config
         c = self.world.client
-        a, b = self.fingers
-        self.gear = c.createConstraint(self.body, a.index, self.body, b.index, jointType=c.JOINT_GEAR,
-                                       jointAxis=[1, 0, 0], parentFramePosition=[0, 0, 0],
-                                       childFramePosition=[0, 0, 0])
-        c.changeConstraint(self.gear, gearRatio=-1, erp=cfg.gear_erp, maxForce=cfg.gear_max_force)
+        gear = c.createConstraint(self.body, parent, self.body, child, jointType=c.JOINT_GEAR,
+                                  jointAxis=[1, 0, 0], parentFramePosition=[0, 0, 0], childFramePosition=[0, 0, 0])
+        c.changeConstraint(gear, gearRatio=-ratio, erp=cfg.gear_erp, maxForce=cfg.gear_max_force)
+        return int(gear)
 
     def command(self, cmd: Any) -> None:
         """Accept a :class:`GripperCommand` (``open``, ``close`` or ``width``)."""
@@ -114,20 +192,30 @@ class Gripper(Actuator):
         self.action, self.target, self.force = cmd.action, target, force
 
     def update(self) -> None:
-        """Drive both fingers to half the target width each, within the force and speed limits (sent when the
-        command changes; the motors keep their targets), and watch the width while it may still be moving."""
+        """Drive the fingers to the target width, within the force and speed limits, and hold the held joints
+        (sent when the command changes: the motors keep their targets); watch the width while it may be moving."""
         if self._dirty:
             c = self.world.client
-            for j in self.fingers:
-                c.setJointMotorControl2(self.body, j.index, c.POSITION_CONTROL, targetPosition=self.target / 2,
-                                        force=self.force, maxVelocity=self.config.finger_speed)
+            for j, q, v in zip(self.fingers, self._joint_targets(self.target), self._speeds, strict=True):
+                c.setJointMotorControl2(self.body, j.index, c.POSITION_CONTROL, targetPosition=q,
+                                        force=self.force, maxVelocity=v)
+            for j, q in self.held_joints:
+                c.setJointMotorControl2(self.body, j.index, c.POSITION_CONTROL, targetPosition=q, force=self.force)
             self._dirty = False
         if self._tracking:
             self._track_settling()
 
-    def _width(self) -> float:
+    def _width_and_rate(self) -> tuple[float, float]:
+        """Fingertip distance (m) and its rate (m/s), from the finger joints' travel between closed and open
+        (the mean over the fingers)."""
         states = self.world.client.getJointStates(self.body, self._indices)
-        return float(states[0][0] + states[1][0])
+        n = len(states)
+        frac = sum((s[0] - c) / span for s, c, span in zip(states, self.closed_q, self._spans, strict=True)) / n
+        rate = sum(s[1] / span for s, span in zip(states, self._spans, strict=True)) / n
+        return float(self.open_width * frac), float(self.open_width * rate)
+
+    def _width(self) -> float:
+        return self._width_and_rate()[0]
 
     def _watch(self) -> None:
         """Start watching the width every tick again (after a new command, or fingers found moving)."""
@@ -152,21 +240,21 @@ class Gripper(Actuator):
         c = self.world.client
         touched: list[set[int]] = []
         total = 0
-        for j in self.fingers:
+        for links in self.links:
             bodies = set()
-            for cp in c.getContactPoints(bodyA=self.body, linkIndexA=j.index):
-                if cp[2] != self.body:
-                    bodies.add(cp[2])
-                    total += 1
+            for link in links:
+                for cp in c.getContactPoints(bodyA=self.body, linkIndexA=link):
+                    if cp[2] != self.body:
+                        bodies.add(cp[2])
+                        total += 1
             touched.append(bodies)
         return touched, total
 
     def read(self) -> GripperState:
         """Width, settling, and whether (and what) the fingers hold."""
         cfg: GripperConfig = self.config
-        states = self.world.client.getJointStates(self.body, self._indices)
-        width = float(states[0][0] + states[1][0])
-        if not self._tracking and abs(states[0][1] + states[1][1]) > cfg.settle_speed:
+        width, rate = self._width_and_rate()
+        if not self._tracking and abs(rate) > cfg.settle_speed:
             self._still_since = None  # settled fingers pushed open or shut: moving again
             self._watch()
         touched, total = self._finger_touches()
@@ -180,12 +268,12 @@ class Gripper(Actuator):
                             holding=holding, held=held, finger_contacts=total)
 
     def close(self) -> None:
-        if self.gear is not None and self.world.client is not None:
+        while self.gears and self.world.client is not None:
+            gear = self.gears.pop()
             try:
-                self.world.client.removeConstraint(self.gear)
+                self.world.client.removeConstraint(gear)
             except Exception:  # noqa: BLE001 - the world may already be gone
                 pass
-            self.gear = None
 
 
 @hookimpl

@@ -46,6 +46,12 @@ class IkArmConfig(Schema):
 
     body: str = Field(description="the robot's body name")
     ee_link: str = Field(description="end-effector link, e.g. panda_grasptarget")
+    ee_offset: tuple[float, float, float] = Field(
+        (0.0, 0.0, 0.0), description="tool-centre point in the end-effector link's frame, metres (e.g. between "
+                                     "the fingertips of a gripper whose model has no such link)")
+    ee_rpy_deg: tuple[float, float, float] = Field(
+        (0.0, 0.0, 0.0), description="tool frame's orientation in the end-effector link's frame (roll, pitch, yaw), "
+                                     "degrees: targets and readings are poses of this frame")
     ready_pose: dict[str, float] = Field(default_factory=dict, description="joint name -> start position")
     rest_pose: dict[str, float] = Field(default_factory=dict, description="null-space rest; default ready_pose")
     limits: dict[str, tuple[float, float]] = Field(default_factory=dict, description="override URDF limits")
@@ -134,7 +140,12 @@ class IkArm(Actuator):
         self.status, self.reason, self.command_id = "idle", "", 0
         self.target: tuple[Vec3, Quat] | None = None
         self.base_pos = np.array(w.pose(self.body)[0])
-        self.chain = Chain(w.client, self.body, self.ee, {j.index: k for k, j in enumerate(self.movable)})
+        tool_orn = w.client.getQuaternionFromEuler([math.radians(a) for a in cfg.ee_rpy_deg])
+        self._tool = (list(cfg.ee_offset), list(tool_orn))  # the tool frame in the end-effector link's frame
+        self._tool_inv = w.client.invertTransform(*self._tool)
+        self._has_tool = any(cfg.ee_offset) or any(cfg.ee_rpy_deg)
+        self.chain = Chain(w.client, self.body, self.ee, {j.index: k for k, j in enumerate(self.movable)},
+                           tool=self._tool)
         com_pos, com_orn = w.client.getBasePositionAndOrientation(self.body)
         self._to_base = w.client.invertTransform(com_pos, com_orn)  # world -> the base's inertial frame
         self._indices = [j.index for j in self.arm]
@@ -195,7 +206,10 @@ class IkArm(Actuator):
         seed = q_all.copy()
         seed[cols] += 0.05 * (self.rest[cols] - q_all[cols])
         client = self.world.client
-        local_pos, local_orn = client.multiplyTransforms(self._to_base[0], self._to_base[1], pos.tolist(), orn)
+        link_pos, link_orn = pos.tolist(), orn
+        if self._has_tool:  # PyBullet solves for the link's frame: the target tool pose times the inverse tool
+            link_pos, link_orn = client.multiplyTransforms(link_pos, link_orn, *self._tool_inv)
+        local_pos, local_orn = client.multiplyTransforms(self._to_base[0], self._to_base[1], link_pos, link_orn)
         found = client.calculateInverseKinematics(self.body, self.ee, local_pos, local_orn,
                                                   currentPositions=seed.tolist(), **self._ik_options)
         q = q_all.copy()
@@ -355,6 +369,8 @@ class IkArm(Actuator):
         client = self.world.client
         s = client.getLinkState(self.body, self.ee, computeForwardKinematics=True)
         pos, orn = s[4], s[5]
+        if self._has_tool:
+            pos, orn = client.multiplyTransforms(pos, orn, *self._tool)
         ep = eo = 0.0
         target = self.target
         if target is not None:

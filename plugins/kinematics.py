@@ -72,9 +72,12 @@ class Chain:
         body: Body id of the arm (its base must not move while the chain is used).
         link: Index of the end link.
         columns: Joint index -> column in the joint vectors passed to :meth:`fk` / :meth:`jacobian`.
+        tool: A frame fixed in the end link's URDF frame (position, quaternion): :meth:`fk` and :meth:`jacobian`
+            then describe that frame (a tool-centre point) instead of the link's own.
     """
 
-    def __init__(self, client: Any, body: int, link: int, columns: dict[int, int]) -> None:
+    def __init__(self, client: Any, body: int, link: int, columns: dict[int, int],
+                 tool: tuple[Sequence[float], Sequence[float]] | None = None) -> None:
         path = []
         while link >= 0:
             path.append(link)
@@ -99,7 +102,7 @@ class Chain:
             if index != path[-1]:  # on to the child's inertial frame, where the next joint frame is given
                 dyn = client.getDynamicsInfo(body, index)
                 const = const @ transform(dyn[3], dyn[4])
-        self.tail = const
+        self.tail = const if tool is None else const @ transform(*tool)
         self.axes = np.array(axes).reshape(-1, 3)
         self.prismatic = np.array(prismatic, bool)
         self.columns = cols

@@ -1,6 +1,9 @@
 """``lidar`` sensor (lessons 04 and 07): a planar fan of rays cast with one ``rayTestBatch`` per scan.
 
-The sensor sits on a named link of a robot (plus an offset in that link's frame) and scans in the link's xy-plane.
+The sensor sits on a named link of a robot (plus an offset in that link's frame) and scans in the link's xy-plane,
+or, with ``position`` (and ``rpy_deg``) instead of ``robot``/``link``, at a fixed pose in the world (a sensor on a
+stand: lesson 04's single ray pointing down is ``rays = 1`` with ``rpy_deg = [0, 90, 0]``, its ray along the
+sensor's +x turned to point at the floor).
 Readings follow ROS ``sensor_msgs/LaserScan`` (see :class:`~robokit.msgs.mobile.LaserScan`): ranges in
 metres, ``+inf`` for no return, plus the hit points in the world frame. Rays start ``range_min`` from the sensor,
 and the robot's own links are left out of the ray test (they are put in a collision group of their own, which
@@ -45,6 +48,8 @@ class LidarConfig(Schema):
         draw: Draw the rays in GUI mode (no effect headless).
         num_threads: Threads for ``rayTestBatch`` (0 = all cores).
         range_noise: Standard deviation of Gaussian noise added to each returned range, m (seeded).
+        position: World-fixed sensor position, m (instead of ``robot``/``link``/``offset``).
+        rpy_deg: World-fixed sensor orientation (roll, pitch, yaw), degrees; the rays fan out in its xy-plane.
     """
 
     robot: str = "robot"
@@ -58,9 +63,17 @@ class LidarConfig(Schema):
     draw: bool = False
     num_threads: int = Field(1, ge=0)
     range_noise: float = Field(0.0, ge=0)
+    position: Vec3 | None = None
+    rpy_deg: Vec3 = (0.0, 0.0, 0.0)
 
     @model_validator(mode="after")
     def _ranges(self) -> LidarConfig:
+        if self.position is not None and {"robot", "link", "offset"} & self.model_fields_set:
+            raise ValueError("give 'position' (a sensor fixed in the world) or 'robot'/'link'/'offset' (a sensor "
+                             "on a robot), not both")
+        if self.position is None and "rpy_deg" in self.model_fields_set:
+            raise ValueError("'rpy_deg' is for a world-fixed sensor (with 'position'); on a robot use "
+                             "'yaw_offset_deg'")
         if self.range_min >= self.range_max:
             raise ValueError(f"range_min ({self.range_min} m) must be less than range_max ({self.range_max} m)")
         return self
@@ -92,9 +105,16 @@ class Lidar(Sensor):
     def setup(self, ctx: SetupContext) -> None:
         super().setup(ctx)
         cfg = self.config
-        self.body = ctx.body(cfg.robot, key="robot")
-        self.link = ctx.link(cfg.robot, cfg.link, key="link")
-        self._exclude_own_body()
+        self.body: int | None = None
+        self._fixed_frame: tuple[np.ndarray, np.ndarray] | None = None
+        if cfg.position is None:
+            self.body = ctx.body(cfg.robot, key="robot")
+            self.link = ctx.link(cfg.robot, cfg.link, key="link")
+            self._exclude_own_body()
+        else:
+            orn = self.world.client.getQuaternionFromEuler([math.radians(a) for a in cfg.rpy_deg])
+            rot = np.asarray(self.world.client.getMatrixFromQuaternion(orn), float).reshape(3, 3)
+            self._fixed_frame = (np.asarray(cfg.position, float), rot)
         self.angle_min, self.angle_max, self.angle_inc = scan_angles(cfg.rays, cfg.fov_deg)
         angles = self.angle_min + self.angle_inc * np.arange(cfg.rays) + math.radians(cfg.yaw_offset_deg)
         self.local_dirs = np.stack([np.cos(angles), np.sin(angles), np.zeros_like(angles)], axis=1)
@@ -116,6 +136,9 @@ class Lidar(Sensor):
 
     def _sensor_frame(self) -> tuple[np.ndarray, np.ndarray]:
         """Sensor origin (world, m) and the link's rotation matrix (3x3)."""
+        if self._fixed_frame is not None or self.body is None:
+            assert self._fixed_frame is not None
+            return self._fixed_frame
         pos, orn = self.world.pose(self.body, self.link)
         rot = np.asarray(self.world.client.getMatrixFromQuaternion(orn), float).reshape(3, 3)
         origin = np.asarray(pos, float) + rot @ np.asarray(self.config.offset, float)
@@ -128,6 +151,8 @@ class Lidar(Sensor):
         Bullet's per-object cost for each of the robot's links it overlaps even though they are filtered out
         (measured on the diffbot in the patrol arena: 1.77 ms a 360-ray scan from inside, 0.84 ms from outside).
         """
+        if self.body is None:
+            return self._zeros
         lo, hi = self.world.body_aabb(self.body)
         lo_, hi_ = np.asarray(lo) - SELF_MARGIN, np.asarray(hi) + SELF_MARGIN
         if not np.all((origin > lo_) & (origin < hi_)):
@@ -148,7 +173,7 @@ class Lidar(Sensor):
                                                  collisionFilterMask=RAY_MASK)
         columns = list(zip(*results, strict=True))
         ids, frac = np.array(columns[0], dtype=int), np.array(columns[2], dtype=float)
-        hit = (ids >= 0) & (ids != self.body)
+        hit = (ids >= 0) & (ids != (-2 if self.body is None else self.body))
         ranges = near + frac * (cfg.range_max - near)
         if cfg.range_noise > 0:
             ranges = np.clip(ranges + self.ctx.rng.normal(0.0, cfg.range_noise, len(ranges)), cfg.range_min,

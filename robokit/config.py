@@ -142,11 +142,28 @@ def check_unit_colour(value: Any) -> Any:
     return value
 
 
+class MountConfig(Schema):
+    """``mount = { body = "kuka", link = "lbr_iiwa_link_7", position = [0, 0, 0.05], rpy_deg = [0, 0, 0] }``.
+
+    Fixes the body's base to ``body``'s ``link`` (its URDF link frame) with a fixed joint; ``position`` (metres)
+    and ``rpy_deg`` place the mounted body's base frame in that link's frame.
+    """
+
+    body: str
+    link: str
+    position: Position = (0.0, 0.0, 0.0)
+    rpy_deg: tuple[Angle, Angle, Angle] = (0.0, 0.0, 0.0)
+    max_force: float = Field(10_000.0, gt=0, le=1e9, description="N; how hard the joint holds")
+
+
 class BodyConfig(Schema):
     """``[bodies.NAME]`` and ``[robots.NAME]``: a primitive (``shape``) or a URDF (``urdf``)."""
 
     shape: Literal["box", "sphere", "cylinder"] | None = None
     urdf: str | None = Field(None, min_length=1)
+    sdf: str | None = Field(None, min_length=1, description="an SDF file (each model in it a body: NAME, NAME_1, ...)")
+    mjcf: str | None = Field(None, min_length=1, description="a MuJoCo MJCF file, as far as pybullet's loader reads it")
+    mount: MountConfig | None = Field(None, description="fix this body's base to another body's link")
     size: tuple[Length, Length, Length] = Field((0.1, 0.1, 0.1), description="box edge lengths, metres")
     radius: Length = 0.05
     height: Length = 0.1
@@ -178,9 +195,17 @@ class BodyConfig(Schema):
 
     @model_validator(mode="after")
     def _one_kind(self) -> BodyConfig:
-        if (self.shape is None) == (self.urdf is None):
-            raise ValueError("give exactly one of 'shape' (box, sphere, cylinder) or 'urdf'")
-        if self.position is None and self.region is None:
+        kinds = [k for k in ("shape", "urdf", "sdf", "mjcf") if getattr(self, k) is not None]
+        if len(kinds) != 1:
+            raise ValueError("give exactly one of 'shape' (box, sphere, cylinder), 'urdf', 'sdf' or 'mjcf'"
+                             + (f", not {' and '.join(kinds)}" if kinds else ""))
+        if self.mount is not None:
+            if self.region is not None or self.count > 1:
+                raise ValueError("a mounted body takes its pose from 'mount': no 'region' or 'count'")
+            if self.position is not None or self.rpy_deg is not None or self.quaternion is not None:
+                raise ValueError("a mounted body is placed by 'mount.position' / 'mount.rpy_deg', not "
+                                 "'position' / 'rpy_deg' / 'quaternion'")
+        elif self.position is None and self.region is None:
             raise ValueError("give 'position' or 'region'")
         if self.rpy_deg is not None and self.quaternion is not None:
             raise ValueError("give 'rpy_deg' or 'quaternion', not both")

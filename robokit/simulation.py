@@ -384,7 +384,7 @@ def spawn_bodies(world: World, cfg: Config, keys: dict[str, str] | None = None) 
     groups = {**{n: ("bodies", b) for n, b in cfg.bodies.items()}, **{n: ("robots", b) for n, b in cfg.robots.items()}}
     for name, (section, body) in groups.items():
         if body.region is None:
-            _spawn_one(world, f"{section}.{name}", name, body, body.position)
+            _spawn_one(world, f"{section}.{name}", name, body, body.position or (0.0, 0.0, 0.0))
             keys[name] = f"{section}.{name}"
     for region_name, region in cfg.regions.items():
         members = [(n, s, b) for n, (s, b) in groups.items() if b.region == region_name]
@@ -407,6 +407,23 @@ def spawn_bodies(world: World, cfg: Config, keys: dict[str, str] | None = None) 
                 label = name if body.count == 1 else f"{name}_{i}"
                 _spawn_one(world, f"{section}.{name}", label, body, (x, y, region.z))
                 keys[label] = f"{section}.{name}"
+    for name, (section, body) in groups.items():
+        if body.mount is not None:
+            _mount(world, f"{section}.{name}.mount", name, body.mount)
+
+
+def _mount(world: World, key: str, name: str, mount: Any) -> None:
+    """Fix a body on another body's link (a gripper on a flange), as its config's ``mount`` says."""
+    if not world.has_body(mount.body):
+        raise ConfigError(f"unknown body {mount.body!r}; bodies: {', '.join(world.body_names)}", key=f"{key}.body")
+    if mount.body == name:
+        raise ConfigError("a body cannot be mounted on itself", key=f"{key}.body")
+    try:
+        link = world.link(mount.body, mount.link)
+    except UserError as exc:
+        raise ConfigError(str(exc), key=f"{key}.link") from None
+    world.mount(name, mount.body, link, position=mount.position, orientation=to_quaternion(mount.rpy_deg),
+                max_force=mount.max_force)
 
 
 def _orientation(world: World, body: BodyConfig) -> tuple[float, float, float, float]:
@@ -430,9 +447,14 @@ def _spawn_one(world: World, key: str, name: str, body: BodyConfig, position: An
                 angular_damping=body.angular_damping, mesh_collision=body.collision == "mesh",
             )
         else:
-            assert body.urdf is not None
-            world.load_urdf(name, body.urdf, position=pos, orientation=orn, fixed_base=body.fixed_base,
-                            scale=body.scale, self_collision=body.self_collision)
+            if body.urdf is not None:
+                world.load_urdf(name, body.urdf, position=pos, orientation=orn, fixed_base=body.fixed_base,
+                                scale=body.scale, self_collision=body.self_collision)
+            else:
+                kind, path = ("sdf", body.sdf) if body.sdf is not None else ("mjcf", body.mjcf)
+                assert path is not None
+                world.load_model(name, path, kind, position=pos, orientation=orn, fixed_base=body.fixed_base,
+                                 scale=body.scale)
             world.set_dynamics(name, lateral_friction=body.lateral_friction, restitution=body.restitution,
                                rolling_friction=body.rolling_friction, spinning_friction=body.spinning_friction,
                                linear_damping=body.linear_damping, angular_damping=body.angular_damping)

@@ -139,6 +139,8 @@ class World:
             except p.error as exc:
                 raise UserError(f"could not start PyBullet ({'GUI: is a display available?' if gui else exc})") from exc
         self._bodies: dict[str, int] = {}
+        self.mounts: dict[int, int] = {}
+        """Mounted body id -> the body id it is mounted on (see :meth:`mount`)."""
         self._names: dict[int, str] = {}
         self._joint_cache: dict[int, list[JointInfo]] = {}
         self._cid = int(self.client._client)
@@ -261,7 +263,8 @@ class World:
             self.client.changeDynamics(self.body(body), link, **kwargs)
 
     def resolve_urdf(self, urdf: str) -> str:
-        """Find a URDF: a path relative to the config folder, robokit's bundled data, or a ``pybullet_data`` name.
+        """Find a model file (URDF, SDF or MJCF): a path relative to the config folder, robokit's bundled data,
+        or a ``pybullet_data`` name.
 
         Raises:
             UserError: The file exists in none of those places (the message lists where it looked).
@@ -273,7 +276,8 @@ class World:
             if cand.is_file():
                 return str(cand.resolve())
         looked = ", ".join(str(c.parent) for c in candidates)
-        raise UserError(f"URDF {urdf!r} not found (looked in {looked})")
+        kind = {".sdf": "SDF", ".xml": "MJCF", ".mjcf": "MJCF"}.get(Path(urdf).suffix.lower(), "URDF")
+        raise UserError(f"{kind} {urdf!r} not found (looked in {looked})")
 
     def load_urdf(
         self,
@@ -298,6 +302,107 @@ class World:
         except p.error as exc:
             raise UserError(f"URDF {urdf!r} could not be loaded: {exc}") from exc
         return self._register(name, body)
+
+    def load_model(
+        self,
+        name: str,
+        path: str,
+        kind: str,
+        *,
+        position: Sequence[float] = (0.0, 0.0, 0.0),
+        orientation: Sequence[float] = (0.0, 0.0, 0.0, 1.0),
+        fixed_base: bool = False,
+        scale: float = 1.0,
+    ) -> list[int]:
+        """Load an SDF (``kind="sdf"``) or MJCF (``kind="mjcf"``) file: every model in it becomes a body.
+
+        The first model is registered as ``name``, further ones as ``name_1``, ``name_2`` … Each model keeps the
+        placement the file gives it relative to the first model's base, and the whole file is moved so that the
+        first base sits at ``position`` / ``orientation`` (world frame). ``fixed_base`` pins each base in place
+        (SDF and MJCF loaders have no fixed-base flag: the base is made static, mass 0). ``scale`` is SDF only.
+
+        Raises:
+            UserError: The file is missing, cannot be parsed, or holds no model.
+        """
+        resolved = self.resolve_urdf(path)
+        label = kind.upper()
+        try:
+            if kind == "sdf":
+                ids = list(self.client.loadSDF(resolved, globalScaling=scale))
+            else:
+                ids = list(self.client.loadMJCF(resolved))
+        except p.error as exc:
+            raise UserError(f"{label} {path!r} could not be loaded: {exc}") from exc
+        if not ids:
+            raise UserError(f"{label} {path!r} holds no model")
+        c = self.client
+
+        def link_frame(body: int) -> tuple[Any, Any]:
+            # pybullet reports (and sets) a base by its centre-of-mass frame; the model's base frame is that
+            # composed with the inverse of the base's inertial offset.
+            com, inertial = c.getBasePositionAndOrientation(body), c.getDynamicsInfo(body, -1)[3:5]
+            return c.multiplyTransforms(*com, *c.invertTransform(*inertial))
+
+        inv_first = c.invertTransform(*link_frame(ids[0]))
+        for i, body in enumerate(ids):
+            rel = c.multiplyTransforms(*inv_first, *link_frame(body))
+            new_frame = c.multiplyTransforms(list(position), list(orientation), *rel)
+            inertial = c.getDynamicsInfo(body, -1)[3:5]
+            c.resetBasePositionAndOrientation(body, *c.multiplyTransforms(*new_frame, *inertial))
+            if fixed_base:
+                c.changeDynamics(body, -1, mass=0.0)
+            self._register(name if i == 0 else f"{name}_{i}", body)
+        return ids
+
+    def mount(
+        self,
+        child: str,
+        parent: str,
+        link: int,
+        *,
+        position: Sequence[float] = (0.0, 0.0, 0.0),
+        orientation: Sequence[float] = (0.0, 0.0, 0.0, 1.0),
+        max_force: float = 10_000.0,
+    ) -> int:
+        """Attach ``child``'s base to ``parent``'s ``link`` with a fixed joint (a tool on an arm's flange).
+
+        ``position`` / ``orientation`` place the child's base frame in the parent link's frame (metres, x y z w).
+        The child is first moved there, so the constraint starts satisfied. Returns the constraint id.
+        """
+        c = self.client
+        pid, cid = self.body(parent), self.body(child)
+        lpos, lorn = self.pose(pid, link)
+        wpos, worn = c.multiplyTransforms(lpos, lorn, list(position), list(orientation))
+        child_inertial = c.getDynamicsInfo(cid, -1)[3:5]
+        # pybullet places a base by its centre-of-mass frame: the link frame composed with the inertial offset.
+        c.resetBasePositionAndOrientation(cid, *c.multiplyTransforms(wpos, worn, *child_inertial))
+        # The constraint's parent frame is given in the link's centre-of-mass frame: convert from the link frame.
+        if link == -1:
+            inertial = c.getDynamicsInfo(pid, -1)[3:5]
+        else:
+            inertial = c.getLinkState(pid, link)[2:4]
+        ipos, iorn = c.invertTransform(inertial[0], inertial[1])
+        fpos, forn = c.multiplyTransforms(ipos, iorn, list(position), list(orientation))
+        cpos, corn = c.invertTransform(child_inertial[0], child_inertial[1])
+        constraint = c.createConstraint(pid, link, cid, -1, c.JOINT_FIXED, [0, 0, 0], fpos, cpos,
+                                        parentFrameOrientation=forn, childFrameOrientation=corn)
+        c.changeConstraint(constraint, maxForce=max_force)
+        # The tool sits against the flange: those two must not collide (it would fight the joint).
+        c.setCollisionFilterPair(pid, cid, link, -1, 0)
+        self.mounts[cid] = pid
+        return int(constraint)
+
+    def attached(self, body: str | int) -> set[int]:
+        """Ids of the bodies joined to ``body`` by mounts, directly or through others (``body`` included)."""
+        group = {self.body(body)}
+        grew = True
+        while grew:
+            grew = False
+            for child, parent in self.mounts.items():
+                if (child in group) != (parent in group):
+                    group |= {child, parent}
+                    grew = True
+        return group
 
     def remove_body(self, name: str) -> None:
         """Remove a body from the simulation and the registry."""
@@ -380,16 +485,19 @@ class World:
     def link(self, body: str | int, link_name: str) -> int:
         """Link index by name: ``-1`` for the base link, else the index of the joint whose child it is.
 
+        ``"base"`` names the base link of any body. A primitive body (``shape = ...``) has only that link, which
+        pybullet calls ``link0``; both names work.
+
         Raises:
             LookupNameError: The body has no such link; the message lists its links.
         """
-        if link_name == self.base_link_name(body):
+        if link_name == "base" or link_name == self.base_link_name(body):
             return -1
         infos = self.joints(body)
         for info in infos:
             if info.child_link == link_name:
                 return info.index
-        valid = [self.base_link_name(body)] + [j.child_link for j in infos]
+        valid = ["base", self.base_link_name(body)] + [j.child_link for j in infos]
         raise LookupNameError("link", link_name, valid, where=self._label(body))
 
     def link_names(self, body: str | int) -> list[str]:

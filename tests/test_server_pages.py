@@ -179,3 +179,34 @@ def test_management_commands_make_a_class_students_and_tokens(db: Any, capsys: p
     official = capsys.readouterr().out.strip().split("\t")[1]
     assert post(client, LESSON_08, official).json()["official"] is True
     assert client.login(username="park", password=PASSWORD)
+
+
+def _robokit(*args: str, cwd: Path) -> Any:
+    import subprocess
+    import sys
+
+    return subprocess.run([sys.executable, "-m", "robokit.cli", *args], cwd=cwd, capture_output=True, text=True,
+                          timeout=300)
+
+
+def test_cli_errors_are_one_line_and_help_does_not_import_django(tmp_path: Path) -> None:
+    import socket
+    import subprocess
+    import sys
+
+    code = ("import sys\nfrom robokit.cli import main\ntry:\n    main(['--help'])\nexcept SystemExit:\n    pass\n"
+            "print(sorted(m for m in ('django', 'waitress', 'requests') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True).stdout
+    assert "serve" in out and out.strip().splitlines()[-1] == "[]"
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        proc = _robokit("serve", "--data", str(tmp_path / "srv"), "--port", str(busy.getsockname()[1]),
+                        cwd=tmp_path)
+    assert proc.returncode == 2
+    assert proc.stderr.startswith("robokit: error: cannot listen on 127.0.0.1:") and "Traceback" not in proc.stderr
+    bad = _robokit("manage", "--data", str(tmp_path / "srv"), "create_class", "x", "--teacher", "nobody",
+                   cwd=tmp_path)
+    assert bad.returncode == 2 and bad.stderr.strip() == (
+        "robokit: error: no teacher 'nobody': create one with `robokit serve --create-teacher NAME`")
+    assert (tmp_path / "srv" / "db.sqlite3").is_file() and (tmp_path / "srv" / "secret_key").stat().st_mode & 0o077 == 0
