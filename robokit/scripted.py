@@ -40,8 +40,9 @@ class ScriptedWorld:
         time_step: Seconds per tick.
     """
 
-    def __init__(self, time_step: float, bodies: Mapping[str, Pose | None]) -> None:
+    def __init__(self, time_step: float, bodies: Mapping[str, Pose | None], seed: int = 0) -> None:
         self.tick = 0
+        self.seed = seed
         self.time_step = time_step
         self._bodies = dict(bodies)
         self.gui = False
@@ -149,7 +150,7 @@ class ScriptedRun:
         raw = dict(config or {})
         rate = raw.pop("rate_hz", None) if rate_hz is None else rate_hz
         self.behaviour = self._build(behaviour, raw, name, schema, extra_plugins)
-        self.world = ScriptedWorld(time_step, bodies if isinstance(bodies, Mapping) else dict.fromkeys(bodies))
+        self.world = ScriptedWorld(time_step, bodies if isinstance(bodies, Mapping) else dict.fromkeys(bodies), seed)
         self.period = max(1, round(self.world.physics_hz / rate)) if rate else 1
         self.trace: list[dict[str, Any]] = []
         self.commands: list[Mapping[str, Any]] = []
