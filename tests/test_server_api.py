@@ -270,3 +270,26 @@ def test_robokit_http_reporter_delivers_to_the_server_unchanged(live_server: Any
     assert row.student == course.lee and row.verified  # the token's owner, not the payload's "kim"
     assert sorted(a.name for a in row.artifacts.all()) == ["trace.jsonl", "xy.png"]
     assert course.lee_token not in first.message + second.message
+
+
+def test_upload_artifacts_command_sends_a_run_folder_made_later(live_server: Any, course: Course, tmp_path: Path,
+                                                                monkeypatch: pytest.MonkeyPatch, settings: Any,
+                                                                capsys: pytest.CaptureFixture[str]) -> None:
+    from robokit.cli import main
+
+    settings.MEDIA_ROOT = tmp_path / "media"
+    url = live_server.url + "/api/robotics/result/"
+    payload = robokit_payload(10)
+    requests.post(url, json=payload, headers={"Authorization": f"Bearer {course.kim_token}"}, timeout=30)
+    folder = tmp_path / "results" / payload["run_id"]
+    folder.mkdir(parents=True)
+    (folder / "video.mp4").write_bytes(mp4_head())
+    (folder / "notes.txt").write_text("not uploaded")
+    monkeypatch.setenv("KIM_TOKEN", course.kim_token)
+    args = ["upload-artifacts", payload["run_id"], "--url", url, "--dir", str(tmp_path / "results")]
+    assert main([*args, "--token-env", "KIM_TOKEN"]) == 0
+    assert "artifacts: 1/1 uploaded" in capsys.readouterr().out
+    assert [a.name for a in Artifact.objects.all()] == ["video.mp4"]
+    assert main(args) == 1  # without the token: refused (401), said in one line
+    assert "video.mp4: HTTP 401" in capsys.readouterr().out
+    assert main([*args[:2], "--url", url, "--dir", str(tmp_path / "nowhere")]) == 2

@@ -100,3 +100,15 @@ def test_runs_reach_the_served_leaderboard_exactly_once(tmp_path: Path) -> None:
     assert code == 0 and "stopped" in server.log
     assert server.log.count("POST /api/robotics/result/ 201") == 3
     shutil.rmtree(data / "media", ignore_errors=True)
+
+
+@pytest.mark.slow
+def test_concurrent_posters_store_every_result_exactly_once() -> None:
+    """benchmarks/server_load.py, small: 5 clients x 20 posts (every 10th resent) against robokit serve."""
+    import sys
+
+    proc = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "server_load.py"), "--clients", "5",
+                           "--posts", "20"], capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "stored: 120 rows for 120 distinct runs" in proc.stdout and "every result exactly once" in proc.stdout
+    assert "journal_mode=wal" in proc.stdout

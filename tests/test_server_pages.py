@@ -210,3 +210,46 @@ def test_cli_errors_are_one_line_and_help_does_not_import_django(tmp_path: Path)
     assert bad.returncode == 2 and bad.stderr.strip() == (
         "robokit: error: no teacher 'nobody': create one with `robokit serve --create-teacher NAME`")
     assert (tmp_path / "srv" / "db.sqlite3").is_file() and (tmp_path / "srv" / "secret_key").stat().st_mode & 0o077 == 0
+
+
+def test_admin_issues_tokens_shown_once_and_revokes(admin_client: Any, course: Course) -> None:
+    from robokit.server.models import Token
+    from robokit.server.tokens import hash_token
+
+    resp = admin_client.post("/admin/course/student/", {"action": "issue_tokens",
+                                                        "_selected_action": [course.kim.pk]})
+    assert resp.status_code == 200 and "no-store" in resp["Cache-Control"]
+    html = resp.content.decode()
+    token = html.split("<code>rks_", 1)[1].split("</code>", 1)[0]
+    token = "rks_" + token
+    assert Token.objects.filter(key_hash=hash_token(token), revoked_at__isnull=True, student=course.kim).exists()
+    assert token not in admin_client.get("/admin/course/student/").content.decode()  # never again
+    assert post(admin_client, LESSON_08, course.kim_token).status_code == 401  # the old one was replaced
+    admin_client.post("/admin/course/student/", {"action": "revoke_tokens", "_selected_action": [course.kim.pk]})
+    assert post(admin_client, LESSON_08, token).status_code == 401
+
+
+def test_artifacts_are_served_only_to_who_may_see_the_run(client: Any, course: Course, settings: Any,
+                                                          tmp_path: Path) -> None:
+    from django.core.files.uploadedfile import SimpleUploadedFile
+
+    settings.MEDIA_ROOT = tmp_path / "media"
+    payload = robokit_payload(1)
+    post(client, payload, course.kim_token)
+    client.post(f"/api/robotics/result/{payload['run_id']}/artifacts/",
+                data={"f": SimpleUploadedFile("xy.svg", b'<svg xmlns="http://www.w3.org/2000/svg"/>')},
+                HTTP_AUTHORIZATION=f"Bearer {course.kim_token}")
+    url = f"/artifacts/{Result.objects.get().artifacts.get().pk}/xy.svg"
+    assert client.get(url).status_code == 404  # nobody
+    client.post("/me/", {"token": course.lee_token})
+    assert client.get(url).status_code == 404  # another student
+    client.post("/me/", {"token": course.kim_token})
+    resp = client.get(url)
+    assert resp.status_code == 200 and resp["Content-Type"] == "image/svg+xml"
+    assert "sandbox" in resp["Content-Security-Policy"] and resp["X-Content-Type-Options"] == "nosniff"
+
+
+def test_migrations_match_the_models() -> None:
+    from django.core.management import call_command
+
+    call_command("makemigrations", "course", "--check", "--dry-run", verbosity=0)  # exits 1 if a change is missing

@@ -11,7 +11,9 @@ variable                          meaning (default)
                                   ``robokit serve``)
 ``ROBOKIT_ALLOWED_HOSTS``         comma-separated host names the server answers to (loopback names)
 ``ROBOKIT_DEBUG``                 ``1`` for Django's debug pages (off)
-``ROBOKIT_HTTPS``                 ``1`` when served behind HTTPS: secure cookies (off)
+``ROBOKIT_HTTPS``                 ``1`` when served behind HTTPS: secure cookies, trust X-Forwarded-Proto (off)
+``ROBOKIT_CSRF_TRUSTED_ORIGINS``  comma-separated origins for the login forms behind a proxy
+                                  (e.g. ``https://robots.school.org``)
 ``ROBOKIT_MAX_RESULT_BYTES``      largest result body accepted (1 MiB)
 ``ROBOKIT_MAX_VIDEO_BYTES``       largest video upload (50 MiB); plots 5 MiB, traces 20 MiB
 ================================  =========================================================================
@@ -133,6 +135,9 @@ FILE_UPLOAD_MAX_MEMORY_SIZE = 2 << 20
 SESSION_COOKIE_HTTPONLY = True
 SESSION_COOKIE_SAMESITE = "Lax"
 SESSION_COOKIE_SECURE = CSRF_COOKIE_SECURE = _flag("ROBOKIT_HTTPS")
+if _flag("ROBOKIT_HTTPS"):  # behind a TLS-terminating proxy that sets X-Forwarded-Proto
+    SECURE_PROXY_SSL_HEADER = ("HTTP_X_FORWARDED_PROTO", "https")
+CSRF_TRUSTED_ORIGINS = [o.strip() for o in os.environ.get("ROBOKIT_CSRF_TRUSTED_ORIGINS", "").split(",") if o.strip()]
 SECURE_CONTENT_TYPE_NOSNIFF = True
 X_FRAME_OPTIONS = "DENY"
 
