@@ -36,6 +36,7 @@ from typing import Any
 from robokit import hookimpl
 from robokit.components import Behaviour, GoalCheck, SetupContext
 from robokit.config import Schema
+from robokit.crash import describe, where_raised
 from robokit.errors import PluginError
 
 
@@ -56,8 +57,9 @@ def _call(member: Member, role: str, what: str, fn: Any, *args: Any) -> Any:
     except PluginError:
         raise
     except Exception as exc:
-        raise PluginError(f"{role} {member.name!r} ({member.origin}) raised during {what}: "
-                          f"{type(exc).__name__}: {exc}", type_name=member.type) from exc
+        where = where_raised(exc)
+        raise PluginError(f"{role} {member.name!r} ({member.origin}) raised during {what}: {describe(exc)}"
+                          + (f" (at {where})" if where else ""), type_name=member.type) from exc
 
 
 class Monitored:

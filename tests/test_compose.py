@@ -82,10 +82,20 @@ class Pusher(Behaviour):
         return {"drive": Twist(0.1, 0.0)}
 
 
+class Crasher(Behaviour):
+    """Divides by zero at its third step (a bug in a monitor)."""
+
+    def step(self, readings: Mapping[str, Any], t: float) -> None:
+        self.n = getattr(self, "n", 0) + 1
+        if self.n == 3:
+            print(1 / 0)
+
+
 class PushPlugin:
     @hookimpl
     def robokit_register_behaviours(self, register: Any) -> None:
         register("pusher", Pusher, PushConfig)
+        register("crasher", Crasher, PushConfig)
 
 
 def test_a_monitor_that_commands_an_actuator_ends_the_run_with_an_error_naming_it() -> None:
@@ -93,6 +103,14 @@ def test_a_monitor_that_commands_an_actuator_ends_the_run_with_an_error_naming_i
     assert result.outcome == "error"
     assert result.reason.startswith("monitor 'rogue' (type 'pusher' from <local>) sent commands to drive: monitors "
                                     "observe; only the task ([behaviour]) commands actuators")
+
+
+def test_a_monitor_that_raises_is_named_with_the_file_and_line() -> None:
+    result, trace = run(scene(GOAL, buggy={"type": "crasher", "rate_hz": 10}), extra_plugins=[PushPlugin()])
+    assert result.outcome == "error" and result.ticks == 48  # its third step, at t = 0.2 s
+    assert result.reason.startswith("monitor 'buggy' (type 'crasher' from <local>) raised during step: "
+                                    "ZeroDivisionError: division by zero (at tests/test_compose.py:")
+    assert trace[-1]["kind"] == "error" and trace[-1]["reason"] == result.reason
 
 
 def test_a_sequence_runs_its_steps_in_order_each_on_its_own_clock() -> None:
