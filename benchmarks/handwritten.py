@@ -20,7 +20,8 @@ Reported, per job:
 
 - **loop**: wall time of the run loop per simulated second (scene built outside the timing), robokit over
   hand-written, per seed; runs interleaved (the order alternates seed by seed) so both share the machine's load;
-  median and spread (min..max, p10..p90) of the per-seed ratios;
+  median and spread (min..max, p10..p90) of the per-seed ratios; the same with the process's CPU time, which a
+  loaded machine disturbs less than wall time;
 - **job**: whole-process wall time of ``robokit run CONFIG --seed N --quiet`` against this script run as a child
   doing the hand-written job for the same seed (imports, scene, loop, result), interleaved;
 - success on both sides.
@@ -737,12 +738,12 @@ def hand_run(job: str, seed: int) -> dict[str, Any]:
     scene = Scene(JOBS[job], seed)
     try:
         runner = HAND_JOBS[job](scene, seed)
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         result = runner.run()
-        wall = time.perf_counter() - t0
+        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     finally:
         scene.close()
-    return {"wall": wall, "sim": result["sim_time"], "ok": _hand_ok(job, result), "result": result}
+    return {"wall": wall, "cpu": cpu, "sim": result["sim_time"], "ok": _hand_ok(job, result), "result": result}
 
 
 def _hand_ok(job: str, result: dict[str, Any]) -> bool:
@@ -757,15 +758,15 @@ def robokit_run(job: str, seed: int) -> dict[str, Any]:
     from robokit.testing import make_sim
 
     with make_sim(str(JOBS[job]), seed=seed) as sim:
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         result = sim.run()
-        wall = time.perf_counter() - t0
+        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     r = result.result
     if job == "sort":
         ok = result.outcome == "succeeded" and r.get("red_sorted", 0) + r.get("blue_sorted", 0) == 4
     else:
         ok = result.outcome == "succeeded" and r.get("objects_collected") == 4 and r.get("collisions") == 0
-    return {"wall": wall, "sim": result.sim_time, "ok": ok, "result": r}
+    return {"wall": wall, "cpu": cpu, "sim": result.sim_time, "ok": ok, "result": r}
 
 
 def check_scene(job: str, seed: int) -> None:
@@ -795,13 +796,14 @@ def _stats(ratios: list[float]) -> str:
 def loop_ratios(job: str, seeds: list[int]) -> None:
     """Interleaved in-process runs: per-seed ratio of wall seconds per sim second; success on both sides."""
     check_scene(job, seeds[0])
-    ratios, rk_ok, hw_ok, rk_us, hw_us = [], 0, 0, [], []
+    ratios, cpu_ratios, rk_ok, hw_ok, rk_us, hw_us = [], [], 0, 0, [], []
     for i, seed in enumerate(seeds):
         order = ("robokit", "hand") if i % 2 == 0 else ("hand", "robokit")
         out = {side: (robokit_run if side == "robokit" else hand_run)(job, seed) for side in order}
         rk, hw = out["robokit"], out["hand"]
         rk_rate, hw_rate = rk["wall"] / rk["sim"], hw["wall"] / hw["sim"]
         ratios.append(rk_rate / hw_rate)
+        cpu_ratios.append((rk["cpu"] / rk["sim"]) / (hw["cpu"] / hw["sim"]))
         rk_ok += rk["ok"]
         hw_ok += hw["ok"]
         dt = 1.0 / 240.0
@@ -809,8 +811,9 @@ def loop_ratios(job: str, seeds: list[int]) -> None:
         hw_us.append(hw_rate * dt * 1e6)
         print(f"  {job} seed {seed:3d}: robokit {rk['sim']:6.2f} sim s {rk_us[-1]:6.1f} us/tick "
               f"{'ok' if rk['ok'] else 'FAIL'} | hand {hw['sim']:6.2f} sim s {hw_us[-1]:6.1f} us/tick "
-              f"{'ok' if hw['ok'] else 'FAIL'} | ratio {ratios[-1]:.3f}", flush=True)
+              f"{'ok' if hw['ok'] else 'FAIL'} | ratio {ratios[-1]:.3f} (CPU {cpu_ratios[-1]:.3f})", flush=True)
     print(f"{job} loop, wall per sim second, robokit / hand-written: {_stats(ratios)}")
+    print(f"{job} loop, process CPU per sim second (steadier on a loaded machine): {_stats(cpu_ratios)}")
     print(f"{job} per tick (median): robokit {statistics.median(rk_us):.1f} us, "
           f"hand-written {statistics.median(hw_us):.1f} us")
     print(f"{job} success: robokit {rk_ok}/{len(seeds)}, hand-written {hw_ok}/{len(seeds)}", flush=True)

@@ -59,6 +59,9 @@ class BodyPoseSensor(Sensor):
         # bodies whose URDF link frame is not their centre of mass: reported in the link frame (World.pose)
         self._offsets = {bid for _, bid in self._all if self.world.link_offset(bid) is not None}
 
+    def reset(self, rng: object = None) -> None:
+        """Nothing to reset between robokit.gym episodes: a reading depends only on the world."""
+
     def read(self) -> dict[str, BodyState]:
         world = self.world
         if world.removals != self._removals:  # a body was removed during the run: drop it from the list

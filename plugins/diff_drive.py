@@ -68,11 +68,16 @@ class DiffDrive(Actuator):
         self.body = ctx.body(cfg.robot, key="robot")
         self.left = self._joints(cfg.left_wheels, "left_wheels")
         self.right = self._joints(cfg.right_wheels, "right_wheels")
+        self._both = self.left + self.right
         default_caster = "passive_joints" not in cfg.model_fields_set  # robots without a caster skip it
         passive = self._joints(cfg.passive_joints, "passive_joints", skip_missing=default_caster)
         c = self.world.client
         for j in passive:
             c.setJointMotorControl2(self.body, j, c.VELOCITY_CONTROL, targetVelocity=0.0, force=0.0)
+        self.reset()
+
+    def reset(self, rng: Any = None) -> None:
+        """The start state (also between robokit.gym episodes): stopped, odometry at the current true pose."""
         self.cmd: Twist | WheelSpeeds = STOP
         self.targets = (0.0, 0.0)
         self.speeds = (0.0, 0.0)
@@ -82,6 +87,7 @@ class DiffDrive(Actuator):
         self.last_pose = (x, y)
         self.distance = 0.0
         self.last_wheels = self._wheel_angles()
+        self._sent: tuple[float, ...] | None = None
         self.update()
 
     def _joints(self, names: tuple[str, ...], key: str, skip_missing: bool = False) -> list[int]:
@@ -122,10 +128,13 @@ class DiffDrive(Actuator):
         dt = self.world.time_step * (self.world.tick - self.last_tick) if self.last_tick >= 0 else 0.0
         self.last_tick = self.world.tick
         step = self.config.max_acceleration / self.config.wheel_radius * dt
-        self.speeds = tuple(s + max(-step, min(step, t - s)) for s, t in zip(self.speeds, self.targets, strict=True))
-        for joints, speed in ((self.left, self.speeds[0]), (self.right, self.speeds[1])):
-            c.setJointMotorControlArray(self.body, joints, c.VELOCITY_CONTROL, targetVelocities=[speed] * len(joints),
-                                        forces=[force] * len(joints))
+        speeds = tuple(s + max(-step, min(step, t - s)) for s, t in zip(self.speeds, self.targets, strict=True))
+        if speeds != self._sent:  # the motors keep their targets: send only a change
+            for joints, speed in ((self.left, speeds[0]), (self.right, speeds[1])):
+                c.setJointMotorControlArray(self.body, joints, c.VELOCITY_CONTROL,
+                                            targetVelocities=[speed] * len(joints), forces=[force] * len(joints))
+            self._sent = speeds
+        self.speeds = speeds
         self._integrate()
 
     def _integrate(self) -> None:
@@ -144,9 +153,10 @@ class DiffDrive(Actuator):
 
     def _wheel_means(self, field: int) -> tuple[float, float]:
         """Mean joint state ``field`` (0 = angle, rad; 1 = speed, rad/s) of the left and the right wheels."""
-        c = self.world.client
-        left, right = (c.getJointStates(self.body, joints) for joints in (self.left, self.right))
-        return sum(s[field] for s in left) / len(left), sum(s[field] for s in right) / len(right)
+        states = self.world.client.getJointStates(self.body, self._both)
+        n = len(self.left)
+        left, right = states[:n], states[n:]
+        return sum(s[field] for s in left) / n, sum(s[field] for s in right) / len(right)
 
     def _wheel_angles(self) -> tuple[float, float]:
         return self._wheel_means(0)

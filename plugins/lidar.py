@@ -157,8 +157,8 @@ class Lidar(Sensor):
         lo_, hi_ = np.asarray(lo) - SELF_MARGIN, np.asarray(hi) + SELF_MARGIN
         if not np.all((origin > lo_) & (origin < hi_)):
             return self._zeros
-        with np.errstate(divide="ignore"):
-            inv = 1.0 / dirs  # +-inf where a direction has no component: that axis never bounds the exit
+        # +-inf where a direction has no component along an axis: that axis never bounds the exit
+        inv = np.divide(1.0, dirs, out=np.full_like(dirs, np.inf), where=dirs != 0.0)
         return np.asarray(np.maximum((hi_ - origin) * inv, (lo_ - origin) * inv).min(axis=1))
 
     def read(self) -> LaserScan:
@@ -171,8 +171,9 @@ class Lidar(Sensor):
         ends = origin + dirs * cfg.range_max
         results = self.world.client.rayTestBatch(starts, ends, numThreads=cfg.num_threads,
                                                  collisionFilterMask=RAY_MASK)
-        columns = list(zip(*results, strict=True))
-        ids, frac = np.array(columns[0], dtype=int), np.array(columns[2], dtype=float)
+        n = len(results)
+        ids = np.fromiter([r[0] for r in results], dtype=int, count=n)
+        frac = np.fromiter([r[2] for r in results], dtype=float, count=n)
         hit = (ids >= 0) & (ids != (-2 if self.body is None else self.body))
         ranges = near + frac * (cfg.range_max - near)
         if cfg.range_noise > 0:

@@ -289,7 +289,8 @@ class Config:
 
 
 SECTIONS = ("world", "regions", "bodies", "robots", "sensors", "actuators", "behaviour", "monitors", "report",
-            "events")
+            "events", "env")
+"""``env`` is read by :mod:`robokit.gym` (a Gymnasium environment made from the config); runs ignore it."""
 _COMPONENT_KEYS = ("type", "rate_hz")
 
 

@@ -5,17 +5,19 @@ Nothing is loaded at import time and there is no module-level manager: call :fun
 
 from __future__ import annotations
 
-import importlib.metadata as md
 import inspect
 import warnings
 from collections.abc import Iterable, Iterator, MutableMapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import pluggy
 
 from robokit import hookspecs
 from robokit.errors import LookupNameError, PluginError, UserError
+
+if TYPE_CHECKING:  # importlib.metadata costs ~20 ms of start-up: imported when plugins are loaded, not for --help
+    import importlib.metadata as md
 
 ENTRY_POINT_GROUP = "robokit"
 BUILTIN = "robokit"
@@ -23,12 +25,13 @@ BUILTIN = "robokit"
 INDEX_GROUP = "robokit.types"
 """Optional entry-point group naming which module registers which type: ``"KIND.TYPE" = "module"``. A module
 listed there is imported only when a config (or a lookup) needs one of its types."""
-KINDS = ("sensor", "actuator", "behaviour", "reporter")
+KINDS = ("sensor", "actuator", "behaviour", "reporter", "task")
 _HOOK_OF_KIND = {
     "sensor": "robokit_register_sensors",
     "actuator": "robokit_register_actuators",
     "behaviour": "robokit_register_behaviours",
     "reporter": "robokit_register_reporters",
+    "task": "robokit_register_tasks",
 }
 
 
@@ -188,6 +191,8 @@ def _entry_points() -> tuple[list[md.EntryPoint], dict[tuple[str, str], str] | N
     The index maps ``(kind, type name)`` to the module that registers it (entry point ``"KIND.TYPE" = "module"``).
     It is None when two entries claim one type (a full load then reports the clash).
     """
+    import importlib.metadata as md
+
     every = md.entry_points()
     seen: dict[tuple[str, str], md.EntryPoint] = {}
     for ep in every.select(group=ENTRY_POINT_GROUP):  # a distribution can be visible twice (editable + path)

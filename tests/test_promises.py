@@ -240,3 +240,23 @@ def test_sort_states_include_clear_view_after_a_miss_only() -> None:
     assert result.outcome == "succeeded"
     assert visited == ["LOOK", "PICK_PLACE", "LOOK", "DONE"]
     assert math.isclose(result.result["total_time"], result.sim_time, abs_tol=0.05)
+
+
+def test_fingers_closed_against_the_table_hold_nothing() -> None:
+    # a missed grasp: the fingertips rest on the table top and close to zero width, both touching the table
+    from test_arm_gripper import SCENE, until
+
+    from robokit.msgs.arm import GripperCommand
+
+    with make_sim(SCENE) as sim:
+        sim.components["arm"].command(MoveTo((0.5, 0.2, 0.008)))
+        sim.step(1)
+        assert sim.run_until(lambda s: s.readings["arm"].reached, 800)
+        sim.components["gripper"].command(GripperCommand("close"))
+        until(sim, lambda s: s.readings["gripper"].settled)
+        reading = sim.readings["gripper"]
+        table = sim.world.body("table")
+        contacts = [sim.world.client.getContactPoints(sim.world.body("panda"), table, sim.world.link("panda", f), -1)
+                    for f in ("panda_leftfinger", "panda_rightfinger")]
+    assert all(contacts), "both fingertips should touch the table in this scene"
+    assert reading.width < 0.004 and not reading.holding and reading.held is None

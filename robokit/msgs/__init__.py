@@ -12,6 +12,7 @@ OpenCV; :mod:`robokit.msgs.vision` and :mod:`robokit.msgs.mobile` use numpy.
   ``Collect``/``CollectorState`` (``collector``), ``Pose2D``, ``wrap_angle``.
 - :mod:`robokit.msgs.keyboard` — ``KeyState`` (``keyboard``).
 - :mod:`robokit.msgs.body` — ``BodyState`` (``body_pose``: a dict of body name -> ``BodyState``).
+- :mod:`robokit.msgs.control` — ``EEDelta``/``EEState`` (``ee_delta``), ``PidState`` (``pid``).
 
 Every name is also importable from here: ``from robokit.msgs import Twist, LaserScan``.
 """
@@ -40,6 +41,7 @@ from robokit.msgs.arm import (
     yaw_of,
 )
 from robokit.msgs.body import BodyState
+from robokit.msgs.control import EEDelta, EEState, PidState
 from robokit.msgs.keyboard import KeyState
 from robokit.msgs.mobile import (
     STOP,
@@ -56,6 +58,7 @@ from robokit.msgs.vision import CameraFrame, Detection, Detections, Matrix16, de
 
 __all__ = [
     "GRIPPER_ACTIONS", "JOINT_MODES", "STOP",
+    "EEDelta", "EEState", "PidState",
     "ArmState", "BodyState", "CameraFrame", "Collect", "CollectorState", "ContactState", "Detection", "Detections",
     "DriveState",
     "GripperCommand", "GripperState", "HoldArm", "JointCommand", "JointStates", "KeyState", "LaserScan", "Matrix16",
