@@ -263,7 +263,8 @@ def test_lint_finds_wall_clock_sleep_and_global_random_through_aliases() -> None
 
 
 def test_the_built_in_plugins_behaviours_and_examples_pass_the_lint() -> None:
-    assert lint_paths([ROOT / "plugins", ROOT / "behaviours", ROOT / "examples"]) == []
+    packages = [ROOT / "examples" / "robokit-example-plugin", ROOT / "examples" / "robokit-example-behaviour"]
+    assert lint_paths([ROOT / "plugins", ROOT / "behaviours", *packages]) == []
 
 
 def test_robokit_lint_command(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
