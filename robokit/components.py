@@ -26,6 +26,7 @@ from __future__ import annotations
 import zlib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
@@ -81,6 +82,8 @@ class SetupContext:
         trace: ``trace(kind, **data)`` appends a record to the run's trace at the current tick.
         body_keys: Config key of every spawned body by name (``red_0`` -> ``bodies.red``), to name keys in
             problems.
+        run_dir: The run's record folder (``results/<run_id>``) when the run keeps one, else None.
+        save_frames: True when the user asked every camera to save the frames it renders (``--save-frames``).
     """
 
     world: World
@@ -91,6 +94,8 @@ class SetupContext:
     config_dir: Any
     trace: Callable[..., None]
     body_keys: Mapping[str, str] = field(default_factory=dict)
+    run_dir: Path | None = None
+    save_frames: bool = False
 
     def tick_rng(self, tick: int | None = None) -> np.random.Generator:
         """A generator for noise drawn at one tick (default: now), the same however often the component reads.

@@ -12,7 +12,7 @@ import dataclasses
 import math
 import sys
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -253,6 +253,24 @@ class ReportConfig(Schema):
     keep_local: bool = Field(True, description="always add the local reporter")
 
 
+class RecordConfig(Schema):
+    """``[record]``: what a ``robokit run`` keeps in its run folder besides the result and the trace."""
+
+    pose_hz: float = Field(30.0, ge=0, description="pose log samples per sim second; 0 = no pose log")
+    save_frames: bool = Field(False, description="every camera saves the frames it renders as PNGs")
+
+
+class GuiConfig(Schema):
+    """``[gui]``: the PyBullet window's camera and panels (used with ``--gui`` only)."""
+
+    distance: float = Field(1.6, gt=0, description="camera distance from the target, metres")
+    yaw: float = Field(45.0, description="degrees")
+    pitch: float = Field(-35.0, ge=-89.9, le=89.9, description="degrees")
+    target: Vec3 | None = Field(None, description="point looked at (world, metres); default: the scene's centre")
+    panels: bool = Field(False, description="show PyBullet's side panels (sliders, camera previews)")
+    shadows: bool | None = Field(None, description="shadows on/off (default: PyBullet's own setting)")
+
+
 @dataclass(frozen=True)
 class ComponentSpec:
     """A validated plugin section: ``name`` (its key), ``type``, ``rate_hz`` (None = every tick), ``params``."""
@@ -286,10 +304,12 @@ class Config:
     raw: Mapping[str, Any]
     monitors: tuple[ComponentSpec, ...] = ()
     """Behaviours that run beside the task (``[monitors.NAME]``), see :mod:`robokit.compose`."""
+    record: RecordConfig = field(default_factory=lambda: RecordConfig.model_validate({}))
+    gui: GuiConfig = field(default_factory=lambda: GuiConfig.model_validate({}))
 
 
 SECTIONS = ("world", "regions", "bodies", "robots", "sensors", "actuators", "behaviour", "monitors", "report",
-            "events", "env")
+            "events", "record", "gui", "env")
 """``env`` is read by :mod:`robokit.gym` (a Gymnasium environment made from the config); runs ignore it."""
 _COMPONENT_KEYS = ("type", "rate_hz")
 
@@ -540,8 +560,10 @@ def _build(raw: Mapping[str, Any], plugins: Any, source: str, base_dir: Path) ->
             )
     if not (bodies or robots or behaviour or sensors or actuators):
         raise ConfigError("nothing to run: the config has no [bodies], [robots] or [behaviour]")
+    record = validate_model(RecordConfig, _table(raw, "record"), "record")
+    gui = validate_model(GuiConfig, _table(raw, "gui"), "gui")
     return Config(source, base_dir, world, regions, bodies, robots, sensors, actuators, behaviour, report,
-                  reporters, events, copy.deepcopy(dict(raw)), monitors)
+                  reporters, events, copy.deepcopy(dict(raw)), monitors, record, gui)
 
 
 def _behaviour(data: Any, plugins: Any, physics_hz: float) -> ComponentSpec:

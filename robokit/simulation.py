@@ -36,8 +36,13 @@ class Simulation:
         seed: Override ``world.seed``.
     """
 
-    def __init__(self, config: Config, plugins: Plugins, *, gui: bool | None = None, seed: int | None = None) -> None:
+    def __init__(self, config: Config, plugins: Plugins, *, gui: bool | None = None, seed: int | None = None,
+                 run_id: str | None = None, run_dir: Path | None = None, save_frames: bool = False) -> None:
         self.config = config
+        self.run_id = run_id or str(uuid.uuid4())
+        self.run_dir = run_dir
+        """The run's record folder, if it keeps one (cameras with ``save = true`` write their frames there)."""
+        self.save_frames = save_frames or config.record.save_frames
         self.plugins = plugins
         wc = config.world
         self.seed = wc.seed if seed is None else int(seed)
@@ -73,6 +78,10 @@ class Simulation:
             spawn_bodies(self.world, cfg, self.body_keys)
         except UserError as exc:
             raise _as_config_error(exc, "bodies", cfg.source) from None
+        if self.world.gui:
+            from robokit.gui import apply_view
+
+            apply_view(self.world, cfg.gui)
         hz = self.world.physics_hz
         slots: dict[str, Slot] = {}
         for spec in cfg.sensors + cfg.actuators:
@@ -125,7 +134,8 @@ class Simulation:
         comp = self._instances[spec.key]
         rng = self.world.rng.spawn(1)[0]
         ctx = SetupContext(self.world, rng, spec.key, self.readings, self.components, self.config.base_dir,
-                           self._tracer(spec.name), self.body_keys)
+                           self._tracer(spec.name), self.body_keys, run_dir=self.run_dir,
+                           save_frames=self.save_frames)
         self._contexts[spec.key] = ctx
         try:
             comp.setup(ctx)
@@ -178,6 +188,12 @@ class Simulation:
                 log("event", type=ev.type, body=ev.body)
 
         return act
+
+    def add_monitor(self, monitor: Any) -> None:
+        """Put an observer in the loop: ``monitor.sample(tick)`` runs every ``monitor.period`` ticks (0 = never),
+        at the start of the tick, before the sensors (see :mod:`robokit.scheduler`)."""
+        if monitor.period:
+            self.scheduler.monitors.append(monitor)
 
     def preflight(self) -> list[ConfigError]:
         """What can be checked without running: the core's checks (bodies spawned overlapping), then every
@@ -271,7 +287,7 @@ class Simulation:
         if self.monitors:
             behaviour_result["monitors"] = self._monitored.results()
         result = RunResult(
-            run_id=str(uuid.uuid4()),
+            run_id=self.run_id,
             robokit_version=__version__,
             config=self.config.source,
             behaviour=self.config.behaviour.type if self.config.behaviour else None,

@@ -154,7 +154,7 @@ def test_run_quiet_prints_nothing(tmp_path: Path) -> None:
     proc = robokit("run", str(CONFIGS / "drop_test.toml"), "--quiet", cwd=tmp_path)
     assert proc.returncode == 0
     assert proc.stdout == "" and "outcome" not in proc.stderr
-    assert list(tmp_path.glob("results/*.json"))  # quiet, but the result is still kept
+    assert list(tmp_path.glob("results/*/result.json"))  # quiet, but the result is still kept
 
 
 # --------------------------------------------------------------------- the core
