@@ -127,8 +127,8 @@ def run_config(
             def write(record: dict[str, Any], out: IO[str] = trace) -> None:
                 out.write(json.dumps(record) + "\n")
 
-            for record in sim.trace:  # written during setup, before the file was listening
-                write(record)
+            for early in sim.trace:  # written during setup, before the file was listening
+                write(early)
             sim.trace_listeners.append(write)
         recorder = None
         try:
