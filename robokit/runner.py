@@ -120,11 +120,15 @@ def run_config(
     except PluginError as exc:
         result = error_result(cfg, run_seed, str(exc))
         result.run_id = run_id
+        if trace is not None:  # the run never started: the trace holds the error alone
+            trace.write(json.dumps({"tick": 0, "t": 0.0, "source": "run", "kind": "error", "reason": str(exc)}) + "\n")
     else:
         if trace is not None:
             def write(record: dict[str, Any], out: IO[str] = trace) -> None:
                 out.write(json.dumps(record) + "\n")
 
+            for early in sim.trace:  # written during setup, before the file was listening
+                write(early)
             sim.trace_listeners.append(write)
         recorder = None
         try:
