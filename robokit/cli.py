@@ -88,9 +88,13 @@ def _parser() -> argparse.ArgumentParser:
     ins.add_argument("--json", action="store_true")
     ins.set_defaults(func=cmd_inspect)
 
-    graph = sub.add_parser("graph", help="print a behaviour's state machine as a Mermaid diagram")
-    graph.add_argument("behaviour", help="a behaviour type name, e.g. sort")
+    graph = sub.add_parser("graph", help="print a behaviour's state machine, or what a config composes, as Mermaid")
+    graph.add_argument("behaviour", help="a behaviour type name (e.g. sort) or a config file (e.g. configs/x.toml)")
     graph.set_defaults(func=cmd_graph)
+
+    lint = sub.add_parser("lint", help="check plugin code for wall-clock reads, sleeps and global random generators")
+    lint.add_argument("paths", nargs="+", metavar="PATH", help="Python files or folders")
+    lint.set_defaults(func=cmd_lint)
     _add_extra_commands(sub)
     return parser
 
@@ -279,15 +283,37 @@ def cmd_inspect(args: argparse.Namespace) -> int:
 
 
 def cmd_graph(args: argparse.Namespace) -> int:
-    """``robokit graph``: a behaviour's state machine as Mermaid."""
+    """``robokit graph``: a behaviour's state machine, or a config's task, sequence and monitors, as Mermaid."""
+    from pathlib import Path
+
     from robokit.plugins import load_plugins
 
+    if args.behaviour.endswith(".toml") or Path(args.behaviour).is_file():
+        from robokit.compose import config_mermaid
+        from robokit.config import load_config
+
+        plugins = load_plugins()
+        print(config_mermaid(load_config(args.behaviour, plugins), plugins), end="")
+        return EXIT_OK
     ptype = load_plugins().get("behaviour", args.behaviour)
     mermaid = getattr(ptype.cls, "mermaid", None)
     if mermaid is None:
         raise UserError(f"behaviour {args.behaviour!r} is not a state machine (it has no mermaid())")
     print(mermaid(), end="")
     return EXIT_OK
+
+
+def cmd_lint(args: argparse.Namespace) -> int:
+    """``robokit lint``: one line per finding (file:line:col: code message); exit 1 if there is any."""
+    from robokit.lint import lint_paths
+
+    try:
+        findings = lint_paths(args.paths)
+    except (FileNotFoundError, SyntaxError) as exc:
+        raise UserError(str(exc)) from None
+    for finding in findings:
+        print(finding)
+    return EXIT_FAILED if findings else EXIT_OK
 
 
 CAPTURED_COMMANDS = frozenset({"run", "validate", "inspect", "plugins", "graph", "video", "plot", "view", "results"})

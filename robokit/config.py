@@ -8,6 +8,7 @@ by the schema their type registered.
 from __future__ import annotations
 
 import copy
+import dataclasses
 import math
 import sys
 from collections.abc import Mapping
@@ -280,6 +281,8 @@ class ComponentSpec:
     rate_hz: float | None
     params: Any
     key: str
+    children: tuple[ComponentSpec, ...] = ()
+    """The steps of a ``sequence`` behaviour (``[[behaviour.steps]]``), each a behaviour section of its own."""
 
 
 @dataclass(frozen=True)
@@ -299,12 +302,14 @@ class Config:
     reporters: tuple[ComponentSpec, ...]
     events: tuple[EventConfig, ...]
     raw: Mapping[str, Any]
+    monitors: tuple[ComponentSpec, ...] = ()
+    """Behaviours that run beside the task (``[monitors.NAME]``), see :mod:`robokit.compose`."""
     record: RecordConfig = field(default_factory=lambda: RecordConfig.model_validate({}))
     gui: GuiConfig = field(default_factory=lambda: GuiConfig.model_validate({}))
 
 
-SECTIONS = ("world", "regions", "bodies", "robots", "sensors", "actuators", "behaviour", "report", "events", "record",
-            "gui", "env")
+SECTIONS = ("world", "regions", "bodies", "robots", "sensors", "actuators", "behaviour", "monitors", "report",
+            "events", "record", "gui", "env")
 """``env`` is read by :mod:`robokit.gym` (a Gymnasium environment made from the config); runs ignore it."""
 _COMPONENT_KEYS = ("type", "rate_hz")
 
@@ -533,7 +538,12 @@ def _build(raw: Mapping[str, Any], plugins: Any, source: str, base_dir: Path) ->
     actuators = _components(raw, "actuators", "actuator", plugins, physics_hz)
     behaviour = None
     if "behaviour" in raw:
-        behaviour = _component("behaviour", "behaviour", raw["behaviour"], "behaviour", plugins, physics_hz)
+        behaviour = _behaviour(raw["behaviour"], plugins, physics_hz)
+    for name, data in _table(raw, "monitors").items():
+        if isinstance(data, Mapping) and data.get("type") == "sequence":
+            raise ConfigError("a monitor cannot be a sequence (monitors observe beside the task)",
+                              key=f"monitors.{name}")
+    monitors = _components(raw, "monitors", "behaviour", plugins, physics_hz)
     report_raw = _table(raw, "report")
     report = validate_model(ReportConfig, {k: v for k, v in report_raw.items() if k in ReportConfig.model_fields},
                             "report")
@@ -553,7 +563,33 @@ def _build(raw: Mapping[str, Any], plugins: Any, source: str, base_dir: Path) ->
     record = validate_model(RecordConfig, _table(raw, "record"), "record")
     gui = validate_model(GuiConfig, _table(raw, "gui"), "gui")
     return Config(source, base_dir, world, regions, bodies, robots, sensors, actuators, behaviour, report,
-                  reporters, events, copy.deepcopy(dict(raw)), record, gui)
+                  reporters, events, copy.deepcopy(dict(raw)), monitors, record, gui)
+
+
+def _behaviour(data: Any, plugins: Any, physics_hz: float) -> ComponentSpec:
+    """The ``[behaviour]`` section; for ``type = "sequence"`` also its ``[[behaviour.steps]]``, each validated as a
+    behaviour section of its own (with an optional ``name``)."""
+    if not (isinstance(data, Mapping) and data.get("type") == "sequence"):
+        return _component("behaviour", "behaviour", data, "behaviour", plugins, physics_hz)
+    from robokit.compose import step_names
+
+    steps = data.get("steps")
+    if not isinstance(steps, list) or not steps or not all(isinstance(s, Mapping) for s in steps):
+        raise ConfigError("a sequence needs steps: one or more [[behaviour.steps]] tables, each with a type",
+                          key="behaviour.steps")
+    names = step_names(steps)
+    children = []
+    for i, (step, name) in enumerate(zip(steps, names, strict=True)):
+        key = f"behaviour.steps[{i}]"
+        if step.get("type") == "sequence":
+            raise ConfigError("a sequence step cannot itself be a sequence", key=f"{key}.type")
+        if names.count(name) > 1:
+            raise ConfigError(f"two steps are named {name!r}; give each a distinct name", key=f"{key}.name")
+        own = {k: v for k, v in step.items() if k != "name"}
+        children.append(_component("behaviour", name, own, key, plugins, physics_hz))
+    spec = _component("behaviour", "behaviour", {k: v for k, v in data.items() if k != "steps"}, "behaviour",
+                      plugins, physics_hz)
+    return dataclasses.replace(spec, children=tuple(children))
 
 
 def load_config(path: str | Path, plugins: Any, overrides: Mapping[str, Any] | None = None) -> Config:

@@ -145,12 +145,16 @@ def run_config(
             raise
         except PluginError as exc:
             result, error = error_result(cfg, run_seed, str(exc), run_id=run_id), exc
+            if trace is not None:  # the run never started: the trace holds the error alone
+                TraceWriter(trace)({"tick": 0, "t": 0.0, "source": "run", "kind": "error", "reason": str(exc)})
         except Interrupted as exc:
             result = error_result(cfg, run_seed, f"interrupted by {exc.reason} during start-up", run_id=run_id,
                                   outcome="aborted", interrupted=True)
         else:
             writer = TraceWriter(trace) if trace is not None else None
             if writer is not None:
+                for early in sim.trace:  # written during setup, before the file was listening
+                    writer(early)
                 sim.trace_listeners.append(writer)
             recorder = None
             try:

@@ -14,6 +14,7 @@ import numpy as np
 
 from robokit import __version__
 from robokit.components import SetupContext
+from robokit.compose import Member, Monitored
 from robokit.config import BodyConfig, ComponentSpec, Config
 from robokit.errors import ConfigError, Interrupted, PluginError, UserError, plugin_fault
 from robokit.interrupts import StopGuard
@@ -60,6 +61,8 @@ class Simulation:
         self._origins: dict[str, str] = {}
         self.body_keys: dict[str, str] = {}
         self._contexts: dict[str, SetupContext] = {}
+        self._instances: dict[str, Any] = {}
+        self.monitors: list[Member] = []
         self._stop_reason: str | None = None
         self.interrupted = False
         self._halt = False  # set by interrupt() and the wall-clock watchdog; the loop checks it every tick
@@ -99,18 +102,29 @@ class Simulation:
         actuators = {s.name: slots[s.name] for s in cfg.actuators}
         if cfg.behaviour is not None:
             self.behaviour = self._instantiate(cfg.behaviour)
-        self.scheduler = TickScheduler(
-            self.world,
-            sensors,
-            actuators,
-            self.behaviour,
-            period_ticks(cfg.behaviour.rate_hz, hz) if cfg.behaviour else 1,
-            self._origins.get("behaviour", ""),
-        )
+            if cfg.behaviour.children:  # a sequence: its steps are behaviours of their own
+                self.behaviour.add_steps([self._member(c) for c in cfg.behaviour.children])
+        self.monitors = [self._member(spec) for spec in cfg.monitors]
+        stepped, period = self.behaviour, period_ticks(cfg.behaviour.rate_hz, hz) if cfg.behaviour else 1
+        if self.monitors:  # the task and its monitors, stepped as one, each at its own rate
+            task = self._member(cfg.behaviour, self.behaviour) if cfg.behaviour else None
+            self._monitored = Monitored(task, self.monitors, self.world)
+            stepped, period = self._monitored, 1
+        self.scheduler = TickScheduler(self.world, sensors, actuators, stepped, period,
+                                       self._origins.get("behaviour", ""))
         self.readings = self.scheduler.readings
-        for spec in cfg.sensors + cfg.actuators + ((cfg.behaviour,) if cfg.behaviour else ()):
+        behaviours = (*(cfg.behaviour.children if cfg.behaviour else ()), *((cfg.behaviour,) if cfg.behaviour else ()),
+                      *cfg.monitors)
+        for spec in cfg.sensors + cfg.actuators + behaviours:
             self._setup(spec)
         self._schedule_events()
+
+    def _member(self, spec: ComponentSpec, instance: Any = None) -> Member:
+        """A behaviour of a composition (a sequence step or a monitor), built unless ``instance`` is given."""
+        comp = self._instantiate(spec) if instance is None else instance
+        self._instances[spec.key] = comp
+        return Member(spec.name, spec.type, comp, period_ticks(spec.rate_hz, self.world.physics_hz),
+                      self._origins[spec.name])
 
     def _instantiate(self, spec: ComponentSpec) -> Any:
         ptype = self.plugins.get(spec.kind, spec.type)
@@ -124,10 +138,11 @@ class Simulation:
                               f"{plugin_fault(exc)}", type_name=spec.type, distribution=ptype.origin) from exc
         if spec.kind != "behaviour":
             self.components[spec.name] = comp
+        self._instances.setdefault(spec.key, comp)
         return comp
 
     def _setup(self, spec: ComponentSpec) -> None:
-        comp = self.behaviour if spec.kind == "behaviour" else self.components[spec.name]
+        comp = self._instances[spec.key]
         rng = self.world.rng.spawn(1)[0]
         ctx = SetupContext(self.world, rng, spec.key, self.readings, self.components, self.config.base_dir,
                            self._tracer(spec.name), self.body_keys, run_dir=self.run_dir,
@@ -226,9 +241,10 @@ class Simulation:
         problems = overlapping_bodies(self.world, self.body_keys)
         specs = list(self.config.sensors + self.config.actuators)
         if self.behaviour is not None and self.config.behaviour is not None:
-            specs.append(self.config.behaviour)
+            specs += [*self.config.behaviour.children, self.config.behaviour]
+        specs += self.config.monitors
         for spec in specs:
-            comp = self.behaviour if spec.kind == "behaviour" else self.components[spec.name]
+            comp = self._instances[spec.key]
             hook = getattr(comp, "preflight", None)
             if hook is None:
                 continue
@@ -296,6 +312,7 @@ class Simulation:
             except PluginError as exc:
                 self.error = exc
                 outcome, reason = "error", str(exc)
+                self._tracer("run")("error", reason=reason)  # the trace ends with what stopped the run
             except Interrupted as exc:
                 if exc.reason == "max_wall_time":
                     self._wall_expired = True
@@ -304,6 +321,7 @@ class Simulation:
             except Exception as exc:  # noqa: BLE001 - a bug in robokit: keep the result, say where the traceback is
                 self.error = exc
                 outcome, reason = "error", f"internal error in robokit: {plugin_fault(exc)}"
+                self._tracer("run")("error", reason=reason)
             finally:
                 if timing is not None:
                     timing.restore()
@@ -321,6 +339,8 @@ class Simulation:
         behaviour_result = self._behaviour_result()
         if goal is not None:
             behaviour_result["goal"] = goal
+        if self.monitors:
+            behaviour_result["monitors"] = self._monitored.results()
         result = RunResult(
             run_id=self.run_id,
             robokit_version=__version__,
@@ -424,7 +444,8 @@ class Simulation:
     # ----------------------------------------------------------------- lifetime
     def close(self) -> None:
         """Close every component, then the World. Safe to call twice."""
-        for comp in list(self.components.values()) + ([self.behaviour] if self.behaviour else []):
+        monitors = [m.behaviour for m in self.monitors]
+        for comp in list(self.components.values()) + ([self.behaviour] if self.behaviour else []) + monitors:
             try:
                 comp.close()
             except Interrupted:
