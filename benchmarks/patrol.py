@@ -17,7 +17,6 @@ import math
 import statistics
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
@@ -25,24 +24,27 @@ ROOT = Path(__file__).resolve().parents[1]
 CONFIG = ROOT / "configs" / "patrol_robot.toml"
 
 
-def trial(args: tuple[str, int]) -> dict[str, Any]:
-    """Run one seed; return the figures the benchmark aggregates."""
-    from robokit.testing import make_sim
-
-    config, seed = args
-    with make_sim(config, seed=seed) as sim:
-        total_objects = len(sim.components["truth"].names)
-        t0 = time.perf_counter()
-        run = sim.run()
-        wall = time.perf_counter() - t0
-    r = run.result
+def measure(sim: Any, result: Any) -> dict[str, Any]:
+    """After a trial: how many objects there were, whether the patrol was complete, the localisation errors."""
+    r = result.result
     return {
-        "seed": seed, "outcome": run.outcome, "sim_time": run.sim_time, "wall": wall,
+        "objects": len(sim.components["truth"].names),
         "complete": r.get("waypoints_reached") == r.get("waypoints_total") and r.get("collisions") == 0,
-        "collisions": r.get("collisions", 0), "objects": total_objects,
-        "collected": r.get("objects_collected", 0), "found": r.get("objects_found", 0),
         "errors": [f["error"] for f in r.get("found", []) if "error" in f],
     }
+
+
+def trials(config: Path, seeds: range, workers: int) -> list[dict[str, Any]]:
+    """Run the seeds through the sweep engine; one figure dict per seed."""
+    from robokit.sweep import SweepOptions, SweepSpec, run_sweep
+
+    run = run_sweep(SweepSpec(config, seeds), SweepOptions(workers=workers, after=measure))
+    return [{
+        "seed": r["seed"], "outcome": r["outcome"], "sim_time": r["sim_time"] or 0.0, "wall": r["run_wall_time"],
+        "complete": bool(r["figures"].get("complete")), "collisions": r["figures"].get("collisions", 0),
+        "objects": r["figures"].get("objects", 0), "collected": r["figures"].get("objects_collected", 0),
+        "found": r["figures"].get("objects_found", 0), "errors": r["figures"].get("errors", []),
+    } for r in run.rows]
 
 
 class ScriptedDrive:
@@ -105,7 +107,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--trials", type=int, default=20, help="seeds to run")
     parser.add_argument("--start-seed", type=int, default=0, help="first seed")
-    parser.add_argument("--workers", type=int, default=2, help="processes")
+    parser.add_argument("--workers", type=int, default=2, help="worker processes of the sweep engine")
     parser.add_argument("--config", type=Path, default=CONFIG)
     parser.add_argument("--cost-seconds", type=float, default=30.0, help="sim seconds per lidar cost run")
     parser.add_argument("--repeats", type=int, default=3, help="lidar cost runs per variant (best is kept)")
@@ -124,9 +126,7 @@ def main(argv: list[str] | None = None) -> int:
 
 def report_trials(args: argparse.Namespace) -> None:
     """Run the seeds in worker processes and print the aggregate figures."""
-    jobs = [(str(args.config), seed) for seed in range(args.start_seed, args.start_seed + args.trials)]
-    with ProcessPoolExecutor(max_workers=args.workers) as pool:
-        rows = list(pool.map(trial, jobs))
+    rows = trials(args.config, range(args.start_seed, args.start_seed + args.trials), args.workers)
     complete = sum(r["complete"] for r in rows)
     objects, collected = sum(r["objects"] for r in rows), sum(r["collected"] for r in rows)
     errors = [e for r in rows for e in r["errors"]]

@@ -8,7 +8,8 @@ overall (all processes, scene builds included).
     python benchmarks/pick_place.py --trials 200 --processes 2
     python benchmarks/pick_place.py --trials 50 --knock     # each trial: cube knocked out mid-transport once
 
-Every trial is a pure function of (config, seed): a World is built inside the worker, nothing is pickled.
+Every trial is a pure function of (config, seed) run through the sweep engine (``robokit.sweep``): a World is built
+inside the worker, nothing pybullet-owned is pickled. ``--processes 1`` is one worker process.
 """
 
 from __future__ import annotations
@@ -17,14 +18,10 @@ import argparse
 import statistics
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
 CONFIG = Path(__file__).resolve().parents[1] / "configs" / "pick_place.toml"
-
-
-_PLUGINS: Any = None
 
 
 def knock_off(sim: Any, seed: int) -> None:
@@ -37,36 +34,21 @@ def knock_off(sim: Any, seed: int) -> None:
     sim.world.set_pose("cube", (float(x), float(y), 0.03))
 
 
-def trial(seed: int, config: str = str(CONFIG), knock: bool = False) -> dict[str, Any]:
-    """Run one seed; return its outcome, sim seconds, attempts, and wall seconds (loop only and with build).
+def trials(seeds: range, config: str = str(CONFIG), knock: bool = False, workers: int = 1) -> list[dict[str, Any]]:
+    """Run the seeds through the sweep engine; per seed: outcome, sim seconds, attempts, wall seconds (the run
+    loop's, and the whole trial's with the scene build).
 
     With ``knock``, the cube is knocked out of the fingers once mid-transport (the retry path).
     """
-    from robokit.plugins import load_plugins
-    from robokit.simulation import build
+    from robokit.sweep import SweepOptions, SweepSpec, run_sweep
 
-    global _PLUGINS
-    if _PLUGINS is None:  # plugin types are stateless: load the entry points once per process
-        _PLUGINS = load_plugins()
-    t0 = time.perf_counter()
-    with build(config, plugins=_PLUGINS, gui=False, seed=seed) as sim:
-        t1 = time.perf_counter()
-        if knock:
-            knock_off(sim, seed)
-        result = sim.run()
-        loop_wall = time.perf_counter() - t1
-    res = result.result
-    return {
-        "seed": seed,
-        "outcome": result.outcome,
-        "reason": result.reason,
-        "pick_seconds": res.get("sim_time"),
-        "attempts": res.get("attempts"),
-        "placement_error": res.get("placement_error"),
-        "run_sim_seconds": result.sim_time,
-        "run_wall": loop_wall,
-        "wall": time.perf_counter() - t0,
-    }
+    run = run_sweep(SweepSpec(Path(config), seeds), SweepOptions(workers=workers, before=knock_off if knock else None))
+    return [{
+        "seed": r["seed"], "outcome": r["outcome"], "reason": r["reason"],
+        "pick_seconds": r["figures"].get("sim_time"), "attempts": r["figures"].get("attempts"),
+        "placement_error": r["figures"].get("placement_error"), "run_sim_seconds": r["sim_time"] or 0.0,
+        "run_wall": r["run_wall_time"], "wall": r["wall_time"],
+    } for r in run.rows]
 
 
 def percentile(values: list[float], q: float) -> float:
@@ -84,13 +66,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--config", default=str(CONFIG))
     parser.add_argument("--knock", action="store_true", help="knock the cube out of the fingers once per trial")
     args = parser.parse_args(argv)
-    seeds = list(range(args.start_seed, args.start_seed + args.trials))
+    seeds = range(args.start_seed, args.start_seed + args.trials)
     t0 = time.perf_counter()
-    if args.processes > 1:
-        with ProcessPoolExecutor(args.processes) as pool:
-            rows = list(pool.map(trial, seeds, [args.config] * len(seeds), [args.knock] * len(seeds)))
-    else:
-        rows = [trial(s, args.config, args.knock) for s in seeds]
+    rows = trials(seeds, args.config, args.knock, args.processes)
     wall = time.perf_counter() - t0
     ok = [r for r in rows if r["outcome"] == "succeeded"]
     times = [r["pick_seconds"] for r in ok]

@@ -7,7 +7,8 @@ its number of objects), camera frames rendered per run, detection error, and the
     python benchmarks/sort.py --trials 100
     python benchmarks/sort.py --trials 100 --processes 2
 
-Every trial is a pure function of (config, seed): a World is built inside the worker, nothing is pickled.
+Every trial is a pure function of (config, seed) run through the sweep engine (``robokit.sweep``): a World is built
+inside the worker, nothing pybullet-owned is pickled. ``--processes 1`` is one worker process.
 """
 
 from __future__ import annotations
@@ -16,7 +17,6 @@ import argparse
 import statistics
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
@@ -30,27 +30,30 @@ def in_bin(sim: Any, body: str, bin_name: str) -> bool:
     return lo[0] <= x <= hi[0] and lo[1] <= y <= hi[1] and z < hi[2]
 
 
-def trial(seed: int, config: str = str(CONFIG)) -> dict[str, Any]:
-    """Run one seed; return outcome, objects sorted correctly, sim seconds, frames and wall seconds."""
-    from robokit.testing import make_sim
+def measure(sim: Any, result: Any) -> dict[str, Any]:
+    """After a trial, before its world closes: objects in the right bin (ground truth), detection errors."""
+    spec = sim.config.behaviour
+    assert spec is not None and spec.type == "sort", "the benchmark needs a config with a sort behaviour"
+    bins = {colour: b.body for colour, b in spec.params.bins.items()}
+    objects = [(n, c) for n in sim.world.body_names for c in bins
+               if (n == c or n.startswith(f"{c}_")) and n != bins[c]]
+    correct = sum(in_bin(sim, name, bins[colour]) for name, colour in objects)
+    errors = [o["detection_error"] for o in result.result.get("objects", []) if o.get("detection_error") is not None]
+    return {"objects": len(objects), "correct": correct, "detection_errors": errors}
 
-    t0 = time.perf_counter()
-    with make_sim(config, seed=seed) as sim:
-        result = sim.run()
-        spec = sim.config.behaviour
-        assert spec is not None and spec.type == "sort", "the benchmark needs a config with a sort behaviour"
-        bins = {colour: b.body for colour, b in spec.params.bins.items()}
-        objects = [(n, c) for n in sim.world.body_names for c in bins if n == c or n.startswith(f"{c}_")]
-        correct = sum(in_bin(sim, name, bins[colour]) for name, colour in objects if name != bins[colour])
-        objects = [(n, c) for n, c in objects if n != bins[c]]
-    res = result.result
-    errors = [o["detection_error"] for o in res.get("objects", []) if o.get("detection_error") is not None]
-    return {
-        "seed": seed, "outcome": result.outcome, "reason": result.reason, "objects": len(objects),
-        "correct": correct, "total_time": res.get("total_time", 0.0), "frames": res.get("camera_frames"),
-        "failures": res.get("failures", 0), "detection_errors": errors, "sim": result.sim_time,
-        "wall": time.perf_counter() - t0,
-    }
+
+def trials(seeds: range, config: str = str(CONFIG), workers: int = 1) -> list[dict[str, Any]]:
+    """Run the seeds through the sweep engine (a spawn pool, one World per trial); one figure dict per seed."""
+    from robokit.sweep import SweepOptions, SweepSpec, run_sweep
+
+    run = run_sweep(SweepSpec(Path(config), seeds), SweepOptions(workers=workers, after=measure))
+    return [{
+        "seed": r["seed"], "outcome": r["outcome"], "reason": r["reason"], "objects": r["figures"].get("objects", 0),
+        "correct": r["figures"].get("correct", 0), "total_time": r["figures"].get("total_time", 0.0),
+        "frames": r["figures"].get("camera_frames"), "failures": r["figures"].get("failures", 0),
+        "detection_errors": r["figures"].get("detection_errors", []), "sim": r["sim_time"] or 0.0,
+        "wall": r["wall_time"],
+    } for r in run.rows]
 
 
 def percentile(values: list[float], q: float) -> float:
@@ -93,13 +96,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--processes", type=int, default=1)
     parser.add_argument("--config", default=str(CONFIG))
     args = parser.parse_args(argv)
-    seeds = list(range(args.start_seed, args.start_seed + args.trials))
     t0 = time.perf_counter()
-    if args.processes > 1:
-        with ProcessPoolExecutor(args.processes) as pool:
-            rows = list(pool.map(trial, seeds, [args.config] * len(seeds)))
-    else:
-        rows = [trial(s, args.config) for s in seeds]
+    rows = trials(range(args.start_seed, args.start_seed + args.trials), args.config, args.processes)
     report(rows, time.perf_counter() - t0, args.processes)
     return 0 if all(r["correct"] == r["objects"] for r in rows) else 1
 

@@ -54,6 +54,9 @@ class BodyPoseSensor(Sensor):
         self._all = [(name, self.world.body(name)) for name in names]  # looked up once, at load
         self._ids, self._removals = list(self._all), 0
 
+    def reset(self, rng: object = None) -> None:
+        """Nothing to reset between robokit.gym episodes: a reading depends only on the world."""
+
     def read(self) -> dict[str, BodyState]:
         world = self.world
         if world.removals != self._removals:  # a body was removed during the run: drop it from the list

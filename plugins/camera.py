@@ -89,6 +89,9 @@ class Camera(Sensor):
         self.flags = 0 if cfg.segmentation else client.ER_NO_SEGMENTATION_MASK
         self._offset_orn = client.getQuaternionFromEuler([math.radians(a) for a in cfg.offset_rpy_deg])
 
+    def reset(self, rng: np.random.Generator | None = None) -> None:
+        """Nothing to reset between episodes (robokit.gym): a frame depends only on the world."""
+
     def pose(self) -> tuple[Vec3, Vec3, Vec3]:
         """Current ``(eye, target, up)`` of the camera, metres, world frame."""
         cfg = self.cfg

@@ -74,6 +74,10 @@ class DiffDrive(Actuator):
         c = self.world.client
         for j in passive:
             c.setJointMotorControl2(self.body, j, c.VELOCITY_CONTROL, targetVelocity=0.0, force=0.0)
+        self.reset()
+
+    def reset(self, rng: Any = None) -> None:
+        """The start state (also between robokit.gym episodes): stopped, odometry at the current true pose."""
         self.cmd: Twist | WheelSpeeds = STOP
         self.targets = (0.0, 0.0)
         self.speeds = (0.0, 0.0)

@@ -119,6 +119,12 @@ class Gripper(Actuator):
             # A follower is moved by its gear only: switch off the default velocity motor that would hold it.
             w.client.setJointMotorControl2(self.body, follower.index, w.client.VELOCITY_CONTROL, force=0.0)
             self.gears.append(self._gear(self.fingers[0].index, follower.index, ratio))
+        self.reset()
+
+    def reset(self, rng: Any = None) -> None:
+        """The start state (also between robokit.gym episodes): fingers open or closed as configured, at rest."""
+        cfg: GripperConfig = self.config
+        w = self.world
         self.action, self.force = "open", cfg.force
         self.target = self.open_width if cfg.start_open else 0.0
         for j, q in zip(self.fingers, self._joint_targets(self.target), strict=True):

@@ -100,6 +100,9 @@ def _add_extra_commands(sub: Any) -> None:
 
     add_server_commands(sub)
     add_upload_command(sub)
+    from robokit.sweep.cli import add_sweep_command
+
+    add_sweep_command(sub)
 
 
 def _overrides(args: argparse.Namespace) -> dict[str, Any]:

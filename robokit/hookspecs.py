@@ -43,6 +43,11 @@ def robokit_register_reporters(register: Any) -> None:
 
 
 @hookspec
+def robokit_register_tasks(register: Any) -> None:
+    """Register task types for :mod:`robokit.gym` (reward, success, episode reset). Called once per plugin manager."""
+
+
+@hookspec
 def robokit_run_start(simulation: Any) -> None:
     """Called after every component is set up, just before the first tick."""
 

@@ -23,12 +23,13 @@ ENTRY_POINT_GROUP = "robokit"
 INDEX_GROUP = "robokit.types"
 """Optional entry-point group naming which module registers which type: ``"KIND.TYPE" = "module"``. A module
 listed there is imported only when a config (or a lookup) needs one of its types."""
-KINDS = ("sensor", "actuator", "behaviour", "reporter")
+KINDS = ("sensor", "actuator", "behaviour", "reporter", "task")
 _HOOK_OF_KIND = {
     "sensor": "robokit_register_sensors",
     "actuator": "robokit_register_actuators",
     "behaviour": "robokit_register_behaviours",
     "reporter": "robokit_register_reporters",
+    "task": "robokit_register_tasks",
 }
 
 

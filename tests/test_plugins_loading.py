@@ -127,7 +127,7 @@ def test_plugins_command_shows_kind_type_distribution_version_description(broken
     assert pose.split()[:4] == ["sensor", "body_pose", "robokit", "0.1.0"]
     assert pose.endswith("Ground-truth pose and velocity of named bodies (a dict of name -> BodyState).")
     kinds = {line.split()[0] for line in lines if not line.startswith("not loaded")}
-    assert kinds == {"sensor", "actuator", "behaviour", "reporter"}
+    assert kinds == {"sensor", "actuator", "behaviour", "reporter", "task"}
     assert lines[-1].startswith("not loaded: broken-dist (entry point 'main'): import failed: ModuleNotFoundError")
 
     assert main(["plugins", "--json"]) == 0

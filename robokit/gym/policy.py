@@ -1,0 +1,103 @@
+"""Saved policies: what a training script writes and the ``policy`` behaviour loads. numpy only.
+
+A **linear policy** is an ``.npz`` file: ``action = clip(W @ ((obs - obs_mean) / obs_std) + b, -1, 1)``, plus the
+``[env]`` section it was trained with (as JSON under ``env``) so that whoever runs it builds the same observation
+and sends the same commands. A **stable-baselines3** ``.zip`` (PPO, SAC, …) is loaded with stable-baselines3 if it
+is installed; its ``[env]`` section comes from the env config it was trained on.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+
+@dataclass
+class LinearPolicy:
+    """``action = clip(W @ ((obs - obs_mean) / obs_std) + b, -1, 1)``.
+
+    Attributes:
+        W: ``(actions, observations)`` weights. b: ``(actions,)`` bias.
+        obs_mean, obs_std: Observation normalisation (running statistics from training).
+        env: The ``[env]`` section trained with (a dict), or None.
+        meta: Free-form training facts (method, iterations, success rate, seed).
+    """
+
+    W: np.ndarray
+    b: np.ndarray
+    obs_mean: np.ndarray
+    obs_std: np.ndarray
+    env: dict[str, Any] | None = None
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    @classmethod
+    def zeros(cls, n_obs: int, n_act: int) -> LinearPolicy:
+        """A policy that always outputs 0, with identity normalisation."""
+        return cls(np.zeros((n_act, n_obs)), np.zeros(n_act), np.zeros(n_obs), np.ones(n_obs))
+
+    def act(self, obs: Any) -> np.ndarray:
+        """The action for one observation (a flat array), float32 in ``[-1, 1]``."""
+        x = (np.asarray(obs, dtype=np.float64) - self.obs_mean) / self.obs_std
+        return np.clip(self.W @ x + self.b, -1.0, 1.0).astype(np.float32)  # type: ignore[no-any-return]
+
+    def save(self, path: str | Path) -> None:
+        """Write the ``.npz`` (weights, normalisation, the env section and metadata as JSON)."""
+        np.savez(path, W=self.W, b=self.b, obs_mean=self.obs_mean, obs_std=self.obs_std,
+                 env=np.array(json.dumps(self.env)), meta=np.array(json.dumps(self.meta)), kind=np.array("linear"))
+
+    @classmethod
+    def load(cls, path: str | Path) -> LinearPolicy:
+        """Read an ``.npz`` written by :meth:`save`."""
+        with np.load(path, allow_pickle=False) as data:
+            if str(data.get("kind", "")) != "linear":
+                raise ValueError(f"{path}: not a robokit linear policy (no kind = 'linear')")
+            return cls(data["W"], data["b"], data["obs_mean"], data["obs_std"], json.loads(str(data["env"])),
+                       json.loads(str(data["meta"])))
+
+
+class Sb3Policy:
+    """A stable-baselines3 model (``.zip``), acting deterministically. Needs ``pip install stable-baselines3``."""
+
+    def __init__(self, path: str | Path) -> None:
+        try:
+            import stable_baselines3 as sb3
+        except ImportError:
+            raise ValueError(f"{path}: a stable-baselines3 model needs `pip install stable-baselines3`") from None
+        data_algo = None
+        for name in ("PPO", "SAC", "TD3", "A2C", "DDPG"):
+            try:
+                data_algo = getattr(sb3, name).load(str(path), device="cpu")
+                break
+            except Exception:  # noqa: BLE001, S112 - try the next algorithm class
+                continue
+        if data_algo is None:
+            raise ValueError(f"{path}: not a stable-baselines3 model this version can load")
+        self.model = data_algo
+        self.env: dict[str, Any] | None = None
+        self.meta: dict[str, Any] = {"kind": "sb3", "algorithm": type(data_algo).__name__}
+
+    def act(self, obs: Any) -> np.ndarray:
+        """The model's deterministic action."""
+        action, _ = self.model.predict(obs, deterministic=True)
+        return np.asarray(action, dtype=np.float32)
+
+
+def load_policy(path: str | Path) -> LinearPolicy | Sb3Policy:
+    """A linear ``.npz`` policy or a stable-baselines3 ``.zip``.
+
+    Raises:
+        ValueError: Missing file or not a policy (one line naming the file).
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"policy file {str(path)!r} not found")
+    if path.suffix == ".zip":
+        return Sb3Policy(path)
+    try:
+        return LinearPolicy.load(path)
+    except (OSError, KeyError, json.JSONDecodeError) as exc:
+        raise ValueError(f"{path}: not a robokit policy ({type(exc).__name__}: {exc})") from None

@@ -1,0 +1,157 @@
+"""Aggregating trial rows: per cell, the success rate with a 95 % Wilson interval and median / p95 of figures.
+
+Also the outputs made from the summary: Markdown, JUnit XML (one test case per trial) and PNG plots.
+"""
+
+from __future__ import annotations
+
+import math
+import statistics
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+from xml.etree import ElementTree as ET
+
+Z95 = 1.959963984540054
+
+
+def wilson(successes: int, n: int, z: float = Z95) -> tuple[float, float]:
+    """The Wilson score interval of a success rate (95 % by default); (0, 1) when there are no trials."""
+    if n == 0:
+        return 0.0, 1.0
+    p = successes / n
+    denom = 1 + z * z / n
+    centre = (p + z * z / (2 * n)) / denom
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
+    return max(0.0, centre - half), min(1.0, centre + half)
+
+
+def percentile(values: Sequence[float], q: float) -> float:
+    """Nearest-rank percentile, q in 0..100 (p95 of 20 values is the 19th smallest)."""
+    ordered = sorted(values)
+    k = max(0, min(len(ordered) - 1, math.ceil(q / 100.0 * len(ordered)) - 1))
+    return ordered[k]
+
+
+def _numeric(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def summarise(rows: Sequence[Mapping[str, Any]], cells: Sequence[str], metrics: Sequence[str] = ()) -> dict[str, Any]:
+    """The summary of a sweep's rows, cell by cell (in ``cells`` order).
+
+    Args:
+        rows: Finished trials (rows of ``trials.jsonl``).
+        cells: The cell keys in the sweep's order.
+        metrics: Figures to aggregate; empty = every numeric figure any row has.
+    """
+    names = list(metrics) or sorted({k for r in rows for k, v in r.get("figures", {}).items() if _numeric(v)})
+    out_cells = []
+    for cell in cells:
+        mine = [r for r in rows if r["cell"] == cell]
+        ok = sum(r["outcome"] == "succeeded" for r in mine)
+        lo, hi = wilson(ok, len(mine))
+        figures: dict[str, Any] = {}
+        for name in [*names, "sim_time", "wall_time"]:
+            values = [r["figures"].get(name) if name in names else r.get(name) for r in mine]
+            nums = [float(v) for v in values if v is not None and _numeric(v)]
+            if nums:
+                figures[name] = {"n": len(nums), "median": statistics.median(nums), "p95": percentile(nums, 95)}
+        out_cells.append({
+            "cell": cell, "overrides": mine[0]["overrides"] if mine else {}, "trials": len(mine),
+            "succeeded": ok, "errors": sum(r["outcome"] == "error" for r in mine),
+            "success_rate": ok / len(mine) if mine else None, "wilson95": [lo, hi], "figures": figures,
+        })
+    total = len(rows)
+    ok = sum(r["outcome"] == "succeeded" for r in rows)
+    return {"schema": "robokit.sweep.summary/1", "trials": total, "succeeded": ok,
+            "errors": sum(r["outcome"] == "error" for r in rows), "wilson95": list(wilson(ok, total)),
+            "metrics": names, "cells": out_cells}
+
+
+def _fmt(value: float) -> str:
+    return f"{value:.4g}"
+
+
+def to_markdown(summary: Mapping[str, Any]) -> str:
+    """The summary as a Markdown table: one row per cell, ``median / p95`` per figure."""
+    names = [*summary["metrics"], "sim_time"]
+    head = ["cell", "trials", "success", "95 % CI", "errors", *(f"{n} (median / p95)" for n in names)]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for c in summary["cells"]:
+        rate = "-" if c["success_rate"] is None else f"{100 * c['success_rate']:.1f} %"
+        lo, hi = c["wilson95"]
+        cols = [f"`{c['cell']}`", str(c["trials"]), rate, f"{100 * lo:.1f}–{100 * hi:.1f} %", str(c["errors"])]
+        for n in names:
+            f = c["figures"].get(n)
+            cols.append(f"{_fmt(f['median'])} / {_fmt(f['p95'])}" if f else "-")
+        lines.append("| " + " | ".join(cols) + " |")
+    lo, hi = summary["wilson95"]
+    lines.append("")
+    lines.append(f"{summary['trials']} trials, {summary['succeeded']} succeeded, {summary['errors']} errors "
+                 f"(success 95 % CI {100 * lo:.1f}–{100 * hi:.1f} %).")
+    return "\n".join(lines) + "\n"
+
+
+def write_junit(rows: Sequence[Mapping[str, Any]], path: Path, name: str = "robokit sweep") -> None:
+    """JUnit XML: one test case per trial (``failed``/``aborted`` are failures, ``error`` is an error)."""
+    suite = ET.Element("testsuite", name=name, tests=str(len(rows)),
+                       failures=str(sum(r["outcome"] in ("failed", "aborted") for r in rows)),
+                       errors=str(sum(r["outcome"] == "error" for r in rows)),
+                       time=f"{sum(float(r.get('wall_time') or 0) for r in rows):.3f}")
+    for r in rows:
+        case = ET.SubElement(suite, "testcase", classname=r["cell"], name=f"seed={r['seed']}",
+                             time=f"{float(r.get('wall_time') or 0):.3f}")
+        if r["outcome"] in ("failed", "aborted"):
+            ET.SubElement(case, "failure", message=f"{r['outcome']}: {r['reason']}")
+        elif r["outcome"] == "error":
+            ET.SubElement(case, "error", message=str(r["reason"]))
+        ET.SubElement(case, "system-out").text = f"run_id={r['run_id']} worker={r.get('worker')}"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    root = ET.Element("testsuites")
+    root.append(suite)
+    tree = ET.ElementTree(root)
+    ET.indent(tree)
+    tree.write(path, encoding="utf-8", xml_declaration=True)
+
+
+def write_plots(summary: Mapping[str, Any], rows: Sequence[Mapping[str, Any]], folder: Path,
+                figure: str | None = None) -> list[Path]:
+    """PNG plots with matplotlib (Agg): success rate per cell with its Wilson interval, and the distribution of
+    ``figure`` (default: the first aggregated figure) per cell. Returns the files written ([] without matplotlib).
+    """
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        return []
+    cells = summary["cells"]
+    labels = [c["cell"] for c in cells]
+    written = []
+    fig, ax = plt.subplots(figsize=(max(4.0, 0.9 * len(cells) + 2), 3.6))
+    rates = [100 * (c["success_rate"] or 0.0) for c in cells]
+    err = [[r - 100 * c["wilson95"][0] for r, c in zip(rates, cells, strict=True)],
+           [100 * c["wilson95"][1] - r for r, c in zip(rates, cells, strict=True)]]
+    ax.bar(range(len(cells)), rates, yerr=err, capsize=4, color="#4c72b0")
+    ax.set_xticks(range(len(cells)), labels, rotation=30, ha="right", fontsize=7)
+    ax.set_ylabel("success rate, % (95 % Wilson)")
+    ax.set_ylim(0, 105)
+    fig.tight_layout()
+    written.append(folder / "success_rate.png")
+    fig.savefig(written[-1], dpi=100)
+    plt.close(fig)
+    name = figure or next(iter(summary["metrics"]), None) or "sim_time"
+    data = [[float(v) for r in rows if r["cell"] == c
+             for v in [r["figures"].get(name, r.get(name))] if _numeric(v)] for c in labels]
+    if any(data):
+        fig, ax = plt.subplots(figsize=(max(4.0, 0.9 * len(cells) + 2), 3.6))
+        ax.boxplot([d or [math.nan] for d in data])
+        ax.set_xticks(range(1, len(cells) + 1), labels, rotation=30, ha="right", fontsize=7)
+        ax.set_ylabel(name)
+        fig.tight_layout()
+        written.append(folder / f"distribution_{name}.png")
+        fig.savefig(written[-1], dpi=100)
+        plt.close(fig)
+    return written

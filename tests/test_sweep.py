@@ -1,0 +1,202 @@
+"""``robokit sweep`` on the local backend: the grid, resuming, faults, outputs and reporting (real processes)."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+from xml.etree import ElementTree as ET
+
+import pytest
+from report_server import Answer, CourseServer
+
+from robokit.errors import UserError
+from robokit.sweep import SweepOptions, SweepSpec, parse_seeds, parse_set, read_trials, run_sweep
+from robokit.sweep.spec import load_sweep_file
+from robokit.sweep.summary import percentile, summarise, wilson
+
+ROOT = Path(__file__).resolve().parent.parent
+PLUGINS = Path(__file__).resolve().parent / "sweep_plugins"
+FAULT = PLUGINS / "fault.toml"
+PICK = ROOT / "configs" / "pick_place.toml"
+STABLE = ("key", "cell", "overrides", "seed", "run_id", "outcome", "reason", "figures", "sim_time", "ticks")
+
+
+def stable(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """What must not depend on how a sweep was run (drops wall time, worker and the sweep-specific run id)."""
+    return [{k: r[k] for k in STABLE if k != "run_id"} for r in rows]
+
+
+@pytest.fixture
+def fault_plugins(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Make the test-only plugin module importable here and in spawned workers (they inherit sys.path)."""
+    monkeypatch.syspath_prepend(str(PLUGINS))
+
+
+def robokit(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess[str]:
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(PLUGINS), os.environ.get("PYTHONPATH", "")])}
+    return subprocess.run([sys.executable, "-m", "robokit.cli", *args], capture_output=True, text=True,
+                          timeout=300, cwd=cwd, env=env)
+
+
+# ----------------------------------------------------------------------------------------------- the grid
+def test_a_2x3_grid_times_4_seeds_is_24_trials_with_keys_from_the_cell_not_the_order() -> None:
+    grid, fixed = parse_set(["behaviour.speed=0.8,1.2", "behaviour.slow_speed=0.3,0.45,0.6", "world.max_time=30"])
+    spec = SweepSpec(PICK, parse_seeds("0:4"), grid, fixed)
+    trials = spec.trials()
+    assert len(trials) == 24 and len({t.key for t in trials}) == 24
+    assert trials[0].key == "behaviour.slow_speed=0.3,behaviour.speed=0.8/seed=0"
+    assert trials[0].overrides == {"world.max_time": 30, "behaviour.slow_speed": 0.3, "behaviour.speed": 0.8}
+    swapped = SweepSpec(PICK, range(0, 4), dict(reversed(list(grid.items()))), fixed)
+    assert {t.key: (dict(t.overrides), t.seed) for t in swapped.trials()} == \
+        {t.key: (dict(t.overrides), t.seed) for t in trials}
+
+
+def test_set_values_are_read_as_toml_and_commas_inside_brackets_do_not_split() -> None:
+    grid, fixed = parse_set(["behaviour.place_position=[0.45,-0.35,0.027],[0.5,-0.3,0.027]", 'report.student="kim"',
+                             "world.gui=false"])
+    assert grid == {"behaviour.place_position": ([0.45, -0.35, 0.027], [0.5, -0.3, 0.027])}
+    assert fixed == {"report.student": "kim", "world.gui": False}
+
+
+@pytest.mark.parametrize("text", ["5:2", "a:b", "1:2:3", "-1:3"])
+def test_bad_seed_ranges_are_one_line_errors(text: str) -> None:
+    with pytest.raises(UserError, match="--seeds"):
+        parse_seeds(text)
+
+
+def test_a_sweep_file_gives_the_same_trials_as_the_command_line(tmp_path: Path) -> None:
+    sweep = tmp_path / "speed.toml"
+    sweep.write_text(f'config = "{PICK}"\nseeds = "0:4"\nmetrics = ["attempts"]\n\n[grid]\n'
+                     'behaviour.speed = [0.8, 1.2]\n"behaviour.slow_speed" = [0.3, 0.45, 0.6]\n', encoding="utf-8")
+    spec, _ = load_sweep_file(sweep)
+    grid, fixed = parse_set(["behaviour.speed=0.8,1.2", "behaviour.slow_speed=0.3,0.45,0.6"])
+    assert [t.key for t in spec.trials()] == [t.key for t in SweepSpec(PICK, range(4), grid, fixed).trials()]
+    assert spec.metrics == ("attempts",)
+    shipped, options = load_sweep_file(ROOT / "configs" / "sweeps" / "pick_place_speed.toml")
+    assert shipped.cells() == spec.cells()
+    assert len(shipped.trials()) == 120 and options["trial_timeout"] == 300
+
+
+def test_wilson_interval_and_percentile() -> None:
+    lo, hi = wilson(10, 10)
+    assert (round(lo, 4), round(hi, 12)) == (0.7225, 1.0)
+    lo, hi = wilson(5, 10)
+    assert (round(lo, 4), round(hi, 4)) == (0.2366, 0.7634)
+    assert wilson(0, 0) == (0.0, 1.0)
+    assert percentile(list(range(1, 21)), 95) == 19 and percentile([3.0], 95) == 3.0
+
+
+# ----------------------------------------------------------------------------------------------- bad input
+@pytest.mark.parametrize(("option", "expected"), [
+    ("behaviour.sped=1,2", "behaviour.sped: unknown key 'sped' (did you mean 'speed'?)"),
+    ("behaviour.speed=-1,1", "behaviour.speed: input should be greater than 0, got -1"),
+    ("world.seed.x=1,2", "pick_place.toml: world.seed: expected a table to set 'x' in, got 1"),
+])
+def test_a_bad_key_or_value_is_one_line_before_any_trial_runs(tmp_path: Path, option: str, expected: str) -> None:
+    out = tmp_path / "out"
+    proc = robokit("sweep", str(PICK), "--seeds", "0:2", "--set", option, "--out", str(out))
+    assert proc.returncode == 2, proc.stderr
+    assert proc.stderr.count("\n") == 1 and expected in proc.stderr, proc.stderr
+    assert "Traceback" not in proc.stderr and not out.exists()
+
+
+# ----------------------------------------------------------------------------------------------- faults
+def test_a_trial_that_raises_hangs_or_kills_its_worker_is_an_error_and_the_others_finish(
+        tmp_path: Path, fault_plugins: None) -> None:
+    spec = SweepSpec(FAULT, range(6), fixed={"behaviour.raise_seeds": [1], "behaviour.hang_seeds": [2],
+                                             "behaviour.die_seeds": [3]}, plugins=("sweep_faults",))
+    run = run_sweep(spec, SweepOptions(out=tmp_path / "out", workers=2, trial_timeout=4.0))
+    by_seed = {r["seed"]: r for r in run.rows}
+    assert [by_seed[s]["outcome"] for s in range(6)] == \
+        ["succeeded", "error", "error", "error", "succeeded", "succeeded"]
+    assert "RuntimeError: fault injected on seed 1" in by_seed[1]["reason"]
+    assert by_seed[2]["reason"].startswith("timed out: no result after 4 s (--trial-timeout)")
+    assert "worker died twice" in by_seed[3]["reason"] and "exit code 17" in by_seed[3]["reason"]
+    assert [by_seed[s]["figures"]["seed_squared"] for s in (0, 4, 5)] == [0, 16, 25]
+    assert len(read_trials(tmp_path / "out" / "trials.jsonl")) == 6
+    cell = run.summary["cells"][0]
+    assert (cell["trials"], cell["succeeded"], cell["errors"]) == (6, 3, 3)
+
+
+# ----------------------------------------------------------------------------------------------- resuming
+def test_stopped_and_resumed_gives_exactly_the_trials_of_one_uninterrupted_sweep(
+        tmp_path: Path, fault_plugins: None) -> None:
+    grid, fixed = parse_set(["behaviour.duration=0.1,0.15"])
+    spec = SweepSpec(FAULT, range(3), grid, fixed, plugins=("sweep_faults",))
+    whole = run_sweep(spec, SweepOptions(out=tmp_path / "whole", workers=2))
+    part = run_sweep(spec, SweepOptions(out=tmp_path / "part", workers=2, max_trials=2))
+    assert (part.ran, part.remaining) == (2, 4)
+    with open(tmp_path / "part" / "trials.jsonl", "a", encoding="utf-8") as fh:
+        fh.write('{"key": "torn line of a trial that was being writ')  # a crash mid-write
+    rest = run_sweep(spec, SweepOptions(out=tmp_path / "part", workers=1))
+    assert (rest.ran, rest.skipped, rest.remaining) == (4, 2, 0)
+    assert stable(rest.rows) == stable(whole.rows)
+    lines = (tmp_path / "part" / "trials.jsonl").read_text(encoding="utf-8").splitlines()
+    assert len(lines) == 6 and len({json.loads(line)["key"] for line in lines}) == 6
+    again = run_sweep(spec, SweepOptions(out=tmp_path / "part"))
+    assert (again.ran, again.skipped) == (0, 6)
+
+
+def test_resuming_into_a_folder_of_another_config_is_refused(tmp_path: Path, fault_plugins: None) -> None:
+    spec = SweepSpec(FAULT, range(1), plugins=("sweep_faults",))
+    run_sweep(spec, SweepOptions(out=tmp_path / "out", workers=1))
+    other = tmp_path / "other.toml"
+    other.write_text(FAULT.read_text(encoding="utf-8").replace("max_time = 1.0", "max_time = 2.0"), encoding="utf-8")
+    with pytest.raises(UserError, match="holds a sweep with a different config_sha256"):
+        run_sweep(SweepSpec(other, range(1), plugins=("sweep_faults",)), SweepOptions(out=tmp_path / "out"))
+
+
+# ----------------------------------------------------------------------------------------------- outputs
+def test_cli_writes_trials_summary_junit_and_plots(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    junit = tmp_path / "junit.xml"
+    proc = robokit("sweep", str(FAULT), "--plugin", "sweep_faults", "--seeds", "0:4", "--set",
+                   "behaviour.raise_seeds=[2]", "--set", "behaviour.duration=0.1,0.2", "--workers", "2",
+                   "--out", str(out), "--junit", str(junit))
+    assert proc.returncode == 1, proc.stderr  # one trial per cell raised
+    assert "| `behaviour.duration=0.1` | 4 | 75.0 % | 30.1–95.4 % | 1 |" in proc.stdout
+    assert "sweep: 8/8 done, 2 not succeeded" in proc.stdout  # not a terminal: plain progress lines
+    summary = json.loads((out / "summary.json").read_text(encoding="utf-8"))
+    assert [c["cell"] for c in summary["cells"]] == ["behaviour.duration=0.1", "behaviour.duration=0.2"]
+    assert summary["cells"][1]["figures"]["seed_squared"] == {"n": 4, "median": 2.5, "p95": 9.0}
+    assert (out / "summary.md").read_text(encoding="utf-8").startswith("| cell | trials | success |")
+    suite = ET.parse(junit).getroot().find("testsuite")
+    assert suite is not None and (suite.get("tests"), suite.get("errors")) == ("8", "2")
+    assert (out / "success_rate.png").read_bytes()[:4] == b"\x89PNG"
+    assert (out / "distribution_seed_squared.png").stat().st_size > 1000
+
+
+def test_summary_aggregates_only_the_named_metrics() -> None:
+    rows = [{"cell": "a", "overrides": {}, "outcome": "succeeded", "figures": {"x": float(i), "y": 1},
+             "sim_time": 1.0, "wall_time": 0.1} for i in range(5)]
+    summary = summarise(rows, ["a"], ["x"])
+    assert summary["metrics"] == ["x"] and set(summary["cells"][0]["figures"]) == {"x", "sim_time", "wall_time"}
+    assert summary["cells"][0]["figures"]["x"]["median"] == 2.0
+
+
+# ----------------------------------------------------------------------------------------------- reporting
+def test_report_url_posts_every_trial_exactly_once_and_a_resume_posts_nothing_again(
+        tmp_path: Path, fault_plugins: None, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(tmp_path)  # the outbox folder is relative to the working directory
+    server = CourseServer().start()
+    server.script(Answer(status=503))  # the first POST fails once: urllib3 retries it
+    try:
+        spec = SweepSpec(FAULT, range(4), fixed={"behaviour.raise_seeds": [3]},
+                         plugins=("sweep_faults",))
+        opts = SweepOptions(out=tmp_path / "out", workers=2, report_url=server.url, student="kim", project="A")
+        run = run_sweep(spec, opts)
+        assert sorted(server.stored) == sorted(r["run_id"] for r in run.rows)
+        assert set(server.store_count.values()) == {1}
+        assert all(r["delivered"] for r in run.rows)
+        stored = server.stored[run.rows[3]["run_id"]]
+        assert (stored["outcome"], stored["student"], stored["seed"]) == ("error", "kim", 3)
+        requests = len(server.requests)
+        run_sweep(spec, opts)
+        assert len(server.requests) == requests
+        assert not (tmp_path / "results").exists()  # trial results live in the sweep folder only
+    finally:
+        server.stop()
