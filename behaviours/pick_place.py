@@ -7,6 +7,8 @@ object is located again) until ``max_attempts`` is used up; then the behaviour f
 Two ways to use it:
 
 - as the top-level behaviour ``type = "pick_place"``: the object's pose comes from a ``body_pose`` sensor by name;
+  ``objects = [...]`` (names) or ``pick_positions = [...]`` (known positions, as lesson 06 teaches) move several
+  objects one after another to the same spot, each placed on top of what is already there (stacking);
 - as a sub-machine of a larger behaviour (sorting): ``PickPlace.sub(name=..., parent_ctx=ctx, arm=..., gripper=...)``,
   then ``start(PickPlaceTask(...), t)`` and ``step(readings, t)`` each tick until ``outcome`` is set.
 
@@ -17,6 +19,11 @@ position.
 The goal (top-level use, :meth:`PickPlace.check_goal`, evaluated on the world after the last tick): the object rests
 (slower than ``REST_SPEED``, not touching the robot) with its centre within ``place_tolerance`` of ``place_position``.
 A top-level ``pick_place`` without ``object``, ``pose_sensor`` or ``place_position`` is a config error.
+With several objects the goal is that every one rests on the place spot (horizontally within ``place_tolerance``;
+stacked ones at any height).
+
+Stacking: the place height is measured when a job starts, from the ``body_pose`` readings: a body already on the
+spot (within 0.75 object sizes horizontally) raises the place position to rest on its top.
 """
 
 from __future__ import annotations
@@ -25,9 +32,17 @@ import enum
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 from pydantic import Field, field_validator
+from robokit_behaviours.pick_place_jobs import (
+    Job,
+    all_rest_on_spot,
+    identify,
+    jobs_from,
+    object_rests_at,
+    stacked_place,
+)
 
 from robokit import hookimpl
 from robokit.components import GoalCheck, SetupContext
@@ -78,9 +93,6 @@ TRANSITIONS: list[dict[str, Any]] = [
     {"trigger": "reset", "source": ["DONE", "FAILED"], "dest": "WAIT"},
 ]
 
-REST_SPEED = 0.02
-"""m/s: an object slower than this at the end of a run is resting."""
-
 TIMEOUTS = {"APPROACH": 3.0, "DESCEND": 2.0, "GRASP": 1.0, "LIFT": 2.0, "TRANSPORT": 3.0, "LOWER": 2.0,
             "RELEASE": 1.0, "RETREAT": 2.0}
 """Sim seconds allowed per state."""
@@ -104,6 +116,9 @@ class PickPlaceConfig(Schema):
     gripper: str = Field("gripper", description="a gripper actuator")
     pose_sensor: str | None = Field(None, description="a body_pose sensor that sees the object")
     object: str | None = Field(None, description="body to pick (top-level use)")
+    objects: list[str] = Field(default_factory=list, description="bodies to pick one after another (top-level use)")
+    pick_positions: list[Vec3] = Field(default_factory=list,
+                                       description="known object centres to pick from, in order, m (top-level use)")
     place_position: Vec3 | None = Field(None, description="object centre at the place spot, m (top-level use)")
     object_size: float = Field(0.05, gt=0, description="edge length, m (top-level use)")
     max_attempts: int = Field(3, ge=1, le=20)
@@ -134,11 +149,28 @@ class PickPlace(MachineBehaviour):
     TRANSITIONS = TRANSITIONS
     INITIAL = Phase.WAIT
     TIMEOUTS = TIMEOUTS
+    example: ClassVar[dict[str, Any]] = {
+        "world": {"max_time": 12.0},
+        "bodies": {
+            "plane": {"urdf": "plane.urdf", "position": [0, 0, -0.626]},
+            "table": {"urdf": "table/table.urdf", "position": [0.5, 0, -0.626], "fixed_base": True},
+            "cube": {"shape": "box", "size": [0.05, 0.05, 0.05], "mass": 0.1, "position": [0.5, 0.05, 0.025],
+                     "rpy_deg": [0, 0, 20], "lateral_friction": 0.8},
+        },
+        "robots": {"panda": {"urdf": "franka_panda/panda.urdf", "position": [0, 0, 0], "fixed_base": True}},
+        "sensors": {"poses": {"type": "body_pose", "bodies": ["cube"]}},
+        "actuators": {
+            "arm": {"type": "ik_arm", "body": "panda", "ee_link": "panda_grasptarget", "reach": 0.85,
+                    "ready_pose": {"panda_joint1": 0.0, "panda_joint2": -0.4, "panda_joint3": 0.0,
+                                   "panda_joint4": -2.2, "panda_joint5": 0.0, "panda_joint6": 1.8,
+                                   "panda_joint7": 0.785}},
+            "gripper": {"type": "gripper", "body": "panda", "force": 20.0, "lateral_friction": 1.2},
+        },
+        "config": {"pose_sensor": "poses", "object": "cube", "place_position": [0.45, -0.3, 0.027]},
+    }
 
     def __init__(self, name: str, config: Any) -> None:
         super().__init__(name, config or PickPlaceConfig.model_validate({}))
-        cfg: PickPlaceConfig = self.config
-        self.timeouts = {**TIMEOUTS, **cfg.timeouts}
         self.task: PickPlaceTask | None = None
         self.attempts = 0
         self.started_at = 0.0
@@ -149,6 +181,9 @@ class PickPlace(MachineBehaviour):
         self.placement_error: float | None = None
         self._entry_due = False
         self.is_sub = False
+        self.jobs: list[Job] = []
+        self.done: list[dict[str, Any]] = []
+        self._next_due = False
         self._yaw = 0.0
         self._grasp: Vec3 = (0.0, 0.0, 0.0)
 
@@ -175,11 +210,16 @@ class PickPlace(MachineBehaviour):
         self._need(ctx, cfg.gripper, "gripper", GripperState, "gripper")
         if cfg.pose_sensor is not None and cfg.pose_sensor not in ctx.components:
             raise ConfigError(f"no sensor named {cfg.pose_sensor!r}; add a body_pose sensor", key="pose_sensor")
-        if cfg.object is not None and not ctx.world.has_body(cfg.object):
-            raise ConfigError(f"unknown body {cfg.object!r}; bodies: {', '.join(ctx.world.body_names)}",
-                              key="object")
+        names = [("object", cfg.object)] + [(f"objects[{i}]", n) for i, n in enumerate(cfg.objects)]
+        for key, name in names:
+            if name is not None and not ctx.world.has_body(name):
+                raise ConfigError(f"unknown body {name!r}; bodies: {', '.join(ctx.world.body_names)}", key=key)
+        self.jobs = jobs_from(cfg)
         if not self.is_sub:  # top-level use: the job comes from the config, so all of it must be there
-            for key, why in (("object", "the body to pick"), ("pose_sensor", "a body_pose sensor that sees it"),
+            if not self.jobs:
+                raise ConfigError("missing: pick_place needs the body to pick (or objects = [...], or "
+                                  "pick_positions = [[x, y, z], ...])", key="object")
+            for key, why in (("pose_sensor", "a body_pose sensor that sees it"),
                              ("place_position", "the object centre at the place spot, [x, y, z] m")):
                 if getattr(cfg, key) is None:
                     raise ConfigError(f"missing: pick_place needs {why}", key=key)
@@ -215,7 +255,7 @@ class PickPlace(MachineBehaviour):
         readings (e.g. an old ``reached``).
         """
         self.t = t
-        if self.state is Phase.WAIT and self.task is None and self.config.object is not None:
+        if self.task is None and self.jobs or self._next_due:
             self._start_from_config(readings, t)
         limit = self.timeouts.get(self.state_name)
         if limit is not None and self.time_in_state > limit:
@@ -230,15 +270,22 @@ class PickPlace(MachineBehaviour):
         return None
 
     def _start_from_config(self, readings: Mapping[str, Any], t: float) -> None:
+        """Start the next job of the config: locate its object, measure the stack on the place spot."""
         cfg: PickPlaceConfig = self.config
         if cfg.place_position is None:
             self.finish("failed", "no place_position configured")
             return
-        located = self._locate(readings)
+        self._next_due = False
+        job = self.jobs[len(self.done)]
+        poses = readings[cfg.pose_sensor] if cfg.pose_sensor is not None else {}
+        name = job.object if job.position is None else identify(poses, job.position, cfg.object_size)
+        self.task = PickPlaceTask(job.position or (0.0, 0.0, 0.0), 0.0, cfg.place_position, name, cfg.object_size)
+        located = self._locate(readings) if name is not None or job.position is None else (job.position, 0.0)
         if located is None:
             return
         pos, yaw = located
-        self.start(PickPlaceTask(pos, yaw, cfg.place_position, cfg.object, cfg.object_size), t)
+        place = stacked_place(cfg.place_position, poses, cfg.object_size, name)
+        self.start(PickPlaceTask(pos, yaw, place, name, cfg.object_size), t)
 
     def _locate(self, readings: Mapping[str, Any]) -> tuple[Vec3, float] | None:
         """Object centre and yaw now: from the pose sensor if there is one, else the task's."""
@@ -260,6 +307,8 @@ class PickPlace(MachineBehaviour):
         self.failures.append(reason)
         self.fire("give_up")
         self.finished_at = self.t
+        if len(self.jobs) > 1 and self.task is not None:
+            reason = f"object {len(self.done) + 1} of {len(self.jobs)} ({self.task.object_name or 'unknown'}): {reason}"
         self.finish("failed", reason)
 
     def _retry(self, reason: str) -> None:
@@ -404,53 +453,62 @@ class PickPlace(MachineBehaviour):
         if self.outcome is None:
             self._go("clear")
             self.finished_at = self.t
-            self.finish("succeeded", f"placed {self.task.object_name or 'object'} in {self.attempts} attempt(s)")
+            self._job_done()
+
+    def _job_done(self) -> None:
+        """One object placed: start the next job at the next step, or succeed when none is left."""
+        assert self.task is not None
+        placed = f"placed {self.task.object_name or 'object'} in {self.attempts} attempt(s)"
+        if len(self.jobs) <= 1:
+            self.finish("succeeded", placed)
+            return
+        self.done.append({**self._current(), "outcome": "succeeded", "reason": placed})
+        if len(self.done) < len(self.jobs):
+            self._next_due = True
+        else:
+            attempts = sum(job["attempts"] for job in self.done)
+            self.finish("succeeded", f"placed {len(self.done)} objects in {attempts} attempt(s)")
 
     # ------------------------------------------------------------------ preflight (before the first tick)
     def preflight(self, ctx: SetupContext) -> list[ConfigError]:
         """Top-level use: the object and the place position are within the arm's reach."""
         cfg: PickPlaceConfig = self.config
         reach = getattr(ctx.components.get(cfg.arm), "check_reach", None)
-        if self.is_sub or reach is None or cfg.object is None or cfg.place_position is None:
+        if self.is_sub or reach is None or not self.jobs or cfg.place_position is None:
             return []
         problems = []
         x, y, z = cfg.place_position
         why = reach((x, y, z + cfg.grasp_offset + cfg.place_clearance))
         if why:
             problems.append(ctx.problem(f"out of the reach of arm {cfg.arm!r}: {why}", "place_position"))
-        pos = ctx.world.pose(cfg.object)[0]
-        why = reach((pos[0], pos[1], pos[2] + cfg.grasp_offset))
-        if why:
-            problems.append(ConfigError(f"{cfg.object} at ({pos[0]:.3f}, {pos[1]:.3f}, {pos[2]:.3f}) is out of the "
-                                        f"reach of arm {cfg.arm!r}: {why}", key=ctx.body_key(cfg.object)))
+        for i, job in enumerate(self.jobs):
+            pos = job.position or ctx.world.pose(job.object)[0]
+            why = reach((pos[0], pos[1], pos[2] + cfg.grasp_offset))
+            if why:
+                key = ctx.body_key(job.object) if job.object else f"{ctx.key}.pick_positions[{i - len(cfg.objects)}]"
+                problems.append(ConfigError(f"{job.label} at ({pos[0]:.3f}, {pos[1]:.3f}, {pos[2]:.3f}) is out of "
+                                            f"the reach of arm {cfg.arm!r}: {why}", key=key))
         return problems
 
     # ------------------------------------------------------------------ goal (ground truth, after the run)
     def check_goal(self, world: Any) -> GoalCheck | None:
-        """The object rests at ``place_position`` within ``place_tolerance``, not held (top-level use)."""
+        """The object rests at its place position within ``place_tolerance``, not held (top-level use); with
+        several objects, every one rests on the place spot."""
         cfg: PickPlaceConfig = self.config
-        if self.is_sub or cfg.object is None or cfg.place_position is None:
+        if self.is_sub or not self.jobs or cfg.place_position is None:
             return None
-        if not world.has_body(cfg.object):
-            return GoalCheck(False, f"{cfg.object} is no longer in the world")
-        pos = world.pose(cfg.object)[0]
-        error = math.dist(pos, cfg.place_position)
-        speed = math.hypot(*world.velocity(cfg.object)[0])
-        arm = getattr(self.ctx.components.get(cfg.arm), "config", None)
-        robot = getattr(arm, "body", None)
-        held = robot is not None and world.has_body(robot) and bool(
-            world.client.getContactPoints(world.body(cfg.object), world.body(robot)))
-        details = {"object": cfg.object, "final_position": [round(v, 4) for v in pos],
-                   "placement_error": round(error, 5), "speed": round(speed, 4), "touching_robot": held}
-        where = (f"{cfg.object} is {error * 1000:.0f} mm from the place position "
-                 f"(tolerance {cfg.place_tolerance * 1000:g} mm)")
-        if error > cfg.place_tolerance:
-            return GoalCheck(False, where, details)
-        if held:
-            return GoalCheck(False, f"{cfg.object} is at the place position but still touches the robot", details)
-        if speed > REST_SPEED:
-            return GoalCheck(False, f"{cfg.object} is still moving ({speed:.2f} m/s)", details)
-        return GoalCheck(True, where.replace(" is ", " rests ", 1), details)
+        robot = getattr(getattr(self.ctx.components.get(cfg.arm), "config", None), "body", None)
+        if len(self.jobs) > 1:
+            names = [job.get("object") for job in self.done]
+            names += [job.object for job in self.jobs[len(self.done):]]
+            if self.task is not None and len(self.done) < len(self.jobs):
+                names[len(self.done)] = self.task.object_name
+            return all_rest_on_spot(world, names, cfg.place_position, cfg.place_tolerance, robot)
+        name = self.jobs[0].object or (self.task.object_name if self.task else None)
+        if name is None:
+            return GoalCheck(False, "the object at the pick position was never identified")
+        target = self.task.place_position if self.task is not None else cfg.place_position
+        return object_rests_at(world, name, target, cfg.place_tolerance, robot)
 
     # ------------------------------------------------------------------ result
     def result(self) -> dict[str, Any]:
@@ -470,7 +528,16 @@ class PickPlace(MachineBehaviour):
             "placement_error": self.placement_error,
             "sim_time": round(end - self.started_at, 6),
             "phase_times": {k: round(v, 6) for k, v in self.phase_times.items()},
+            **({"jobs": [*self.done, *([] if len(self.done) == len(self.jobs) else [self._current()])],
+                "placed": len(self.done)} if len(self.jobs) > 1 else {}),
         }
+
+    def _current(self) -> dict[str, Any]:
+        jobs, self.jobs = self.jobs, []  # the running job's own record, without the list
+        try:
+            return self.result()
+        finally:
+            self.jobs = jobs
 
 
 @hookimpl

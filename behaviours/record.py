@@ -36,11 +36,12 @@ from robokit.errors import ConfigError, LookupNameError
 
 
 class RecordConfig(Schema):
-    """``components``: names to record (empty = every sensor); ``duration``: sim seconds;
+    """``components``: names to record (empty = every sensor); ``duration``: sim seconds (0: until the run ends);
     ``max_array``: arrays with more items are summarised."""
 
     components: tuple[str, ...] = ()
-    duration: float = Field(1.0, gt=0, description="sim seconds to record, then succeed")
+    duration: float = Field(1.0, ge=0, description="sim seconds to record, then succeed; 0 = until the run ends "
+                                                   "(as a monitor: until the task ends)")
     max_array: int = Field(64, ge=0)
 
 
@@ -87,7 +88,7 @@ class Record(Behaviour):
             self.ctx.trace("reading", component=name, value=value)
             self.counts[name] += 1
             self.last[name] = value
-        if t >= self.config.duration:
+        if 0 < self.config.duration <= t:
             self.finish("succeeded", f"recorded {sum(self.counts.values())} readings in {t:g} s")
         return None
 

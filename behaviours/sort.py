@@ -393,7 +393,7 @@ class Sort(MachineBehaviour):
 
     def on_timeout(self, state: str) -> None:
         """LOOK without a fresh frame, or a stuck sub-machine: fail with the reason."""
-        self._end("stuck", "failed", f"timed out in state {state} after {self.TIMEOUTS[state]:g} s (sim time)")
+        self._end("stuck", "failed", f"timed out in state {state} after {self.timeouts[state]:g} s (sim time)")
 
     # ------------------------------------------------------------------ end and result
     def _end(self, trigger: str, status: str, reason: str) -> None:

@@ -40,7 +40,7 @@ TESTS: dict[str, list[str]] = {
     "plugins/gripper.py": ["tests/test_arm_gripper.py", "tests/test_arm_pick_place.py"],
     "robokit/simulation.py": ["tests/test_core_scheduler.py", "tests/test_core_world.py", "tests/test_promises.py",
                               "tests/test_outcomes.py", "tests/test_preflight.py"],
-    "robokit/scheduler.py": ["tests/test_core_scheduler.py", "tests/test_promises.py"],
+    "robokit/scheduler.py": ["tests/test_core_scheduler.py", "tests/test_promises.py", "tests/test_outcomes.py"],
     "robokit/preflight.py": ["tests/test_preflight.py"],
     "behaviours/avoidance.py": ["tests/test_mobile_nav.py", "tests/test_preflight.py"],
 }
@@ -163,12 +163,17 @@ def main() -> int:
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--timeout", type=float, default=600.0, help="seconds per mutant's test run")
     parser.add_argument("--list", action="store_true", help="list the sampled mutants, run nothing")
+    parser.add_argument("--rerun", metavar="LOG", help="run only the mutants a previous run's output says survived")
     args = parser.parse_args()
     rng = random.Random(args.seed)
     sample: list[Mutant] = []
     for file in args.files:
         found = mutants(file)
         sample.extend(sorted(rng.sample(found, min(args.per_file, len(found))), key=lambda m: m.site))
+    if args.rerun:
+        lines = Path(args.rerun).read_text(encoding="utf-8").splitlines()
+        again = {tuple(line.split()[2:4]) for line in lines if len(line.split()) >= 4 and line.split()[1] == "survived"}
+        sample = [m for m in sample if (f"{m.file}:{m.line}", m.what) in again]
     caught = timeouts = 0
     for k, m in enumerate(sample, 1):
         status = "listed" if args.list else run_one(m, args.timeout)

@@ -35,6 +35,9 @@ class BodyState(NamedTuple):
 class BodyPoseSensor(Sensor):
     """Ground-truth pose and velocity of named bodies (a dict of name -> BodyState)."""
 
+    # Poses are in each body's link frame (what its URDF and the config's `position` mean); the linear velocity is
+    # that of its centre of mass (see World.pose / World.com_pose).
+
     reading_type = dict
     example = {  # for robokit.testing.check_sensor
         "config": {"bodies": ["ball"]},
@@ -53,6 +56,8 @@ class BodyPoseSensor(Sensor):
         self.names = names
         self._all = [(name, self.world.body(name)) for name in names]  # looked up once, at load
         self._ids, self._removals = list(self._all), 0
+        # bodies whose URDF link frame is not their centre of mass: reported in the link frame (World.pose)
+        self._offsets = {bid for _, bid in self._all if self.world.link_offset(bid) is not None}
 
     def reset(self, rng: object = None) -> None:
         """Nothing to reset between robokit.gym episodes: a reading depends only on the world."""
@@ -63,8 +68,10 @@ class BodyPoseSensor(Sensor):
             self._ids = [(n, b) for n, b in self._all if world.body_name(b) == n]
             self._removals = world.removals
         cid, pose, velocity, new = world.cid, p.getBasePositionAndOrientation, p.getBaseVelocity, tuple.__new__
+        offsets = self._offsets
         return {  # tuple.__new__ builds the named tuple without its Python-level __new__ (hot path)
-            name: new(BodyState, pose(bid, physicsClientId=cid) + velocity(bid, physicsClientId=cid))
+            name: new(BodyState, (pose(bid, physicsClientId=cid) if bid not in offsets else world.pose(bid))
+                      + velocity(bid, physicsClientId=cid))
             for name, bid in self._ids
         }
 

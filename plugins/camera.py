@@ -15,6 +15,7 @@ Depth is converted from the depth buffer ``d`` to metres with ``far * near / (fa
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 from pydantic import Field, model_validator
@@ -47,6 +48,7 @@ class CameraConfig(Schema):
     offset_xyz: Vec3 = (0.0, 0.0, 0.0)
     offset_rpy_deg: Vec3 = (0.0, 0.0, 0.0)
     segmentation: bool = True
+    save: bool = Field(default=False, description="write every rendered frame as PNGs into the run folder")
     renderer: str = Field(default="auto", pattern="^(auto|tiny|opengl)$")
 
     @model_validator(mode="after")
@@ -88,6 +90,9 @@ class Camera(Sensor):
         self.sample_offset = 0.5 if use_gl else 0.0  # TinyRenderer samples pixel corners (see vision_types)
         self.flags = 0 if cfg.segmentation else client.ER_NO_SEGMENTATION_MASK
         self._offset_orn = client.getQuaternionFromEuler([math.radians(a) for a in cfg.offset_rpy_deg])
+        run_dir = getattr(ctx, "run_dir", None)
+        wanted = cfg.save or getattr(ctx, "save_frames", False)
+        self.save_dir = Path(run_dir) / "frames" if wanted and run_dir is not None else None
 
     def reset(self, rng: np.random.Generator | None = None) -> None:
         """Nothing to reset between episodes (robokit.gym): a frame depends only on the world."""
@@ -136,10 +141,40 @@ class Camera(Sensor):
                 name = self.world.body_name(int(body_id)) if body_id >= 0 else None
                 if name is not None:
                     labels[int(body_id)] = name
-        return CameraFrame(rgb=np.ascontiguousarray(rgb), depth=depth, segmentation=segmentation, labels=labels,
-                           view_matrix=view, projection_matrix=self.projection,
-                           eye=tuple(float(v) for v in eye), near=cfg.near, far=cfg.far,  # type: ignore[arg-type]
-                           time=self.world.time, sample_offset=self.sample_offset)
+        frame = CameraFrame(rgb=np.ascontiguousarray(rgb), depth=depth, segmentation=segmentation, labels=labels,
+                            view_matrix=view, projection_matrix=self.projection,
+                            eye=tuple(float(v) for v in eye), near=cfg.near, far=cfg.far,  # type: ignore[arg-type]
+                            time=self.world.time, sample_offset=self.sample_offset)
+        if self.save_dir is not None:
+            save_frame_pngs(self.save_dir, f"{self.name}_{self.world.tick:06d}", frame)
+        return frame
+
+
+def save_frame_pngs(folder: Path, stem: str, frame: CameraFrame) -> list[Path]:
+    """Write a frame as ``<stem>_rgb.png``, ``<stem>_depth.png`` (near = yellow, far = dark blue, colour-mapped
+    between the frame's near and far planes) and ``<stem>_seg.png`` (one colour per body, background black)."""
+    import cv2
+
+    folder.mkdir(parents=True, exist_ok=True)
+    paths = [folder / f"{stem}_rgb.png", folder / f"{stem}_depth.png"]
+    cv2.imwrite(str(paths[0]), cv2.cvtColor(frame.rgb, cv2.COLOR_RGB2BGR))
+    scaled = np.clip((frame.depth - frame.near) / (frame.far - frame.near), 0.0, 1.0)
+    cv2.imwrite(str(paths[1]), cv2.applyColorMap((255 * (1.0 - scaled)).astype(np.uint8), cv2.COLORMAP_VIRIDIS))
+    if frame.segmentation is not None:
+        paths.append(folder / f"{stem}_seg.png")
+        cv2.imwrite(str(paths[2]), segmentation_colours(frame.segmentation))
+    return paths
+
+
+def segmentation_colours(seg: np.ndarray) -> np.ndarray:
+    """A BGR image with a distinct, stable colour per body id (background, id < 0, black)."""
+    ids = np.where(seg >= 0, seg & ((1 << 24) - 1), -1)
+    golden = (ids * 0.618034) % 1.0
+    hsv = np.stack([(golden * 179).astype(np.uint8), np.full(seg.shape, 200, np.uint8),
+                    np.where(ids >= 0, 230, 0).astype(np.uint8)], axis=-1)
+    import cv2
+
+    return cv2.cvtColor(hsv, cv2.COLOR_HSV2BGR)
 
 
 @hookimpl

@@ -177,7 +177,7 @@ class Lidar(Sensor):
         hit = (ids >= 0) & (ids != (-2 if self.body is None else self.body))
         ranges = near + frac * (cfg.range_max - near)
         if cfg.range_noise > 0:
-            ranges = np.clip(ranges + self.ctx.rng.normal(0.0, cfg.range_noise, len(ranges)), cfg.range_min,
+            ranges = np.clip(ranges + self.ctx.tick_rng().normal(0.0, cfg.range_noise, len(ranges)), cfg.range_min,
                              cfg.range_max)
         points = np.where(hit[:, None], origin + dirs * ranges[:, None], ends)
         ranges = np.where(hit, ranges, np.inf)

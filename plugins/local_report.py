@@ -1,6 +1,7 @@
-"""``local`` reporter: keep every run's result as ``<dir>/<run_id>.json``.
+"""``local`` reporter: keep every run's result as ``<dir>/<run_id>/result.json``, in the run's record folder.
 
-Written atomically (temporary file + rename), never overwritten.
+Written atomically (temporary file + rename), never overwritten. The folder also holds the run record
+(``trace.jsonl``, ``poses.npz``, ``frames/``: see ``docs/records.md``).
 """
 
 from __future__ import annotations
@@ -25,11 +26,13 @@ class LocalReportConfig(Schema):
 
 
 class LocalReporter(Reporter):
-    """Writes the result to results/<run_id>.json atomically; never overwrites an earlier result."""
+    """Writes the result to results/<run_id>/result.json atomically; never overwrites an earlier result."""
 
     def report(self, payload: dict[str, Any]) -> Delivery:
         folder = Path(self.config.dir if self.config else "results")
-        path = folder / f"{payload['run_id']}.json"
+        path = folder / str(payload["run_id"]) / "result.json"
+        if path.exists():
+            return Delivery(False, None, f"not written: {path} already exists")
         try:
             write_json_atomic(path, payload)
         except OSError as exc:

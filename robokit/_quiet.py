@@ -2,10 +2,15 @@
 
 from __future__ import annotations
 
+import io
 import os
+import re
 import sys
+import tempfile
+from collections import Counter
 from collections.abc import Iterator
 from contextlib import contextmanager
+from dataclasses import dataclass
 
 
 @contextmanager
@@ -67,3 +72,72 @@ def c_stdout_to_stderr() -> Iterator[None]:
         sys.stdout.flush()
         os.dup2(saved, out_fd)
         os.close(saved)
+
+
+_ARGV = re.compile(r"^(argv\[\d+\]=\s*|pybullet build time: .*)$")
+
+
+@dataclass
+class CapturedOutput:
+    """What C code wrote to file descriptor 1 while :func:`capture_c_stdout` was active."""
+
+    text: str = ""
+
+    def lines(self) -> list[str]:
+        """Non-empty lines, without pybullet's empty start-up echo (``argv[0]=``)."""
+        return [line.rstrip() for line in self.text.splitlines() if line.strip() and not _ARGV.match(line)]
+
+    def summary(self) -> str | None:
+        """One line for stderr: how many lines pybullet printed and the most frequent one (None if it printed none)."""
+        lines = self.lines()
+        if not lines:
+            return None
+        counts = Counter(lines)
+        top, n = counts.most_common(1)[0]
+        top = top if len(top) <= 140 else top[:137] + "..."
+        return (f"robokit: pybullet printed {len(lines)} line(s) of its own ({len(counts)} distinct), most often "
+                f"({n}x): {top}")
+
+
+@contextmanager
+def capture_c_stdout() -> Iterator[CapturedOutput]:
+    """Send file descriptors 1 and 2 of C code (pybullet's b3Warning lines, build banner, GUI chatter) to a file.
+
+    Python's ``sys.stdout`` and ``sys.stderr`` keep writing to the real streams: when they are descriptors 1 and 2
+    they are re-opened on duplicates for the duration. The captured text is in the yielded object afterwards.
+    """
+    captured = CapturedOutput()
+    _flush_c_stdio()
+    streams = ("stdout", "stderr")
+    saved = {fd: os.dup(fd) for fd in (1, 2)}
+    olds = {name: getattr(sys, name) for name in streams}
+    swapped = []
+    with tempfile.TemporaryFile() as sink:
+        for fd, name in zip((1, 2), streams, strict=True):
+            stream = olds[name]
+            try:
+                stream.flush()
+                real = stream.fileno() == fd
+            except (AttributeError, OSError, ValueError):  # captured or replaced stream (pytest): fd only
+                real = False
+            os.dup2(sink.fileno(), fd)
+            if real:
+                setattr(sys, name, io.TextIOWrapper(os.fdopen(os.dup(saved[fd]), "wb"), encoding=stream.encoding,
+                                                    errors=stream.errors, line_buffering=True))
+                swapped.append(name)
+        try:
+            yield captured
+        finally:
+            _flush_c_stdio()
+            for name in swapped:
+                try:
+                    getattr(sys, name).flush()
+                    getattr(sys, name).close()
+                except OSError:  # a closed pipe (robokit ... | head): nothing left to write to
+                    pass
+                setattr(sys, name, olds[name])
+            for fd, old in saved.items():
+                os.dup2(old, fd)
+                os.close(old)
+            sink.seek(0)
+            captured.text = sink.read().decode("utf-8", errors="replace")

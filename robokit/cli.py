@@ -66,6 +66,13 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--student", help="override report.student")
     run.add_argument("--project", help="override report.project")
     run.add_argument("--report-url", metavar="URL", help="post the result to this URL (the http reporter)")
+    run.add_argument("--gui-hold", action="store_true", help="with --gui: keep the window open after the run")
+    run.add_argument("--pose-hz", type=float, metavar="HZ", help="pose log rate, sim Hz (default [record] pose_hz "
+                     "= 30; 0 = none)")
+    run.add_argument("--no-record", action="store_true", help="keep only result.json, no trace or pose log")
+    run.add_argument("--save-frames", action="store_true", help="cameras save the frames they render as PNGs "
+                     "(RGB, depth, segmentation) in the run folder")
+    run.add_argument("--video", metavar="FILE", help="render an MP4 of the run right after it (robokit video)")
     run.set_defaults(func=cmd_run)
 
     val = sub.add_parser("validate", help="check a config, its URDFs and named joints/links, without running")
@@ -81,9 +88,13 @@ def _parser() -> argparse.ArgumentParser:
     ins.add_argument("--json", action="store_true")
     ins.set_defaults(func=cmd_inspect)
 
-    graph = sub.add_parser("graph", help="print a behaviour's state machine as a Mermaid diagram")
-    graph.add_argument("behaviour", help="a behaviour type name, e.g. sort")
+    graph = sub.add_parser("graph", help="print a behaviour's state machine, or what a config composes, as Mermaid")
+    graph.add_argument("behaviour", help="a behaviour type name (e.g. sort) or a config file (e.g. configs/x.toml)")
     graph.set_defaults(func=cmd_graph)
+
+    lint = sub.add_parser("lint", help="check plugin code for wall-clock reads, sleeps and global random generators")
+    lint.add_argument("paths", nargs="+", metavar="PATH", help="Python files or folders")
+    lint.set_defaults(func=cmd_lint)
     _add_extra_commands(sub)
     return parser
 
@@ -100,6 +111,9 @@ def _add_extra_commands(sub: Any) -> None:
 
     add_server_commands(sub)
     add_upload_command(sub)
+    from robokit.record.cli import add_record_commands
+
+    add_record_commands(sub)
     from robokit.sweep.cli import add_sweep_command
 
     add_sweep_command(sub)
@@ -130,15 +144,28 @@ def _load(args: argparse.Namespace) -> tuple[Any, Any]:
 
 def cmd_run(args: argparse.Namespace) -> int:
     """``robokit run``: build, run, report; print a summary (or the RunResult JSON with ``--json``)."""
-    from robokit._quiet import c_stdout_to_stderr
     from robokit.runner import run_config, summary
+
+    plugins, cfg = _load(args)
+    gui = bool(args.gui or cfg.world.gui)
+    if gui:
+        from robokit.gui import check_display
+
+        check_display(f"robokit run {args.config} --gui")
+    elif args.gui_hold:
+        raise UserError("--gui-hold needs --gui (there is no window to hold)")
+    hold = None
+    if args.gui_hold:
+        from robokit.gui import hold as hold_window
+
+        def hold(sim: Any) -> None:
+            hold_window(sim.world)
 
     trace = _open_trace(args.trace) if args.trace else None
     try:
-        with c_stdout_to_stderr():  # pybullet's C-level warnings must not corrupt stdout (--json)
-            plugins, cfg = _load(args)
-            out = run_config(cfg, plugins, gui=True if args.gui else None, max_time=args.max_time, trace=trace,
-                             on_problem=None if args.quiet else _warn_problem)
+        out = run_config(cfg, plugins, gui=True if args.gui else None, max_time=args.max_time, trace=trace,
+                         record=not args.no_record, pose_hz=args.pose_hz, save_frames=args.save_frames,
+                         after_run=hold, on_problem=None if args.quiet else _warn_problem)
     finally:
         if trace is not None:
             trace.close()
@@ -146,6 +173,10 @@ def cmd_run(args: argparse.Namespace) -> int:
         print(json.dumps(out.result.to_dict(), indent=2))
     if not args.quiet:
         print(summary(out), file=sys.stderr if args.json else sys.stdout)
+    if args.video:
+        from robokit.record.cli import video_after_run
+
+        video_after_run(cfg, out.result.run_id, args.video, quiet=args.quiet)
     return out.exit_code
 
 
@@ -229,9 +260,18 @@ def cmd_inspect(args: argparse.Namespace) -> int:
 
 
 def cmd_graph(args: argparse.Namespace) -> int:
-    """``robokit graph``: a behaviour's state machine as Mermaid."""
+    """``robokit graph``: a behaviour's state machine, or a config's task, sequence and monitors, as Mermaid."""
+    from pathlib import Path
+
     from robokit.plugins import load_plugins
 
+    if args.behaviour.endswith(".toml") or Path(args.behaviour).is_file():
+        from robokit.compose import config_mermaid
+        from robokit.config import load_config
+
+        plugins = load_plugins()
+        print(config_mermaid(load_config(args.behaviour, plugins), plugins), end="")
+        return EXIT_OK
     ptype = load_plugins().get("behaviour", args.behaviour)
     mermaid = getattr(ptype.cls, "mermaid", None)
     if mermaid is None:
@@ -240,8 +280,31 @@ def cmd_graph(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def cmd_lint(args: argparse.Namespace) -> int:
+    """``robokit lint``: one line per finding (file:line:col: code message); exit 1 if there is any."""
+    from robokit.lint import lint_paths
+
+    try:
+        findings = lint_paths(args.paths)
+    except (FileNotFoundError, SyntaxError) as exc:
+        raise UserError(str(exc)) from None
+    for finding in findings:
+        print(finding)
+    return EXIT_FAILED if findings else EXIT_OK
+
+
+CAPTURED_COMMANDS = frozenset({"run", "validate", "inspect", "plugins", "graph", "video", "plot", "view", "results"})
+"""Commands whose pybullet C output is captured and summarised (they run pybullet in this process)."""
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``robokit`` console script; returns the exit code."""
+    """Entry point of the ``robokit`` console script; returns the exit code.
+
+    For the commands in :data:`CAPTURED_COMMANDS`, C-level output on file descriptors 1 and 2 (pybullet's
+    b3Warning lines, build banner, GUI chatter) never reaches the terminal as is: it is captured for the whole
+    command and summarised in one line on stderr (nothing with ``--quiet``).
+    """
+    from robokit._quiet import capture_c_stdout
     from robokit.crash import debug_from_env
 
     argv = list(sys.argv[1:] if argv is None else argv)
@@ -256,8 +319,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     args.debug = debug
     with warnings.catch_warnings():  # restores the caller's warning settings (main() is also called in-process)
         warnings.simplefilter("always", PluginLoadWarning)
+        warnings.simplefilter("always", UserWarning)
         warnings.showwarning = _show_warning
-        return _dispatch(args)
+        if args.command not in CAPTURED_COMMANDS:  # e.g. serve: its child processes write to the real streams
+            return _dispatch(args)
+        with capture_c_stdout() as captured:
+            code = _dispatch(args)
+    note = captured.summary()
+    if note and not getattr(args, "quiet", False):
+        print(note, file=sys.stderr)
+    return code
 
 
 def _show_warning(message: Warning | str, category: type[Warning], *_args: Any, **_kwargs: Any) -> None:

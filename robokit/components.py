@@ -23,8 +23,10 @@ Two optional hooks let any type, built-in or third-party, state what it knows ab
 
 from __future__ import annotations
 
+import zlib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
@@ -71,7 +73,8 @@ class SetupContext:
     Attributes:
         world: The World (bodies by name, the PyBullet client, the clock). Behaviours should not drive
             physics through it: readings in, commands out.
-        rng: This component's own generator, spawned from the run's seed (independent of other components).
+        rng: This component's own generator, spawned from the run's seed (independent of other components). For
+            noise drawn at each reading use :meth:`tick_rng` (an extra read must not change later readings).
         key: The component's config key path, e.g. ``"sensors.cam"``; prefix errors with it.
         readings: Live view of every sensor's and actuator's latest reading, by component name.
         components: Every sensor and actuator instance by name (to check what another one is).
@@ -79,6 +82,8 @@ class SetupContext:
         trace: ``trace(kind, **data)`` appends a record to the run's trace at the current tick.
         body_keys: Config key of every spawned body by name (``red_0`` -> ``bodies.red``), to name keys in
             problems.
+        run_dir: The run's record folder (``results/<run_id>``) when the run keeps one, else None.
+        save_frames: True when the user asked every camera to save the frames it renders (``--save-frames``).
     """
 
     world: World
@@ -89,6 +94,18 @@ class SetupContext:
     config_dir: Any
     trace: Callable[..., None]
     body_keys: Mapping[str, str] = field(default_factory=dict)
+    run_dir: Path | None = None
+    save_frames: bool = False
+
+    def tick_rng(self, tick: int | None = None) -> np.random.Generator:
+        """A generator for noise drawn at one tick (default: now), the same however often the component reads.
+
+        Seeded from the run's seed, this component's config key and the tick, so a reading's noise depends on
+        *when* it is measured, never on how many reads came before: a test or a monitor that looks at a sensor
+        cannot change the run. Use it for sensor noise; use :attr:`rng` for draws made once (in ``setup``).
+        """
+        k = self.world.tick if tick is None else tick
+        return np.random.default_rng([int(self.world.seed), zlib.crc32(self.key.encode("utf-8")), int(k)])
 
     def problem(self, message: str, key: str = "") -> ConfigError:
         """A problem placed under this component's section (``key`` relative to it), for ``preflight``."""

@@ -8,10 +8,11 @@ by the schema their type registered.
 from __future__ import annotations
 
 import copy
+import dataclasses
 import math
 import sys
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -252,6 +253,24 @@ class ReportConfig(Schema):
     keep_local: bool = Field(True, description="always add the local reporter")
 
 
+class RecordConfig(Schema):
+    """``[record]``: what a ``robokit run`` keeps in its run folder besides the result and the trace."""
+
+    pose_hz: float = Field(30.0, ge=0, description="pose log samples per sim second; 0 = no pose log")
+    save_frames: bool = Field(False, description="every camera saves the frames it renders as PNGs")
+
+
+class GuiConfig(Schema):
+    """``[gui]``: the PyBullet window's camera and panels (used with ``--gui`` only)."""
+
+    distance: float = Field(1.6, gt=0, description="camera distance from the target, metres")
+    yaw: float = Field(45.0, description="degrees")
+    pitch: float = Field(-35.0, ge=-89.9, le=89.9, description="degrees")
+    target: Vec3 | None = Field(None, description="point looked at (world, metres); default: the scene's centre")
+    panels: bool = Field(False, description="show PyBullet's side panels (sliders, camera previews)")
+    shadows: bool | None = Field(None, description="shadows on/off (default: PyBullet's own setting)")
+
+
 @dataclass(frozen=True)
 class ComponentSpec:
     """A validated plugin section: ``name`` (its key), ``type``, ``rate_hz`` (None = every tick), ``params``."""
@@ -262,6 +281,8 @@ class ComponentSpec:
     rate_hz: float | None
     params: Any
     key: str
+    children: tuple[ComponentSpec, ...] = ()
+    """The steps of a ``sequence`` behaviour (``[[behaviour.steps]]``), each a behaviour section of its own."""
 
 
 @dataclass(frozen=True)
@@ -281,9 +302,14 @@ class Config:
     reporters: tuple[ComponentSpec, ...]
     events: tuple[EventConfig, ...]
     raw: Mapping[str, Any]
+    monitors: tuple[ComponentSpec, ...] = ()
+    """Behaviours that run beside the task (``[monitors.NAME]``), see :mod:`robokit.compose`."""
+    record: RecordConfig = field(default_factory=lambda: RecordConfig.model_validate({}))
+    gui: GuiConfig = field(default_factory=lambda: GuiConfig.model_validate({}))
 
 
-SECTIONS = ("world", "regions", "bodies", "robots", "sensors", "actuators", "behaviour", "report", "events", "env")
+SECTIONS = ("world", "regions", "bodies", "robots", "sensors", "actuators", "behaviour", "monitors", "report",
+            "events", "record", "gui", "env")
 """``env`` is read by :mod:`robokit.gym` (a Gymnasium environment made from the config); runs ignore it."""
 _COMPONENT_KEYS = ("type", "rate_hz")
 
@@ -512,7 +538,12 @@ def _build(raw: Mapping[str, Any], plugins: Any, source: str, base_dir: Path) ->
     actuators = _components(raw, "actuators", "actuator", plugins, physics_hz)
     behaviour = None
     if "behaviour" in raw:
-        behaviour = _component("behaviour", "behaviour", raw["behaviour"], "behaviour", plugins, physics_hz)
+        behaviour = _behaviour(raw["behaviour"], plugins, physics_hz)
+    for name, data in _table(raw, "monitors").items():
+        if isinstance(data, Mapping) and data.get("type") == "sequence":
+            raise ConfigError("a monitor cannot be a sequence (monitors observe beside the task)",
+                              key=f"monitors.{name}")
+    monitors = _components(raw, "monitors", "behaviour", plugins, physics_hz)
     report_raw = _table(raw, "report")
     report = validate_model(ReportConfig, {k: v for k, v in report_raw.items() if k in ReportConfig.model_fields},
                             "report")
@@ -529,8 +560,36 @@ def _build(raw: Mapping[str, Any], plugins: Any, source: str, base_dir: Path) ->
             )
     if not (bodies or robots or behaviour or sensors or actuators):
         raise ConfigError("nothing to run: the config has no [bodies], [robots] or [behaviour]")
+    record = validate_model(RecordConfig, _table(raw, "record"), "record")
+    gui = validate_model(GuiConfig, _table(raw, "gui"), "gui")
     return Config(source, base_dir, world, regions, bodies, robots, sensors, actuators, behaviour, report,
-                  reporters, events, copy.deepcopy(dict(raw)))
+                  reporters, events, copy.deepcopy(dict(raw)), monitors, record, gui)
+
+
+def _behaviour(data: Any, plugins: Any, physics_hz: float) -> ComponentSpec:
+    """The ``[behaviour]`` section; for ``type = "sequence"`` also its ``[[behaviour.steps]]``, each validated as a
+    behaviour section of its own (with an optional ``name``)."""
+    if not (isinstance(data, Mapping) and data.get("type") == "sequence"):
+        return _component("behaviour", "behaviour", data, "behaviour", plugins, physics_hz)
+    from robokit.compose import step_names
+
+    steps = data.get("steps")
+    if not isinstance(steps, list) or not steps or not all(isinstance(s, Mapping) for s in steps):
+        raise ConfigError("a sequence needs steps: one or more [[behaviour.steps]] tables, each with a type",
+                          key="behaviour.steps")
+    names = step_names(steps)
+    children = []
+    for i, (step, name) in enumerate(zip(steps, names, strict=True)):
+        key = f"behaviour.steps[{i}]"
+        if step.get("type") == "sequence":
+            raise ConfigError("a sequence step cannot itself be a sequence", key=f"{key}.type")
+        if names.count(name) > 1:
+            raise ConfigError(f"two steps are named {name!r}; give each a distinct name", key=f"{key}.name")
+        own = {k: v for k, v in step.items() if k != "name"}
+        children.append(_component("behaviour", name, own, key, plugins, physics_hz))
+    spec = _component("behaviour", "behaviour", {k: v for k, v in data.items() if k != "steps"}, "behaviour",
+                      plugins, physics_hz)
+    return dataclasses.replace(spec, children=tuple(children))
 
 
 def load_config(path: str | Path, plugins: Any, overrides: Mapping[str, Any] | None = None) -> Config:

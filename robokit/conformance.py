@@ -17,7 +17,9 @@ simulations, and verifies, in order:
 3. **rate**: a sensor's reading is computed once per due tick at most (lazy sensors only when read, non-lazy ones
    on every due tick); an actuator's ``update()`` runs exactly on its due ticks;
 4. **shape**: every reading is an instance of ``reading_type``;
-5. **determinism**: two fresh simulations with the same seed give equal readings, tick by tick;
+5. **determinism**: two fresh simulations with the same seed give equal readings, tick by tick; sensors: a third,
+   where ``read()`` is also called out of band, gives them too (noise drawn per *tick*, ``ctx.tick_rng()``, not per
+   read: a test or a monitor that looks at a sensor must not change the run);
 6. **close**: after ``close()`` the world holds as many bodies and constraints as the same scene without the
    component, a second ``close()`` does not raise, and the World then disconnects;
 7. actuators only: a bad command (``object()``) is refused with ``ValueError`` or ``TypeError``.
@@ -244,8 +246,9 @@ class _Check:
         except (UserError, PluginError) as exc:
             raise self.fail(check, f"the example does not build: {exc}") from None
 
-    def _drive(self, sim: Simulation) -> list[Any]:
-        """Step ``ticks`` ticks, sending commands and reading the component after every tick."""
+    def _drive(self, sim: Simulation, extra_reads: list[int] | None = None) -> list[Any]:
+        """Step ``ticks`` ticks, sending commands and reading the component after every tick (with
+        ``extra_reads = [n]``, also calling ``read()`` directly, before the loop's read, on the first n due ticks)."""
         slot = sim.scheduler.slots[self.name]
         comp = slot.component
         self.update_ticks: list[int] = []
@@ -263,6 +266,9 @@ class _Check:
                 for cmd in [cmd for tick, cmd in self.commands if tick == k]:
                     comp.command(cmd)
                 sim.step(1)
+                if extra_reads and extra_reads[0] > 0 and sim.scheduler.slots[self.name].stale:
+                    extra_reads[0] -= 1
+                    comp.read()  # out of band: the loop does not see this value
                 values.append(sim.readings[self.name])
                 self.stamps.append(sim.readings.stamp(self.name))
         except Exception as exc:  # noqa: BLE001 - report any failure as a broken contract
@@ -315,6 +321,25 @@ class _Check:
                 self._check_lazy(sim_b)
         finally:
             sim_b.close()
+        if self.kind == "sensor":
+            self._check_extra_reads(values_a)
+
+    def _check_extra_reads(self, values_a: list[Any]) -> None:
+        """A third simulation where ``read()`` is also called out of band on the first due ticks: the readings the
+        loop sees must not change (noise drawn per read from ``ctx.rng`` would: use ``ctx.tick_rng()``)."""
+        sim_c = self._build("extra reads")
+        try:
+            extra = [4]  # out-of-band reads left (a few suffice; a camera renders each time)
+            values_c = self._drive(sim_c, extra_reads=extra)
+            for k, (a, c) in enumerate(zip(values_a, values_c, strict=True)):
+                diff = first_difference(a, c)
+                if diff is not None:
+                    raise self.fail("extra reads", f"reading after tick {k} changed at {diff} because read() was "
+                                    "called once more before it: draw per-reading noise from ctx.tick_rng(), "
+                                    "not ctx.rng")
+            self.passed("extra read() calls do not change later readings (noise per tick, not per read)")
+        finally:
+            sim_c.close()
 
     def _check_lazy(self, sim: Simulation) -> None:
         slot = sim.scheduler.slots[self.name]

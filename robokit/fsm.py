@@ -15,7 +15,10 @@ A machine behaviour declares its states, transitions and per-state timeouts as d
 Per-tick work is a direct call of the current state's handler ``do_<state name lower-case>(readings, t)``; a trigger
 (:meth:`MachineBehaviour.fire`) is fired only when something changes, because a trigger costs ~10-20 µs and a
 physics step ~140 µs. Timeouts count sim seconds (``transitions``' own ``Timeout`` uses a thread timer and is not
-used). Every change of state is written to the run's trace.
+used); a config that has a ``timeouts`` table (state name -> sim seconds) overrides the class's ``TIMEOUTS`` state
+by state, with no code in the behaviour. Every change of state is written to the run's trace.
+
+The full guide, with a worked example, is ``docs/behaviours.md``.
 """
 
 from __future__ import annotations
@@ -25,9 +28,26 @@ import re
 from collections.abc import Mapping
 from typing import Any, ClassVar
 
+from pydantic import Field
 from transitions import Machine
 
 from robokit.components import Behaviour, SetupContext
+from robokit.config import Schema
+from robokit.errors import ConfigError, did_you_mean
+
+
+class MachineConfig(Schema):
+    """Base config schema of a machine behaviour: adds ``timeouts``, a table of state name -> sim seconds.
+
+    Subclass it for your behaviour's own options; the per-state timeouts then work with no code::
+
+        [behaviour]
+        type = "my_machine"
+        timeouts = { SEARCH = 4.0 }
+    """
+
+    timeouts: dict[str, float] = Field(default_factory=dict,
+                                       description="state name -> sim seconds (overrides the class's TIMEOUTS)")
 
 
 class MachineBehaviour(Behaviour):
@@ -37,7 +57,15 @@ class MachineBehaviour(Behaviour):
         STATES: An Enum of states.
         TRANSITIONS: A list of transition dicts (``trigger``, ``source``, ``dest``, optional ``conditions``).
         INITIAL: The initial state (a member of ``STATES``).
-        TIMEOUTS: Sim seconds allowed per state name; :meth:`on_timeout` runs when one is exceeded.
+        TIMEOUTS: Sim seconds allowed per state name; :meth:`on_timeout` runs when one is exceeded. The
+            config's ``timeouts`` table (if its schema has one, see :class:`MachineConfig`) overrides them.
+
+    Instance attributes:
+        timeouts: The timeouts in force: ``TIMEOUTS`` updated with the config's ``timeouts``.
+        t: Sim time of the current step, seconds.
+        entered_at: Sim time the current state was entered.
+        visited: Every state entered so far, in order, the initial one first.
+        phase_times: Sim seconds spent per state name (states left so far).
     """
 
     STATES: ClassVar[type[enum.Enum]]
@@ -54,6 +82,8 @@ class MachineBehaviour(Behaviour):
         self.entered_at = 0.0
         self.visited: list[str] = [self.INITIAL.name]
         self.phase_times: dict[str, float] = {}
+        configured = getattr(config, "timeouts", None) or {}
+        self.timeouts: dict[str, float] = {**self.TIMEOUTS, **configured}
         self._trace: Any = None
         self._trigger = ""
         self._handlers: dict[tuple[str, Any], Any] = {}
@@ -69,9 +99,20 @@ class MachineBehaviour(Behaviour):
         )
 
     def setup(self, ctx: SetupContext) -> None:
-        """Keep the context and the trace writer; subclasses call ``super().setup(ctx)`` first."""
+        """Keep the context and the trace writer; subclasses call ``super().setup(ctx)`` first.
+
+        Raises:
+            ConfigError: The config's ``timeouts`` names a state the machine does not have, or is not positive.
+        """
         super().setup(ctx)
         self._trace = ctx.trace
+        states = [s.name for s in self.STATES]
+        for state, seconds in (getattr(self.config, "timeouts", None) or {}).items():
+            if state not in states:
+                raise ConfigError(f"unknown state {state!r}{did_you_mean(state, states)}; states: "
+                                  f"{', '.join(states)}", key=f"timeouts.{state}")
+            if not seconds > 0:
+                raise ConfigError(f"a timeout is sim seconds > 0, got {seconds!r}", key=f"timeouts.{state}")
 
     @property
     def state_name(self) -> str:
@@ -113,7 +154,7 @@ class MachineBehaviour(Behaviour):
     def step(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any] | None:
         """Check the state's timeout, then call ``do_<state>(readings, t)`` and return its commands."""
         self.t = t
-        limit = self.TIMEOUTS.get(self.state_name)
+        limit = self.timeouts.get(self.state_name)
         if limit is not None and self.time_in_state > limit:
             self.on_timeout(self.state_name)
             if self.outcome is not None:
@@ -124,8 +165,12 @@ class MachineBehaviour(Behaviour):
         return handler(readings, t)  # type: ignore[no-any-return]
 
     def on_timeout(self, state: str) -> None:
-        """Default: fail with a reason naming the state. Override to retry."""
-        self.finish("failed", f"timed out in state {state} after {self.TIMEOUTS[state]:g} s (sim time)")
+        """The current state ran longer than its timeout (sim seconds). Default: fail with a reason naming the state.
+
+        Runs inside :meth:`step`, before the state's handler; if it sets an outcome the handler is not called.
+        Override it to retry (fire a trigger) instead.
+        """
+        self.finish("failed", f"timed out in state {state} after {self.timeouts[state]:g} s (sim time)")
 
     @classmethod
     def mermaid(cls) -> str:

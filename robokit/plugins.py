@@ -20,6 +20,8 @@ if TYPE_CHECKING:  # importlib.metadata costs ~20 ms of start-up: imported when 
     import importlib.metadata as md
 
 ENTRY_POINT_GROUP = "robokit"
+BUILTIN = "robokit"
+"""The distribution of the built-in types: they keep their names when a plugin registers the same one."""
 INDEX_GROUP = "robokit.types"
 """Optional entry-point group naming which module registers which type: ``"KIND.TYPE" = "module"``. A module
 listed there is imported only when a config (or a lookup) needs one of its types."""
@@ -232,8 +234,9 @@ def load_plugins(extra: Iterable[object] = (), *, entry_points: bool = True, laz
     A distribution whose entry point fails to import, or whose hooks do not match their specs, is skipped with a
     :class:`PluginLoadWarning` naming it; the others still load.
 
-    Raises:
-        UserError: Two plugins register the same type name for the same kind (the message names both).
+    Two plugins registering the same type name for the same kind: robokit's built-in keeps the name (else the
+    distribution loaded first does), and the other's type is skipped with a :class:`PluginLoadWarning` naming both;
+    everything else still loads.
     """
     _import_pybullet_quietly()
     pm = pluggy.PluginManager("robokit")
@@ -307,13 +310,20 @@ def _collect(plugins: Plugins, kind: str, origins: dict[str, tuple[str, str]], o
 
         def register(type_name: str, cls: type, schema: type | None = None, *, _p: str = impl.plugin_name,
                      _d: str = dist, _v: str = version) -> None:
+            new = PluginType(kind, type_name, cls, schema, _d, _v, _p)
             existing = types.get(type_name)
-            if existing is not None:
-                raise UserError(
-                    f"{kind} type {type_name!r} is registered twice: by {existing.origin} "
-                    f"({existing.plugin}) and by {_d} {_v} ({_p})".replace("  ", " ")
-                )
-            types[type_name] = PluginType(kind, type_name, cls, schema, _d, _v, _p)
+            if existing is not None:  # a clash: the built-in keeps its name, else the one loaded first does
+                order = list(origins)
+                first = order.index(_p) < order.index(existing.plugin) if existing.plugin in order else False
+                builtin = [t.distribution == BUILTIN for t in (new, existing)]
+                keep_new = builtin[0] and not builtin[1] or builtin[0] == builtin[1] and first
+                kept, skipped = (new, existing) if keep_new else (existing, new)
+                owner = "robokit's built-in" if kept.distribution == BUILTIN else f"{kept.origin}'s"
+                _reject(plugins, f"{skipped.origin} ({kind} type {type_name!r})",
+                        f"the name is taken by {owner} {kind} {type_name!r} ({kept.plugin}); rename the type")
+                if not keep_new:
+                    return
+            types[type_name] = new
 
         before = set(types)
         try:

@@ -5,8 +5,10 @@ from __future__ import annotations
 import datetime as dt
 import json
 import uuid
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import IO, Any
 
 from robokit import __version__
@@ -87,17 +89,27 @@ def run_config(
     max_time: float | None = None,
     trace: IO[str] | None = None,
     report: bool = True,
+    record: bool = True,
+    pose_hz: float | None = None,
+    save_frames: bool = False,
+    after_run: Any = None,
     on_problem: Callable[[ConfigError], None] | None = None,
 ) -> RunOutput:
     """Build the simulation, run it, close it, then hand the payload to every reporter.
 
+    With ``record`` (the default) the run keeps its record in ``<results dir>/<run_id>/`` (see
+    :mod:`robokit.record`): the trace with its header, the pose log at ``pose_hz`` (default ``[record] pose_hz``),
+    camera frames when ``save_frames``; the local reporter adds ``result.json``. ``after_run(sim)`` is called
+    after the last tick, before the world closes (``--gui-hold`` uses it).
     With ``on_problem``, the preflight checks run first and each problem found is handed to it (``robokit run``
     prints them as warnings and runs anyway: the goal check then reports what happened).
     A plugin that raises during setup or the run gives outcome ``error``; whatever result exists is still reported.
     """
     run_seed = cfg.world.seed if seed is None else seed
+    run_id = str(uuid.uuid4())
+    run_dir = _make_run_dir(results_root(cfg) / run_id) if record else None
     try:
-        sim = Simulation(cfg, plugins, gui=gui, seed=seed)
+        sim = Simulation(cfg, plugins, gui=gui, seed=seed, run_id=run_id, run_dir=run_dir, save_frames=save_frames)
         if on_problem is not None:
             try:
                 for problem in sim.preflight():
@@ -107,19 +119,63 @@ def run_config(
                 raise
     except PluginError as exc:
         result = error_result(cfg, run_seed, str(exc))
+        result.run_id = run_id
+        if trace is not None:  # the run never started: the trace holds the error alone
+            trace.write(json.dumps({"tick": 0, "t": 0.0, "source": "run", "kind": "error", "reason": str(exc)}) + "\n")
     else:
         if trace is not None:
             def write(record: dict[str, Any], out: IO[str] = trace) -> None:
                 out.write(json.dumps(record) + "\n")
 
+            for early in sim.trace:  # written during setup, before the file was listening
+                write(early)
             sim.trace_listeners.append(write)
+        recorder = None
         try:
+            if run_dir is not None:
+                from robokit.record.recorder import Recorder
+
+                hz = cfg.record.pose_hz if pose_hz is None else pose_hz
+                recorder = Recorder(sim, run_dir, pose_hz=hz)
+                sim.add_monitor(recorder)
             result = sim.run(max_time=max_time)
+            if recorder is not None:
+                recorder.close(result)
+            if after_run is not None:
+                after_run(sim)
+        except BaseException as exc:
+            if run_dir is not None:  # the CLI writes traceback.txt into the run's folder
+                exc.robokit_run_dir = run_dir  # type: ignore[attr-defined]
+            raise
         finally:
+            if recorder is not None:
+                recorder.close()
             sim.close()
     payload = build_payload(result, student=cfg.report.student, project=cfg.report.project)
     deliveries = deliver(make_reporters(cfg, plugins), payload) if report else []
     return RunOutput(result, payload, deliveries)
+
+
+def _make_run_dir(folder: Path) -> Path | None:
+    """Create the run's record folder; on failure warn in one line and run without a record (None)."""
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        warnings.warn(f"no run record: cannot create {folder}: {exc.strerror or exc}", RecordWarning, stacklevel=3)
+        return None
+    return folder
+
+
+class RecordWarning(UserWarning):
+    """The run record could not be kept (the run itself goes on)."""
+
+
+def results_root(cfg: Config) -> Path:
+    """Where run folders go: the local reporter's ``dir`` (``[report.local] dir``), default ``results``."""
+    for spec in cfg.reporters:
+        if spec.type == "local" and spec.params is not None and getattr(spec.params, "dir", None):
+            return Path(spec.params.dir)
+    return Path("results")
 
 
 def summary(out: RunOutput) -> str:

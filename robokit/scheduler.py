@@ -2,6 +2,7 @@
 
 Order inside a tick (tick ``k``, sim time ``t = k * dt``), fixed:
 
+0. **monitors** whose period divides ``k`` sample the scene as it is at ``t`` (the recorder's pose log);
 1. **sensors** whose period divides ``k`` are marked stale (lazy ones) or read now (``lazy = False``);
 2. **behaviour**, if due, steps with the readings and ``t``; its commands go to the actuators at once;
 3. **actuators** whose period divides ``k`` run ``update()``;
@@ -111,6 +112,8 @@ class TickScheduler:
     behaviour_period: int
     behaviour_origin: str
     events: dict[int, list[Callable[[], None]]] = field(default_factory=dict)
+    monitors: list[Any] = field(default_factory=list)
+    """Observers with ``period`` (ticks) and ``sample(tick)``; they read the world and never change it."""
     _wall_start: float | None = None
     wall_clock: Callable[[], float] = time.perf_counter
     """GUI pacing's clock (seconds); replaceable so pacing can be tested without waiting."""
@@ -125,6 +128,9 @@ class TickScheduler:
     def tick(self) -> None:
         """Run one tick (see the module docstring for the order). This is the hot loop: kept lean on purpose."""
         k = self.world.tick
+        for monitor in self.monitors:
+            if k % monitor.period == 0:
+                monitor.sample(k)
         for slot in self._sensor_list:
             if k % slot.period == 0:
                 slot.stale = True

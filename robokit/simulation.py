@@ -17,6 +17,7 @@ import numpy as np
 
 from robokit import __version__
 from robokit.components import SetupContext
+from robokit.compose import Member, Monitored
 from robokit.config import BodyConfig, ComponentSpec, Config
 from robokit.errors import ConfigError, PluginError, UserError
 from robokit.plugins import Plugins
@@ -35,8 +36,13 @@ class Simulation:
         seed: Override ``world.seed``.
     """
 
-    def __init__(self, config: Config, plugins: Plugins, *, gui: bool | None = None, seed: int | None = None) -> None:
+    def __init__(self, config: Config, plugins: Plugins, *, gui: bool | None = None, seed: int | None = None,
+                 run_id: str | None = None, run_dir: Path | None = None, save_frames: bool = False) -> None:
         self.config = config
+        self.run_id = run_id or str(uuid.uuid4())
+        self.run_dir = run_dir
+        """The run's record folder, if it keeps one (cameras with ``save = true`` write their frames there)."""
+        self.save_frames = save_frames or config.record.save_frames
         self.plugins = plugins
         wc = config.world
         self.seed = wc.seed if seed is None else int(seed)
@@ -55,6 +61,8 @@ class Simulation:
         self._origins: dict[str, str] = {}
         self.body_keys: dict[str, str] = {}
         self._contexts: dict[str, SetupContext] = {}
+        self._instances: dict[str, Any] = {}
+        self.monitors: list[Member] = []
         self._stop_reason: str | None = None
         self.interrupted = False
         try:
@@ -70,6 +78,10 @@ class Simulation:
             spawn_bodies(self.world, cfg, self.body_keys)
         except UserError as exc:
             raise _as_config_error(exc, "bodies", cfg.source) from None
+        if self.world.gui:
+            from robokit.gui import apply_view
+
+            apply_view(self.world, cfg.gui)
         hz = self.world.physics_hz
         slots: dict[str, Slot] = {}
         for spec in cfg.sensors + cfg.actuators:
@@ -81,18 +93,29 @@ class Simulation:
         actuators = {s.name: slots[s.name] for s in cfg.actuators}
         if cfg.behaviour is not None:
             self.behaviour = self._instantiate(cfg.behaviour)
-        self.scheduler = TickScheduler(
-            self.world,
-            sensors,
-            actuators,
-            self.behaviour,
-            period_ticks(cfg.behaviour.rate_hz, hz) if cfg.behaviour else 1,
-            self._origins.get("behaviour", ""),
-        )
+            if cfg.behaviour.children:  # a sequence: its steps are behaviours of their own
+                self.behaviour.add_steps([self._member(c) for c in cfg.behaviour.children])
+        self.monitors = [self._member(spec) for spec in cfg.monitors]
+        stepped, period = self.behaviour, period_ticks(cfg.behaviour.rate_hz, hz) if cfg.behaviour else 1
+        if self.monitors:  # the task and its monitors, stepped as one, each at its own rate
+            task = self._member(cfg.behaviour, self.behaviour) if cfg.behaviour else None
+            self._monitored = Monitored(task, self.monitors, self.world)
+            stepped, period = self._monitored, 1
+        self.scheduler = TickScheduler(self.world, sensors, actuators, stepped, period,
+                                       self._origins.get("behaviour", ""))
         self.readings = self.scheduler.readings
-        for spec in cfg.sensors + cfg.actuators + ((cfg.behaviour,) if cfg.behaviour else ()):
+        behaviours = (*(cfg.behaviour.children if cfg.behaviour else ()), *((cfg.behaviour,) if cfg.behaviour else ()),
+                      *cfg.monitors)
+        for spec in cfg.sensors + cfg.actuators + behaviours:
             self._setup(spec)
         self._schedule_events()
+
+    def _member(self, spec: ComponentSpec, instance: Any = None) -> Member:
+        """A behaviour of a composition (a sequence step or a monitor), built unless ``instance`` is given."""
+        comp = self._instantiate(spec) if instance is None else instance
+        self._instances[spec.key] = comp
+        return Member(spec.name, spec.type, comp, period_ticks(spec.rate_hz, self.world.physics_hz),
+                      self._origins[spec.name])
 
     def _instantiate(self, spec: ComponentSpec) -> Any:
         ptype = self.plugins.get(spec.kind, spec.type)
@@ -104,13 +127,15 @@ class Simulation:
                               f"{type(exc).__name__}: {exc}", type_name=spec.type, distribution=ptype.origin) from exc
         if spec.kind != "behaviour":
             self.components[spec.name] = comp
+        self._instances.setdefault(spec.key, comp)
         return comp
 
     def _setup(self, spec: ComponentSpec) -> None:
-        comp = self.behaviour if spec.kind == "behaviour" else self.components[spec.name]
+        comp = self._instances[spec.key]
         rng = self.world.rng.spawn(1)[0]
         ctx = SetupContext(self.world, rng, spec.key, self.readings, self.components, self.config.base_dir,
-                           self._tracer(spec.name), self.body_keys)
+                           self._tracer(spec.name), self.body_keys, run_dir=self.run_dir,
+                           save_frames=self.save_frames)
         self._contexts[spec.key] = ctx
         try:
             comp.setup(ctx)
@@ -164,6 +189,12 @@ class Simulation:
 
         return act
 
+    def add_monitor(self, monitor: Any) -> None:
+        """Put an observer in the loop: ``monitor.sample(tick)`` runs every ``monitor.period`` ticks (0 = never),
+        at the start of the tick, before the sensors (see :mod:`robokit.scheduler`)."""
+        if monitor.period:
+            self.scheduler.monitors.append(monitor)
+
     def preflight(self) -> list[ConfigError]:
         """What can be checked without running: the core's checks (bodies spawned overlapping), then every
         component's and the behaviour's ``preflight(ctx)``. Each problem is a ConfigError naming file and key.
@@ -173,9 +204,10 @@ class Simulation:
         problems = overlapping_bodies(self.world, self.body_keys)
         specs = list(self.config.sensors + self.config.actuators)
         if self.behaviour is not None and self.config.behaviour is not None:
-            specs.append(self.config.behaviour)
+            specs += [*self.config.behaviour.children, self.config.behaviour]
+        specs += self.config.monitors
         for spec in specs:
-            comp = self.behaviour if spec.kind == "behaviour" else self.components[spec.name]
+            comp = self._instances[spec.key]
             hook = getattr(comp, "preflight", None)
             if hook is None:
                 continue
@@ -242,6 +274,7 @@ class Simulation:
                     reason = f"max_time {limit:g} s reached before the behaviour finished"
             except PluginError as exc:
                 outcome, reason = "error", str(exc)
+                self._tracer("run")("error", reason=reason)  # the trace ends with what stopped the run
         goal: dict[str, Any] | None = None
         if outcome != "error" and self.behaviour is not None:
             try:
@@ -251,8 +284,10 @@ class Simulation:
         behaviour_result = self._behaviour_result()
         if goal is not None:
             behaviour_result["goal"] = goal
+        if self.monitors:
+            behaviour_result["monitors"] = self._monitored.results()
         result = RunResult(
-            run_id=str(uuid.uuid4()),
+            run_id=self.run_id,
             robokit_version=__version__,
             config=self.config.source,
             behaviour=self.config.behaviour.type if self.config.behaviour else None,
@@ -334,7 +369,8 @@ class Simulation:
     # ----------------------------------------------------------------- lifetime
     def close(self) -> None:
         """Close every component, then the World. Safe to call twice."""
-        for comp in list(self.components.values()) + ([self.behaviour] if self.behaviour else []):
+        monitors = [m.behaviour for m in self.monitors]
+        for comp in list(self.components.values()) + ([self.behaviour] if self.behaviour else []) + monitors:
             try:
                 comp.close()
             except Exception:  # noqa: BLE001, S110 - closing must reach the world

@@ -11,7 +11,11 @@ Example::
 
 The pytest plugin (registered automatically when robokit is installed) provides the ``sim_factory`` fixture, which
 closes every simulation it built at the end of the test. Conformance checks for plugin types are
-:func:`check_sensor` and :func:`check_actuator`.
+:func:`check_sensor`, :func:`check_actuator` and :func:`check_behaviour`.
+
+Behaviours can also be tested with no physics at all: :class:`ScriptedRun` steps one with readings you script and
+records the commands and states it produces (see ``docs/behaviours.md``). :func:`lint_paths` is the static check
+that plugin code reads no wall clock, never sleeps and draws from no global random generator.
 """
 
 from __future__ import annotations
@@ -102,6 +106,7 @@ def validate_error(config: str | Path) -> str:
 
 
 # Conformance checks for plugin types (see robokit.conformance for what they verify).
+from robokit.behaviour_conformance import BehaviourReport, check_behaviour  # noqa: E402
 from robokit.conformance import (  # noqa: E402
     ConformanceError,
     ConformanceReport,
@@ -109,8 +114,11 @@ from robokit.conformance import (  # noqa: E402
     check_sensor,
     first_difference,
 )
+from robokit.lint import Finding, lint_paths, lint_source  # noqa: E402
+from robokit.scripted import ScriptedRun, ScriptedWorld, StandIn  # noqa: E402
 
 __all__ = [
-    "PLANE", "ConformanceError", "ConformanceReport", "check_actuator", "check_sensor", "first_difference",
+    "PLANE", "BehaviourReport", "ConformanceError", "ConformanceReport", "Finding", "ScriptedRun", "ScriptedWorld",
+    "StandIn", "check_actuator", "check_behaviour", "check_sensor", "first_difference", "lint_paths", "lint_source",
     "make_sim", "run_until", "states_visited", "transitions",
 ]

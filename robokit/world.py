@@ -62,6 +62,10 @@ class JointInfo:
         return self.type in ("revolute", "prismatic")
 
 
+_UNKNOWN: Any = object()
+"""Not looked up yet (a cache sentinel)."""
+
+
 def to_quaternion(rpy_deg: Sequence[float] | None = None, quaternion: Sequence[float] | None = None) -> Quat:
     """Turn roll/pitch/yaw in degrees, or a quaternion ``(x, y, z, w)``, into a unit quaternion."""
     if quaternion is not None:
@@ -143,6 +147,7 @@ class World:
         """Mounted body id -> the body id it is mounted on (see :meth:`mount`)."""
         self._names: dict[int, str] = {}
         self._joint_cache: dict[int, list[JointInfo]] = {}
+        self._com_to_link: dict[int, Any] = {}
         self._cid = int(self.client._client)
         self.removals = 0
         """Bodies removed so far: lets components cache id lookups until it changes."""
@@ -411,6 +416,7 @@ class World:
         del self._bodies[name]
         del self._names[body]
         self._joint_cache.pop(body, None)
+        self._com_to_link.pop(body, None)
         self.removals += 1
 
     @property
@@ -509,25 +515,59 @@ class World:
 
     # ----------------------------------------------------------------- state
     def pose(self, body: str | int, link: int = -1) -> tuple[Vec3, Quat]:
-        """Position (m, world frame) and orientation ``(x, y, z, w)`` of a body's base or one of its links."""
+        """Pose of a body's base (``link = -1``) or one of its links in the **link frame** the URDF (or SDF)
+        defines: position (m, world frame) and orientation ``(x, y, z, w)``.
+
+        This is the frame mount offsets, link names and ``position = [...]`` in a config refer to. PyBullet's
+        ``getBasePositionAndOrientation`` gives the base's *centre-of-mass* frame instead (the link frame moved by
+        the URDF's ``<inertial><origin>``, 2 cm on the bundled diffbot); :meth:`com_pose` gives that one.
+        """
         bid = self._bodies.get(body) if isinstance(body, str) else None  # fast path: called every tick
         if bid is None:
             bid = self.body(body)
         if link == -1:
-            return self.client.getBasePositionAndOrientation(bid)  # type: ignore[no-any-return]
+            pos, orn = self.client.getBasePositionAndOrientation(bid)
+            offset = self._com_to_link.get(bid, _UNKNOWN)
+            if offset is _UNKNOWN:
+                offset = self._com_to_link[bid] = self.link_offset(bid)
+            if offset is None:
+                return pos, orn
+            return self.client.multiplyTransforms(pos, orn, *offset)  # type: ignore[no-any-return]
         state = self.client.getLinkState(bid, link, computeForwardKinematics=True)
         return state[4], state[5]
 
+    def com_pose(self, body: str | int, link: int = -1) -> tuple[Vec3, Quat]:
+        """Pose of a body's base or link in its **centre-of-mass** (inertial) frame: where forces act and what
+        PyBullet's ``getBasePositionAndOrientation`` / ``getLinkState(...)[0:2]`` return. Metres, world frame,
+        ``(x, y, z, w)``. For most uses (mounting, goals, what a config's positions mean) use :meth:`pose`.
+        """
+        bid = self.body(body)
+        if link == -1:
+            return self.client.getBasePositionAndOrientation(bid)  # type: ignore[no-any-return]
+        state = self.client.getLinkState(bid, link, computeForwardKinematics=True)
+        return state[0], state[1]
+
+    def link_offset(self, body: str | int) -> tuple[Vec3, Quat] | None:
+        """The base's link frame seen from its centre-of-mass frame (the inverse of the URDF's inertial origin), or
+        None when the two coincide (primitives, most objects). ``pose = com_pose ∘ link_offset``."""
+        ipos, iorn = self.client.getDynamicsInfo(self.body(body), -1)[3:5]
+        if max(abs(v) for v in ipos) < 1e-12 and abs(abs(iorn[3]) - 1.0) < 1e-12:
+            return None
+        return self.client.invertTransform(ipos, iorn)  # type: ignore[no-any-return]
+
     def velocity(self, body: str | int) -> tuple[Vec3, Vec3]:
-        """Linear (m/s) and angular (rad/s) velocity of a body's base, world frame."""
+        """Linear (m/s) velocity of a body's base centre of mass and its angular velocity (rad/s), world frame."""
         bid = self._bodies.get(body) if isinstance(body, str) else None
         return self.client.getBaseVelocity(self.body(body) if bid is None else bid)  # type: ignore[no-any-return]
 
     def set_pose(self, body: str | int, position: Sequence[float], orientation: Sequence[float] | None = None) -> None:
-        """Teleport a body's base (velocity is zeroed). For set-up and tests, not for control."""
+        """Teleport a body's base so that its **link frame** (as :meth:`pose` reports it) is at ``position`` /
+        ``orientation`` (velocity is zeroed). For set-up and tests, not for control."""
         bid = self.body(body)
         orn = orientation if orientation is not None else self.pose(bid)[1]
-        self.client.resetBasePositionAndOrientation(bid, list(position), list(orn))
+        inertial = self.client.getDynamicsInfo(bid, -1)[3:5]
+        com_pos, com_orn = self.client.multiplyTransforms(list(position), list(orn), *inertial)
+        self.client.resetBasePositionAndOrientation(bid, com_pos, com_orn)
         self.client.resetBaseVelocity(bid, [0, 0, 0], [0, 0, 0])
 
     def aabb(self, body: str | int, link: int = -1) -> tuple[Vec3, Vec3]:

@@ -107,6 +107,8 @@ def test_config_and_scene_can_be_given_instead_of_an_example() -> None:
         ("no_reading_type", r"reading_type: Undeclared.reading_type is <class 'object'>"),
         ("wrong_reading", r"shape: reading after tick 0 is a int, declared reading_type is float"),
         ("unseeded", r"determinism: same seed 0, reading after tick 0 differs between two fresh simulations"),
+        ("noise_per_read", r"extra reads: reading after tick 0 changed at reading .* because read\(\) was called once "
+                           r"more before it: draw per-reading noise from ctx.tick_rng\(\), not ctx.rng"),
         ("leaky", r"close: 1 constraints in the world after close\(\), 0 in the same scene without the sensor"),
         ("fragile_close", r"close: a second close\(\) raised RuntimeError: already closed"),
         ("crashing", r"run: raised at tick 5: PluginError: sensor 'crashing' .* ZeroDivisionError"),
@@ -144,6 +146,13 @@ class Unseeded(Height):
         return super().read() + float(np.random.default_rng().normal())
 
 
+class NoisePerRead(Height):
+    """Draws noise from ctx.rng at every read: seeded, but a second read changes the next reading."""
+
+    def read(self) -> float:
+        return super().read() + float(self.ctx.rng.normal(0.0, 0.01))
+
+
 class Leaky(Height):
     """Welds the box to the world and never removes the constraint."""
 
@@ -176,6 +185,7 @@ BROKEN_SENSORS: dict[str, tuple[type, type | None]] = {
     "no_reading_type": (Undeclared, HeightConfig),
     "wrong_reading": (WrongReading, HeightConfig),
     "unseeded": (Unseeded, HeightConfig),
+    "noise_per_read": (NoisePerRead, HeightConfig),
     "leaky": (Leaky, HeightConfig),
     "fragile_close": (FragileClose, HeightConfig),
     "crashing": (Crashing, HeightConfig),

@@ -87,7 +87,7 @@ def test_drop_test_is_deterministic_and_keeps_its_result(tmp_path: Path) -> None
     for key in VOLATILE:
         first.pop(key), second.pop(key)
     assert first == second
-    saved = sorted((tmp_path / "results").glob("*.json"))
+    saved = sorted((tmp_path / "results").glob("*/result.json"))
     assert len(saved) == 2  # one file per run, nothing overwritten
     trace = [json.loads(line) for line in (tmp_path / "trace.jsonl").read_text().splitlines()]
     assert trace == [{"tick": 480, "t": 2.0, "source": "events", "kind": "event", "type": "force", "body": "box"}]

@@ -71,7 +71,7 @@ def test_colours_written_0_255_are_refused_naming_the_key(tmp_path: Path) -> Non
         assert proc.returncode == 2, (command, proc.stdout, proc.stderr)
         (line,) = error_lines(proc.stderr)
         assert "bodies.red.rgba" in line and "0-1" in line, line
-    assert not list(tmp_path.glob("results/*.json")), "a refused config runs nothing"
+    assert not list(tmp_path.glob("results/*")), "a refused config runs nothing"
 
 
 PURPLE = """
@@ -143,8 +143,13 @@ def test_a_bin_out_of_reach_fails_validate_naming_the_bin_and_the_run_says_unrea
 class Claims(Behaviour):
     """Finishes at once with whatever outcome it is told, and states a goal the world decides: ``box`` below z."""
 
-    def step(self, readings: Mapping[str, Any], t: float) -> None:
+    def step(self, readings: Mapping[str, Any], t: float) -> Any:
+        if self.config.get("step_raises"):
+            raise RuntimeError("the step broke")
+        if self.config.get("command"):
+            return {"arm": 1}
         self.finish(self.config["claim"], "done, it says")
+        return None
 
     def check_goal(self, world: Any) -> GoalCheck:
         z = world.pose("box")[0][2]
@@ -188,6 +193,18 @@ def test_a_goal_check_that_raises_is_a_plugin_error_naming_the_type() -> None:
     result = claims_run(claim="succeeded", below=2.0, **{"raise": True})
     assert result.outcome == "error" and result.exit_code == 3
     assert "behaviour type 'claims'" in result.reason and "check_goal" in result.reason
+
+
+def test_a_run_ended_by_a_plugin_error_is_not_goal_checked() -> None:
+    result = claims_run(claim="succeeded", below=0.5, step_raises=True)
+    assert result.outcome == "error" and "RuntimeError: the step broke" in result.reason
+    assert "goal" not in result.result and "goal not met" not in result.reason
+
+
+def test_a_command_to_an_actuator_that_does_not_exist_names_the_actuators() -> None:
+    result = claims_run(claim="succeeded", below=2.0, command=True)
+    assert result.outcome == "error"
+    assert result.reason.endswith("sent a command to unknown actuator 'arm'; actuators: (none)"), result.reason
 
 
 @pytest.mark.parametrize("offset, met", [((0.0, 0.0, 0.0), True), ((0.03, 0.0, 0.0), False)])

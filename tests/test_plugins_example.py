@@ -111,7 +111,7 @@ def test_the_example_config_runs_and_its_readings_are_in_the_trace(venv):
     resting = samples[-1]["value"]["linear_acceleration"]  # t = 2 s: settled on the ground
     assert sum(v * v for v in falling) ** 0.5 < 0.5
     assert 9.5 < sum(v * v for v in resting) ** 0.5 < 10.1
-    assert list((venv["tmp"] / "results").glob("*.json"))  # the local reporter kept the result
+    assert list((venv["tmp"] / "results").glob("*/result.json"))  # the local reporter kept the result
 
 
 def test_the_example_package_own_tests_pass_against_the_installed_copy(venv):

@@ -72,7 +72,7 @@ def faulty(tmp_path, monkeypatch):
 
 
 def stored_results(folder: Path) -> list[dict]:
-    return [json.loads(p.read_text()) for p in sorted((folder / "results").glob("*.json"))]
+    return [json.loads(p.read_text()) for p in sorted((folder / "results").glob("*/result.json"))]
 
 
 def test_sensor_raising_in_read_ends_with_error_keeping_the_partial_result(faulty, capsys):

@@ -42,8 +42,7 @@ def refused(path: Path, cwd: Path) -> list[str]:
     return lines
 
 
-@pytest.mark.parametrize("config", ["sort_robot.toml", "pick_place.toml", "patrol_robot.toml", "go_to_goal.toml",
-                                    "patrol.toml", "drop_test.toml", "kuka_teleop.toml", "drive_teleop.toml"])
+@pytest.mark.parametrize("config", sorted(p.name for p in CONFIGS.glob("*.toml")))
 def test_shipped_configs_pass_every_preflight_check(config: str) -> None:
     with make_sim(CONFIGS / config) as sim:
         assert sim.preflight() == []

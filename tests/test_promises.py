@@ -154,7 +154,7 @@ def test_run_quiet_prints_nothing(tmp_path: Path) -> None:
     proc = robokit("run", str(CONFIGS / "drop_test.toml"), "--quiet", cwd=tmp_path)
     assert proc.returncode == 0
     assert proc.stdout == "" and "outcome" not in proc.stderr
-    assert list(tmp_path.glob("results/*.json"))  # quiet, but the result is still kept
+    assert list(tmp_path.glob("results/*/result.json"))  # quiet, but the result is still kept
 
 
 # --------------------------------------------------------------------- the core
@@ -260,3 +260,21 @@ def test_fingers_closed_against_the_table_hold_nothing() -> None:
                     for f in ("panda_leftfinger", "panda_rightfinger")]
     assert all(contacts), "both fingertips should touch the table in this scene"
     assert reading.width < 0.004 and not reading.holding and reading.held is None
+
+
+def test_patrol_collect_counts_an_object_in_the_bin_and_not_one_beside_the_robot() -> None:
+    # a collector that drops objects into the bin (no constraint) counts as well: the check is on the world
+    with make_sim(CONFIGS / "patrol_robot.toml") as sim:
+        world, behaviour = sim.world, sim.behaviour
+        (bx, by, bz), _ = world.pose("robot", world.link("robot", "bin_link"))
+        world.set_pose("can_0", (bx + 0.03, by - 0.04, bz + 0.1))
+        world.set_pose("can_1", (bx + 0.25, by, bz + 0.1))  # at the bin height, but 0.25 m in front of it
+        check = behaviour.check_goal(world)
+    assert check.met is False
+    assert check.details["not_collected"] == ["can_1", "can_2", "can_3"]
+    assert "3 of 4 object(s) not collected" in check.reason
+
+
+def test_a_sort_sub_machine_has_no_preflight_of_its_own() -> None:
+    with make_sim(CONFIGS / "sort_robot.toml") as sim:
+        assert sim.behaviour.pp.preflight(sim.behaviour.ctx) == []

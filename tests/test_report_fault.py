@@ -90,7 +90,7 @@ def test_a_run_killed_right_after_its_post_resends_with_the_same_key(tmp_path: P
         [entry] = Outbox(tmp_path / "outbox").entries()  # the write-ahead entry survived the crash
         rid = entry.run_id
         assert entry.attempts == 1 and entry.last_error == IN_FLIGHT
-        assert (tmp_path / "results" / f"{rid}.json").exists()
+        assert (tmp_path / "results" / rid / "result.json").exists()
         assert main(["outbox", "flush", "--dir", str(tmp_path / "outbox")]) == 0
     finally:
         server.stop()
@@ -115,7 +115,7 @@ def test_robokit_run_posts_the_payload_with_course_fields(
     assert (body["student"], body["project"], body["outcome"]) == ("kim", "A", "succeeded")
     assert body["schema"] == "robokit.run/1" and "bodies" in body["result"]
     out = capsys.readouterr().out
-    assert "report[http]: delivered" in out and f"results/{body['run_id']}.json" in out
+    assert "report[http]: delivered" in out and f"results/{body['run_id']}/result.json" in out
     assert not (tmp_path / "outbox").exists() or Outbox(tmp_path / "outbox").entries() == []
 
 

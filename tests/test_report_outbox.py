@@ -156,4 +156,5 @@ def test_local_reporter_never_overwrites_an_earlier_result(tmp_path: Path) -> No
     second = rep.report({**payload, "outcome": "failed"})
     assert first.delivered and not second.delivered and "already exists" in second.message
     assert json.loads(Path(first.stored or "").read_text())["outcome"] == "succeeded"
-    assert [p.name for p in (tmp_path / "results").iterdir()] == [f"{payload['run_id']}.json"]  # no temp files
+    run_folder = tmp_path / "results" / payload["run_id"]
+    assert [p.name for p in run_folder.iterdir()] == ["result.json"]  # no temp files

@@ -74,6 +74,10 @@ def test_a_key_used_by_another_student_is_a_conflict_not_their_record(client: An
     ({**LESSON_08, "outcome": "won"}, "outcome", "succeeded"),
     ({**LESSON_08, "result": [1]}, "result", "object"),
     ({**LESSON_08, "run_id": "../../etc"}, "run_id", "letters"),
+    ({**LESSON_08, "red_sorted": 2**40}, "red_sorted", "from 0 to"),
+    ({**LESSON_08, "seed": 2**70}, "seed", "out of range"),
+    (b'{"student": "kim", "project": "A", "total_time": NaN}', None, "NaN is not a JSON number"),
+    (b"[" * 100_000, None, "nested too deeply"),
 ])
 def test_bad_posts_are_400_naming_the_field(client: Any, course: Course, body: Any, field: str | None,
                                             words: str) -> None:

@@ -65,7 +65,8 @@ def test_runs_reach_the_served_leaderboard_exactly_once(tmp_path: Path) -> None:
         assert [p.returncode for p in procs] == [0, 0], outs
         second, third = (json.loads(o[0])["run_id"] for o in outs)
         assert "report[http]: delivered" in outs[0][1] and "(HTTP 201)" in outs[0][1]
-        assert "artifacts: 1/1 uploaded" in outs[1][1]  # the run's config, shown on its page
+        uploaded = re.search(r"artifacts: (\d+)/(\d+) uploaded", outs[1][1])
+        assert uploaded is not None and uploaded.group(1) == uploaded.group(2), outs[1][1]  # trace.jsonl + config
 
         # 3. Alice flushes her outbox; a copy of the entry sent again later is answered 200, not stored twice.
         entry = (alice / "outbox" / f"{first}.json").read_text(encoding="utf-8")
@@ -93,7 +94,8 @@ def test_runs_reach_the_served_leaderboard_exactly_once(tmp_path: Path) -> None:
         csv_text = session.get(server.url + class_url.group(1) + "results.csv", timeout=30).text
         assert len(csv_text.strip().splitlines()) == 1 + 3
         run_page = session.get(f"{server.url}/runs/{third}/", timeout=30).text
-        assert "[[sensors" in run_page or "[sensors" in run_page  # the uploaded config's text
+        assert "[sensors.camera]" in run_page  # the uploaded config's text
+        assert "PICK_PLACE" in run_page and 'class="seg' in run_page  # the state timeline from the run's trace
         assert token not in server.log and token not in board + run_page
     finally:
         code = server.stop()

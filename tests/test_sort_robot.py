@@ -48,7 +48,7 @@ def test_main_job_through_the_cli(tmp_path: Path) -> None:
     res = out["result"]
     assert (res["red_sorted"], res["blue_sorted"], res["failures"]) == (2, 2, 0)
     assert res["camera_frames"] < 10
-    assert list(tmp_path.glob("results/*.json")), "the local reporter stores the result by default"
+    assert list(tmp_path.glob("results/*/result.json")), "the local reporter stores the result by default"
 
 
 def test_every_cube_ends_in_its_bin_and_detections_are_within_1_cm() -> None:

@@ -4,6 +4,7 @@ x 4 seeds of pick_place gives per-trial results identical to the local backend's
 from __future__ import annotations
 
 import os
+import shutil
 import signal
 import socket
 import subprocess
@@ -89,9 +90,11 @@ def ray_cluster(monkeypatch: pytest.MonkeyPatch, tmp_path_factory: pytest.TempPa
     monkeypatch.setenv("HOME", str(home))
     monkeypatch.delenv("RAY_AUTH_TOKEN_PATH", raising=False)
     nodes: list[subprocess.Popen[str]] = []
+    temp_dirs: list[str] = []
     try:
         for attempt in range(3):  # on a heavily loaded machine Ray's agents can start too late for the raylet
             temp_dir = tempfile.mkdtemp(prefix="rk", dir="/tmp")  # short: Ray's socket paths must fit 107 bytes
+            temp_dirs.append(temp_dir)
             port = _free_port()
             try:
                 nodes.append(_ray_node(["--head", "--port", str(port), "--include-dashboard", "false",
@@ -108,6 +111,8 @@ def ray_cluster(monkeypatch: pytest.MonkeyPatch, tmp_path_factory: pytest.TempPa
     finally:
         for node in reversed(nodes):
             _stop_node(node)
+        for folder in temp_dirs:
+            shutil.rmtree(folder, ignore_errors=True)
 
 
 def test_the_ray_backend_on_a_two_node_cluster_gives_the_local_per_trial_results(

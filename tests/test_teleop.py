@@ -110,3 +110,17 @@ def test_gui_key_events_decode_taps_holds_and_new_presses() -> None:
     assert new.down == {"1"} and new.pressed == {"1"}  # unknown key codes are ignored
     missed_trigger = decode_events({p.B3G_UP_ARROW: p.KEY_IS_DOWN}, frozenset())
     assert missed_trigger.pressed == {"up"}  # down now, not down before: newly pressed
+
+
+def test_drive_teleop_right_arrow_turns_clockwise_and_down_reverses() -> None:
+    import tomllib
+
+    raw = tomllib.loads((CONFIGS / "drive_teleop.toml").read_text(encoding="utf-8"))
+    raw["sensors"]["keys"]["script"] = [{"at": 0.5, "keys": ["down"], "hold": 2.0},
+                                        {"at": 2.5, "keys": ["right"], "hold": 1.05}, {"at": 4.0, "keys": ["q"]}]
+    with make_sim(raw, base_dir=CONFIGS) as sim:
+        result = sim.run()
+    x, y, yaw = result.result["final_pose"]
+    # back 2 s at 0.5 m/s (about -1 m in x), then a quarter turn clockwise in place
+    assert x == pytest.approx(-1.0, abs=0.25) and y == pytest.approx(0.0, abs=0.15)
+    assert yaw == pytest.approx(-math.pi / 2, abs=0.35)

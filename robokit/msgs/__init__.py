@@ -11,6 +11,7 @@ OpenCV; :mod:`robokit.msgs.vision` and :mod:`robokit.msgs.mobile` use numpy.
 - :mod:`robokit.msgs.mobile` — ``Twist``/``WheelSpeeds``/``DriveState`` (``diff_drive``), ``LaserScan`` (``lidar``),
   ``Collect``/``CollectorState`` (``collector``), ``Pose2D``, ``wrap_angle``.
 - :mod:`robokit.msgs.keyboard` — ``KeyState`` (``keyboard``).
+- :mod:`robokit.msgs.body` — ``BodyState`` (``body_pose``: a dict of body name -> ``BodyState``).
 - :mod:`robokit.msgs.control` — ``EEDelta``/``EEState`` (``ee_delta``), ``PidState`` (``pid``).
 
 Every name is also importable from here: ``from robokit.msgs import Twist, LaserScan``.
@@ -39,6 +40,7 @@ from robokit.msgs.arm import (
     quat_multiply,
     yaw_of,
 )
+from robokit.msgs.body import BodyState
 from robokit.msgs.control import EEDelta, EEState, PidState
 from robokit.msgs.keyboard import KeyState
 from robokit.msgs.mobile import (
@@ -57,7 +59,8 @@ from robokit.msgs.vision import CameraFrame, Detection, Detections, Matrix16, de
 __all__ = [
     "GRIPPER_ACTIONS", "JOINT_MODES", "STOP",
     "EEDelta", "EEState", "PidState",
-    "ArmState", "CameraFrame", "Collect", "CollectorState", "ContactState", "Detection", "Detections", "DriveState",
+    "ArmState", "BodyState", "CameraFrame", "Collect", "CollectorState", "ContactState", "Detection", "Detections",
+    "DriveState",
     "GripperCommand", "GripperState", "HoldArm", "JointCommand", "JointStates", "KeyState", "LaserScan", "Matrix16",
     "MoveTo", "Pose2D", "Quat", "Twist", "Vec3", "WheelSpeeds",
     "close_gripper", "cube_grasp_yaw", "deproject", "down_quaternion", "gl_matrix", "open_gripper", "quat_angle",

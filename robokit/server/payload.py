@@ -17,6 +17,7 @@ MAX_NAME = 100
 RUN_ID = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._:-]{0,63}$")
 OUTCOMES = ("succeeded", "failed", "aborted", "error", "interrupted")
 COURSE_INTS = ("red_sorted", "blue_sorted", "failures")
+MAX_COUNT = 2**31 - 1
 
 
 class PayloadError(Exception):
@@ -56,14 +57,20 @@ def parse(body: bytes) -> dict[str, Any]:
         PayloadError: not UTF-8, not JSON, or not an object.
     """
     try:
-        data = json.loads(body.decode("utf-8"))
+        data = json.loads(body.decode("utf-8"), parse_constant=_no_constant)
     except UnicodeDecodeError:
         raise PayloadError("", "the body is not UTF-8 text") from None
     except json.JSONDecodeError as exc:
         raise PayloadError("", f"malformed JSON: {exc.msg} at line {exc.lineno} column {exc.colno}") from None
+    except RecursionError:
+        raise PayloadError("", "malformed JSON: nested too deeply") from None
     if not isinstance(data, dict):
         raise PayloadError("", f"expected a JSON object, got {_kind(data)}")
     return data
+
+
+def _no_constant(name: str) -> Any:
+    raise PayloadError("", f"malformed JSON: {name} is not a JSON number (send null)")
 
 
 def _name(data: dict[str, Any], key: str, required: bool) -> str | None:
@@ -88,8 +95,8 @@ def _check_types(data: dict[str, Any]) -> None:
             v = data[key]
             if not isinstance(v, int) or isinstance(v, bool):
                 raise PayloadError(key, f"expected a whole number, got {_kind(v)}")
-            if v < 0:
-                raise PayloadError(key, f"expected a number >= 0, got {v}")
+            if not 0 <= v <= MAX_COUNT:
+                raise PayloadError(key, f"expected a number from 0 to {MAX_COUNT}, got {v}")
     for key in ("total_time", "sim_time", "wall_time"):
         v = data.get(key)
         if v is not None and (not is_number(v) or v < 0):
@@ -104,6 +111,8 @@ def _check_types(data: dict[str, Any]) -> None:
         v = data.get(key)
         if v is not None and (not isinstance(v, int) or isinstance(v, bool)):
             raise PayloadError(key, f"expected a whole number, got {_kind(v)}")
+        if v is not None and not -(2**63) <= v < 2**63:
+            raise PayloadError(key, "out of range (a 64-bit whole number was expected)")
     if "result" in data and data["result"] is not None and not isinstance(data["result"], dict):
         raise PayloadError("result", f"expected an object, got {_kind(data['result'])}")
     if "interrupted" in data and not isinstance(data["interrupted"], bool):

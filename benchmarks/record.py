@@ -1,0 +1,119 @@
+"""Cost of the run record on the main job, and how fast `robokit video` renders.
+
+1. **Recording overhead**: the whole main job (``configs/sort_robot.toml``: build, run to the end, close) timed
+   with the recorder's pose log at 30 Hz (plus the trace file) and without any record, alternating, ``--repeats``
+   pairs. Prints each pair and the ratio of the medians (target: <= 1.03). Both runs must end identically.
+2. **Video render rate**: frames per second of ``robokit video`` for the recorded run (rebuild the scene once, then
+   set the poses and render each frame with TinyRenderer; encoding included), at ``--size``.
+
+    python benchmarks/record.py [--repeats 7] [--size 640x480] [--video-frames 60]
+
+The machine's load (``os.getloadavg``) is printed with the figures: re-measure on an idle machine.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+from robokit.config import load_config
+from robokit.plugins import load_plugins
+from robokit.record.format import RunRecord
+from robokit.runner import run_config
+
+CONFIG = Path(__file__).resolve().parent.parent / "configs" / "sort_robot.toml"
+
+
+def one_run(plugins: Any, record: bool, folder: Path) -> tuple[float, dict]:
+    """Wall seconds for one whole main-job run (build + run + close + record files), and its behaviour result."""
+    cwd = os.getcwd()
+    os.chdir(folder)
+    try:
+        cfg = load_config(CONFIG, plugins)
+        start = time.perf_counter()
+        out = run_config(cfg, plugins, record=record, report=False)
+        elapsed = time.perf_counter() - start
+    finally:
+        os.chdir(cwd)
+    return elapsed, {k: v for k, v in out.result.to_dict().items() if k not in ("run_id", "wall_time", "started_at")}
+
+
+def overhead(repeats: int, folder: Path) -> tuple[Path, float]:
+    plugins = load_plugins()
+    with_rec: list[float] = []
+    without: list[float] = []
+    reference = None
+    for i in range(repeats):
+        order = (True, False) if i % 2 == 0 else (False, True)
+        for record in order:
+            t, result = one_run(plugins, record, folder)
+            (with_rec if record else without).append(t)
+            reference = reference or result
+            assert result == reference, "recording changed the run"
+        print(f"  pair {i + 1}: with record {with_rec[-1]:.3f} s, without {without[-1]:.3f} s, "
+              f"ratio {with_rec[-1] / without[-1]:.3f}")
+    ratio = statistics.median(with_rec) / statistics.median(without)
+    print(f"recording overhead (sort_robot, pose log 30 Hz + trace): median with {statistics.median(with_rec):.3f} s"
+          f" / without {statistics.median(without):.3f} s = {ratio:.3f}  (target <= 1.03)")
+    runs = sorted((folder / "results").iterdir(), key=lambda d: d.stat().st_mtime)
+    return runs[-1], statistics.median(without)
+
+
+def sample_cost(samples: int = 2000) -> float:
+    """CPU microseconds per pose sample on the main job's scene (the recorder's whole per-sample work)."""
+    from robokit.record.recorder import Recorder
+    from robokit.testing import make_sim
+
+    with tempfile.TemporaryDirectory() as tmp, make_sim(CONFIG) as sim:
+        rec = Recorder(sim, Path(tmp), pose_hz=30)
+        start = time.process_time()  # CPU time: the figure a loaded machine's wall clock would inflate
+        for k in range(samples):
+            rec.sample(k)
+        cost = (time.process_time() - start) / samples * 1e6
+        rec.close()
+    return cost
+
+
+def render_rate(run: Path, size: tuple[int, int], limit: int) -> None:
+    from robokit.record.scene import choose_view, rebuild
+    from robokit.record.video import Renderer, frame_indices
+
+    rec = RunRecord(run)
+    with rebuild(rec) as scene:
+        renderer = Renderer(scene, choose_view(scene, None, size[0] / size[1]), size)
+        indices = frame_indices(rec.poses["t"], 30.0)[:limit]
+        start, cpu = time.perf_counter(), time.process_time()
+        for i in indices:
+            scene.set_frame(i)
+            renderer.render()
+        elapsed, cpu = time.perf_counter() - start, time.process_time() - cpu
+    print(f"video render rate at {size[0]}x{size[1]} (TinyRenderer, pose + render, no encoding): "
+          f"{len(indices) / elapsed:.1f} frames/s wall, {len(indices) / cpu:.1f} frames per CPU-second "
+          f"(what an idle core gives), over {len(indices)} frames")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--repeats", type=int, default=7)
+    ap.add_argument("--size", default="640x480")
+    ap.add_argument("--video-frames", type=int, default=60)
+    args = ap.parse_args()
+    print(f"load average before: {' '.join(f'{v:.2f}' for v in os.getloadavg())}")
+    with tempfile.TemporaryDirectory() as tmp:
+        run, plain = overhead(args.repeats, Path(tmp))
+        cost = sample_cost()
+        n = len(RunRecord(run).poses["t"])
+        print(f"pose sample cost: {cost:.1f} us per sample x {n} samples = {cost * 1e-6 * n:.4f} s = "
+              f"{100 * cost * 1e-6 * n / plain:.2f} % of the median unrecorded run ({plain:.2f} s)")
+        w, h = (int(v) for v in args.size.split("x"))
+        render_rate(run, (w, h), args.video_frames)
+    print(f"load average after: {' '.join(f'{v:.2f}' for v in os.getloadavg())}")
+
+
+if __name__ == "__main__":
+    main()

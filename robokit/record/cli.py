@@ -1,0 +1,140 @@
+"""``robokit results | video | plot | view``: look at a run afterwards, from its record. Heavy imports stay inside."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+from robokit.errors import UserError
+
+RUN_HELP = "a run id, a prefix of one, 'last', or a run folder"
+
+
+def add_record_commands(sub: Any) -> None:
+    """Add the record commands to the ``robokit`` sub-command parser."""
+    res = sub.add_parser("results", help="recent runs: list, show one, or the last one")
+    rsub = res.add_subparsers(dest="results_command", metavar="ACTION")
+    rsub.required = True
+    lst = rsub.add_parser("list", help="recent runs: time, config, seed, outcome, headline figures")
+    lst.add_argument("-n", type=int, default=20, help="how many (newest last; default 20)")
+    _dir(lst)
+    lst.set_defaults(func=cmd_results_list)
+    show = rsub.add_parser("show", help="one run, readably (nested results as an indented tree)")
+    show.add_argument("run", help=RUN_HELP)
+    _dir(show)
+    show.set_defaults(func=cmd_results_show)
+    last = rsub.add_parser("last", help="the newest run, as 'show' prints it")
+    _dir(last)
+    last.set_defaults(func=cmd_results_show, run="last")
+
+    vid = sub.add_parser("video", help="render a run's record as an H.264 MP4 (needs the 'video' extra)")
+    vid.add_argument("run", help=RUN_HELP)
+    vid.add_argument("-o", "--output", metavar="FILE", help="MP4 to write (default: <run folder>/video.mp4)")
+    vid.add_argument("--fps", type=float, help="frames per sim second (default: the pose log's rate)")
+    vid.add_argument("--size", default="640x480", metavar="WxH", help="frame size in pixels (default 640x480)")
+    vid.add_argument("--view", metavar="NAME|EYE,TARGET", help="a named view (front, side, top, iso, or a camera "
+                     "sensor's name) or 'ex,ey,ez,tx,ty,tz' (default: iso)")
+    vid.add_argument("--frame", type=float, metavar="S", help="write one PNG of the scene at sim time S instead of "
+                     "a video (-o defaults to <run folder>/frame_<S>.png)")
+    _dir(vid)
+    vid.set_defaults(func=cmd_video)
+
+    plot = sub.add_parser("plot", help="plots of a run: state timelines, map, heights, joints, lidar")
+    plot.add_argument("run", help=RUN_HELP)
+    plot.add_argument("-o", "--output", metavar="DIR", help="folder for the pictures (default: <run folder>/plots)")
+    plot.add_argument("--format", choices=("png", "svg"), default="png")
+    plot.add_argument("--scan-at", type=float, metavar="S", help="sim time of the polar lidar plot (default: the "
+                      "middle of the run)")
+    _dir(plot)
+    plot.set_defaults(func=cmd_plot)
+
+    view = sub.add_parser("view", help="one self-contained HTML page for a run (outcome, video, plots, diagrams)")
+    view.add_argument("run", help=RUN_HELP)
+    view.add_argument("-o", "--output", metavar="FILE", help="HTML file (default: <run folder>/index.html)")
+    view.add_argument("--no-video", action="store_true", help="leave the video out (faster; smaller page)")
+    _dir(view)
+    view.set_defaults(func=cmd_view)
+
+
+def _dir(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--dir", metavar="DIR", help="the results folder (default: ./results)")
+
+
+def _parse_size(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise UserError(f"--size: expected WxH in pixels, e.g. 640x480, got {text!r}") from None
+    if not (16 <= w <= 3840 and 16 <= h <= 2160) or w % 2 or h % 2:
+        raise UserError(f"--size: width and height must be even and between 16x16 and 3840x2160, got {text!r}")
+    return w, h
+
+
+def cmd_results_list(args: argparse.Namespace) -> int:
+    from robokit.record.results import list_runs
+
+    print(list_runs(args.dir, args.n))
+    return 0
+
+
+def cmd_results_show(args: argparse.Namespace) -> int:
+    from robokit.record.format import find_run
+    from robokit.record.results import show_run
+
+    print(show_run(find_run(args.run, args.dir)))
+    return 0
+
+
+def cmd_video(args: argparse.Namespace) -> int:
+    from robokit.record.format import find_run
+    from robokit.record.video import render_video
+
+    size = _parse_size(args.size)
+    rec = find_run(args.run, args.dir)
+    if args.frame is not None:
+        from robokit.record.video import render_still
+
+        out = Path(args.output) if args.output else rec.folder / f"frame_{args.frame:g}.png"
+        t = render_still(rec, out, at=args.frame, size=size, view=args.view)
+        print(f"{out}: the scene at t = {t:.3f} s, {size[0]}x{size[1]}")
+        return 0
+    out = Path(args.output) if args.output else rec.folder / "video.mp4"
+    stats = render_video(rec, out, fps=args.fps, size=size, view=args.view)
+    print(f"{out}: {stats.frames} frames, {stats.width}x{stats.height}, {stats.fps:g} fps, H.264 "
+          f"(rendered at {stats.render_fps:.1f} frames/s)")
+    return 0
+
+
+def cmd_plot(args: argparse.Namespace) -> int:
+    from robokit.record.format import find_run
+    from robokit.record.plots import make_plots
+
+    rec = find_run(args.run, args.dir)
+    out = Path(args.output) if args.output else rec.folder / "plots"
+    for path in make_plots(rec, out, fmt=args.format, scan_at=args.scan_at):
+        print(path)
+    return 0
+
+
+def cmd_view(args: argparse.Namespace) -> int:
+    from robokit.record.format import find_run
+    from robokit.record.page import write_page
+
+    rec = find_run(args.run, args.dir)
+    out = Path(args.output) if args.output else rec.folder / "index.html"
+    write_page(rec, out, video=not args.no_video)
+    print(out)
+    return 0
+
+
+def video_after_run(cfg: Any, run_id: str, output: str, *, quiet: bool = False) -> None:
+    """``robokit run --video FILE``: render the run just finished."""
+    from robokit.record.format import RunRecord
+    from robokit.record.video import render_video
+    from robokit.runner import results_root
+
+    stats = render_video(RunRecord(results_root(cfg) / run_id), Path(output))
+    if not quiet:
+        print(f"video: {output}: {stats.frames} frames at {stats.fps:g} fps", file=sys.stderr)

@@ -1,0 +1,163 @@
+"""Rebuild a recorded scene in a DIRECT world and put it in any recorded pose: no physics is stepped.
+
+The bodies come from the config held in the record's header (the same shapes, URDFs, scales and colours); every
+frame then sets each body's base pose and joint positions from the pose log, which reproduces every link's pose.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from robokit.errors import UserError
+from robokit.record.format import RunRecord
+
+SCENE_SECTIONS = ("world", "regions", "bodies", "robots")
+FAR_AWAY = (0.0, 0.0, -1000.0)
+"""Where a body removed during the run is parked (out of every view)."""
+
+
+@dataclass
+class Scene:
+    """A DIRECT world holding a record's bodies, posed frame by frame."""
+
+    world: Any
+    rec: RunRecord
+    joints: dict[str, list[int]]
+
+    def set_frame(self, i: int) -> None:
+        """Put every body in the pose of pose-log sample ``i``."""
+        poses, client = self.rec.poses, self.world.client
+        for name, indices in self.joints.items():
+            bid = self.world.body(name)
+            base = poses.get(f"base/{name}")
+            if base is None:
+                continue
+            row = base[i]
+            if np.isnan(row[0]):
+                client.resetBasePositionAndOrientation(bid, FAR_AWAY, (0, 0, 0, 1))
+                continue
+            client.resetBasePositionAndOrientation(bid, row[:3].tolist(), row[3:7].tolist())
+            q = poses.get(f"joints/{name}")
+            if q is not None:
+                for idx, value in zip(indices, q[i].tolist(), strict=True):
+                    client.resetJointState(bid, idx, value)
+
+    def close(self) -> None:
+        self.world.close()
+
+    def __enter__(self) -> Scene:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def rebuild(rec: RunRecord) -> Scene:
+    """Build the record's bodies in a new DIRECT world (seeded as the run was, so scattered bodies start alike).
+
+    Raises:
+        UserError: The record has no pose log, or its config's bodies cannot be built here (a URDF is missing).
+    """
+    from robokit.config import build_config
+    from robokit.plugins import load_plugins
+    from robokit.simulation import spawn_bodies
+    from robokit.world import World
+
+    header = rec.header
+    if not rec.has_poses:
+        raise UserError(f"{rec.folder}: no pose log (poses.npz): the run was recorded with pose_hz = 0")
+    raw = {k: v for k, v in header["config"].items() if k in SCENE_SECTIONS}
+    raw["world"] = {k: v for k, v in raw.get("world", {}).items() if k != "gui"}
+    base_dir = Path(header.get("config_dir") or ".")
+    cfg = build_config(raw, load_plugins(), source=str(header.get("config_path", "<record>")), base_dir=base_dir)
+    world = World(gui=False, time_step=cfg.world.time_step, seed=int(header["seed"]), base_dir=base_dir)
+    try:
+        spawn_bodies(world, cfg)
+        joints = {}
+        for name, info in header["bodies"].items():
+            joints[name] = [world.joint(name, j).index for j in info["joints"]]
+    except Exception:
+        world.close()
+        raise
+    return Scene(world, rec, joints)
+
+
+# ----------------------------------------------------------------- views
+NAMED_VIEWS = {"iso": (45.0, -30.0), "front": (90.0, -15.0), "side": (0.0, -15.0), "top": (90.0, -89.0),
+               "back": (-90.0, -15.0)}
+"""Named views as (yaw, pitch) in degrees about the scene's centre, PyBullet's GUI convention."""
+
+
+@dataclass(frozen=True)
+class View:
+    """A camera: ``eye``, ``target``, ``up`` (world, metres) and the vertical field of view in degrees."""
+
+    eye: tuple[float, float, float]
+    target: tuple[float, float, float]
+    up: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    fov: float = 50.0
+
+
+def scene_box(world: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Bounding box of every body smaller than 5 m across (ground planes excluded), metres."""
+    los, his = [], []
+    for name in world.body_names:
+        lo, hi = world.body_aabb(name)
+        if max(h - low for h, low in zip(hi, lo, strict=True)) < 5.0:
+            los.append(lo)
+            his.append(hi)
+    if not los:
+        return np.zeros(3), np.ones(3)
+    lo, hi = np.min(los, axis=0), np.max(his, axis=0)
+    lo[2] = max(lo[2], -0.05)  # tables sunk below the floor do not pull the view down
+    return lo, hi
+
+
+def choose_view(scene: Scene, spec: str | None, aspect: float) -> View:
+    """A view from ``--view``: a named view, a camera sensor's name, ``ex,ey,ez,tx,ty,tz``, or None (iso).
+
+    Raises:
+        UserError: An unknown name or a malformed list of numbers (the message lists the choices).
+    """
+    spec = spec or "iso"
+    if "," in spec:
+        try:
+            v = [float(x) for x in spec.split(",")]
+        except ValueError:
+            v = []
+        if len(v) != 6:
+            raise UserError(f"--view: expected 6 numbers 'ex,ey,ez,tx,ty,tz' (eye and target, metres), got {spec!r}")
+        return View((v[0], v[1], v[2]), (v[3], v[4], v[5]))
+    sensors = scene.rec.header["config"].get("sensors", {})
+    cam = sensors.get(spec)
+    if isinstance(cam, dict) and cam.get("type") == "camera" and "mount_body" not in cam:
+        return View(tuple(cam.get("eye", (1, 1, 1))), tuple(cam.get("target", (0, 0, 0.5))),  # type: ignore[arg-type]
+                    tuple(cam.get("up", (0, 0, 1))), float(cam.get("fov", 60.0)))  # type: ignore[arg-type]
+    if spec not in NAMED_VIEWS:
+        cams = [n for n, c in sensors.items() if isinstance(c, dict) and c.get("type") == "camera"]
+        raise UserError(f"--view: unknown view {spec!r}; choose one of {', '.join([*NAMED_VIEWS, *cams])} or "
+                        f"'ex,ey,ez,tx,ty,tz'")
+    lo, hi = scene_box(scene.world)
+    return orbit_view(lo, hi, *NAMED_VIEWS[spec], aspect=aspect)
+
+
+def orbit_view(lo: Any, hi: Any, yaw: float, pitch: float, *, aspect: float,
+               fov: float = 50.0) -> View:
+    """A camera at ``yaw``/``pitch`` (degrees) around a box's centre, far enough back for the whole box to fit."""
+    lo_, hi_ = np.asarray(lo, float), np.asarray(hi, float)
+    centre = (lo_ + hi_) / 2
+    radius = max(float(np.linalg.norm(hi_ - lo_)) / 2, 0.2)
+    half = math.radians(fov) / 2
+    half = min(half, math.atan(math.tan(half) * aspect))
+    dist = radius / math.sin(half) * 0.6
+    y, p = math.radians(yaw), math.radians(pitch)
+    direction = np.array([math.cos(p) * math.cos(y + math.pi / 2), math.cos(p) * math.sin(y + math.pi / 2),
+                          -math.sin(p)])
+    eye = centre + direction * dist
+    up = (0.0, 0.0, 1.0) if pitch > -85 else (math.cos(y), math.sin(y), 0.0)
+    return View(tuple(eye.tolist()), tuple(centre.tolist()), up, fov)  # type: ignore[arg-type]
