@@ -35,6 +35,8 @@ class Command:
     cwd: str
     argv: tuple[str, ...]
     shows_error: bool
+    needs_install: bool = False
+    """An earlier line of its block installs a package (``pip install``): it needs that package."""
 
     def __str__(self) -> str:
         return f"{self.where}: {shlex.join(self.argv)}"
@@ -59,7 +61,7 @@ def _blocks(path: Path) -> list[tuple[int, list[str]]]:
 def _commands(path: Path) -> list[Command]:
     found = []
     for first, body in _blocks(path):
-        cwd, pending, start = ".", "", first
+        cwd, pending, start, installs = ".", "", first, False
         for offset, raw in enumerate(body + [""]):
             line = raw.rstrip()
             prompted = line.startswith("$ ")
@@ -75,12 +77,16 @@ def _commands(path: Path) -> list[Command]:
             if not text:
                 continue
             words = shlex.split(text, comments=True)
+            cut = next((i for i, w in enumerate(words) if w in ("|", "||", "&&", ";", ">", ">>", "2>")), len(words))
+            words = words[:cut]  # the robokit part of a pipeline
+            if words[:2] == ["pip", "install"]:
+                installs = True
             if words[:1] == ["cd"] and len(words) == 2:
                 cwd = str(Path(cwd) / words[1])
             elif words[:1] == ["robokit"]:
                 following = body[offset + 1] if offset + 1 < len(body) else ""
                 found.append(Command(f"{path.relative_to(ROOT)}:{start}", cwd, tuple(words[1:]),
-                                     following.startswith("robokit: error:")))
+                                     following.startswith("robokit: error:"), installs))
     return found
 
 
@@ -108,7 +114,7 @@ def test_every_documented_command_parses(command: Command) -> None:
 
 def _fast(command: Command) -> bool:
     argv = command.argv
-    if not argv or "--gui" in argv:
+    if not argv or "--gui" in argv or command.needs_install:
         return False
     if "--help" in argv or "--version" in argv:
         return True
