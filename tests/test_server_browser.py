@@ -187,7 +187,8 @@ def test_teacher_sees_leaderboard_run_video_and_hangul(tmp_path: Path) -> None:
         assert figures["total_time"] == "7.96"
         plot = driver.find_element(By.CSS_SELECTOR, ".plots img")
         wait.until(lambda d: d.execute_script("return arguments[0].complete && arguments[0].naturalWidth", plot))
-        assert driver.execute_script("return arguments[0].naturalWidth", plot) == 320
+        png = files["gripper_z.png"]
+        assert driver.execute_script("return arguments[0].naturalWidth", plot) == int.from_bytes(png[16:20], "big")
         assert len(driver.find_elements(By.CSS_SELECTOR, ".timeline .seg")) == 10
         assert len(driver.find_elements(By.CSS_SELECTOR, "table.objects tbody tr")) == 4
         driver.execute_script("arguments[0].currentTime = 1.0", video)

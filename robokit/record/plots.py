@@ -25,8 +25,11 @@ def _pyplot() -> Any:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    plt.rcParams.update({"figure.dpi": 100, "savefig.bbox": "tight", "font.size": 9})
     return plt
+
+
+_STYLE = {"figure.dpi": 100, "savefig.bbox": "tight", "font.size": 9}
+"""Matplotlib settings for robokit's pictures, applied only while they are drawn (the caller's are left alone)."""
 
 
 def _sections(rec: RunRecord, section: str) -> dict[str, dict[str, Any]]:
@@ -44,14 +47,15 @@ def make_plots(rec: RunRecord, out: Path, *, fmt: str = "png", scan_at: float | 
     plt = _pyplot()
     written: list[Path] = []
     makers = [plot_states, plot_map, plot_heights, plot_joints]
-    for maker in makers:
-        fig = maker(rec, plt)
-        if fig is not None:
-            written.append(_save(fig, out / f"{maker.__name__[5:]}.{fmt}", plt))
-    if _of_type(rec, "sensors", "lidar") and rec.has_poses:
-        fig = plot_lidar(rec, plt, scan_at)
-        if fig is not None:
-            written.append(_save(fig, out / f"lidar.{fmt}", plt))
+    with plt.rc_context(_STYLE):
+        for maker in makers:
+            fig = maker(rec, plt)
+            if fig is not None:
+                written.append(_save(fig, out / f"{maker.__name__[5:]}.{fmt}", plt))
+        if _of_type(rec, "sensors", "lidar") and rec.has_poses:
+            fig = plot_lidar(rec, plt, scan_at)
+            if fig is not None:
+                written.append(_save(fig, out / f"lidar.{fmt}", plt))
     return written
 
 
