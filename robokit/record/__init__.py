@@ -4,6 +4,17 @@ The record format is versioned (:data:`RECORD_SCHEMA`) and documented in ``docs/
 package imports neither pybullet nor matplotlib; the commands import what they need.
 """
 
-from robokit.record.format import RECORD_SCHEMA, RunRecord, find_run
+from __future__ import annotations
+
+from typing import Any
 
 __all__ = ["RECORD_SCHEMA", "RunRecord", "find_run"]
+
+
+def __getattr__(name: str) -> Any:
+    """The format's names, imported on first use (it needs numpy, which ``robokit --help`` must not pay for)."""
+    if name in __all__:
+        from robokit.record import format as _format
+
+        return getattr(_format, name)
+    raise AttributeError(f"module 'robokit.record' has no attribute {name!r}")
