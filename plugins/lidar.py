@@ -19,12 +19,12 @@ from typing import Any, ClassVar
 
 import numpy as np
 from pydantic import Field, model_validator
+from robokit_plugins.raycast import RayCaster
 
 from robokit import hookimpl
 from robokit.components import Sensor, SetupContext
 from robokit.config import Schema, Vec3
 from robokit.msgs.mobile import LaserScan
-from robokit_plugins.raycast import RayCaster
 
 OWN_BODY_GROUP = 0x100
 """Collision group the lidar puts its robot's links in (their collisions with other bodies are unchanged)."""
@@ -177,7 +177,7 @@ class Lidar(Sensor):
         near = np.maximum(cfg.range_min, self._exit_distances(origin, dirs))
         starts = origin + dirs * near[:, None]
         ends = origin + dirs * cfg.range_max
-        hits = self.caster.cast(starts, ends)
+        hits = self.caster.cast(starts, ends, detail=False)
         ids, frac = hits.body, hits.fraction
         hit = (ids >= 0) & (ids != (-2 if self.body is None else self.body))
         ranges = near + frac * (cfg.range_max - near)

@@ -43,16 +43,16 @@ class RayHits:
         body: Hit body id per ray, ``-1`` for no hit.
         link: Hit link index (``-1`` = base, or no hit).
         fraction: Hit fraction along the segment from start to end, ``1.0`` for no hit.
-        position: Hit point, world frame (``(0, 0, 0)`` for no hit, as PyBullet gives).
-        normal: Hit normal, world frame (``(0, 0, 0)`` for no hit).
+        position: Hit point, world frame (``(0, 0, 0)`` for no hit, as PyBullet gives); None unless asked for.
+        normal: Hit normal, world frame (``(0, 0, 0)`` for no hit); None unless asked for.
         cast: Per ray, True if PyBullet cast it (False: intersected in numpy).
     """
 
     body: np.ndarray
     link: np.ndarray
     fraction: np.ndarray
-    position: np.ndarray
-    normal: np.ndarray
+    position: np.ndarray | None
+    normal: np.ndarray | None
     cast: np.ndarray
 
 
@@ -85,6 +85,7 @@ class RayCaster:
         self._rot = np.zeros((0, 3, 3))
         self._others: list[tuple[int, int]] = []  # (body, link) tested by bounding box
         self._to_local = np.zeros((0, 4))
+        self._grown = np.zeros((3, 0))
         self._ids = np.zeros(0, dtype=int)
         self._axes = np.zeros((0, 3))
         self.rays_cast = 0
@@ -110,6 +111,7 @@ class RayCaster:
         self._others = others
         self._half = np.array([self.world.mesh_boxes[b] for b in self._boxes], float).reshape(-1, 3)
         self._tol = EDGE_TOLERANCE * 2.0 * self._half.max(axis=1, initial=0.0) + 1e-6
+        self._grown = (self._half + self._tol[:, None]).T  # (3, B)
         self._poses = [None] * len(self._boxes)
         self._ids = np.asarray(self._boxes, dtype=int)
         self._centre = np.zeros((len(self._boxes), 3))
@@ -169,106 +171,122 @@ class RayCaster:
             self._axes = np.ascontiguousarray(axes.reshape(-1, 3))
 
     # ----------------------------------------------------------------- casting
-    def cast(self, starts: np.ndarray, ends: np.ndarray) -> RayHits:
-        """Answers for the segments ``starts[i] -> ends[i]`` (arrays ``(N, 3)``, world frame)."""
+    def cast(self, starts: np.ndarray, ends: np.ndarray, *, detail: bool = True) -> RayHits:
+        """Answers for the segments ``starts[i] -> ends[i]`` (arrays ``(N, 3)``, world frame).
+
+        ``detail=False`` leaves out hit positions and normals (``None``): a lidar needs only bodies and fractions.
+        """
         starts = np.asarray(starts, float)
         ends = np.asarray(ends, float)
         n = len(starts)
         self._refresh()
-        seg = ends - starts
         body = np.full(n, -1, dtype=int)
-        link = np.full(n, -1, dtype=int)
         frac = np.ones(n)
-        pos = np.zeros((n, 3))
-        normal = np.zeros((n, 3))
+        pos = np.zeros((n, 3)) if detail else None
+        normal = np.zeros((n, 3)) if detail else None
         if self.analytic:
             # axis-first (3, N) layouts: numpy's per-axis work is then on contiguous rows
-            s_t, d_t = np.ascontiguousarray(starts.T), np.ascontiguousarray(seg.T)
-            d_t = np.where(d_t == 0.0, _TINY, d_t)  # no division by zero: a parallel axis gives huge fractions
-            inv_len = 1.0 / np.sqrt(d_t[0] * d_t[0] + d_t[1] * d_t[1] + d_t[2] * d_t[2])
+            s_t = np.ascontiguousarray(starts.T)
+            d_t = np.ascontiguousarray(ends.T) - s_t
+            inv_len = 1.0 / np.sqrt(np.einsum("ij,ij->j", d_t, d_t))
             need, limit = self._intersect_boxes(s_t, d_t, inv_len, body, frac, pos, normal)
             need |= self._crosses_others(s_t, d_t, inv_len, limit)
             idx = np.flatnonzero(need)
         else:
             idx = np.arange(n)
+        link = np.full(n, -1, dtype=int)
         cast = np.zeros(n, dtype=bool)
         if len(idx):
             results = self.client.rayTestBatch(starts[idx], ends[idx], numThreads=self.num_threads,
                                                collisionFilterMask=self.mask)
             m = len(results)
             body[idx] = np.fromiter((r[0] for r in results), dtype=int, count=m)
-            link[idx] = np.fromiter((r[1] for r in results), dtype=int, count=m)
             frac[idx] = np.fromiter((r[2] for r in results), dtype=float, count=m)
-            pos[idx] = [r[3] for r in results]
-            normal[idx] = [r[4] for r in results]
+            link[idx] = np.fromiter((r[1] for r in results), dtype=int, count=m)
+            if pos is not None and normal is not None:
+                pos[idx] = [r[3] for r in results]
+                normal[idx] = [r[4] for r in results]
             cast[idx] = True
         self.rays_cast += len(idx)
         self.rays_total += n
         return RayHits(body, link, frac, pos, normal, cast)
 
     def _intersect_boxes(self, s_t: np.ndarray, d_t: np.ndarray, inv_len: np.ndarray, body: np.ndarray,
-                         frac: np.ndarray, pos: np.ndarray, normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Fill in place the rays' nearest mesh-box hits that Bullet would report alike; return (rays PyBullet
-        must cast, per ray the fraction up to which other bodies matter).
+                         frac: np.ndarray, pos: np.ndarray | None, normal: np.ndarray | None,
+                         ) -> tuple[np.ndarray, np.ndarray]:
+        """Fill in place the rays' nearest mesh-box hits that Bullet reports alike; return (rays PyBullet must
+        cast, per ray the fraction up to which other bodies matter).
 
         ``s_t``, ``d_t``: starts and segment vectors, shape (3, N); ``inv_len``: 1 / segment length.
+
+        Every box is first tested grown by its tolerance (Bullet's hits lie on the grown box: a triangle hit is
+        accepted up to the tolerance outside the triangle); the nearest grown entry names the box, whose exact hit
+        is then computed. The answer is PyBullet's unless another box's grown entry comes at or before it, or the
+        hit itself is borderline (see below): those rays are cast by PyBullet.
         """
         n = s_t.shape[1]
         nb = len(self._boxes)
         if nb == 0:
             return np.zeros(n, dtype=bool), np.ones(n)
-        half, tol = self._half.T[:, :, None], self._tol[:, None]  # (3, B, 1), (B, 1)
         # starts and segments in each box's frame, (3, B, N): one small matrix product each
         o = (self._to_local[:, :3] @ s_t + self._to_local[:, 3:]).reshape(3, nb, n)
         d = (self._axes @ d_t).reshape(3, nb, n)
-        d[d == 0.0] = _TINY  # no division by zero: a parallel axis gives huge fractions
+        if not d.all():
+            d[d == 0.0] = _TINY  # no division by zero: an axis the ray runs parallel to gives huge fractions
         with np.errstate(over="ignore"):
             inv = 1.0 / d
         oi = o * inv
         ai = np.abs(inv)
-        h_ai = half * ai
-        lo = -(h_ai + oi)  # slab entry per axis: (-h - o) / d for d > 0, (h - o) / d for d < 0
-        hi = h_ai - oi
-        t_near, t_far = lo.max(axis=0), hi.min(axis=0)
-        t_hit = np.where((t_near <= t_far) & (t_far >= 0.0) & (t_near <= 1.0), t_near, np.inf)
-        first = np.argmin(t_hit, axis=0) if nb > 1 else np.zeros(n, dtype=int)
+        reach = self._grown[:, :, None] * ai
+        g_near = (-reach - oi).max(axis=0)  # slab entry per axis: (-h - o) / d for d > 0, (h - o) / d for d < 0
+        g_far = (reach - oi).min(axis=0)
+        g_hit = np.where((g_near <= g_far) & (g_far >= 0.0), g_near, np.inf)  # (B, N)
         cols = np.arange(n)
-        flat = first * n + cols
-        best = t_hit.reshape(-1)[flat]
-        tol_frac = tol * inv_len  # (B, N)
-        # each box grown by its tolerance: a ray entering one at or before the nearest hit may be Bullet's hit there
-        widen = tol * ai
-        g_near, g_far = (lo - widen).max(axis=0), (hi + widen).min(axis=0)
-        near = (g_near <= g_far) & (g_far >= 0.0) & (g_near <= np.minimum(best, 1.0) + tol_frac)
-        has = best <= 1.0
-        near.reshape(-1)[flat] &= ~has  # the nearest hit's own box is checked below
-        need = near.any(axis=0) if nb > 1 else near[0]
-        # The nearest hit is clean if the ray starts outside the grown box, ends well past the hit, and crossed every
-        # other front face's plane at least the tolerance outside that face (Bullet accepts a plane crossing up to
-        # the tolerance outside its face and reports the first one: such a crossing would be it). Between crossing
-        # face j's plane (at lo_j) and the entry face's (axis a, at best) the ray closes in on slab a by
-        # (best - lo_j) * |d_a|: at least that far outside face j it crossed its plane.
-        lof = lo.reshape(3, -1)[:, flat]  # (3, N): the nearest box's slab entries
-        entry = np.argmax(lof, axis=0)
-        abs_d = np.abs(d.reshape(3, -1)[:, flat])
-        ahead = best - lof
-        ahead[entry, cols] = np.inf
-        tf = tol_frac.reshape(-1)[flat]
-        clean = ((ahead.min(axis=0) * abs_d[entry, cols] >= self._tol[first]) & (g_near.reshape(-1)[flat] > 0.0)
-                 & (best <= 1.0 - tf))
-        need |= has & ~clean
-        found = has & ~need
-        if found.any():
-            k = np.flatnonzero(found)
+        if nb > 1:
+            first = np.argmin(g_hit, axis=0)
+            flat = first * n + cols
+            g_first = g_hit.reshape(-1).take(flat)
+            g_hit.reshape(-1)[flat] = np.inf
+            second = g_hit.min(axis=0)  # the next box's grown entry
+        else:
+            first = np.zeros(n, dtype=int)
+            flat = cols
+            g_first = g_hit[0]
+            second = np.full(n, np.inf)
+        tolf = self._tol.take(first)
+        tf = tolf * inv_len
+        candidate = g_first <= 1.0 + tf
+        # exact slabs of the named box, (3, N)
+        of, idf, aif = (a.reshape(3, -1).take(flat, axis=1) for a in (oi, inv, ai))
+        h_ai = self._half.T.take(first, axis=1) * aif
+        lo = -h_ai - of
+        t_near = lo.max(axis=0)
+        t_far = (h_ai - of).min(axis=0)
+        has = candidate & (t_near <= t_far) & (t_far >= 0.0) & (t_near <= 1.0)
+        best = np.where(has, t_near, 1.0)
+        # Clean if: no other box's grown entry comes before the hit (or the segment's end); the ray starts outside
+        # the grown box and ends well past the hit; and it crossed each other front face's plane at least the
+        # tolerance outside that face (Bullet accepts a plane crossing up to the tolerance outside its face and
+        # reports the first one). Between crossing face j's plane (lo_j) and the entry face's (axis a, at best) the
+        # ray closes in on slab a by (best - lo_j) * |d_a|: at least that far outside face j it crossed j's plane.
+        entry = np.argmax(lo, axis=0)
+        ahead = best - lo
+        at_entry = entry * n + cols
+        ahead.reshape(-1)[at_entry] = np.inf
+        clean = (has & (second > best + tf) & (g_first > 0.0) & (best <= 1.0 - tf)
+                 & (ahead.min(axis=0) >= tolf * aif.reshape(-1).take(at_entry)))
+        need = (candidate & ~clean) | (~candidate & (second <= 1.0 + tf))
+        if clean.any():
+            k = np.flatnonzero(clean)
             fk = first[k]
             body[k] = self._ids[fk]
             frac[k] = best[k]
-            pos[k] = (s_t[:, k] + d_t[:, k] * best[k]).T
-            ek = entry[k]
-            # outward normal of the entry face: box axis ek, against the ray's direction along it
-            sign = -np.sign(d.reshape(3, -1)[ek, flat[k]])
-            normal[k] = self._rot[fk, :, ek] * sign[:, None]
-        return need, np.where(found, best, 1.0)
+            if pos is not None and normal is not None:
+                pos[k] = (s_t[:, k] + d_t[:, k] * best[k]).T
+                ek = entry[k]
+                # outward normal of the entry face: box axis ek, against the ray's direction along it
+                normal[k] = self._rot[fk, :, ek] * -np.sign(idf.reshape(-1).take(ek * n + k))[:, None]
+        return need, best
 
     def _crosses_others(self, s_t: np.ndarray, d_t: np.ndarray, inv_len: np.ndarray, limit: np.ndarray) -> np.ndarray:
         """Per ray, True if its segment up to ``limit`` crosses the bounding box of any body not intersected here."""
@@ -280,7 +298,7 @@ class RayCaster:
         lo_b = boxes[:, 0, :].T[:, :, None] - AABB_PAD  # (3, K, 1)
         hi_b = boxes[:, 1, :].T[:, :, None] + AABB_PAD
         with np.errstate(over="ignore"):
-            inv = (1.0 / d_t)[:, None, :]
+            inv = (1.0 / np.where(d_t == 0.0, _TINY, d_t))[:, None, :]
             t1, t2 = (lo_b - s_t[:, None, :]) * inv, (hi_b - s_t[:, None, :]) * inv
         lo, hi = np.minimum(t1, t2), np.maximum(t1, t2)
         near = np.maximum(np.maximum(lo[0], lo[1]), lo[2])
