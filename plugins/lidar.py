@@ -165,9 +165,13 @@ class Lidar(Sensor):
         lo_, hi_ = np.asarray(lo) - SELF_MARGIN, np.asarray(hi) + SELF_MARGIN
         if not np.all((origin > lo_) & (origin < hi_)):
             return self._zeros
-        # +-inf where a direction has no component along an axis: that axis never bounds the exit
-        inv = np.divide(1.0, dirs, out=np.full_like(dirs, np.inf), where=dirs != 0.0)
-        return np.asarray(np.maximum((hi_ - origin) * inv, (lo_ - origin) * inv).min(axis=1))
+        # +-inf where a direction has no component along an axis: that axis never bounds the exit (the origin is
+        # strictly inside, so hi_ - origin > 0 > lo_ - origin and the larger product is +inf)
+        dirs_t = dirs.T
+        with np.errstate(divide="ignore"):
+            inv = 1.0 / dirs_t
+        exits = np.maximum((hi_ - origin)[:, None] * inv, (lo_ - origin)[:, None] * inv)
+        return np.minimum(np.minimum(exits[0], exits[1]), exits[2])
 
     def read(self) -> LaserScan:
         """Cast every ray once (at most one ``rayTestBatch``) and return the scan."""

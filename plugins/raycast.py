@@ -295,13 +295,19 @@ class RayCaster:
             return np.zeros(n, dtype=bool)
         aabb = self.client.getAABB
         boxes = np.array([aabb(b, link) for b, link in self._others], float)  # (K, 2, 3)
+        # only the boxes that overlap the box around all the segments (the floor under a level scan does not)
+        ends_t = s_t + d_t
+        scan_lo = np.minimum(s_t.min(axis=1), ends_t.min(axis=1)) - AABB_PAD
+        scan_hi = np.maximum(s_t.max(axis=1), ends_t.max(axis=1)) + AABB_PAD
+        boxes = boxes[((boxes[:, 0] <= scan_hi) & (boxes[:, 1] >= scan_lo)).all(axis=1)]
+        if len(boxes) == 0:
+            return np.zeros(n, dtype=bool)
         lo_b = boxes[:, 0, :].T[:, :, None] - AABB_PAD  # (3, K, 1)
         hi_b = boxes[:, 1, :].T[:, :, None] + AABB_PAD
         with np.errstate(over="ignore"):
             inv = (1.0 / np.where(d_t == 0.0, _TINY, d_t))[:, None, :]
-            t1, t2 = (lo_b - s_t[:, None, :]) * inv, (hi_b - s_t[:, None, :]) * inv
-        lo, hi = np.minimum(t1, t2), np.maximum(t1, t2)
-        near = np.maximum(np.maximum(lo[0], lo[1]), lo[2])
-        far = np.minimum(np.minimum(hi[0], hi[1]), hi[2])
+        t1, t2 = (lo_b - s_t[:, None, :]) * inv, (hi_b - s_t[:, None, :]) * inv
+        near = np.minimum(t1, t2).max(axis=0)
+        far = np.maximum(t1, t2).min(axis=0)
         crosses = (near <= far) & (far >= 0.0) & (near <= limit + AABB_PAD * inv_len)
         return np.asarray(crosses.any(axis=0))
