@@ -738,12 +738,25 @@ def hand_run(job: str, seed: int) -> dict[str, Any]:
     scene = Scene(JOBS[job], seed)
     try:
         runner = HAND_JOBS[job](scene, seed)
-        t0, c0 = time.perf_counter(), time.process_time()
+        t0, c0, k0 = time.perf_counter(), time.process_time(), _cycles()
         result = runner.run()
-        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+        wall, cpu, cycles = time.perf_counter() - t0, time.process_time() - c0, _cycles() - k0
     finally:
         scene.close()
-    return {"wall": wall, "cpu": cpu, "sim": result["sim_time"], "ok": _hand_ok(job, result), "result": result}
+    return {"wall": wall, "cpu": cpu, "cycles": cycles, "sim": result["sim_time"], "ok": _hand_ok(job, result),
+            "result": result}
+
+
+_COUNTERS: list[Any] = []
+
+
+def _cycles() -> int:
+    """User-mode CPU cycles of this process so far (0 where hardware counters are unavailable)."""
+    if not _COUNTERS:
+        from _counters import Counters
+
+        _COUNTERS.append(Counters.open())
+    return _COUNTERS[0].read()[0] if _COUNTERS[0] is not None else 0
 
 
 def _hand_ok(job: str, result: dict[str, Any]) -> bool:
@@ -758,15 +771,15 @@ def robokit_run(job: str, seed: int) -> dict[str, Any]:
     from robokit.testing import make_sim
 
     with make_sim(str(JOBS[job]), seed=seed) as sim:
-        t0, c0 = time.perf_counter(), time.process_time()
+        t0, c0, k0 = time.perf_counter(), time.process_time(), _cycles()
         result = sim.run()
-        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+        wall, cpu, cycles = time.perf_counter() - t0, time.process_time() - c0, _cycles() - k0
     r = result.result
     if job == "sort":
         ok = result.outcome == "succeeded" and r.get("red_sorted", 0) + r.get("blue_sorted", 0) == 4
     else:
         ok = result.outcome == "succeeded" and r.get("objects_collected") == 4 and r.get("collisions") == 0
-    return {"wall": wall, "cpu": cpu, "sim": result.sim_time, "ok": ok, "result": r}
+    return {"wall": wall, "cpu": cpu, "cycles": cycles, "sim": result.sim_time, "ok": ok, "result": r}
 
 
 def check_scene(job: str, seed: int) -> None:
@@ -796,7 +809,7 @@ def _stats(ratios: list[float]) -> str:
 def loop_ratios(job: str, seeds: list[int]) -> None:
     """Interleaved in-process runs: per-seed ratio of wall seconds per sim second; success on both sides."""
     check_scene(job, seeds[0])
-    ratios, cpu_ratios, rk_ok, hw_ok, rk_us, hw_us = [], [], 0, 0, [], []
+    ratios, cpu_ratios, cycle_ratios, rk_ok, hw_ok, rk_us, hw_us = [], [], [], 0, 0, [], []
     for i, seed in enumerate(seeds):
         order = ("robokit", "hand") if i % 2 == 0 else ("hand", "robokit")
         out = {side: (robokit_run if side == "robokit" else hand_run)(job, seed) for side in order}
@@ -804,6 +817,8 @@ def loop_ratios(job: str, seeds: list[int]) -> None:
         rk_rate, hw_rate = rk["wall"] / rk["sim"], hw["wall"] / hw["sim"]
         ratios.append(rk_rate / hw_rate)
         cpu_ratios.append((rk["cpu"] / rk["sim"]) / (hw["cpu"] / hw["sim"]))
+        if hw["cycles"] > 0:
+            cycle_ratios.append((rk["cycles"] / rk["sim"]) / (hw["cycles"] / hw["sim"]))
         rk_ok += rk["ok"]
         hw_ok += hw["ok"]
         dt = 1.0 / 240.0
@@ -811,9 +826,13 @@ def loop_ratios(job: str, seeds: list[int]) -> None:
         hw_us.append(hw_rate * dt * 1e6)
         print(f"  {job} seed {seed:3d}: robokit {rk['sim']:6.2f} sim s {rk_us[-1]:6.1f} us/tick "
               f"{'ok' if rk['ok'] else 'FAIL'} | hand {hw['sim']:6.2f} sim s {hw_us[-1]:6.1f} us/tick "
-              f"{'ok' if hw['ok'] else 'FAIL'} | ratio {ratios[-1]:.3f} (CPU {cpu_ratios[-1]:.3f})", flush=True)
+              f"{'ok' if hw['ok'] else 'FAIL'} | ratio {ratios[-1]:.3f} (CPU {cpu_ratios[-1]:.3f}"
+              + (f", cycles {cycle_ratios[-1]:.3f})" if cycle_ratios else ")"), flush=True)
     print(f"{job} loop, wall per sim second, robokit / hand-written: {_stats(ratios)}")
     print(f"{job} loop, process CPU per sim second (steadier on a loaded machine): {_stats(cpu_ratios)}")
+    if cycle_ratios:
+        print(f"{job} loop, user-mode CPU cycles per sim second (hardware counters, nearly load-independent): "
+              f"{_stats(cycle_ratios)}")
     print(f"{job} per tick (median): robokit {statistics.median(rk_us):.1f} us, "
           f"hand-written {statistics.median(hw_us):.1f} us")
     print(f"{job} success: robokit {rk_ok}/{len(seeds)}, hand-written {hw_ok}/{len(seeds)}", flush=True)
