@@ -26,6 +26,10 @@ Reported, per job:
   doing the hand-written job for the same seed (imports, scene, loop, result), interleaved;
 - success on both sides.
 
+Where Linux lets a process count its own hardware events (``perf_event_open``, see ``benchmarks/_counters.py``),
+the loop ratios are also given in user-mode CPU cycles, which a busy machine disturbs far less than wall time, and
+in instructions (the work done, the same on any load).
+
     python benchmarks/handwritten.py --seeds 20                 # both jobs, everything printed
     python benchmarks/handwritten.py --seeds 20 --jobs sort     # one job
     python benchmarks/handwritten.py --seeds 20 --job-seeds 10  # more whole-process runs (default 5)
@@ -738,12 +742,14 @@ def hand_run(job: str, seed: int) -> dict[str, Any]:
     scene = Scene(JOBS[job], seed)
     try:
         runner = HAND_JOBS[job](scene, seed)
-        t0, c0, k0 = time.perf_counter(), time.process_time(), _cycles()
+        t0, c0, k0, i0 = time.perf_counter(), time.process_time(), _cycles(), _instructions()
         result = runner.run()
         wall, cpu, cycles = time.perf_counter() - t0, time.process_time() - c0, _cycles() - k0
+        instr = _instructions() - i0
     finally:
         scene.close()
-    return {"wall": wall, "cpu": cpu, "cycles": cycles, "sim": result["sim_time"], "ok": _hand_ok(job, result),
+    return {"wall": wall, "cpu": cpu, "cycles": cycles, "instr": instr, "sim": result["sim_time"],
+            "ok": _hand_ok(job, result),
             "result": result}
 
 
@@ -759,6 +765,12 @@ def _cycles() -> int:
     return _COUNTERS[0].read()[0] if _COUNTERS[0] is not None else 0
 
 
+def _instructions() -> int:
+    """User-mode instructions of this process so far (0 where hardware counters are unavailable)."""
+    _cycles()
+    return _COUNTERS[0].read()[1] if _COUNTERS[0] is not None else 0
+
+
 def _hand_ok(job: str, result: dict[str, Any]) -> bool:
     if job == "sort":
         return bool(result["sorted"] == 4)
@@ -771,15 +783,16 @@ def robokit_run(job: str, seed: int) -> dict[str, Any]:
     from robokit.testing import make_sim
 
     with make_sim(str(JOBS[job]), seed=seed) as sim:
-        t0, c0, k0 = time.perf_counter(), time.process_time(), _cycles()
+        t0, c0, k0, i0 = time.perf_counter(), time.process_time(), _cycles(), _instructions()
         result = sim.run()
         wall, cpu, cycles = time.perf_counter() - t0, time.process_time() - c0, _cycles() - k0
+        instr = _instructions() - i0
     r = result.result
     if job == "sort":
         ok = result.outcome == "succeeded" and r.get("red_sorted", 0) + r.get("blue_sorted", 0) == 4
     else:
         ok = result.outcome == "succeeded" and r.get("objects_collected") == 4 and r.get("collisions") == 0
-    return {"wall": wall, "cpu": cpu, "cycles": cycles, "sim": result.sim_time, "ok": ok, "result": r}
+    return {"wall": wall, "cpu": cpu, "cycles": cycles, "instr": instr, "sim": result.sim_time, "ok": ok, "result": r}
 
 
 def check_scene(job: str, seed: int) -> None:
@@ -809,7 +822,7 @@ def _stats(ratios: list[float]) -> str:
 def loop_ratios(job: str, seeds: list[int]) -> None:
     """Interleaved in-process runs: per-seed ratio of wall seconds per sim second; success on both sides."""
     check_scene(job, seeds[0])
-    ratios, cpu_ratios, cycle_ratios, rk_ok, hw_ok, rk_us, hw_us = [], [], [], 0, 0, [], []
+    ratios, cpu_ratios, cycle_ratios, instr_ratios, rk_ok, hw_ok, rk_us, hw_us = [], [], [], [], 0, 0, [], []
     for i, seed in enumerate(seeds):
         order = ("robokit", "hand") if i % 2 == 0 else ("hand", "robokit")
         out = {side: (robokit_run if side == "robokit" else hand_run)(job, seed) for side in order}
@@ -819,6 +832,7 @@ def loop_ratios(job: str, seeds: list[int]) -> None:
         cpu_ratios.append((rk["cpu"] / rk["sim"]) / (hw["cpu"] / hw["sim"]))
         if hw["cycles"] > 0:
             cycle_ratios.append((rk["cycles"] / rk["sim"]) / (hw["cycles"] / hw["sim"]))
+            instr_ratios.append((rk["instr"] / rk["sim"]) / (hw["instr"] / hw["sim"]))
         rk_ok += rk["ok"]
         hw_ok += hw["ok"]
         dt = 1.0 / 240.0
@@ -833,6 +847,8 @@ def loop_ratios(job: str, seeds: list[int]) -> None:
     if cycle_ratios:
         print(f"{job} loop, user-mode CPU cycles per sim second (hardware counters, nearly load-independent): "
               f"{_stats(cycle_ratios)}")
+        print(f"{job} loop, user-mode instructions per sim second (work done, independent of the machine's load): "
+              f"{_stats(instr_ratios)}")
     print(f"{job} per tick (median): robokit {statistics.median(rk_us):.1f} us, "
           f"hand-written {statistics.median(hw_us):.1f} us")
     print(f"{job} success: robokit {rk_ok}/{len(seeds)}, hand-written {hw_ok}/{len(seeds)}", flush=True)
