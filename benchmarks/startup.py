@@ -1,24 +1,33 @@
-"""Start-up cost of the ``robokit`` command: process time (user + system CPU) and wall time of whole processes.
+"""Start-up cost of the ``robokit`` command: process time (user + system CPU of every thread) of whole processes.
 
-Measured, each as the median of ``--repeats`` fresh processes, interleaved:
+Measured, each as the median of ``--repeats`` fresh processes, interleaved (one of each per round):
 
-- ``python -c pass``: the interpreter alone (the floor);
-- ``robokit --help``: must import neither pybullet nor OpenCV (checked: the run prints the heavy modules it saw);
-- ``robokit run TRIVIAL --quiet``: a plane and a falling box for 0.1 sim seconds, local report on (target:
-  under 200 ms of process time);
-- ``robokit run configs/patrol_robot.toml --max-time 0.05 --quiet``: a real config's start-up (no camera: OpenCV
-  stays unimported);
+- ``python -c pass``: the interpreter alone;
+- ``python -c 'import numpy, pybullet'``: the floor of any run (both are needed to simulate anything);
+- the same plus ``pydantic`` and ``pluggy`` (the libraries robokit validates configs and loads plugins with): the
+  floor of robokit as built;
+- ``robokit --help``: must import neither numpy, pybullet nor OpenCV (checked below);
+- ``robokit run TRIVIAL --quiet``: a plane and a falling box for 0.1 sim seconds with the default record (trace,
+  pose log, ``result.json``) — target: under 200 ms of process time;
+- ``robokit run configs/patrol_robot.toml --max-time 0.05 --quiet``: a real config's start-up (no OpenCV);
 - ``robokit plugins``: lists every type, so it imports every plugin module.
 
-Then, in this process, where the time of a trivial run goes: imports, plugin discovery (lazy and eager), config,
-world, run.
+The floors run with the same environment as ``robokit`` (``robokit`` sets ``OPENBLAS_NUM_THREADS=1`` for itself
+unless it is set: OpenBLAS's idle worker thread otherwise spins for ~0.1 s of CPU after numpy's import), so the
+figures compare like with like; ``--blas-threads`` shows the floor with OpenBLAS's default threads too.
 
-    python benchmarks/startup.py [--repeats 10]
+Children run with bytecode caching on (``PYTHONDONTWRITEBYTECODE`` removed) after one warm-up round, as an
+installed robokit runs: ``pip install`` compiles the package, an editable install caches on its first run.
+
+Then, in fresh processes, where a trivial run's process time goes, stage by stage (median over the repeats).
+
+    python benchmarks/startup.py [--repeats 15]
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import resource
 import statistics
@@ -41,7 +50,7 @@ shape = "box"
 size = [0.1, 0.1, 0.1]
 position = [0, 0, 0.5]
 """
-HEAVY = ("pybullet", "cv2", "numpy", "pydantic", "transitions", "requests")
+HEAVY = ("numpy", "pybullet", "cv2", "pydantic", "transitions", "requests", "importlib.metadata")
 PROBE = """
 import sys
 from robokit.cli import main
@@ -52,13 +61,46 @@ except SystemExit:
 heavy = [m for m in {heavy!r} if m in sys.modules]
 print("heavy modules imported:", ", ".join(heavy) or "none", file=sys.stderr)
 """
+STAGES = """
+import json, sys, time
+clock = time.process_time
+marks = [("interpreter start-up (before the first line)", clock())]
+import robokit.cli as cli
+marks.append(("import robokit.cli", clock()))
+args = cli._parser().parse_args(["run", sys.argv[1], "--quiet"])
+marks.append(("argument parser (every command's options)", clock()))
+from robokit.plugins import load_plugins
+plugins = load_plugins()
+marks.append(("plugin discovery (entry points, pybullet import)", clock()))
+from robokit.config import load_config
+marks.append(("import robokit.config (pydantic, core models)", clock()))
+cfg = load_config(args.config, plugins)
+marks.append(("config validation (+ the local reporter's module)", clock()))
+from robokit.runner import run_config, summary
+marks.append(("import robokit.runner (numpy, world, scheduler)", clock()))
+out = run_config(cfg, plugins, max_time=None, on_problem=None)
+marks.append(("build + run + record + report", clock()))
+summary(out)
+print(json.dumps([(name, t) for name, t in marks]))
+"""
 
 
-def measure(cmd: list[str], cwd: str) -> tuple[float, float]:
+def child_env(blas_threads: bool = False) -> dict[str, str]:
+    """The environment of every measured child: bytecode caching on, and (like ``robokit``) one OpenBLAS thread
+    unless ``blas_threads`` or the caller set ``OPENBLAS_NUM_THREADS``."""
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    if not blas_threads:
+        env.setdefault("OPENBLAS_NUM_THREADS", "1")
+    else:
+        env.pop("OPENBLAS_NUM_THREADS", None)
+    return env
+
+
+def measure(cmd: list[str], cwd: str, env: dict[str, str]) -> tuple[float, float]:
     """(process seconds, wall seconds) of one run of ``cmd``."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
-    proc = subprocess.run(cmd, cwd=cwd, capture_output=True, text=True)
+    proc = subprocess.run(cmd, cwd=cwd, capture_output=True, text=True, env=env)
     wall = time.perf_counter() - t0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if proc.returncode not in (0, 1):
@@ -67,66 +109,82 @@ def measure(cmd: list[str], cwd: str) -> tuple[float, float]:
     return cpu, wall
 
 
-def in_process(config: Path) -> None:
-    """Where a trivial run's time goes, in one fresh child process (so imports are not already cached)."""
-    code = f"""
-import time, os
-t0 = time.perf_counter(); c0 = time.process_time()
-from robokit.cli import main
-t1 = time.perf_counter()
-from robokit.plugins import load_plugins
-lazy = load_plugins()
-t2 = time.perf_counter()
-from robokit.config import load_config
-cfg = load_config({str(config)!r}, lazy)
-t3 = time.perf_counter()
-from robokit.runner import run_config
-out = run_config(cfg, lazy)
-t4 = time.perf_counter()
-eager = load_plugins(lazy=False)
-t5 = time.perf_counter()
-print(f"  import robokit.cli {{(t1 - t0) * 1e3:6.1f}} ms | plugins (lazy) {{(t2 - t1) * 1e3:6.1f}} ms | "
-      f"config {{(t3 - t2) * 1e3:6.1f}} ms | build + run + report {{(t4 - t3) * 1e3:6.1f}} ms | "
-      f"then every plugin (eager) {{(t5 - t4) * 1e3:6.1f}} ms")
-"""
-    with tempfile.TemporaryDirectory() as tmp:
-        proc = subprocess.run([sys.executable, "-c", code], cwd=tmp, capture_output=True, text=True)
-    print(proc.stdout.rstrip() or proc.stderr.strip()[-400:])
+def stages(config: Path, repeats: int, cwd: str, env: dict[str, str]) -> None:
+    """Where a trivial run's process time goes: each stage of what ``robokit run`` does, in fresh processes."""
+    per_stage: dict[str, list[float]] = {}
+    for _ in range(repeats):
+        proc = subprocess.run([sys.executable, "-c", STAGES, str(config)], cwd=cwd, capture_output=True,
+                              text=True, env=env)
+        if proc.returncode != 0:
+            print(f"  (stage breakdown failed: {proc.stderr.strip()[-400:]})")
+            return
+        marks = json.loads(proc.stdout.strip().splitlines()[-1])
+        previous = 0.0
+        for name, t in marks:
+            per_stage.setdefault(name, []).append(t - previous)
+            previous = t
+    total = 0.0
+    for name, values in per_stage.items():
+        ms = statistics.median(values) * 1e3
+        total += ms
+        print(f"  {name:<52} {ms:6.1f} ms")
+    print(f"  {'sum of the medians':<52} {total:6.1f} ms")
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--repeats", type=int, default=10)
+    parser.add_argument("--repeats", type=int, default=15)
+    parser.add_argument("--blas-threads", action="store_true",
+                        help="also measure the numpy + pybullet floor with OpenBLAS's default thread count")
     args = parser.parse_args()
     exe = str(Path(sys.executable).parent / "robokit")
+    py = sys.executable
+    env = child_env()
     with tempfile.TemporaryDirectory() as tmp:
         trivial = Path(tmp) / "trivial.toml"
         trivial.write_text(TRIVIAL)
-        cases = {
-            "python -c pass": [sys.executable, "-c", "pass"],
-            "robokit --help": [exe, "--help"],
-            "robokit run trivial.toml": [exe, "run", str(trivial), "--quiet"],
-            "robokit run patrol_robot.toml (0.05 s)": [exe, "run", str(ROOT / "configs" / "patrol_robot.toml"),
-                                                       "--max-time", "0.05", "--quiet"],
-            "robokit plugins": [exe, "plugins"],
+        cases: dict[str, tuple[list[str], dict[str, str]]] = {
+            "python -c pass": ([py, "-c", "pass"], env),
+            "python -c 'import numpy, pybullet'  (floor)": ([py, "-c", "import numpy, pybullet"], env),
+            "  + pydantic, pluggy (robokit's libraries)": (
+                [py, "-c", "import numpy, pybullet, pluggy; from pydantic import BaseModel, Field"], env),
+            "robokit --help": ([exe, "--help"], env),
+            "robokit run trivial.toml": ([exe, "run", str(trivial), "--quiet"], env),
+            "robokit run patrol_robot.toml (0.05 s)": (
+                [exe, "run", str(ROOT / "configs" / "patrol_robot.toml"), "--max-time", "0.05", "--quiet"], env),
+            "robokit plugins": ([exe, "plugins"], env),
         }
+        if args.blas_threads:
+            cases["numpy, pybullet with OpenBLAS's own threads"] = (
+                [py, "-c", "import numpy, pybullet"], child_env(blas_threads=True))
+        for cmd, cenv in cases.values():  # warm-up: bytecode caches written, files in the page cache
+            measure(cmd, tmp, cenv)
         print(f"load: {' '.join(f'{v:.2f}' for v in os.getloadavg())} (1/5/15 min) on {os.cpu_count()} cores; "
-              f"{args.repeats} runs each, interleaved; medians", flush=True)
+              f"{args.repeats} runs each, interleaved; medians of process time (user + system, all threads)",
+              flush=True)
         samples: dict[str, list[tuple[float, float]]] = {name: [] for name in cases}
         for _ in range(args.repeats):
-            for name, cmd in cases.items():
-                samples[name].append(measure(cmd, tmp))
+            for name, (cmd, cenv) in cases.items():
+                samples[name].append(measure(cmd, tmp, cenv))
+        medians = {name: statistics.median(r[0] for r in runs) for name, runs in samples.items()}
         for name, runs in samples.items():
-            cpu = statistics.median(r[0] for r in runs)
+            cpu = sorted(r[0] for r in runs)
             wall = statistics.median(r[1] for r in runs)
             note = "  (target < 200 ms)" if name == "robokit run trivial.toml" else ""
-            print(f"{name:<40} process {cpu * 1e3:6.0f} ms   wall {wall * 1e3:6.0f} ms{note}")
+            print(f"{name:<46} process {medians[name] * 1e3:6.0f} ms (p10-p90 {cpu[len(cpu) // 10] * 1e3:4.0f}-"
+                  f"{cpu[-1 - len(cpu) // 10] * 1e3:4.0f})   wall {wall * 1e3:6.0f} ms{note}")
+        run = medians["robokit run trivial.toml"]
+        floor = medians["python -c 'import numpy, pybullet'  (floor)"]
+        libs = medians["  + pydantic, pluggy (robokit's libraries)"]
+        print(f"trivial run minus the numpy + pybullet floor: {(run - floor) * 1e3:.0f} ms; "
+              f"minus the floor with robokit's libraries: {(run - libs) * 1e3:.0f} ms; load now "
+              f"{os.getloadavg()[0]:.2f}")
         for argv in (["--help"], ["run", str(trivial), "--quiet"]):
-            probe = subprocess.run([sys.executable, "-c", PROBE.format(heavy=HEAVY), *argv], cwd=tmp,
-                                   capture_output=True, text=True)
+            probe = subprocess.run([py, "-c", PROBE.format(heavy=HEAVY), *argv], cwd=tmp, capture_output=True,
+                                   text=True, env=env)
             print(f"robokit {argv[0]}: {probe.stderr.strip().splitlines()[-1]}")
-        print("inside a trivial run (one fresh process):")
-        in_process(trivial)
+        print(f"inside a trivial run, process time per stage (fresh processes, median of {args.repeats}):")
+        stages(trivial, args.repeats, tmp, env)
 
 
 if __name__ == "__main__":

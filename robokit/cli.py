@@ -330,6 +330,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     from robokit._quiet import capture_c_stdout
     from robokit.crash import debug_from_env
 
+    if argv is None:  # the console script: this process is robokit's own
+        _one_blas_thread()
     argv = list(sys.argv[1:] if argv is None else argv)
     cut = argv.index("--") if "--" in argv else len(argv)
     debug = debug_from_env() or "--debug" in argv[:cut]
@@ -354,6 +356,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     if note and not getattr(args, "quiet", False):
         print(note, file=sys.stderr)
     return code
+
+
+def _one_blas_thread() -> None:
+    """Use one OpenBLAS thread unless ``OPENBLAS_NUM_THREADS`` says otherwise (set before numpy is imported).
+
+    robokit's linear algebra is small (7x7 Jacobians, 360-ray scans), below the size OpenBLAS threads; its worker
+    thread only costs: after numpy's import it spins for ~0.1 s of CPU before it sleeps, a third of a trivial
+    run's process time (``benchmarks/startup.py``). Child processes (sweep workers) inherit the setting.
+    """
+    if "numpy" not in sys.modules:
+        os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 
 def _show_warning(message: Warning | str, category: type[Warning], *_args: Any, **_kwargs: Any) -> None:

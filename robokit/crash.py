@@ -11,14 +11,19 @@ into the system's temporary folder.
 from __future__ import annotations
 
 import os
-import sysconfig
-import tempfile
-import traceback
 from pathlib import Path
 from types import TracebackType
 
 DEBUG_ENV = "ROBOKIT_DEBUG"
-_STDLIB = tuple(p for p in {sysconfig.get_paths().get("stdlib"), sysconfig.get_paths().get("platstdlib")} if p)
+
+
+def _stdlib() -> tuple[str, ...]:
+    """The standard library's folders (sysconfig and traceback are imported when something went wrong, not at
+    start-up)."""
+    import sysconfig
+
+    paths = sysconfig.get_paths()
+    return tuple(p for p in {paths.get("stdlib"), paths.get("platstdlib")} if p)
 
 
 def debug_from_env() -> bool:
@@ -43,8 +48,11 @@ def where_raised(exc: BaseException) -> str:
 
     Paths under the working directory are shown relative to it.
     """
+    import traceback
+
+    stdlib = _stdlib()
     frames = traceback.extract_tb(_tb(exc))
-    chosen = next((f for f in reversed(frames) if not f.filename.startswith(_STDLIB)), frames[-1] if frames else None)
+    chosen = next((f for f in reversed(frames) if not f.filename.startswith(stdlib)), frames[-1] if frames else None)
     if chosen is None:
         return ""
     return f"{_short(chosen.filename)}:{chosen.lineno}"
@@ -63,6 +71,8 @@ def _short(filename: str) -> str:
 
 def traceback_text(exc: BaseException) -> str:
     """The full traceback of ``exc``, with its causes, as Python prints it."""
+    import traceback
+
     return "".join(traceback.format_exception(type(exc), exc, exc.__traceback__))
 
 
@@ -82,6 +92,8 @@ def write_traceback(text: str, run_dir: str | Path | None = None) -> Path | None
             return path
         except OSError:
             pass
+    import tempfile
+
     try:
         fd, name = tempfile.mkstemp(prefix="robokit-traceback-", suffix=".txt")
         with os.fdopen(fd, "w", encoding="utf-8") as fh:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import enum
 import json
+import sys
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -30,13 +31,15 @@ def machines_of(behaviour: Any) -> list[dict[str, Any]]:
     Each: ``name``, ``type`` (class name), ``initial``, ``states``, ``transitions`` (trigger, source, dest) and
     ``timeouts`` (sim seconds per state).
     """
-    from robokit.fsm import MachineBehaviour
-
+    fsm = sys.modules.get("robokit.fsm")
+    if fsm is None:  # no state machine exists before robokit.fsm is imported (transitions costs ~10 ms to import)
+        return []
+    machine_type = fsm.MachineBehaviour
     out: list[dict[str, Any]] = []
     seen: set[int] = set()
 
     def visit(b: Any) -> None:
-        if not isinstance(b, MachineBehaviour) or id(b) in seen:
+        if not isinstance(b, machine_type) or id(b) in seen:
             return
         seen.add(id(b))
         timeouts = getattr(b, "timeouts", None) or b.TIMEOUTS

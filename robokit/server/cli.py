@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import secrets
 import signal
 import sys
 from pathlib import Path
@@ -52,6 +51,8 @@ def setup(data: str | None) -> Path:
         if not key.exists() and not os.environ.get("ROBOKIT_SECRET_KEY"):
             fd = os.open(key, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
             with os.fdopen(fd, "w") as fh:
+                import secrets  # hmac/hashlib: ~10 ms that every other command would pay
+
                 fh.write(secrets.token_urlsafe(50))
     except OSError as exc:
         raise UserError(f"data folder {folder}: {exc.strerror or exc}") from None
