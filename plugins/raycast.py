@@ -229,7 +229,7 @@ class RayCaster:
         if nb == 0:
             return np.zeros(n, dtype=bool), np.ones(n)
         # starts and segments in each box's frame, (3, B, N): one small matrix product each
-        o = (self._to_local[:, :3] @ s_t + self._to_local[:, 3:]).reshape(3, nb, n)
+        o = (self._to_local @ np.vstack((s_t, np.ones((1, n))))).reshape(3, nb, n)
         d = (self._axes @ d_t).reshape(3, nb, n)
         if not d.all():
             d[d == 0.0] = _TINY  # no division by zero: an axis the ray runs parallel to gives huge fractions
