@@ -45,14 +45,22 @@ def _finite_float(text: str) -> float:
     return value
 
 
-def _parser() -> argparse.ArgumentParser:
+def _parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The whole command line; with ``command="run"`` only ``run``'s sub-parser (what ``robokit run ...`` parses:
+    building the other fifteen commands' options costs more than the parse itself)."""
     parser = _Parser(prog="robokit", description="Run PyBullet robots from TOML configs.")
     parser.add_argument("--version", action="version", version=f"robokit {__version__}")
     parser.add_argument("--debug", action="store_true",
                         help="show full tracebacks (also accepted after the command; env ROBOKIT_DEBUG=1)")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
+    _add_run_command(sub)
+    if command != "run":
+        _add_other_commands(sub)
+    return parser
 
+
+def _add_run_command(sub: Any) -> None:
     run = sub.add_parser("run", help="run a config until its behaviour ends")
     run.add_argument("config", help="path to a TOML config")
     run.add_argument("--gui", action="store_true", help="open the PyBullet GUI (paced to real time)")
@@ -75,6 +83,8 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--video", metavar="FILE", help="render an MP4 of the run right after it (robokit video)")
     run.set_defaults(func=cmd_run)
 
+
+def _add_other_commands(sub: Any) -> None:
     val = sub.add_parser("validate", help="check a config, its URDFs and named joints/links, without running")
     val.add_argument("config")
     val.set_defaults(func=cmd_validate)
@@ -96,7 +106,6 @@ def _parser() -> argparse.ArgumentParser:
     lint.add_argument("paths", nargs="+", metavar="PATH", help="Python files or folders")
     lint.set_defaults(func=cmd_lint)
     _add_extra_commands(sub)
-    return parser
 
 
 def _add_extra_commands(sub: Any) -> None:
@@ -337,7 +346,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     debug = debug_from_env() or "--debug" in argv[:cut]
     argv = [a for a in argv[:cut] if a != "--debug"] + argv[cut:]
     try:
-        args = _parser().parse_args(argv)
+        args = _parser(argv[0] if argv else None).parse_args(argv)
     except KeyboardInterrupt:
         print("robokit: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
