@@ -144,10 +144,11 @@ def _overrides(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def _load(args: argparse.Namespace) -> tuple[Any, Any]:
-    from robokit.config import load_config
     from robokit.plugins import load_plugins
 
-    plugins = load_plugins()
+    plugins = load_plugins()  # before robokit.config builds its models: pydantic's plugin scan is answered then
+    from robokit.config import load_config
+
     return plugins, load_config(args.config, plugins, _overrides(args))
 
 
