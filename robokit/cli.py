@@ -12,6 +12,7 @@ where, plus the path of a file with the full traceback. ``--debug`` (anywhere on
 from __future__ import annotations
 
 import argparse
+import gc
 import json
 import math
 import os
@@ -157,6 +158,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     from robokit.runner import run_config, summary
 
     plugins, cfg = _load(args)
+    _end_startup_gc_pause()
     gui = bool(args.gui or cfg.world.gui)
     if gui:
         from robokit.gui import check_display
@@ -337,12 +339,23 @@ def main(argv: Sequence[str] | None = None) -> int:
     b3Warning lines, build banner, GUI chatter) never reaches the terminal as is: it is captured for the whole
     command and summarised in one line on stderr (nothing with ``--quiet``).
     """
+    own_process = argv is None  # the console script: this process is robokit's own
+    if own_process:
+        _one_blas_thread()
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if own_process and argv[:1] == ["run"]:
+        _pause_gc_for_startup()
+    try:
+        return _main(argv)
+    finally:
+        _end_startup_gc_pause()
+
+
+def _main(argv: list[str]) -> int:
+    """Parse ``argv`` and run the command (see :func:`main`)."""
     from robokit._quiet import capture_c_stdout
     from robokit.crash import debug_from_env
 
-    if argv is None:  # the console script: this process is robokit's own
-        _one_blas_thread()
-    argv = list(sys.argv[1:] if argv is None else argv)
     cut = argv.index("--") if "--" in argv else len(argv)
     debug = debug_from_env() or "--debug" in argv[:cut]
     argv = [a for a in argv[:cut] if a != "--debug"] + argv[cut:]
@@ -366,6 +379,32 @@ def main(argv: Sequence[str] | None = None) -> int:
     if note and not getattr(args, "quiet", False):
         print(note, file=sys.stderr)
     return code
+
+
+_startup_gc_paused = False
+
+
+def _pause_gc_for_startup() -> None:
+    """Switch the cyclic garbage collector off while ``robokit run`` starts up (see :func:`_end_startup_gc_pause`).
+
+    Start-up allocates some 60,000 long-lived objects (numpy, pybullet, pydantic and the models, the plugins) and
+    almost no cyclic garbage (~700 objects): the collector passes that would run meanwhile find nothing.
+    """
+    global _startup_gc_paused
+    if gc.isenabled():
+        gc.disable()
+        _startup_gc_paused = True
+
+
+def _end_startup_gc_pause() -> None:
+    """Move everything start-up allocated to the collector's permanent generation and switch it back on, before
+    the first tick: the run's own garbage is collected as usual, and later passes (and the one at exit) no longer
+    walk the start-up objects. ``robokit run`` of a trivial config: about a sixth less process time."""
+    global _startup_gc_paused
+    if _startup_gc_paused:
+        _startup_gc_paused = False
+        gc.freeze()
+        gc.enable()
 
 
 def _one_blas_thread() -> None:
