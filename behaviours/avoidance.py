@@ -81,10 +81,10 @@ def track_heading(error: float, dist: float, clear_ahead: float, cfg: AvoidanceC
     Forward speed falls with ``cos(error)^2`` (zero beyond 90 degrees: turn in place first), with the clearance
     straight ahead (``clear_ahead``, m, see :func:`clearances`) and with the distance left.
     """
-    omega = float(np.clip(cfg.heading_gain * error, -cfg.max_turn_rate, cfg.max_turn_rate))
+    omega = float(min(max(cfg.heading_gain * error, -cfg.max_turn_rate), cfg.max_turn_rate))
     align = math.cos(error) ** 2 if abs(error) < math.pi / 2 else 0.0
     room = (clear_ahead - cfg.stop_distance) / max(cfg.slow_distance - cfg.stop_distance, 1e-6)
-    v = cfg.max_speed * align * float(np.clip(room, 0.0, 1.0))
+    v = cfg.max_speed * align * float(min(max(room, 0.0), 1.0))
     v = min(v, cfg.arrive_gain * dist + 0.03)
     return Twist(v, omega)
 
@@ -160,7 +160,7 @@ class Avoider:
         points = self._points(pose, scan, ignore)
         far = scan.range_max if scan is not None else 1e3
         self._watch_progress(dist, t)
-        goal_clear = float(clearances(points, np.array([bearing]), self.cfg.corridor, far)[0])
+        goal_clear, ahead = (float(v) for v in clearances(points, np.array([bearing, 0.0]), self.cfg.corridor, far))
         if self.side != 0 and self._may_leave(goal_clear, dist):
             self.side = 0
         if self.side == 0 and goal_clear >= min(dist, self.cfg.free_distance):
@@ -169,7 +169,6 @@ class Avoider:
             heading = self._commit(points, bearing, dist, far)
         else:
             heading = self._follow(points, bearing, far)
-        ahead = float(clearances(points, np.array([0.0]), self.cfg.corridor, far)[0])
         twist = track_heading(wrap_angle(heading), dist, ahead, self.cfg)
         return NavStep(twist, self.side != 0, dist, bearing)
 

@@ -131,6 +131,9 @@ class PickPlaceConfig(Schema):
     slow_speed: float = Field(0.6, gt=0, description="peak speed near the object, m/s")
     grasp_force: float | None = Field(None, gt=0, description="N; default the gripper's force")
     place_tolerance: float = Field(0.02, gt=0, description="max placement error for success, m")
+    hold_check_hz: float | None = Field(60.0, gt=0, description="how often (sim Hz) a carried object is checked "
+                                        "for a drop while the arm moves; None = every tick. At the end of every "
+                                        "move it is checked on each tick")
     timeouts: dict[str, float] = Field(default_factory=dict, description="state name -> sim seconds")
 
     @field_validator("timeouts")
@@ -186,6 +189,8 @@ class PickPlace(MachineBehaviour):
         self._next_due = False
         self._yaw = 0.0
         self._grasp: Vec3 = (0.0, 0.0, 0.0)
+        self._arm_busy_until = -math.inf  # sim time before which the arm's path cannot have ended
+        self._hold_check_due = -math.inf  # sim time of the next drop check while carrying
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -243,6 +248,7 @@ class PickPlace(MachineBehaviour):
         if self.state is not Phase.WAIT:
             self.fire("reset")
         self.task, self.outcome, self.attempts, self.failures = task, None, 0, []
+        self._arm_busy_until = -math.inf
         self.t = self.started_at = self.entered_at = t
         self.finished_at, self.final_position, self.final_yaw, self.placement_error = None, None, None, None
         self.phase_times = {}
@@ -302,6 +308,7 @@ class PickPlace(MachineBehaviour):
     def _go(self, trigger: str) -> None:
         if self.fire(trigger):
             self._entry_due = True
+            self._arm_busy_until = self._hold_check_due = -math.inf  # the new state's commands start a new path
 
     def _fail(self, reason: str) -> None:
         self.failures.append(reason)
@@ -383,11 +390,20 @@ class PickPlace(MachineBehaviour):
 
     # ------------------------------------------------------------------ per-state conditions
     def _arm(self, readings: Mapping[str, Any]) -> ArmState | None:
-        """The arm's reading; fails the machine if the arm rejected its target (unreachable)."""
+        """The arm's reading; fails the machine if the arm rejected its target (unreachable).
+
+        None while the arm's current path is still running (before its ``path_end``, when the arm reports one):
+        it can be neither reached nor failed then, so the arm is not read at all until the path's last tick.
+        """
+        if self.t < self._arm_busy_until:
+            return None
         arm: ArmState = readings[self.config.arm]
         if arm.failed and not self._entry_due:
             self._fail(f"arm failed in {self.state_name}: {arm.reason}")
             return None
+        path_end = getattr(arm, "path_end", None)
+        if arm.status == "moving" and path_end is not None:
+            self._arm_busy_until = path_end - 1e-9
         return arm
 
     def _holding(self, readings: Mapping[str, Any]) -> bool:
@@ -422,9 +438,14 @@ class PickPlace(MachineBehaviour):
         self._carry(readings, "at_place")
 
     def _carry(self, readings: Mapping[str, Any], trigger: str) -> None:
-        if not self._holding(readings):
-            self._retry(f"dropped during {self.state_name}")
-            return
+        """Check for a drop (every tick once the path may have ended, else at ``hold_check_hz``), then wait for
+        the arm to reach its target."""
+        if self.t >= self._hold_check_due or self.t >= self._arm_busy_until:
+            if not self._holding(readings):
+                self._retry(f"dropped during {self.state_name}")
+                return
+            hz = self.config.hold_check_hz
+            self._hold_check_due = self.t + 1.0 / hz - 1e-9 if hz else -math.inf
         arm = self._arm(readings)
         if arm is not None and arm.reached:
             self._go(trigger)

@@ -26,6 +26,10 @@ Reported, per job:
   doing the hand-written job for the same seed (imports, scene, loop, result), interleaved;
 - success on both sides.
 
+Where Linux lets a process count its own hardware events (``perf_event_open``, see ``benchmarks/_counters.py``),
+the loop ratios are also given in user-mode CPU cycles, which a busy machine disturbs far less than wall time, and
+in instructions (the work done, the same on any load).
+
     python benchmarks/handwritten.py --seeds 20                 # both jobs, everything printed
     python benchmarks/handwritten.py --seeds 20 --jobs sort     # one job
     python benchmarks/handwritten.py --seeds 20 --job-seeds 10  # more whole-process runs (default 5)
@@ -738,12 +742,33 @@ def hand_run(job: str, seed: int) -> dict[str, Any]:
     scene = Scene(JOBS[job], seed)
     try:
         runner = HAND_JOBS[job](scene, seed)
-        t0, c0 = time.perf_counter(), time.process_time()
+        t0, c0, k0, i0 = time.perf_counter(), time.process_time(), _cycles(), _instructions()
         result = runner.run()
-        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+        wall, cpu, cycles = time.perf_counter() - t0, time.process_time() - c0, _cycles() - k0
+        instr = _instructions() - i0
     finally:
         scene.close()
-    return {"wall": wall, "cpu": cpu, "sim": result["sim_time"], "ok": _hand_ok(job, result), "result": result}
+    return {"wall": wall, "cpu": cpu, "cycles": cycles, "instr": instr, "sim": result["sim_time"],
+            "ok": _hand_ok(job, result),
+            "result": result}
+
+
+_COUNTERS: list[Any] = []
+
+
+def _cycles() -> int:
+    """User-mode CPU cycles of this process so far (0 where hardware counters are unavailable)."""
+    if not _COUNTERS:
+        from _counters import Counters
+
+        _COUNTERS.append(Counters.open())
+    return _COUNTERS[0].read()[0] if _COUNTERS[0] is not None else 0
+
+
+def _instructions() -> int:
+    """User-mode instructions of this process so far (0 where hardware counters are unavailable)."""
+    _cycles()
+    return _COUNTERS[0].read()[1] if _COUNTERS[0] is not None else 0
 
 
 def _hand_ok(job: str, result: dict[str, Any]) -> bool:
@@ -758,15 +783,16 @@ def robokit_run(job: str, seed: int) -> dict[str, Any]:
     from robokit.testing import make_sim
 
     with make_sim(str(JOBS[job]), seed=seed) as sim:
-        t0, c0 = time.perf_counter(), time.process_time()
+        t0, c0, k0, i0 = time.perf_counter(), time.process_time(), _cycles(), _instructions()
         result = sim.run()
-        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+        wall, cpu, cycles = time.perf_counter() - t0, time.process_time() - c0, _cycles() - k0
+        instr = _instructions() - i0
     r = result.result
     if job == "sort":
         ok = result.outcome == "succeeded" and r.get("red_sorted", 0) + r.get("blue_sorted", 0) == 4
     else:
         ok = result.outcome == "succeeded" and r.get("objects_collected") == 4 and r.get("collisions") == 0
-    return {"wall": wall, "cpu": cpu, "sim": result.sim_time, "ok": ok, "result": r}
+    return {"wall": wall, "cpu": cpu, "cycles": cycles, "instr": instr, "sim": result.sim_time, "ok": ok, "result": r}
 
 
 def check_scene(job: str, seed: int) -> None:
@@ -796,7 +822,7 @@ def _stats(ratios: list[float]) -> str:
 def loop_ratios(job: str, seeds: list[int]) -> None:
     """Interleaved in-process runs: per-seed ratio of wall seconds per sim second; success on both sides."""
     check_scene(job, seeds[0])
-    ratios, cpu_ratios, rk_ok, hw_ok, rk_us, hw_us = [], [], 0, 0, [], []
+    ratios, cpu_ratios, cycle_ratios, instr_ratios, rk_ok, hw_ok, rk_us, hw_us = [], [], [], [], 0, 0, [], []
     for i, seed in enumerate(seeds):
         order = ("robokit", "hand") if i % 2 == 0 else ("hand", "robokit")
         out = {side: (robokit_run if side == "robokit" else hand_run)(job, seed) for side in order}
@@ -804,6 +830,9 @@ def loop_ratios(job: str, seeds: list[int]) -> None:
         rk_rate, hw_rate = rk["wall"] / rk["sim"], hw["wall"] / hw["sim"]
         ratios.append(rk_rate / hw_rate)
         cpu_ratios.append((rk["cpu"] / rk["sim"]) / (hw["cpu"] / hw["sim"]))
+        if hw["cycles"] > 0:
+            cycle_ratios.append((rk["cycles"] / rk["sim"]) / (hw["cycles"] / hw["sim"]))
+            instr_ratios.append((rk["instr"] / rk["sim"]) / (hw["instr"] / hw["sim"]))
         rk_ok += rk["ok"]
         hw_ok += hw["ok"]
         dt = 1.0 / 240.0
@@ -811,9 +840,15 @@ def loop_ratios(job: str, seeds: list[int]) -> None:
         hw_us.append(hw_rate * dt * 1e6)
         print(f"  {job} seed {seed:3d}: robokit {rk['sim']:6.2f} sim s {rk_us[-1]:6.1f} us/tick "
               f"{'ok' if rk['ok'] else 'FAIL'} | hand {hw['sim']:6.2f} sim s {hw_us[-1]:6.1f} us/tick "
-              f"{'ok' if hw['ok'] else 'FAIL'} | ratio {ratios[-1]:.3f} (CPU {cpu_ratios[-1]:.3f})", flush=True)
+              f"{'ok' if hw['ok'] else 'FAIL'} | ratio {ratios[-1]:.3f} (CPU {cpu_ratios[-1]:.3f}"
+              + (f", cycles {cycle_ratios[-1]:.3f})" if cycle_ratios else ")"), flush=True)
     print(f"{job} loop, wall per sim second, robokit / hand-written: {_stats(ratios)}")
     print(f"{job} loop, process CPU per sim second (steadier on a loaded machine): {_stats(cpu_ratios)}")
+    if cycle_ratios:
+        print(f"{job} loop, user-mode CPU cycles per sim second (hardware counters, nearly load-independent): "
+              f"{_stats(cycle_ratios)}")
+        print(f"{job} loop, user-mode instructions per sim second (work done, independent of the machine's load): "
+              f"{_stats(instr_ratios)}")
     print(f"{job} per tick (median): robokit {statistics.median(rk_us):.1f} us, "
           f"hand-written {statistics.median(hw_us):.1f} us")
     print(f"{job} success: robokit {rk_ok}/{len(seeds)}, hand-written {hw_ok}/{len(seeds)}", flush=True)
@@ -823,20 +858,25 @@ def job_ratios(job: str, seeds: list[int]) -> None:
     """Whole processes, interleaved: ``robokit run`` against this script's hand-written child, per seed."""
     exe = Path(sys.executable).parent / "robokit"
     ratios, walls = [], {"robokit": [], "hand": []}
+    # Both sides as a user's machine runs them: bytecode caches written and used (a shell with
+    # PYTHONDONTWRITEBYTECODE set would compile robokit's ~50 modules on every start); one warm-up round first.
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
     with tempfile.TemporaryDirectory() as tmp:
-        for i, seed in enumerate(seeds):
+        for i, seed in enumerate([seeds[0], *seeds]):
             cmds = {"robokit": [str(exe), "run", str(JOBS[job]), "--seed", str(seed), "--quiet"],
                     "hand": [sys.executable, str(Path(__file__).resolve()), "--child", job, "--seed", str(seed)]}
             order = ("robokit", "hand") if i % 2 == 0 else ("hand", "robokit")
             took = {}
             for side in order:
                 t0 = time.perf_counter()
-                proc = subprocess.run(cmds[side], cwd=tmp, capture_output=True, text=True)
+                proc = subprocess.run(cmds[side], cwd=tmp, capture_output=True, text=True, env=env)
                 took[side] = time.perf_counter() - t0
                 if side == "robokit" and proc.returncode not in (0, 1):
                     raise SystemExit(f"robokit run failed ({proc.returncode}): {proc.stderr.strip()[-300:]}")
                 if side == "hand" and proc.returncode != 0:
                     raise SystemExit(f"hand-written child failed: {proc.stderr.strip()[-300:]}")
+            if i == 0:
+                continue  # the warm-up round
             ratios.append(took["robokit"] / took["hand"])
             for side in took:
                 walls[side].append(took[side])

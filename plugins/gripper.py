@@ -201,6 +201,8 @@ class Gripper(Actuator):
     def update(self) -> None:
         """Drive the fingers to the target width, within the force and speed limits, and hold the held joints
         (sent when the command changes: the motors keep their targets); watch the width while it may be moving."""
+        if not (self._dirty or self._tracking):
+            return
         if self._dirty:
             c = self.world.client
             for j, q, v in zip(self.fingers, self._joint_targets(self.target), self._speeds, strict=True):
@@ -215,11 +217,13 @@ class Gripper(Actuator):
     def _width_and_rate(self) -> tuple[float, float]:
         """Fingertip distance (m) and its rate (m/s), from the finger joints' travel between closed and open
         (the mean over the fingers)."""
+        frac = rate = 0.0
         states = self.world.client.getJointStates(self.body, self._indices)
-        n = len(states)
-        frac = sum((s[0] - c) / span for s, c, span in zip(states, self.closed_q, self._spans, strict=True)) / n
-        rate = sum(s[1] / span for s, span in zip(states, self._spans, strict=True)) / n
-        return float(self.open_width * frac), float(self.open_width * rate)
+        for state, closed, span in zip(states, self.closed_q, self._spans, strict=True):  # read every carried tick
+            frac += (state[0] - closed) / span
+            rate += state[1] / span
+        scale = self.open_width / len(self._spans)
+        return scale * frac, scale * rate
 
     def _width(self) -> float:
         return self._width_and_rate()[0]
@@ -264,12 +268,14 @@ class Gripper(Actuator):
             self._still_since = None  # settled fingers pushed open or shut: moving again
             self._watch()
         touched, total = self._finger_touches()
-        common = sorted(touched[0] & touched[1])
+        common = touched[0] & touched[1]
         holding = bool(common) and self.action != "open" and width > cfg.empty_width
         held = None
         if holding:
-            held = self.world.body_name(common[0]) or f"body{common[0]}"
-        settled = self._still_since is not None and self.world.time - self._still_since >= cfg.settle_time
+            first = min(common)
+            held = self.world.body_name(first) or f"body{first}"
+        since = self._still_since
+        settled = since is not None and self.world.time - since >= cfg.settle_time
         return GripperState(width=width, target_width=self.target, action=self.action, settled=settled,
                             holding=holding, held=held, finger_contacts=total)
 

@@ -86,18 +86,35 @@ def _rotvec(current: Quat, target: Quat) -> np.ndarray:
     return np.zeros(3) if n < 1e-12 else v / n * 2.0 * math.atan2(n, w)
 
 
+def _angles_between(quats: np.ndarray, rotations: np.ndarray) -> np.ndarray:
+    """Angle (radians, 0..pi) between each ``(x, y, z, w)`` quaternion and the matching 3x3 rotation matrix
+    (rows of ``quats``, ``rotations``): the angle of ``R(q) @ R.T``, from both its sine and its cosine so that
+    small angles keep their precision."""
+    x, y, z, w = quats.T
+    target = np.stack([
+        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], axis=-1),
+        np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], axis=-1),
+        np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], axis=-1),
+    ], axis=-2)
+    rel = target @ rotations.transpose(0, 2, 1)
+    axis = np.stack([rel[:, 2, 1] - rel[:, 1, 2], rel[:, 0, 2] - rel[:, 2, 0], rel[:, 1, 0] - rel[:, 0, 1]], axis=-1)
+    return np.arctan2(np.linalg.norm(axis, axis=1), rel[:, 0, 0] + rel[:, 1, 1] + rel[:, 2, 2] - 1.0)
+
+
 def _slerp(a: Quat, b: Quat, s: float) -> Quat:
-    qa, qb = np.asarray(a, float), np.asarray(b, float)
-    dot = float(qa @ qb)
+    """Spherical interpolation from ``a`` (s = 0) to ``b`` (s = 1), the short way round (plain floats: called
+    once per waypoint)."""
+    dot = a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
     if dot < 0:
-        qb, dot = -qb, -dot
+        b, dot = (-b[0], -b[1], -b[2], -b[3]), -dot
     if dot > 0.9995:
-        q = qa + s * (qb - qa)
+        q = [x + s * (y - x) for x, y in zip(a, b, strict=True)]
     else:
         th = math.acos(dot)
-        q = (math.sin((1 - s) * th) * qa + math.sin(s * th) * qb) / math.sin(th)
-    q = q / np.linalg.norm(q)
-    return (float(q[0]), float(q[1]), float(q[2]), float(q[3]))
+        wa, wb, sin_th = math.sin((1 - s) * th), math.sin(s * th), math.sin(th)
+        q = [(wa * x + wb * y) / sin_th for x, y in zip(a, b, strict=True)]
+    n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    return (q[0] / n, q[1] / n, q[2] / n, q[3] / n)
 
 
 class IkArm(Actuator):
@@ -195,13 +212,9 @@ class IkArm(Actuator):
         states = self.world.client.getJointStates(self.body, self._movable_indices)
         return np.array([s[0] for s in states])
 
-    def _solve(self, q_all: np.ndarray, pos: np.ndarray, orn: Quat) -> tuple[np.ndarray, float, float]:
-        """One waypoint from ``q_all``; returns (solution, position residual m, angle residual rad).
-
-        PyBullet's IK first (C, a few tens of microseconds), seeded a little towards the rest pose; if its answer
-        breaks a joint limit or misses the tolerance, the numpy solver below takes over.
-        """
-        cfg: IkArmConfig = self.config
+    def _ik(self, q_all: np.ndarray, pos: np.ndarray, orn: Quat) -> np.ndarray:
+        """PyBullet's IK answer for one pose (C, a few tens of microseconds), seeded from ``q_all`` moved a little
+        towards the rest pose (a null-space pull). Not checked: see :meth:`_solve` and :meth:`_solve_path`."""
         cols = self.arm_cols
         seed = q_all.copy()
         seed[cols] += 0.05 * (self.rest[cols] - q_all[cols])
@@ -214,10 +227,54 @@ class IkArm(Actuator):
                                                   currentPositions=seed.tolist(), **self._ik_options)
         q = q_all.copy()
         q[cols] = np.asarray(found)[cols]
+        return q
+
+    def _accepts(self, q: np.ndarray, ep: float, eo: float) -> bool:
+        """A PyBullet IK answer is taken if it keeps the joint limits and meets the IK tolerance."""
+        cols, tol = self.arm_cols, self.config.ik_tolerance
+        return bool(np.all(q[cols] >= self.lower[cols]) and np.all(q[cols] <= self.upper[cols])
+                    and ep < tol and eo < tol * 4)
+
+    def _solve_path(self, q_all: np.ndarray, poses: list[tuple[np.ndarray, Quat]]
+                    ) -> list[tuple[np.ndarray, float, float]]:
+        """Every waypoint of a path, each seeded with the previous solution: (solution, residuals) per pose.
+
+        Exactly what :meth:`_solve` gives waypoint by waypoint, cheaper: PyBullet's answers for the whole path come
+        first and are checked with one batched forward-kinematics pass; from the first answer that fails the
+        check on, the path is solved waypoint by waypoint (numpy solver where PyBullet's answer fails).
+        """
+        answers, q = [], q_all
+        for pos, orn in poses:
+            q = self._ik(q, pos, orn)
+            answers.append(q)
+        qs = np.array(answers)
+        positions, rotations = self.chain.fk_many(qs)
+        ep = np.linalg.norm(np.array([pos for pos, _ in poses]) - positions, axis=1)
+        eo = _angles_between(np.array([orn for _, orn in poses], float), rotations)
+        tol, cols = self.config.ik_tolerance, self.arm_cols
+        ok = (np.all(qs[:, cols] >= self.lower[cols], axis=1) & np.all(qs[:, cols] <= self.upper[cols], axis=1)
+              & (ep < tol) & (eo < tol * 4))
+        good = len(poses) if ok.all() else int(np.argmin(ok))  # answers before the first rejected one
+        out = [(answers[k], float(ep[k]), float(eo[k])) for k in range(good)]
+        q = out[-1][0] if out else q_all
+        for pos, orn in poses[len(out):]:
+            solved = self._solve(q, pos, orn)
+            out.append(solved)
+            q = solved[0]
+        return out
+
+    def _solve(self, q_all: np.ndarray, pos: np.ndarray, orn: Quat) -> tuple[np.ndarray, float, float]:
+        """One waypoint from ``q_all``; returns (solution, position residual m, angle residual rad).
+
+        PyBullet's IK first (:meth:`_ik`); if its answer breaks a joint limit or misses the tolerance, the numpy
+        solver below takes over.
+        """
+        cols = self.arm_cols
+        q = self._ik(q_all, pos, orn)
         if np.all(q[cols] >= self.lower[cols]) and np.all(q[cols] <= self.upper[cols]):
             cur, corn = self.chain.fk(q)
             ep, eo = float(np.linalg.norm(pos - cur)), float(np.linalg.norm(_rotvec(corn, orn)))
-            if ep < cfg.ik_tolerance and eo < cfg.ik_tolerance * 4:
+            if self._accepts(q, ep, eo):
                 return q, ep, eo
         return self._solve_numpy(q_all, pos, orn)
 
@@ -303,13 +360,14 @@ class IkArm(Actuator):
         dist, ang = float(np.linalg.norm(pos - start_pos)), quat_angle(start_orn, orn)
         n = max(1, math.ceil(dist / cfg.waypoint_spacing), math.ceil(ang / cfg.waypoint_angle))
         qs = [q_all[self.arm_cols].copy()]
-        for k in range(1, n + 1):
-            s = k / n
-            q_all, ep, eo = self._solve(q_all, start_pos + s * (pos - start_pos), _slerp(start_orn, orn, s))
+        fractions = np.arange(1, n + 1) / n
+        positions = start_pos + fractions[:, None] * (pos - start_pos)
+        poses = [(p_k, _slerp(start_orn, orn, float(s))) for p_k, s in zip(positions, fractions, strict=True)]
+        for k, (q_k, ep, eo) in enumerate(self._solve_path(q_all, poses), start=1):
             if ep > max(cfg.ik_tolerance, 1e-3) or eo > cfg.orientation_tolerance / 2:
                 return (f"unreachable: IK residual {ep * 1000:.1f} mm / {math.degrees(eo):.1f} deg at "
                         f"waypoint {k}/{n} towards {where} (tolerance {cfg.ik_tolerance * 1000:g} mm)")
-            qs.append(q_all[self.arm_cols].copy())
+            qs.append(q_k[self.arm_cols].copy())
         self.path = qs
         self.t0 = self.world.time
         self.duration = max(1.5 * dist / speed, 1.5 * ang / cfg.angular_speed, cfg.min_duration)
@@ -337,6 +395,7 @@ class IkArm(Actuator):
             q = np.repeat(points, len(ks), axis=0)
         self._rows = int(np.count_nonzero(x < 1.0))  # rows while the path runs; then the last point is held
         self._q, self._qd = q, (q[1:] - q[:-1]) / dt
+        self._q_rows, self._qd_rows = q.tolist(), self._qd.tolist()  # what the motors get, ready to send
         self._tick0 = self.world.tick
 
     # ------------------------------------------------------------------ per tick
@@ -347,7 +406,7 @@ class IkArm(Actuator):
             row = self.world.tick - self._tick0
             if row < self._rows:
                 self.q_cmd = self._q[row]
-                self._apply(self.q_cmd, self._qd[row])
+                self._send(self._q_rows[row], self._qd_rows[row])
                 return
             if not self._holding:
                 self.q_cmd = self.path[-1]
@@ -356,11 +415,14 @@ class IkArm(Actuator):
 
     def _apply(self, q: np.ndarray, qd: np.ndarray | None) -> None:
         """Send joint targets (``qd`` None: hold, zero target velocity)."""
+        self._send(q.tolist(), None if qd is None else qd.tolist())
+
+    def _send(self, q: list[float], qd: list[float] | None) -> None:
         self._holding = qd is None
         client = self.world.client
         client.setJointMotorControlArray(
-            self.body, self._indices, client.POSITION_CONTROL, targetPositions=q.tolist(),
-            targetVelocities=self._zero if qd is None else qd.tolist(), forces=self.forces,
+            self.body, self._indices, client.POSITION_CONTROL, targetPositions=q,
+            targetVelocities=self._zero if qd is None else qd, forces=self.forces,
             positionGains=self._gains[0], velocityGains=self._gains[1],
         )
 
@@ -384,6 +446,7 @@ class IkArm(Actuator):
             target_position=target[0] if target else None, target_orientation=target[1] if target else None,
             position_error=ep, orientation_error=eo, command_id=self.command_id,
             joint_positions=dict(zip(self._names, [st[0] for st in states], strict=True)),
+            path_end=self.t0 + self.duration if self.path is not None else None,
         )
 
     def _update_status(self, ep: float, eo: float) -> None:

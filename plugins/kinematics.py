@@ -124,6 +124,28 @@ class Chain:
         out[:, 3, 3] = 1.0
         return out
 
+    def fk_many(self, qs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`fk` of many joint vectors at once (rows of ``qs``): positions (m x 3, metres, world) and
+        rotation matrices (m x 3 x 3) of the end link's URDF frame. One batched pass: checking a path's
+        waypoints costs about what one :meth:`fk` does."""
+        qs = np.atleast_2d(qs)
+        m, n = len(qs), len(self.columns)
+        if n == 0:
+            t = np.broadcast_to(self.tail, (m, 4, 4))
+            return t[:, :3, 3].copy(), t[:, :3, :3].copy()
+        values = qs[:, self.columns]
+        angles = np.where(self.prismatic, 0.0, values)
+        c, s = np.cos(angles)[:, :, None, None], np.sin(angles)[:, :, None, None]
+        motions = np.zeros((m, n, 4, 4))
+        motions[:, :, :3, :3] = c * self._eye + (1.0 - c) * self._outer + s * self._cross
+        motions[:, :, :3, 3] = np.where(self.prismatic[:, None], self.axes[None, :, :] * values[:, :, None], 0.0)
+        motions[:, :, 3, 3] = 1.0
+        t = self.constants[0] @ motions[:, 0]
+        for i in range(1, n):
+            t = t @ self.constants[i] @ motions[:, i]
+        t = t @ self.tail
+        return t[:, :3, 3].copy(), t[:, :3, :3].copy()
+
     def frames(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The end link's frame (4x4, world), and each moving joint's origin and world axis (n x 3 each)."""
         motions = self._motions(q)

@@ -86,7 +86,9 @@ class MachineBehaviour(Behaviour):
         self.timeouts: dict[str, float] = {**self.TIMEOUTS, **configured}
         self._trace: Any = None
         self._trigger = ""
-        self._handlers: dict[tuple[str, Any], Any] = {}
+        self._handlers: dict[str, dict[Any, Any]] = {"do": {}, "enter": {}}
+        self._named_state: Any = None  # the state whose name is cached in _state_name (read every tick)
+        self._state_name = ""
         self.machine = Machine(
             model=self,
             states=self.STATES,
@@ -117,7 +119,11 @@ class MachineBehaviour(Behaviour):
     @property
     def state_name(self) -> str:
         """Name of the current state."""
-        return self.state.name if isinstance(self.state, enum.Enum) else str(self.state)
+        state = self.state
+        if state is not self._named_state:
+            self._state_name = state.name if isinstance(state, enum.Enum) else str(state)
+            self._named_state = state
+        return self._state_name
 
     def fire(self, trigger: str) -> bool:
         """Fire a trigger (only when something changed); returns True if the state changed."""
@@ -139,11 +145,14 @@ class MachineBehaviour(Behaviour):
 
     def handler(self, prefix: str = "do") -> Any:
         """The current state's method ``<prefix>_<state name lower-case>`` or None (looked up once per state)."""
-        key = (prefix, self.state)
+        table = self._handlers.get(prefix)
+        if table is None:
+            table = self._handlers[prefix] = {}
+        state = self.state
         try:
-            return self._handlers[key]
+            return table[state]
         except KeyError:
-            found = self._handlers[key] = getattr(self, f"{prefix}_{self.state_name.lower()}", None)
+            found = table[state] = getattr(self, f"{prefix}_{self.state_name.lower()}", None)
             return found
 
     @property

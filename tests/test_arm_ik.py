@@ -117,3 +117,37 @@ def test_hold_cancels_a_path() -> None:
         assert np.linalg.norm(np.array(sim.readings["arm"].position) - here) < 0.002
         assert sim.readings["arm"].status == "idle"
         assert math.dist(here, (0.5, 0.3, 0.1)) > 0.05
+
+
+def test_batched_path_solve_equals_waypoint_by_waypoint() -> None:
+    """A path's IK answers checked in one batched FK pass give exactly the sequential solutions, including a
+    path whose far end needs the numpy fallback (out of PyBullet IK's tolerance) and one out of reach."""
+    from robokit_plugins.ik_arm import _slerp
+
+    with make_sim(scene("franka_panda/panda.urdf", "panda_grasptarget", PANDA_READY)) as sim:
+        arm = sim.components["arm"]
+        q0 = arm._measured_all()
+        start_pos, start_orn = arm.chain.fk(q0)
+        positions, _ = arm.chain.fk_many(np.array([q0, q0]))
+        assert np.array_equal(positions[0], start_pos) and np.array_equal(positions[1], start_pos)
+        fallbacks = []
+        numpy_solver = arm._solve_numpy
+        arm._solve_numpy = lambda *a: fallbacks.append(1) or numpy_solver(*a)
+        for goal, yaw in [((0.5, 0.1, 0.2), 0.3), ((0.35, -0.3, 0.05), -1.2), ((0.85, 0.0, 0.05), 0.0),
+                          ((1.3, 0.2, 0.3), 0.5)]:
+            orn = down_quaternion(yaw)
+            poses = [(start_pos + k / 12 * (np.array(goal) - start_pos), _slerp(start_orn, orn, k / 12))
+                     for k in range(1, 13)]
+            batched = arm._solve_path(q0, poses)
+            q, sequential = q0, []
+            for pos, o in poses:
+                q, ep, eo = arm._solve(q, pos, o)
+                sequential.append((q, ep, eo))
+            for (qa, epa, eoa), (qb, epb, eob) in zip(batched, sequential, strict=True):
+                assert np.array_equal(qa, qb)
+                assert epa == pytest.approx(epb, abs=1e-12) and eoa == pytest.approx(eob, abs=1e-9)
+        assert fallbacks  # the numpy solver took over somewhere: the fallback path was exercised
+        assert arm.read().path_end is None  # no path commanded yet
+        arm.command(MoveTo((0.5, 0.1, 0.2)))
+        reading = arm.read()
+        assert reading.status == "moving" and reading.path_end == pytest.approx(arm.t0 + arm.duration)

@@ -97,3 +97,36 @@ def test_grasp_yaw_follows_the_cube_within_45_degrees() -> None:
         yaw = cube_grasp_yaw(cube_yaw, 0.0)
         assert abs(yaw) <= math.pi / 4 + 1e-9
         assert math.isclose(math.remainder(yaw - cube_yaw, math.pi / 2), 0.0, abs_tol=1e-9)
+
+
+def _drop_noticed_after(hold_check_hz: float | None) -> int:
+    """Ticks from knocking the cube out of the fingers mid-transport to the machine leaving TRANSPORT."""
+    with make_sim(CONFIG, seed=3, overrides={"behaviour.hold_check_hz": hold_check_hz}) as sim:
+        sim.run_until(lambda s: s.behaviour.state_name == "TRANSPORT", 2000)
+        sim.step(21)
+        sim.world.set_pose("cube", (0.55, 0.05, 0.03))
+        start = sim.world.tick
+        sim.run_until(lambda s: s.behaviour.state_name != "TRANSPORT", 200)
+        assert sim.behaviour.failures == ["dropped during TRANSPORT"]
+        return sim.world.tick - start
+
+
+def test_a_drop_is_noticed_within_one_hold_check_period() -> None:
+    assert _drop_noticed_after(None) <= 2  # checked every tick
+    assert _drop_noticed_after(60.0) <= 240 // 60 + 1
+    assert _drop_noticed_after(10.0) <= 240 // 10 + 1
+    assert _drop_noticed_after(10.0) > _drop_noticed_after(None)
+
+
+def test_the_arm_is_not_read_while_its_path_runs_and_the_result_is_unchanged() -> None:
+    runs = {}
+    for hz in (None, 60.0):
+        with make_sim(CONFIG, seed=3, overrides={"behaviour.hold_check_hz": hz}) as sim:
+            result = sim.run(max_time=6.0)
+            assert result.outcome == "succeeded", result.reason
+            runs[hz] = (result.sim_time, sim.readings.computed("arm"), sim.readings.computed("gripper"),
+                        sim.world.tick, sim.world.pose("cube")[0])
+    (time_a, arm_reads, grip_a, ticks, cube_a), (time_b, _, grip_b, _, cube_b) = runs[None], runs[60.0]
+    assert time_a == time_b and cube_a == cube_b  # the same run, tick for tick
+    assert arm_reads < ticks / 3  # read at the end of each path only (settling), not on every tick of it
+    assert grip_b < grip_a  # fewer gripper reads while carrying

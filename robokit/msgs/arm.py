@@ -126,6 +126,10 @@ class ArmState:
         position_error: Distance from the goal, metres (0 with no goal).
         orientation_error: Angle to the goal orientation, radians.
         command_id: Increments with each accepted command (lets a behaviour tell old from new results).
+        joint_positions: Measured position of each movable joint, by name (radians or metres).
+        path_end: Sim time (seconds) at which the current path's motion ends; None with no path, or from an arm
+            that does not plan paths. Until then ``status`` stays ``moving`` unless a new command is sent, so a
+            behaviour waiting for ``reached`` may skip reading the arm before this time.
     """
 
     position: Vec3
@@ -138,6 +142,7 @@ class ArmState:
     orientation_error: float = 0.0
     command_id: int = 0
     joint_positions: Mapping[str, float] = field(default_factory=dict)
+    path_end: float | None = None
 
     @property
     def reached(self) -> bool:
