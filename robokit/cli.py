@@ -12,6 +12,7 @@ where, plus the path of a file with the full traceback. ``--debug`` (anywhere on
 from __future__ import annotations
 
 import argparse
+import gc
 import json
 import math
 import os
@@ -45,14 +46,22 @@ def _finite_float(text: str) -> float:
     return value
 
 
-def _parser() -> argparse.ArgumentParser:
+def _parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The whole command line; with ``command="run"`` only ``run``'s sub-parser (what ``robokit run ...`` parses:
+    building the other fifteen commands' options costs more than the parse itself)."""
     parser = _Parser(prog="robokit", description="Run PyBullet robots from TOML configs.")
     parser.add_argument("--version", action="version", version=f"robokit {__version__}")
     parser.add_argument("--debug", action="store_true",
                         help="show full tracebacks (also accepted after the command; env ROBOKIT_DEBUG=1)")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
+    _add_run_command(sub)
+    if command != "run":
+        _add_other_commands(sub)
+    return parser
 
+
+def _add_run_command(sub: Any) -> None:
     run = sub.add_parser("run", help="run a config until its behaviour ends")
     run.add_argument("config", help="path to a TOML config")
     run.add_argument("--gui", action="store_true", help="open the PyBullet GUI (paced to real time)")
@@ -75,6 +84,8 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--video", metavar="FILE", help="render an MP4 of the run right after it (robokit video)")
     run.set_defaults(func=cmd_run)
 
+
+def _add_other_commands(sub: Any) -> None:
     val = sub.add_parser("validate", help="check a config, its URDFs and named joints/links, without running")
     val.add_argument("config")
     val.set_defaults(func=cmd_validate)
@@ -96,7 +107,6 @@ def _parser() -> argparse.ArgumentParser:
     lint.add_argument("paths", nargs="+", metavar="PATH", help="Python files or folders")
     lint.set_defaults(func=cmd_lint)
     _add_extra_commands(sub)
-    return parser
 
 
 def _add_extra_commands(sub: Any) -> None:
@@ -135,10 +145,11 @@ def _overrides(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def _load(args: argparse.Namespace) -> tuple[Any, Any]:
-    from robokit.config import load_config
     from robokit.plugins import load_plugins
 
-    plugins = load_plugins()
+    plugins = load_plugins()  # before robokit.config builds its models: pydantic's plugin scan is answered then
+    from robokit.config import load_config
+
     return plugins, load_config(args.config, plugins, _overrides(args))
 
 
@@ -147,6 +158,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     from robokit.runner import run_config, summary
 
     plugins, cfg = _load(args)
+    _end_startup_gc_pause()
     gui = bool(args.gui or cfg.world.gui)
     if gui:
         from robokit.gui import check_display
@@ -327,17 +339,28 @@ def main(argv: Sequence[str] | None = None) -> int:
     b3Warning lines, build banner, GUI chatter) never reaches the terminal as is: it is captured for the whole
     command and summarised in one line on stderr (nothing with ``--quiet``).
     """
+    own_process = argv is None  # the console script: this process is robokit's own
+    if own_process:
+        _one_blas_thread()
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if own_process and argv[:1] == ["run"]:
+        _pause_gc_for_startup()
+    try:
+        return _main(argv)
+    finally:
+        _end_startup_gc_pause()
+
+
+def _main(argv: list[str]) -> int:
+    """Parse ``argv`` and run the command (see :func:`main`)."""
     from robokit._quiet import capture_c_stdout
     from robokit.crash import debug_from_env
 
-    if argv is None:  # the console script: this process is robokit's own
-        _one_blas_thread()
-    argv = list(sys.argv[1:] if argv is None else argv)
     cut = argv.index("--") if "--" in argv else len(argv)
     debug = debug_from_env() or "--debug" in argv[:cut]
     argv = [a for a in argv[:cut] if a != "--debug"] + argv[cut:]
     try:
-        args = _parser().parse_args(argv)
+        args = _parser(argv[0] if argv else None).parse_args(argv)
     except KeyboardInterrupt:
         print("robokit: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
@@ -356,6 +379,32 @@ def main(argv: Sequence[str] | None = None) -> int:
     if note and not getattr(args, "quiet", False):
         print(note, file=sys.stderr)
     return code
+
+
+_startup_gc_paused = False
+
+
+def _pause_gc_for_startup() -> None:
+    """Switch the cyclic garbage collector off while ``robokit run`` starts up (see :func:`_end_startup_gc_pause`).
+
+    Start-up allocates some 60,000 long-lived objects (numpy, pybullet, pydantic and the models, the plugins) and
+    almost no cyclic garbage (~700 objects): the collector passes that would run meanwhile find nothing.
+    """
+    global _startup_gc_paused
+    if gc.isenabled():
+        gc.disable()
+        _startup_gc_paused = True
+
+
+def _end_startup_gc_pause() -> None:
+    """Move everything start-up allocated to the collector's permanent generation and switch it back on, before
+    the first tick: the run's own garbage is collected as usual, and later passes (and the one at exit) no longer
+    walk the start-up objects. ``robokit run`` of a trivial config: about a sixth less process time."""
+    global _startup_gc_paused
+    if _startup_gc_paused:
+        _startup_gc_paused = False
+        gc.freeze()
+        gc.enable()
 
 
 def _one_blas_thread() -> None:

@@ -115,6 +115,8 @@ class WorldConfig(Schema):
 class RegionConfig(Schema):
     """``[regions.NAME]``: a rectangle that bodies with ``region = NAME`` are scattered in, seeded."""
 
+    model_config = ConfigDict(defer_build=True)  # built on first use: most configs have no regions
+
     low: tuple[Coord, Coord]
     high: tuple[Coord, Coord]
     z: Coord = 0.0
@@ -148,6 +150,8 @@ class MountConfig(Schema):
     Fixes the body's base to ``body``'s ``link`` (its URDF link frame) with a fixed joint; ``position`` (metres)
     and ``rpy_deg`` place the mounted body's base frame in that link's frame.
     """
+
+    model_config = ConfigDict(defer_build=True)  # its schema is part of BodyConfig's; its own validator on demand
 
     body: str
     link: str
@@ -226,6 +230,8 @@ class EventConfig(Schema):
     ``force``: apply ``force`` (N, world frame) for ``duration`` seconds (default one step);
     ``set_pose``: teleport ``body`` to ``position`` (and ``rpy_deg``); ``remove``: delete ``body``.
     """
+
+    model_config = ConfigDict(defer_build=True)  # built on first use: most configs have no events
 
     at: float = Field(ge=0, le=1e6, description="sim seconds")
     type: Literal["force", "set_pose", "remove"]
