@@ -263,7 +263,7 @@ class RayCaster:
         lo = -h_ai - of
         t_near = lo.max(axis=0)
         t_far = (h_ai - of).min(axis=0)
-        has = candidate & (t_near <= t_far) & (t_far >= 0.0) & (t_near <= 1.0)
+        has = candidate & (t_near <= t_far) & (t_far >= 0.0)
         best = np.where(has, t_near, 1.0)
         # Clean if: no other box's grown entry comes before the hit (or the segment's end); the ray starts outside
         # the grown box and ends well past the hit; and it crossed each other front face's plane at least the
@@ -276,7 +276,7 @@ class RayCaster:
         ahead.reshape(-1)[at_entry] = np.inf
         clean = (has & (second > best + tf) & (g_first > 0.0) & (best <= 1.0 - tf)
                  & (ahead.min(axis=0) >= tolf * aif.reshape(-1).take(at_entry)))
-        need = (candidate & ~clean) | (~candidate & (second <= 1.0 + tf))
+        need = candidate & ~clean  # not a candidate: no box's grown entry lies within the segment
         if clean.any():
             k = np.flatnonzero(clean)
             fk = first[k]
