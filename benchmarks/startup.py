@@ -22,7 +22,7 @@ installed robokit runs: ``pip install`` compiles the package, an editable instal
 
 Then, in fresh processes, where a trivial run's process time goes, stage by stage (median over the repeats).
 
-    python benchmarks/startup.py [--repeats 15]
+    python benchmarks/startup.py [--repeats 15] [--against 71958b6] [--blas-threads]
 """
 
 from __future__ import annotations
@@ -159,6 +159,9 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=15)
     parser.add_argument("--blas-threads", action="store_true",
                         help="also measure the numpy + pybullet floor with OpenBLAS's default thread count")
+    parser.add_argument("--against", metavar="REV",
+                        help="also run the trivial config with robokit/ as it was at git revision REV (its "
+                             "package from `git archive`, plugins from this checkout), interleaved; prints the ratio")
     args = parser.parse_args()
     exe = str(Path(sys.executable).parent / "robokit")
     py = sys.executable
@@ -178,6 +181,16 @@ def main() -> None:
                 [exe, "run", str(ROOT / "configs" / "patrol_robot.toml"), "--max-time", "0.05", "--quiet"], env),
             "robokit plugins": ([exe, "plugins"], env),
         }
+        if args.against:
+            old = Path(tmp) / "against"
+            old.mkdir()
+            archive = subprocess.run(["git", "-C", str(ROOT), "archive", args.against, "robokit"],
+                                     capture_output=True, check=True).stdout
+            subprocess.run(["tar", "-x", "-C", str(old)], input=archive, check=True)
+            for label, pythonpath in ((f"robokit run trivial.toml at {args.against}", str(old)),
+                                      ("robokit run trivial.toml (python -m)", "")):
+                cases[label] = ([py, "-m", "robokit.cli", "run", str(trivial), "--quiet"],
+                                {**child_env(blas_threads=True), "PYTHONPATH": pythonpath})
         if args.blas_threads:
             cases["numpy, pybullet with OpenBLAS's own threads"] = (
                 [py, "-c", "import numpy, pybullet"], child_env(blas_threads=True))
@@ -204,6 +217,11 @@ def main() -> None:
         print(f"trivial run: {run / by_hand:.2f}x the same job by hand ({(run - by_hand) * 1e3:+.0f} ms); "
               f"{(run - floor) * 1e3:.0f} ms above the numpy + pybullet import floor, {(run - libs) * 1e3:.0f} ms "
               f"above that floor plus pydantic and pluggy; load now {os.getloadavg()[0]:.2f}")
+        if args.against:
+            before = medians[f"robokit run trivial.toml at {args.against}"]
+            now = medians["robokit run trivial.toml (python -m)"]
+            print(f"trivial run, this checkout / {args.against}: {now / before:.3f} ({now * 1e3:.0f} ms against "
+                  f"{before * 1e3:.0f} ms; both `python -m robokit.cli`, OPENBLAS_NUM_THREADS left unset)")
         for argv in (["--help"], ["run", str(trivial), "--quiet"]):
             probe = subprocess.run([py, "-c", PROBE.format(heavy=HEAVY), *argv], cwd=tmp, capture_output=True,
                                    text=True, env=env)
