@@ -151,6 +151,9 @@ class World:
         self._cid = int(self.client._client)
         self.removals = 0
         """Bodies removed so far: lets components cache id lookups until it changes."""
+        self.mesh_boxes: dict[int, tuple[float, float, float]] = {}
+        """Static boxes built as triangle meshes (``mesh_collision``): body id -> half extents (m), centred on the
+        base frame. PyBullet cannot give a mesh's triangles back; the lidar intersects these boxes itself."""
         self.client.setAdditionalSearchPath(pybullet_data.getDataPath())
         self.client.setGravity(*gravity)
         self.client.setPhysicsEngineParameter(fixedTimeStep=self.time_step, numSolverIterations=solver_iterations)
@@ -219,6 +222,7 @@ class World:
                 if mass != 0:
                     raise UserError("a triangle-mesh collision shape needs mass = 0 (static bodies only)")
                 col = c.createCollisionShape(p.GEOM_MESH, vertices=_box_vertices(half), indices=_BOX_TRIANGLES)
+                mesh_half = (half[0], half[1], half[2])
             else:
                 col = c.createCollisionShape(p.GEOM_BOX, halfExtents=half)
             vis = c.createVisualShape(p.GEOM_BOX, halfExtents=half, rgbaColor=list(rgba))
@@ -238,6 +242,8 @@ class World:
             baseOrientation=list(orientation),
         )
         self._register(name, body)
+        if shape == "box" and mesh_collision:
+            self.mesh_boxes[body] = mesh_half
         self.set_dynamics(
             body,
             lateral_friction=lateral_friction,
@@ -417,6 +423,7 @@ class World:
         del self._names[body]
         self._joint_cache.pop(body, None)
         self._com_to_link.pop(body, None)
+        self.mesh_boxes.pop(body, None)
         self.removals += 1
 
     @property

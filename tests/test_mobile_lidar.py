@@ -58,9 +58,10 @@ def test_laserscan_fields_follow_ros_conventions() -> None:
     assert full.angle_max == pytest.approx(math.pi - full.angle_increment)
 
 
-def test_own_body_is_not_seen_and_one_batch_per_scan() -> None:
+@pytest.mark.parametrize("map_in_numpy", [False, True])
+def test_own_body_is_not_seen_and_one_batch_per_scan(map_in_numpy: bool) -> None:
     # mounted at the chassis centre, inside the robot's own box: every ray starts inside the robot
-    cfg = scene(link="base_link", range_min=0.01, range_max=1.5)
+    cfg = scene(link="base_link", range_min=0.01, range_max=1.5, map_in_numpy=map_in_numpy)
     with make_sim(cfg) as sim:
         calls = []
         client = sim.world.client
@@ -75,7 +76,8 @@ def test_own_body_is_not_seen_and_one_batch_per_scan() -> None:
         sim.step(48)  # 0.2 s at 240 Hz: the 10 Hz sensor is due twice more
         sim.readings["scan"]
     assert np.isinf(scan.ranges).all()  # the wall is 2 m away, beyond 1.5 m; the robot itself is ignored
-    assert len(calls) == 2
+    # one batch per scan at most; with map_in_numpy no ray comes near a body's bounding box: none at all
+    assert len(calls) == (0 if map_in_numpy else 2)
 
 
 def test_lidar_on_unknown_link_is_one_line_at_validate(tmp_path, capsys) -> None:
@@ -145,3 +147,24 @@ def test_gui_draws_rays_with_rendering_paused(tmp_path) -> None:
     assert counts["scans"] == 10
     assert counts["lines"] == 10 * 360
     assert counts["lines_while_rendering"] == 0
+
+
+def test_patrol_scans_are_the_same_with_the_map_in_numpy() -> None:
+    """The shipped patrol scene, 3 s of its own run: every scan with the static map intersected in numpy equals the
+    scan with every ray cast by PyBullet (the numpy path answers most rays itself)."""
+    scans: dict[bool, list[LaserScan]] = {}
+    for in_numpy in (True, False):
+        with make_sim(CONFIGS / "patrol_robot.toml", seed=3,
+                      overrides={"sensors.scan.map_in_numpy": in_numpy}) as sim:
+            scans[in_numpy] = []
+            for _ in range(30):
+                scans[in_numpy].append(sim.readings["scan"])
+                sim.step(24)
+            caster = sim.components["scan"].caster
+            share = caster.rays_cast / caster.rays_total
+        assert share < 0.2 if in_numpy else share == 1.0
+    for fast, reference in zip(scans[True], scans[False], strict=True):
+        assert fast.stamp == reference.stamp
+        assert np.array_equal(np.isinf(fast.ranges), np.isinf(reference.ranges))
+        assert np.allclose(fast.ranges, reference.ranges, rtol=0, atol=1e-9)
+        assert np.allclose(fast.points, reference.points, rtol=0, atol=1e-9)

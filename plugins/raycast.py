@@ -1,0 +1,313 @@
+"""Batched ray casts that give ``rayTestBatch``'s answers while PyBullet casts only the rays that need it.
+
+A lidar scan is mostly PyBullet's C ray test, whose cost is per ray (nearly independent of ray length). In a mapped
+scene most rays end on the static map: walls and obstacles that never move. :class:`RayCaster` intersects the rays
+with the static boxes robokit builds as triangle meshes (``collision = "mesh"``) in numpy — for those PyBullet's
+ray test is exact ray-triangle arithmetic, which numpy reproduces to ~1e-14 m — and hands to ``rayTestBatch`` only
+the rays that may meet anything else before their static hit: every other body's bounding box (``getAABB``, per
+link, read at each cast) is tested against each ray segment, and a ray that crosses one is cast by PyBullet in
+full. Rays whose analytic answer is borderline (grazing a box's edge within Bullet's triangle tolerance, starting
+inside or next to a box, two boxes hit at the same distance, a hit near the segment's end) are cast by PyBullet
+too. So every answer is PyBullet's own or equal to it within float rounding.
+
+Not intersected in numpy (cast through PyBullet whenever a ray crosses their bounding box): bodies that can move,
+convex primitives (PyBullet's ray test against a convex box, cylinder or sphere is iterative, off by up to ~2 mm,
+~1 cm for cylinders and spheres: numpy would be *more* exact, hence different), URDF meshes, anything with joints.
+A static mesh box is checked once with PyBullet (a probe ray must hit it: its collision group is not masked out)
+and its pose re-read at each cast (a body moved by ``resetBasePositionAndOrientation`` is followed).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Collection
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+GEOM_MESH = 5
+EDGE_TOLERANCE = 2e-4
+"""Bullet accepts a triangle hit up to ``1e-4 * |n|^2`` outside an edge (n = the triangle's edge cross product):
+for a box face ``a x b`` that is ``1e-4 * b`` m beyond an edge of length ``a``. Rays within twice that (per box,
+of its longest edge) of a box edge are cast by PyBullet."""
+_TINY = 1e-300
+AABB_PAD = 1e-3
+"""m added around PyBullet's bounding boxes before testing rays against them (they already include its margins)."""
+
+
+@dataclass
+class RayHits:
+    """Answers of a batch of rays, as arrays (``rayTestBatch``'s tuples, column by column).
+
+    Attributes:
+        body: Hit body id per ray, ``-1`` for no hit.
+        link: Hit link index (``-1`` = base, or no hit).
+        fraction: Hit fraction along the segment from start to end, ``1.0`` for no hit.
+        position: Hit point, world frame (``(0, 0, 0)`` for no hit, as PyBullet gives); None unless asked for.
+        normal: Hit normal, world frame (``(0, 0, 0)`` for no hit); None unless asked for.
+        cast: Per ray, True if PyBullet cast it (False: intersected in numpy).
+    """
+
+    body: np.ndarray
+    link: np.ndarray
+    fraction: np.ndarray
+    position: np.ndarray | None
+    normal: np.ndarray | None
+    cast: np.ndarray
+
+
+class RayCaster:
+    """``rayTestBatch`` for a world, with the static mesh boxes intersected in numpy (see the module doc).
+
+    Args:
+        world: The World (its client, and :attr:`~robokit.world.World.mesh_boxes`).
+        skip: Body ids the rays can never hit (the caller puts them in a collision group the mask leaves out);
+            they are neither intersected nor bounding-box tested.
+        mask: ``collisionFilterMask`` passed to ``rayTestBatch``.
+        num_threads: ``numThreads`` passed to ``rayTestBatch``.
+        analytic: False casts every ray through PyBullet (the reference path).
+    """
+
+    def __init__(self, world: Any, *, skip: Collection[int] = (), mask: int = -1, num_threads: int = 1,
+                 analytic: bool = True) -> None:
+        self.world = world
+        self.client = world.client
+        self.skip = set(skip)
+        self.mask = mask
+        self.num_threads = num_threads
+        self.analytic = analytic
+        self._signature: tuple[int, int] | None = None
+        self._boxes: list[int] = []  # body ids intersected in numpy
+        self._half = np.zeros((0, 3))
+        self._tol = np.zeros(0)
+        self._poses: list[Any] = []
+        self._centre = np.zeros((0, 3))
+        self._rot = np.zeros((0, 3, 3))
+        self._others: list[tuple[int, int]] = []  # (body, link) tested by bounding box
+        self._to_local = np.zeros((0, 4))
+        self._grown = np.zeros((3, 0))
+        self._ids = np.zeros(0, dtype=int)
+        self._axes = np.zeros((0, 3))
+        self.rays_cast = 0
+        """Rays PyBullet cast so far (for benchmarks and tests)."""
+        self.rays_total = 0
+
+    # ----------------------------------------------------------------- scene
+    def _classify(self) -> None:
+        """Sort the world's bodies into numpy-intersected mesh boxes and bounding-box-tested others."""
+        c = self.client
+        boxes: list[int] = []
+        others: list[tuple[int, int]] = []
+        for i in range(c.getNumBodies()):
+            body = c.getBodyUniqueId(i)
+            if body in self.skip:
+                continue
+            if self.analytic and self._is_static_mesh_box(body):
+                boxes.append(body)
+            else:
+                others.extend((body, link) for link in range(-1, c.getNumJoints(body)))
+        self._boxes = self._probe(boxes)
+        others.extend((body, -1) for body in boxes if body not in self._boxes)
+        self._others = others
+        self._half = np.array([self.world.mesh_boxes[b] for b in self._boxes], float).reshape(-1, 3)
+        self._tol = EDGE_TOLERANCE * 2.0 * self._half.max(axis=1, initial=0.0) + 1e-6
+        self._grown = (self._half + self._tol[:, None]).T  # (3, B)
+        self._poses = [None] * len(self._boxes)
+        self._ids = np.asarray(self._boxes, dtype=int)
+        self._centre = np.zeros((len(self._boxes), 3))
+        self._rot = np.zeros((len(self._boxes), 3, 3))
+
+    def _is_static_mesh_box(self, body: int) -> bool:
+        c = self.client
+        if body not in self.world.mesh_boxes or c.getNumJoints(body) != 0 or c.getDynamicsInfo(body, -1)[0] != 0:
+            return False
+        shapes = c.getCollisionShapeData(body, -1)
+        if len(shapes) != 1:
+            return False
+        _, _, geom, scale, _, pos, orn = shapes[0]
+        return bool(geom == GEOM_MESH and tuple(scale) == (1.0, 1.0, 1.0) and tuple(pos) == (0.0, 0.0, 0.0)
+                    and tuple(orn) == (0.0, 0.0, 0.0, 1.0))
+
+    def _probe(self, boxes: list[int]) -> list[int]:
+        """The boxes PyBullet's rays do hit: one short probe ray onto each face centre, from just outside it (a box
+        whose collision group the mask leaves out, or buried on every side, stays with PyBullet)."""
+        if not boxes:
+            return []
+        c = self.client
+        starts, ends = [], []
+        for body in boxes:
+            pos, orn = c.getBasePositionAndOrientation(body)
+            rot = np.asarray(c.getMatrixFromQuaternion(orn), float).reshape(3, 3)
+            half = np.asarray(self.world.mesh_boxes[body], float)
+            for axis in range(3):
+                for sign in (-1.0, 1.0):
+                    n = rot[:, axis] * sign
+                    face = np.asarray(pos) + n * half[axis]
+                    starts.append(face + n * 1e-3)
+                    ends.append(face - n * 1e-3)
+        hits = c.rayTestBatch(starts, ends, numThreads=1, collisionFilterMask=self.mask)
+        return [body for k, body in enumerate(boxes) if any(h[0] == body for h in hits[6 * k:6 * k + 6])]
+
+    def _refresh(self) -> None:
+        """Re-sort the bodies if any were added or removed; re-read the boxes' poses."""
+        c = self.client
+        signature = (c.getNumBodies(), self.world.removals)
+        if signature != self._signature:
+            self._classify()
+            self._signature = signature
+        moved = False
+        for k, body in enumerate(self._boxes):
+            pose = c.getBasePositionAndOrientation(body)
+            if pose != self._poses[k]:
+                self._poses[k] = pose
+                self._centre[k] = pose[0]
+                self._rot[k] = np.asarray(c.getMatrixFromQuaternion(pose[1]), float).reshape(3, 3)
+                moved = True
+        if moved:
+            # row (axis i, box b) at i * B + b: a point's coordinate along box b's axis i is row . (x, y, z, 1)
+            axes = self._rot.transpose(2, 0, 1)  # (3, B, 3): axes[i, b] = box b's axis i in the world
+            offset = -np.einsum("ibj,bj->ib", axes, self._centre)
+            self._to_local = np.concatenate([axes, offset[:, :, None]], axis=2).reshape(-1, 4)
+            self._axes = np.ascontiguousarray(axes.reshape(-1, 3))
+
+    # ----------------------------------------------------------------- casting
+    def cast(self, starts: np.ndarray, ends: np.ndarray, *, detail: bool = True) -> RayHits:
+        """Answers for the segments ``starts[i] -> ends[i]`` (arrays ``(N, 3)``, world frame).
+
+        ``detail=False`` leaves out hit positions and normals (``None``): a lidar needs only bodies and fractions.
+        """
+        starts = np.asarray(starts, float)
+        ends = np.asarray(ends, float)
+        n = len(starts)
+        self._refresh()
+        body = np.full(n, -1, dtype=int)
+        frac = np.ones(n)
+        pos = np.zeros((n, 3)) if detail else None
+        normal = np.zeros((n, 3)) if detail else None
+        if self.analytic:
+            # axis-first (3, N) layouts: numpy's per-axis work is then on contiguous rows
+            s_t = np.ascontiguousarray(starts.T)
+            d_t = np.ascontiguousarray(ends.T) - s_t
+            inv_len = 1.0 / np.sqrt(np.einsum("ij,ij->j", d_t, d_t))
+            need, limit = self._intersect_boxes(s_t, d_t, inv_len, body, frac, pos, normal)
+            need |= self._crosses_others(s_t, d_t, inv_len, limit)
+            idx = np.flatnonzero(need)
+        else:
+            idx = np.arange(n)
+        link = np.full(n, -1, dtype=int)
+        cast = np.zeros(n, dtype=bool)
+        if len(idx):
+            results = self.client.rayTestBatch(starts[idx], ends[idx], numThreads=self.num_threads,
+                                               collisionFilterMask=self.mask)
+            m = len(results)
+            body[idx] = np.fromiter((r[0] for r in results), dtype=int, count=m)
+            frac[idx] = np.fromiter((r[2] for r in results), dtype=float, count=m)
+            link[idx] = np.fromiter((r[1] for r in results), dtype=int, count=m)
+            if pos is not None and normal is not None:
+                pos[idx] = [r[3] for r in results]
+                normal[idx] = [r[4] for r in results]
+            cast[idx] = True
+        self.rays_cast += len(idx)
+        self.rays_total += n
+        return RayHits(body, link, frac, pos, normal, cast)
+
+    def _intersect_boxes(self, s_t: np.ndarray, d_t: np.ndarray, inv_len: np.ndarray, body: np.ndarray,
+                         frac: np.ndarray, pos: np.ndarray | None, normal: np.ndarray | None,
+                         ) -> tuple[np.ndarray, np.ndarray]:
+        """Fill in place the rays' nearest mesh-box hits that Bullet reports alike; return (rays PyBullet must
+        cast, per ray the fraction up to which other bodies matter).
+
+        ``s_t``, ``d_t``: starts and segment vectors, shape (3, N); ``inv_len``: 1 / segment length.
+
+        Every box is first tested grown by its tolerance (Bullet's hits lie on the grown box: a triangle hit is
+        accepted up to the tolerance outside the triangle); the nearest grown entry names the box, whose exact hit
+        is then computed. The answer is PyBullet's unless another box's grown entry comes at or before it, or the
+        hit itself is borderline (see below): those rays are cast by PyBullet.
+        """
+        n = s_t.shape[1]
+        nb = len(self._boxes)
+        if nb == 0:
+            return np.zeros(n, dtype=bool), np.ones(n)
+        # starts and segments in each box's frame, (3, B, N): one small matrix product each
+        o = (self._to_local @ np.vstack((s_t, np.ones((1, n))))).reshape(3, nb, n)
+        d = (self._axes @ d_t).reshape(3, nb, n)
+        if not d.all():
+            d[d == 0.0] = _TINY  # no division by zero: an axis the ray runs parallel to gives huge fractions
+        with np.errstate(over="ignore"):
+            inv = 1.0 / d
+        oi = o * inv
+        ai = np.abs(inv)
+        reach = self._grown[:, :, None] * ai
+        g_near = (-reach - oi).max(axis=0)  # slab entry per axis: (-h - o) / d for d > 0, (h - o) / d for d < 0
+        g_far = (reach - oi).min(axis=0)
+        g_hit = np.where((g_near <= g_far) & (g_far >= 0.0), g_near, np.inf)  # (B, N)
+        cols = np.arange(n)
+        if nb > 1:
+            first = np.argmin(g_hit, axis=0)
+            flat = first * n + cols
+            g_first = g_hit.reshape(-1).take(flat)
+            g_hit.reshape(-1)[flat] = np.inf
+            second = g_hit.min(axis=0)  # the next box's grown entry
+        else:
+            first = np.zeros(n, dtype=int)
+            flat = cols
+            g_first = g_hit[0]
+            second = np.full(n, np.inf)
+        tolf = self._tol.take(first)
+        tf = tolf * inv_len
+        candidate = g_first <= 1.0 + tf
+        # exact slabs of the named box, (3, N)
+        of, idf, aif = (a.reshape(3, -1).take(flat, axis=1) for a in (oi, inv, ai))
+        h_ai = self._half.T.take(first, axis=1) * aif
+        lo = -h_ai - of
+        t_near = lo.max(axis=0)
+        t_far = (h_ai - of).min(axis=0)
+        has = candidate & (t_near <= t_far) & (t_far >= 0.0) & (t_near <= 1.0)
+        best = np.where(has, t_near, 1.0)
+        # Clean if: no other box's grown entry comes before the hit (or the segment's end); the ray starts outside
+        # the grown box and ends well past the hit; and it crossed each other front face's plane at least the
+        # tolerance outside that face (Bullet accepts a plane crossing up to the tolerance outside its face and
+        # reports the first one). Between crossing face j's plane (lo_j) and the entry face's (axis a, at best) the
+        # ray closes in on slab a by (best - lo_j) * |d_a|: at least that far outside face j it crossed j's plane.
+        entry = np.argmax(lo, axis=0)
+        ahead = best - lo
+        at_entry = entry * n + cols
+        ahead.reshape(-1)[at_entry] = np.inf
+        clean = (has & (second > best + tf) & (g_first > 0.0) & (best <= 1.0 - tf)
+                 & (ahead.min(axis=0) >= tolf * aif.reshape(-1).take(at_entry)))
+        need = (candidate & ~clean) | (~candidate & (second <= 1.0 + tf))
+        if clean.any():
+            k = np.flatnonzero(clean)
+            fk = first[k]
+            body[k] = self._ids[fk]
+            frac[k] = best[k]
+            if pos is not None and normal is not None:
+                pos[k] = (s_t[:, k] + d_t[:, k] * best[k]).T
+                ek = entry[k]
+                # outward normal of the entry face: box axis ek, against the ray's direction along it
+                normal[k] = self._rot[fk, :, ek] * -np.sign(idf.reshape(-1).take(ek * n + k))[:, None]
+        return need, best
+
+    def _crosses_others(self, s_t: np.ndarray, d_t: np.ndarray, inv_len: np.ndarray, limit: np.ndarray) -> np.ndarray:
+        """Per ray, True if its segment up to ``limit`` crosses the bounding box of any body not intersected here."""
+        n = s_t.shape[1]
+        if not self._others:
+            return np.zeros(n, dtype=bool)
+        aabb = self.client.getAABB
+        boxes = np.array([aabb(b, link) for b, link in self._others], float)  # (K, 2, 3)
+        # only the boxes that overlap the box around all the segments (the floor under a level scan does not)
+        ends_t = s_t + d_t
+        scan_lo = np.minimum(s_t.min(axis=1), ends_t.min(axis=1)) - AABB_PAD
+        scan_hi = np.maximum(s_t.max(axis=1), ends_t.max(axis=1)) + AABB_PAD
+        boxes = boxes[((boxes[:, 0] <= scan_hi) & (boxes[:, 1] >= scan_lo)).all(axis=1)]
+        if len(boxes) == 0:
+            return np.zeros(n, dtype=bool)
+        lo_b = boxes[:, 0, :].T[:, :, None] - AABB_PAD  # (3, K, 1)
+        hi_b = boxes[:, 1, :].T[:, :, None] + AABB_PAD
+        with np.errstate(over="ignore"):
+            inv = (1.0 / np.where(d_t == 0.0, _TINY, d_t))[:, None, :]
+        t1, t2 = (lo_b - s_t[:, None, :]) * inv, (hi_b - s_t[:, None, :]) * inv
+        near = np.minimum(t1, t2).max(axis=0)
+        far = np.maximum(t1, t2).min(axis=0)
+        crosses = (near <= far) & (far >= 0.0) & (near <= limit + AABB_PAD * inv_len)
+        return np.asarray(crosses.any(axis=0))
