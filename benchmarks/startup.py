@@ -4,6 +4,7 @@ Measured, each as the median of ``--repeats`` fresh processes, interleaved (one 
 
 - ``python -c pass``: the interpreter alone;
 - ``python -c 'import numpy, pybullet'``: the floor of any run (both are needed to simulate anything);
+- the same trivial job written by hand: numpy's generator, a DIRECT client, plane + box, 24 steps, a JSON file;
 - the same plus ``pydantic`` and ``pluggy`` (the libraries robokit validates configs and loads plugins with): the
   floor of robokit as built;
 - ``robokit --help``: must import neither numpy, pybullet nor OpenCV (checked below);
@@ -21,7 +22,7 @@ installed robokit runs: ``pip install`` compiles the package, an editable instal
 
 Then, in fresh processes, where a trivial run's process time goes, stage by stage (median over the repeats).
 
-    python benchmarks/startup.py [--repeats 15]
+    python benchmarks/startup.py [--repeats 15] [--against 71958b6] [--blas-threads]
 """
 
 from __future__ import annotations
@@ -66,22 +67,44 @@ import json, sys, time
 clock = time.process_time
 marks = [("interpreter start-up (before the first line)", clock())]
 import robokit.cli as cli
-marks.append(("import robokit.cli", clock()))
+marks.append(("import robokit.cli (pluggy, argparse)", clock()))
+cli._pause_gc_for_startup()  # as the robokit command does
 args = cli._parser("run").parse_args(["run", sys.argv[1], "--quiet"])
 marks.append(("argument parser (run)", clock()))
 from robokit.plugins import load_plugins
 plugins = load_plugins()
-marks.append(("plugin discovery (entry points, pybullet import)", clock()))
+marks.append(("plugin discovery (numpy, pybullet, pydantic; entry points)", clock()))
 from robokit.config import load_config
-marks.append(("import robokit.config (pydantic, core models)", clock()))
+marks.append(("import robokit.config (the core models)", clock()))
 cfg = load_config(args.config, plugins)
-marks.append(("config validation (+ the local reporter's module)", clock()))
+marks.append(("config read + validation (+ local reporter module)", clock()))
 from robokit.runner import run_config, summary
-marks.append(("import robokit.runner (numpy, world, scheduler)", clock()))
+marks.append(("import robokit.runner (simulation, world, recorder)", clock()))
+cli._end_startup_gc_pause()
 out = run_config(cfg, plugins, max_time=None, on_problem=None)
 marks.append(("build + run + record + report", clock()))
 summary(out)
 print(json.dumps([(name, t) for name, t in marks]))
+"""
+BY_HAND = """
+import json, os, uuid
+import numpy as np
+import pybullet as p
+import pybullet_data
+rng = np.random.default_rng(0)
+cid = p.connect(p.DIRECT)
+p.setAdditionalSearchPath(pybullet_data.getDataPath(), physicsClientId=cid)
+p.setGravity(0, 0, -9.81, physicsClientId=cid)
+p.loadURDF("plane.urdf", physicsClientId=cid)
+shape = p.createCollisionShape(p.GEOM_BOX, halfExtents=[0.05] * 3, physicsClientId=cid)
+box = p.createMultiBody(1.0, shape, basePosition=[0, 0, 0.5], physicsClientId=cid)
+for _ in range(24):
+    p.stepSimulation(physicsClientId=cid)
+pos, _ = p.getBasePositionAndOrientation(box, physicsClientId=cid)
+os.makedirs("byhand", exist_ok=True)
+with open(os.path.join("byhand", f"{uuid.uuid4()}.json"), "w") as fh:
+    json.dump({"z": pos[2]}, fh)
+p.disconnect(cid)
 """
 
 
@@ -127,8 +150,8 @@ def stages(config: Path, repeats: int, cwd: str, env: dict[str, str]) -> None:
     for name, values in per_stage.items():
         ms = statistics.median(values) * 1e3
         total += ms
-        print(f"  {name:<52} {ms:6.1f} ms")
-    print(f"  {'sum of the medians':<52} {total:6.1f} ms")
+        print(f"  {name:<58} {ms:6.1f} ms")
+    print(f"  {'sum of the medians (interpreter exit not included)':<58} {total:6.1f} ms")
 
 
 def main() -> None:
@@ -136,6 +159,9 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=15)
     parser.add_argument("--blas-threads", action="store_true",
                         help="also measure the numpy + pybullet floor with OpenBLAS's default thread count")
+    parser.add_argument("--against", metavar="REV",
+                        help="also run the trivial config with robokit/ as it was at git revision REV (its "
+                             "package from `git archive`, plugins from this checkout), interleaved; prints the ratio")
     args = parser.parse_args()
     exe = str(Path(sys.executable).parent / "robokit")
     py = sys.executable
@@ -146,6 +172,7 @@ def main() -> None:
         cases: dict[str, tuple[list[str], dict[str, str]]] = {
             "python -c pass": ([py, "-c", "pass"], env),
             "python -c 'import numpy, pybullet'  (floor)": ([py, "-c", "import numpy, pybullet"], env),
+            "the same job by hand (pybullet, numpy rng, json)": ([py, "-c", BY_HAND], env),
             "  + pydantic, pluggy (robokit's libraries)": (
                 [py, "-c", "import numpy, pybullet, pluggy; from pydantic import BaseModel, Field"], env),
             "robokit --help": ([exe, "--help"], env),
@@ -154,6 +181,16 @@ def main() -> None:
                 [exe, "run", str(ROOT / "configs" / "patrol_robot.toml"), "--max-time", "0.05", "--quiet"], env),
             "robokit plugins": ([exe, "plugins"], env),
         }
+        if args.against:
+            old = Path(tmp) / "against"
+            old.mkdir()
+            archive = subprocess.run(["git", "-C", str(ROOT), "archive", args.against, "robokit"],
+                                     capture_output=True, check=True).stdout
+            subprocess.run(["tar", "-x", "-C", str(old)], input=archive, check=True)
+            for label, pythonpath in ((f"robokit run trivial.toml at {args.against}", str(old)),
+                                      ("robokit run trivial.toml (python -m)", "")):
+                cases[label] = ([py, "-m", "robokit.cli", "run", str(trivial), "--quiet"],
+                                {**child_env(blas_threads=True), "PYTHONPATH": pythonpath})
         if args.blas_threads:
             cases["numpy, pybullet with OpenBLAS's own threads"] = (
                 [py, "-c", "import numpy, pybullet"], child_env(blas_threads=True))
@@ -175,10 +212,16 @@ def main() -> None:
                   f"{cpu[-1 - len(cpu) // 10] * 1e3:4.0f})   wall {wall * 1e3:6.0f} ms{note}")
         run = medians["robokit run trivial.toml"]
         floor = medians["python -c 'import numpy, pybullet'  (floor)"]
+        by_hand = medians["the same job by hand (pybullet, numpy rng, json)"]
         libs = medians["  + pydantic, pluggy (robokit's libraries)"]
-        print(f"trivial run minus the numpy + pybullet floor: {(run - floor) * 1e3:.0f} ms; "
-              f"minus the floor with robokit's libraries: {(run - libs) * 1e3:.0f} ms; load now "
-              f"{os.getloadavg()[0]:.2f}")
+        print(f"trivial run: {run / by_hand:.2f}x the same job by hand ({(run - by_hand) * 1e3:+.0f} ms); "
+              f"{(run - floor) * 1e3:.0f} ms above the numpy + pybullet import floor, {(run - libs) * 1e3:.0f} ms "
+              f"above that floor plus pydantic and pluggy; load now {os.getloadavg()[0]:.2f}")
+        if args.against:
+            before = medians[f"robokit run trivial.toml at {args.against}"]
+            now = medians["robokit run trivial.toml (python -m)"]
+            print(f"trivial run, this checkout / {args.against}: {now / before:.3f} ({now * 1e3:.0f} ms against "
+                  f"{before * 1e3:.0f} ms; both `python -m robokit.cli`, OPENBLAS_NUM_THREADS left unset)")
         for argv in (["--help"], ["run", str(trivial), "--quiet"]):
             probe = subprocess.run([py, "-c", PROBE.format(heavy=HEAVY), *argv], cwd=tmp, capture_output=True,
                                    text=True, env=env)

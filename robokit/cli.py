@@ -155,9 +155,9 @@ def _load(args: argparse.Namespace) -> tuple[Any, Any]:
 
 def cmd_run(args: argparse.Namespace) -> int:
     """``robokit run``: build, run, report; print a summary (or the RunResult JSON with ``--json``)."""
+    plugins, cfg = _load(args)  # first: robokit.runner imports robokit.config, see _load
     from robokit.runner import run_config, summary
 
-    plugins, cfg = _load(args)
     _end_startup_gc_pause()
     gui = bool(args.gui or cfg.world.gui)
     if gui:
