@@ -65,7 +65,7 @@ class ScriptedDrive:
 
         if self.scan:
             readings["scan"]  # noqa: B018 - computes the scan when it is due (10 Hz)
-        return {"drive": Twist(0.3, 0.3)}  # a 1 m circle round (0, 1): free of the boxes and walls
+        return {"drive": Twist(0.3, 0.4)}  # a 0.75 m circle round (0, 0.75): clear of the boxes and walls
 
     def result(self) -> dict[str, Any]:
         return {}

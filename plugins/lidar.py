@@ -117,6 +117,7 @@ class Lidar(Sensor):
             self.body = ctx.body(cfg.robot, key="robot")
             self.link = ctx.link(cfg.robot, cfg.link, key="link")
             self._exclude_own_body()
+            self._links = list(range(-1, self.world.client.getNumJoints(self.body)))
         else:
             orn = self.world.client.getQuaternionFromEuler([math.radians(a) for a in cfg.rpy_deg])
             rot = np.asarray(self.world.client.getMatrixFromQuaternion(orn), float).reshape(3, 3)
@@ -161,15 +162,16 @@ class Lidar(Sensor):
         """
         if self.body is None:
             return self._zeros
-        lo, hi = self.world.body_aabb(self.body)
-        lo_, hi_ = np.asarray(lo) - SELF_MARGIN, np.asarray(hi) + SELF_MARGIN
-        if not np.all((origin > lo_) & (origin < hi_)):
+        aabb = self.world.client.getAABB
+        boxes = np.array([aabb(self.body, link) for link in self._links])  # (links, 2, 3)
+        lo_ = boxes[:, 0].min(axis=0) - SELF_MARGIN
+        hi_ = boxes[:, 1].max(axis=0) + SELF_MARGIN
+        if not ((origin > lo_) & (origin < hi_)).all():
             return self._zeros
-        # +-inf where a direction has no component along an axis: that axis never bounds the exit (the origin is
-        # strictly inside, so hi_ - origin > 0 > lo_ - origin and the larger product is +inf)
+        # An axis a ray has no component along never bounds its exit: a zero component is replaced by a tiny one,
+        # whose huge quotient loses the minimum (the origin is strictly inside, so both bounds are finite).
         dirs_t = dirs.T
-        with np.errstate(divide="ignore"):
-            inv = 1.0 / dirs_t
+        inv = 1.0 / np.where(dirs_t == 0.0, 1e-300, dirs_t)
         exits = np.maximum((hi_ - origin)[:, None] * inv, (lo_ - origin)[:, None] * inv)
         return np.minimum(np.minimum(exits[0], exits[1]), exits[2])
 

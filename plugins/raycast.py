@@ -8,7 +8,8 @@ the rays that may meet anything else before their static hit: every other body's
 link, read at each cast) is tested against each ray segment, and a ray that crosses one is cast by PyBullet in
 full. Rays whose analytic answer is borderline (grazing a box's edge within Bullet's triangle tolerance, starting
 inside or next to a box, two boxes hit at the same distance, a hit near the segment's end) are cast by PyBullet
-too. So every answer is PyBullet's own or equal to it within float rounding.
+too. So every answer is PyBullet's own or equal to it within float rounding (about 1e-15 of the ray's length).
+In a scene without such boxes every ray is cast by PyBullet, as before.
 
 Not intersected in numpy (cast through PyBullet whenever a ray crosses their bounding box): bodies that can move,
 convex primitives (PyBullet's ray test against a convex box, cylinder or sphere is iterative, off by up to ~2 mm,
@@ -184,7 +185,7 @@ class RayCaster:
         frac = np.ones(n)
         pos = np.zeros((n, 3)) if detail else None
         normal = np.zeros((n, 3)) if detail else None
-        if self.analytic:
+        if self.analytic and self._boxes:  # without mesh boxes the bounding-box test alone rarely pays
             # axis-first (3, N) layouts: numpy's per-axis work is then on contiguous rows
             s_t = np.ascontiguousarray(starts.T)
             d_t = np.ascontiguousarray(ends.T) - s_t
@@ -262,7 +263,7 @@ class RayCaster:
         lo = -h_ai - of
         t_near = lo.max(axis=0)
         t_far = (h_ai - of).min(axis=0)
-        has = candidate & (t_near <= t_far) & (t_far >= 0.0) & (t_near <= 1.0)
+        has = candidate & (t_near <= t_far) & (t_far >= 0.0)
         best = np.where(has, t_near, 1.0)
         # Clean if: no other box's grown entry comes before the hit (or the segment's end); the ray starts outside
         # the grown box and ends well past the hit; and it crossed each other front face's plane at least the
@@ -275,7 +276,7 @@ class RayCaster:
         ahead.reshape(-1)[at_entry] = np.inf
         clean = (has & (second > best + tf) & (g_first > 0.0) & (best <= 1.0 - tf)
                  & (ahead.min(axis=0) >= tolf * aif.reshape(-1).take(at_entry)))
-        need = (candidate & ~clean) | (~candidate & (second <= 1.0 + tf))
+        need = candidate & ~clean  # not a candidate: no box's grown entry lies within the segment
         if clean.any():
             k = np.flatnonzero(clean)
             fk = first[k]
