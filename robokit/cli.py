@@ -343,7 +343,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if own_process:
         _one_blas_thread()
     argv = list(sys.argv[1:] if argv is None else argv)
-    if own_process and argv[:1] == ["run"]:
+    if own_process and argv[:1] and argv[0] in GC_PAUSED_COMMANDS:
         _pause_gc_for_startup()
     try:
         return _main(argv)
@@ -380,6 +380,10 @@ def _main(argv: list[str]) -> int:
         print(note, file=sys.stderr)
     return code
 
+
+GC_PAUSED_COMMANDS = frozenset({"run", "validate", "plugins", "graph", "inspect"})
+"""Commands whose start-up runs with the cyclic collector paused (see :func:`_pause_gc_for_startup`): ``run``
+until its first tick; the others, short and bounded, until they end."""
 
 _startup_gc_paused = False
 
