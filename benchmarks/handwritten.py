@@ -778,11 +778,26 @@ def _hand_ok(job: str, result: dict[str, Any]) -> bool:
                 and result["collisions"] == 0)
 
 
+OVERRIDES: dict[str, Any] = {}
+"""Dotted config keys set on robokit's side of the loop comparison (``--set``), e.g. a lidar option."""
+
+
+def _override(text: str) -> tuple[str, Any]:
+    """``key=value`` with a TOML value (``sensors.scan.num_threads=0``, ``behaviour.hold_check_hz=240.0``)."""
+    key, sep, value = text.partition("=")
+    if not sep or not key:
+        raise argparse.ArgumentTypeError(f"expected KEY=VALUE, got {text!r}")
+    try:
+        return key.strip(), tomllib.loads(f"v = {value}")["v"]
+    except tomllib.TOMLDecodeError:
+        return key.strip(), value
+
+
 def robokit_run(job: str, seed: int) -> dict[str, Any]:
     """Build robokit's simulation for the config and seed; time its run loop."""
     from robokit.testing import make_sim
 
-    with make_sim(str(JOBS[job]), seed=seed) as sim:
+    with make_sim(str(JOBS[job]), seed=seed, overrides=dict(OVERRIDES) or None) as sim:
         t0, c0, k0, i0 = time.perf_counter(), time.process_time(), _cycles(), _instructions()
         result = sim.run()
         wall, cpu, cycles = time.perf_counter() - t0, time.process_time() - c0, _cycles() - k0
@@ -890,13 +905,19 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--seeds", type=int, default=20, help="seeds for the loop ratios (0, 1, ...)")
     parser.add_argument("--job-seeds", type=int, default=5, help="seeds for the whole-process runs (0, 1, ...)")
     parser.add_argument("--jobs", nargs="+", choices=sorted(JOBS), default=sorted(JOBS, reverse=True))
+    parser.add_argument("--set", type=_override, action="append", default=[], metavar="KEY=VALUE",
+                        help="config override on robokit's side of the loop runs (repeatable), e.g. "
+                             "sensors.scan.map_in_numpy=false; the whole-job runs use the config as it is")
     parser.add_argument("--child", choices=sorted(JOBS), help=argparse.SUPPRESS)
     parser.add_argument("--seed", type=int, default=0, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
+    OVERRIDES.update(args.set)
     if args.child:
         out = hand_run(args.child, args.seed)
         print(json.dumps({"ok": out["ok"], "sim": out["sim"], "result": out["result"]}, default=str))
         return
+    if OVERRIDES:
+        print(f"robokit's loop runs with: {', '.join(f'{k} = {v!r}' for k, v in OVERRIDES.items())}")
     print(f"load: {os.getloadavg()[0]:.2f} {os.getloadavg()[1]:.2f} {os.getloadavg()[2]:.2f} "
           f"(1/5/15 min) on {os.cpu_count()} cores; python {sys.version.split()[0]}", flush=True)
     for job in args.jobs:
