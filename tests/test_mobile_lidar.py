@@ -136,11 +136,12 @@ print(json.dumps(counts))
 
 @pytest.mark.slow
 @pytest.mark.skipif(XVFB_RUN is None, reason="no virtual display: install xvfb (apt-get install xvfb)")
-def test_gui_draws_rays_with_rendering_paused(tmp_path) -> None:
+@pytest.mark.parametrize("config", ["go_to_goal.toml", "patrol_robot.toml"])  # every ray by PyBullet; map in numpy
+def test_gui_draws_rays_with_rendering_paused(tmp_path, config: str) -> None:
     """360 debug lines per scan: each line drawn while the GUI renders waits for a rendered frame (1 s of sim took
     minutes). Counted, not timed: every line of every scan is drawn with rendering paused."""
     cmd = [XVFB_RUN or "", "-a", "-s", "-screen 0 640x480x24", sys.executable, "-c", DRAW_PROBE,
-           str(CONFIGS / "go_to_goal.toml")]
+           str(CONFIGS / config)]
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600, cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr[-2000:]
     counts = json.loads(proc.stdout.strip().splitlines()[-1])
