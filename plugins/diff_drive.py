@@ -129,10 +129,10 @@ class DiffDrive(Actuator):
         self.last_tick = self.world.tick
         step = self.config.max_acceleration / self.config.wheel_radius * dt
         speeds = tuple(s + max(-step, min(step, t - s)) for s, t in zip(self.speeds, self.targets, strict=True))
-        if speeds != self._sent:  # the motors keep their targets: send only a change
-            for joints, speed in ((self.left, speeds[0]), (self.right, speeds[1])):
-                c.setJointMotorControlArray(self.body, joints, c.VELOCITY_CONTROL,
-                                            targetVelocities=[speed] * len(joints), forces=[force] * len(joints))
+        if speeds != self._sent:  # the motors keep their targets: send only a change, both sides in one call
+            c.setJointMotorControlArray(self.body, self._both, c.VELOCITY_CONTROL,
+                                        targetVelocities=[speeds[0]] * len(self.left) + [speeds[1]] * len(self.right),
+                                        forces=[force] * len(self._both))
             self._sent = speeds
         self.speeds = speeds
         self._integrate()
@@ -147,7 +147,7 @@ class DiffDrive(Actuator):
         mid = self.odom[2] + dth / 2.0
         x0, y0, yaw0 = self.odom
         self.odom = [x0 + ds * math.cos(mid), y0 + ds * math.sin(mid), wrap_angle(yaw0 + dth)]
-        x, y, _ = self._pose()
+        x, y, _ = self.world.pose(self.body)[0]  # the link frame's position (no yaw needed here)
         self.distance += math.hypot(x - self.last_pose[0], y - self.last_pose[1])
         self.last_pose = (x, y)
 
