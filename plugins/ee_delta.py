@@ -17,6 +17,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 from pydantic import Field
+from robokit_plugins.kinematics import arm_joints
 
 from robokit import hookimpl
 from robokit.components import Actuator, SetupContext
@@ -62,16 +63,7 @@ class EEDeltaArm(Actuator):
         super().setup(ctx)
         cfg: EEDeltaConfig = self.config
         w = self.world
-        self.body = ctx.body(cfg.body)
-        self.ee = ctx.link(cfg.body, cfg.ee_link, key="ee_link")
-        if self.ee < 0:
-            raise ConfigError(f"the end-effector link must not be the base link {cfg.ee_link!r}", key="ee_link")
-        self.movable = [j for j in w.joints(cfg.body) if j.movable]
-        chain, link = set(), self.ee
-        while link >= 0:
-            chain.add(link)
-            link = w.client.getJointInfo(self.body, link)[16]
-        self.arm = [j for j in self.movable if j.index in chain]
+        self.body, self.ee, self.movable, self.arm = arm_joints(ctx, cfg.body, cfg.ee_link)
         names = [j.name for j in self.movable]
         for name in cfg.ready_pose:
             if name not in names:

@@ -32,7 +32,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 from pydantic import Field
-from robokit_plugins.kinematics import Chain
+from robokit_plugins.kinematics import Chain, arm_joints
 
 from robokit import hookimpl
 from robokit.components import Actuator, SetupContext
@@ -134,15 +134,8 @@ class IkArm(Actuator):
         super().setup(ctx)
         cfg: IkArmConfig = self.config
         w = self.world
-        self.body = ctx.body(cfg.body)
-        self.ee = ctx.link(cfg.body, cfg.ee_link, key="ee_link")
-        if self.ee < 0:
-            raise ConfigError(f"the end-effector link must not be the base link {cfg.ee_link!r}", key="ee_link")
-        self.movable = [j for j in w.joints(cfg.body) if j.movable]
+        self.body, self.ee, self.movable, self.arm = arm_joints(ctx, cfg.body, cfg.ee_link)
         self._movable_indices = [j.index for j in self.movable]
-        self.arm = self._arm_joints()
-        if not self.arm:
-            raise ConfigError(f"no movable joint between the base and {cfg.ee_link!r}", key="ee_link")
         self._limits()
         names = [j.name for j in self.movable]
         self.ready = self._pose_vector(cfg.ready_pose, "ready_pose", self._measured_all())
@@ -173,15 +166,6 @@ class IkArm(Actuator):
         self._zero = [0.0] * len(self.arm)
         self._holding = False  # the last target sent was a hold (zero velocity): nothing to resend
         self._apply(self.q_cmd, None)
-
-    def _arm_joints(self) -> list[Any]:
-        """Movable joints on the chain from the base to the end-effector link, base first."""
-        client = self.world.client
-        chain, link = [], self.ee
-        while link >= 0:
-            chain.append(link)
-            link = client.getJointInfo(self.body, link)[16]
-        return [j for j in self.movable if j.index in chain]
 
     def _limits(self) -> None:
         cfg: IkArmConfig = self.config

@@ -18,6 +18,8 @@ from typing import Any
 
 import numpy as np
 
+from robokit.errors import ConfigError
+
 
 def transform(position: Sequence[float], quaternion: Sequence[float]) -> np.ndarray:
     """4x4 homogeneous transform of a position and an ``(x, y, z, w)`` quaternion."""
@@ -64,6 +66,33 @@ def _axis_rotation(axis: np.ndarray, angle: float) -> np.ndarray:
     ])
 
 
+def links_to(client: Any, body: int, link: int) -> list[int]:
+    """Indices of the links from the base (excluded) out to ``link``, base side first (each joint's parent is field
+    16 of ``getJointInfo``)."""
+    path = []
+    while link >= 0:
+        path.append(link)
+        link = client.getJointInfo(body, link)[16]
+    path.reverse()
+    return path
+
+
+def arm_joints(ctx: Any, body_name: str, ee_link: str) -> tuple[int, int, list[Any], list[Any]]:
+    """For an arm actuator's setup: body id, end-effector link index, the body's movable joints and those on the
+    chain from the base to the end effector (base first). Config errors (at ``body`` / ``ee_link``) for an unknown
+    body or link, the base link as end effector, or no movable joint on the chain."""
+    body = ctx.body(body_name)
+    ee = ctx.link(body_name, ee_link, key="ee_link")
+    if ee < 0:
+        raise ConfigError(f"the end-effector link must not be the base link {ee_link!r}", key="ee_link")
+    movable = [j for j in ctx.world.joints(body_name) if j.movable]
+    chain = set(links_to(ctx.world.client, body, ee))
+    arm = [j for j in movable if j.index in chain]
+    if not arm:
+        raise ConfigError(f"no movable joint between the base and {ee_link!r}", key="ee_link")
+    return body, ee, movable, arm
+
+
 class Chain:
     """The joints from a fixed base to one link, folded into constant transforms between the moving joints.
 
@@ -78,11 +107,7 @@ class Chain:
 
     def __init__(self, client: Any, body: int, link: int, columns: dict[int, int],
                  tool: tuple[Sequence[float], Sequence[float]] | None = None) -> None:
-        path = []
-        while link >= 0:
-            path.append(link)
-            link = client.getJointInfo(body, link)[16]
-        path.reverse()
+        path = links_to(client, body, link)
         pos, orn = client.getBasePositionAndOrientation(body)  # the base's inertial frame, world
         const = transform(pos, orn)
         self.constants: list[np.ndarray] = []  # frame before each moving joint, relative to the one after the last
