@@ -26,11 +26,13 @@ CASES = [
      r"actuators\.arm\.ready_pose: unknown joint 'panda_jiont1'"),
     ('[sensors.poses]\ntype = "body_pose"\nbodies = ["cube"]', '[sensors.poses]\ntype = "contact"\nbody = "cubes"',
      r"sensors\.poses\.body: unknown body 'cubes'"),
+    ('ee_link = "panda_grasptarget"', 'ee_link = "panda_link0"',
+     r"actuators\.arm\.ee_link: the end-effector link must not be the base link 'panda_link0'"),
 ]
 
 
 @pytest.mark.parametrize(("old", "new", "expected"), CASES, ids=["ee_link", "finger", "no_gripper", "ready",
-                                                                  "contact_body"])
+                                                                  "contact_body", "ee_base_link"])
 def test_validate_gives_one_clear_line(tmp_path: Path, capsys: pytest.CaptureFixture[str], old: str, new: str,
                                        expected: str) -> None:
     line = validate_error(edited_config(CONFIG, tmp_path, old, new, name="broken.toml"))
@@ -41,3 +43,15 @@ def test_the_shipped_arm_configs_validate(capsys: pytest.CaptureFixture[str]) ->
     for name in ("pick_place.toml", "kuka_dance.toml", "contact_stop.toml"):
         assert main(["validate", str(CONFIG.parent / name)]) == 0
     assert capsys.readouterr().out.count(": ok (") == 3
+
+
+@pytest.mark.parametrize("arm_type", ["ik_arm", "ee_delta"])
+def test_both_arm_types_refuse_the_base_link_as_end_effector(arm_type: str) -> None:
+    from robokit.errors import ConfigError
+    from robokit.testing import make_sim
+
+    scene = {"robots": {"panda": {"urdf": "franka_panda/panda.urdf", "position": [0, 0, 0], "fixed_base": True}},
+             "actuators": {"arm": {"type": arm_type, "body": "panda", "ee_link": "panda_link0"}}}
+    with pytest.raises(ConfigError, match="end-effector link must not be the base link 'panda_link0'") as err:
+        make_sim(scene).close()
+    assert err.value.key.endswith("ee_link")
