@@ -213,11 +213,17 @@ class IkArm(Actuator):
         q[cols] = np.asarray(found)[cols]
         return q
 
-    def _accepts(self, q: np.ndarray, ep: float, eo: float) -> bool:
-        """A PyBullet IK answer is taken if it keeps the joint limits and meets the IK tolerance."""
-        cols, tol = self.arm_cols, self.config.ik_tolerance
-        return bool(np.all(q[cols] >= self.lower[cols]) and np.all(q[cols] <= self.upper[cols])
-                    and ep < tol and eo < tol * 4)
+    def _check(self, qs: np.ndarray, poses: list[tuple[np.ndarray, Quat]]
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """PyBullet IK answers (rows of ``qs``) against their target poses, in one forward-kinematics pass: per
+        answer whether it is taken (joint limits kept, IK tolerance met), and its position and angle residuals."""
+        positions, rotations = self.chain.fk_many(qs)
+        ep = np.linalg.norm(np.array([pos for pos, _ in poses]) - positions, axis=1)
+        eo = _angles_between(np.array([orn for _, orn in poses], float), rotations)
+        tol, cols = self.config.ik_tolerance, self.arm_cols
+        ok = (np.all(qs[:, cols] >= self.lower[cols], axis=1) & np.all(qs[:, cols] <= self.upper[cols], axis=1)
+              & (ep < tol) & (eo < tol * 4))
+        return ok, ep, eo
 
     def _solve_path(self, q_all: np.ndarray, poses: list[tuple[np.ndarray, Quat]]
                     ) -> list[tuple[np.ndarray, float, float]]:
@@ -231,13 +237,7 @@ class IkArm(Actuator):
         for pos, orn in poses:
             q = self._ik(q, pos, orn)
             answers.append(q)
-        qs = np.array(answers)
-        positions, rotations = self.chain.fk_many(qs)
-        ep = np.linalg.norm(np.array([pos for pos, _ in poses]) - positions, axis=1)
-        eo = _angles_between(np.array([orn for _, orn in poses], float), rotations)
-        tol, cols = self.config.ik_tolerance, self.arm_cols
-        ok = (np.all(qs[:, cols] >= self.lower[cols], axis=1) & np.all(qs[:, cols] <= self.upper[cols], axis=1)
-              & (ep < tol) & (eo < tol * 4))
+        ok, ep, eo = self._check(np.array(answers), poses)
         good = len(poses) if ok.all() else int(np.argmin(ok))  # answers before the first rejected one
         out = [(answers[k], float(ep[k]), float(eo[k])) for k in range(good)]
         q = out[-1][0] if out else q_all
@@ -253,13 +253,10 @@ class IkArm(Actuator):
         PyBullet's IK first (:meth:`_ik`); if its answer breaks a joint limit or misses the tolerance, the numpy
         solver below takes over.
         """
-        cols = self.arm_cols
         q = self._ik(q_all, pos, orn)
-        if np.all(q[cols] >= self.lower[cols]) and np.all(q[cols] <= self.upper[cols]):
-            cur, corn = self.chain.fk(q)
-            ep, eo = float(np.linalg.norm(pos - cur)), float(np.linalg.norm(_rotvec(corn, orn)))
-            if self._accepts(q, ep, eo):
-                return q, ep, eo
+        ok, ep, eo = self._check(q[None], [(pos, orn)])
+        if ok[0]:
+            return q, float(ep[0]), float(eo[0])
         return self._solve_numpy(q_all, pos, orn)
 
     def _solve_numpy(self, q_all: np.ndarray, pos: np.ndarray, orn: Quat) -> tuple[np.ndarray, float, float]:
