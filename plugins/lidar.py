@@ -163,17 +163,18 @@ class Lidar(Sensor):
         if self.body is None:
             return self._zeros
         aabb = self.world.client.getAABB
-        boxes = np.array([aabb(self.body, link) for link in self._links])  # (links, 2, 3)
-        lo_ = boxes[:, 0].min(axis=0) - SELF_MARGIN
-        hi_ = boxes[:, 1].max(axis=0) + SELF_MARGIN
-        if not ((origin > lo_) & (origin < hi_)).all():
+        lows, highs = zip(*(aabb(self.body, link) for link in self._links), strict=True)
+        o = origin.tolist()
+        lo_ = [min(c) - SELF_MARGIN for c in zip(*lows, strict=True)]
+        hi_ = [max(c) + SELF_MARGIN for c in zip(*highs, strict=True)]
+        if not all(low < x < high for low, x, high in zip(lo_, o, hi_, strict=True)):
             return self._zeros
         # An axis a ray has no component along never bounds its exit: a zero component is replaced by a tiny one,
         # whose huge quotient loses the minimum (the origin is strictly inside, so both bounds are finite).
         dirs_t = dirs.T
-        inv = 1.0 / np.where(dirs_t == 0.0, 1e-300, dirs_t)
-        exits = np.maximum((hi_ - origin)[:, None] * inv, (lo_ - origin)[:, None] * inv)
-        return np.minimum(np.minimum(exits[0], exits[1]), exits[2])
+        inv = 1.0 / (dirs_t if dirs_t.all() else np.where(dirs_t == 0.0, 1e-300, dirs_t))
+        bounds = np.array([[high - x, low - x] for low, x, high in zip(lo_, o, hi_, strict=True)])  # (3, 2)
+        return (bounds[:, :, None] * inv[:, None, :]).max(axis=1).min(axis=0)  # type: ignore[no-any-return]
 
     def read(self) -> LaserScan:
         """Cast every ray once (at most one ``rayTestBatch``) and return the scan."""
