@@ -172,9 +172,9 @@ class Lidar(Sensor):
         # An axis a ray has no component along never bounds its exit: a zero component is replaced by a tiny one,
         # whose huge quotient loses the minimum (the origin is strictly inside, so both bounds are finite).
         dirs_t = dirs.T
-        inv = 1.0 / (dirs_t if dirs_t.all() else np.where(dirs_t == 0.0, 1e-300, dirs_t))
+        inv = np.divide(1.0, dirs_t if dirs_t.all() else np.where(dirs_t == 0.0, 1e-300, dirs_t), order="C")
         bounds = np.array([[high - x, low - x] for low, x, high in zip(lo_, o, hi_, strict=True)])  # (3, 2)
-        return (bounds[:, :, None] * inv[:, None, :]).max(axis=1).min(axis=0)  # type: ignore[no-any-return]
+        return np.minimum.reduce(np.maximum(bounds[:, :1] * inv, bounds[:, 1:] * inv))  # type: ignore[no-any-return]
 
     def read(self) -> LaserScan:
         """Cast every ray once (at most one ``rayTestBatch``) and return the scan."""
@@ -189,9 +189,10 @@ class Lidar(Sensor):
         hit = (ids >= 0) & (ids != (-2 if self.body is None else self.body))
         ranges = near + frac * (cfg.range_max - near)
         if cfg.range_noise > 0:
-            ranges = np.clip(ranges + self.ctx.tick_rng().normal(0.0, cfg.range_noise, len(ranges)), cfg.range_min,
-                             cfg.range_max)
-        points = np.where(hit[:, None], origin + dirs * ranges[:, None], ends)
+            noisy = ranges + self.ctx.tick_rng().normal(0.0, cfg.range_noise, len(ranges))
+            ranges = np.minimum(np.maximum(noisy, cfg.range_min), cfg.range_max)
+        # no return: the ray's end (the same arithmetic as ``ends``)
+        points = origin + dirs * np.where(hit, ranges, cfg.range_max)[:, None]
         ranges = np.where(hit, ranges, np.inf)
         self.scans += 1
         if cfg.draw and self.world.gui:
