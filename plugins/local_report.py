@@ -6,23 +6,26 @@ Written atomically (temporary file + rename), never overwritten. The folder also
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from pydantic import Field
-
 from robokit import hookimpl
 from robokit.components import Delivery, Reporter
-from robokit.config import Schema
 from robokit.reporting import write_json_atomic
+from robokit.sections import Section, setting
 
 __all__ = ["LocalReportConfig", "LocalReporter", "write_json_atomic"]
 
 
-class LocalReportConfig(Schema):
-    """``dir``: folder for result files, relative to the working directory."""
+@dataclass(frozen=True, kw_only=True)
+class LocalReportConfig(Section):
+    """``dir``: folder for result files, relative to the working directory.
 
-    dir: str = Field("results", min_length=1)
+    A light schema (:mod:`robokit.sections`): every run gets this reporter, and validating it imports no pydantic.
+    """
+
+    dir: str = setting("results", min_length=1)
 
 
 class LocalReporter(Reporter):
