@@ -70,7 +70,8 @@ def test_an_integer_is_a_float_and_values_are_converted() -> None:
 
 
 def test_unbounded_floats_are_held_within_the_float_limit() -> None:
-    assert refusal(GuiConfig, {"yaw": 2e9}) == "x.yaw: input should be less than or equal to 1000000000, got 2000000000.0"
+    assert refusal(GuiConfig, {"yaw": 2e9}) == \
+        "x.yaw: input should be less than or equal to 1000000000, got 2000000000.0"
     assert refusal(GuiConfig, {"yaw": -2e9}).endswith("greater than or equal to -1000000000, got -2000000000.0")
     assert refusal(RecordConfig, {"pose_hz": 1e10}).startswith("x.pose_hz: input should be less than or equal to")
 
@@ -83,7 +84,8 @@ def test_strings_literals_and_tables() -> None:
     assert refusal(BodyConfig, {"urdf": 5, "position": [0, 0, 1]}) == "x.urdf: input should be a valid string, got 5"
     assert refusal(BodyConfig, {"urdf": "", "position": [0, 0, 1]}) == \
         "x.urdf: string should have at least 1 character, got ''"
-    assert refusal(BodyConfig, {**body, "joint_positions": [1]}) == "x.joint_positions: input should be a table, got [1]"
+    assert refusal(BodyConfig, {**body, "joint_positions": [1]}) == \
+        "x.joint_positions: input should be a table, got [1]"
     assert refusal(BodyConfig, {**body, "joint_positions": {"j": 2000}}) == \
         "x.joint_positions.j: input should be less than or equal to 1000, got 2000"
     assert refusal(BodyConfig, {**body, "joint_positions": {"j": True}}) == \
