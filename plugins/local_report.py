@@ -6,7 +6,6 @@ Written atomically (temporary file + rename), never overwritten. The folder also
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -18,7 +17,6 @@ from robokit.sections import Section, setting
 __all__ = ["LocalReportConfig", "LocalReporter", "write_json_atomic"]
 
 
-@dataclass(frozen=True, kw_only=True)
 class LocalReportConfig(Section):
     """``dir``: folder for result files, relative to the working directory.
 

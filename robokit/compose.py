@@ -108,7 +108,6 @@ class Monitored:
         return out
 
 
-@dataclass(frozen=True)
 class SequenceConfig(Section):
     """``[behaviour]`` with ``type = "sequence"``: the steps are ``[[behaviour.steps]]`` tables (read by the core).
 

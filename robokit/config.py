@@ -5,8 +5,6 @@ was expected against what was found. Unknown keys are errors with a "did you mea
 by the schema their type registered.
 """
 
-from __future__ import annotations
-
 import copy
 import dataclasses
 import math
@@ -60,7 +58,6 @@ def __getattr__(name: str) -> Any:
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-@dataclass(frozen=True, kw_only=True)
 class WorldConfig(Section):
     """``[world]``: physics and run settings."""
 
@@ -76,7 +73,6 @@ class WorldConfig(Section):
     realtime: bool = setting(True, description="pace the GUI to wall-clock time (GUI only)")
 
 
-@dataclass(frozen=True, kw_only=True)
 class RegionConfig(Section):
     """``[regions.NAME]``: a rectangle that bodies with ``region = NAME`` are scattered in, seeded."""
 
@@ -106,7 +102,6 @@ def check_unit_colour(value: Any) -> Any:
     return value
 
 
-@dataclass(frozen=True, kw_only=True)
 class MountConfig(Section):
     """``mount = { body = "kuka", link = "lbr_iiwa_link_7", position = [0, 0, 0.05], rpy_deg = [0, 0, 0] }``.
 
@@ -121,7 +116,6 @@ class MountConfig(Section):
     max_force: float = setting(10_000.0, gt=0, le=1e9, description="N; how hard the joint holds")
 
 
-@dataclass(frozen=True, kw_only=True)
 class BodyConfig(Section):
     """``[bodies.NAME]`` and ``[robots.NAME]``: a primitive (``shape``) or a URDF (``urdf``)."""
 
@@ -186,7 +180,6 @@ class BodyConfig(Section):
             raise ValueError("'count' > 1 needs a 'region' to scatter the copies in")
 
 
-@dataclass(frozen=True, kw_only=True)
 class EventConfig(Section):
     """``[[events]]``: something done to the world at a sim time (lesson 01's push).
 
@@ -210,7 +203,6 @@ class EventConfig(Section):
             raise ValueError("a 'set_pose' event needs 'position' = [x, y, z]")
 
 
-@dataclass(frozen=True, kw_only=True)
 class ReportConfig(Section):
     """``[report]``: who the run is for, and one sub-table per reporter (``[report.local]``, ``[report.http]``)."""
 
@@ -220,7 +212,6 @@ class ReportConfig(Section):
     keep_local: bool = setting(True, description="always add the local reporter")
 
 
-@dataclass(frozen=True, kw_only=True)
 class RecordConfig(Section):
     """``[record]``: what a ``robokit run`` keeps in its run folder besides the result and the trace."""
 
@@ -228,7 +219,6 @@ class RecordConfig(Section):
     save_frames: bool = setting(False, description="every camera saves the frames it renders as PNGs")
 
 
-@dataclass(frozen=True, kw_only=True)
 class GuiConfig(Section):
     """``[gui]``: the PyBullet window's camera and panels (used with ``--gui`` only)."""
 
@@ -250,7 +240,7 @@ class ComponentSpec:
     rate_hz: float | None
     params: Any
     key: str
-    children: tuple[ComponentSpec, ...] = ()
+    children: tuple["ComponentSpec", ...] = ()
     """The steps of a ``sequence`` behaviour (``[[behaviour.steps]]``), each a behaviour section of its own."""
 
 

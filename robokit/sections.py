@@ -10,7 +10,6 @@ schema read the same to the user.
 
 A plugin may register either kind of schema::
 
-    @dataclass(frozen=True, kw_only=True)
     class LocalReportConfig(Section):
         dir: str = setting("results", min_length=1, description="folder for result files")
 
@@ -26,6 +25,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import sys
 import types
 import typing
 from collections.abc import Callable, Mapping
@@ -51,14 +51,30 @@ class Bounds:
     description: str = ""
 
 
-def setting(default: Any = dataclasses.MISSING, *, default_factory: Callable[[], Any] | Any = dataclasses.MISSING,
+class _Setting:
+    """What :func:`setting` declares about a field (kept on the class in ``_fields``)."""
+
+    __slots__ = ("default", "factory", "bounds", "before")
+
+    def __init__(self, default: Any, factory: Any, bounds: Bounds, before: Callable[[Any], Any] | None) -> None:
+        self.default, self.factory, self.bounds, self.before = default, factory, bounds, before
+
+    @property
+    def required(self) -> bool:
+        return self.default is _MISSING and self.factory is _MISSING
+
+
+_MISSING: Any = dataclasses.MISSING
+
+
+def setting(default: Any = _MISSING, *, default_factory: Callable[[], Any] | Any = _MISSING,
             ge: float | None = None, gt: float | None = None, le: float | None = None, lt: float | None = None,
             min_length: int | None = None, description: str = "",
             before: Callable[[Any], Any] | None = None) -> Any:
-    """A field of a :class:`Section`: its default (none = required), bounds, description, and an optional
-    ``before`` hook that sees the raw value first (raise ``ValueError`` to refuse it with your own message)."""
-    meta = {"bounds": Bounds(ge, gt, le, lt, min_length, description), "before": before}
-    return dataclasses.field(default=default, default_factory=default_factory, metadata=meta)
+    """A field of a :class:`Section`: its default (none = required; ``default_factory`` for a fresh list or dict
+    each time), bounds, description, and an optional ``before`` hook that sees the raw value first (raise
+    ``ValueError`` to refuse it with your own message)."""
+    return _Setting(default, default_factory, Bounds(ge, gt, le, lt, min_length, description), before)
 
 
 class Invalid(Exception):
@@ -71,12 +87,77 @@ class Invalid(Exception):
 
 
 class Section:
-    """Base of a light schema. Subclasses are ``@dataclass(frozen=True, kw_only=True)`` classes whose fields are
-    declared with :func:`setting` (or a plain default); :meth:`check` holds the cross-field rules."""
+    """Base of a light schema: subclass it and declare the fields as annotated class attributes, with a plain
+    default or :func:`setting`; :meth:`check` holds the cross-field rules.
 
-    _checks: ClassVar[dict[str, tuple[Check, Callable[[Any], Any] | None, bool]]]
+    Instances are frozen (assigning raises ``dataclasses.FrozenInstanceError``), compare and hash by value, and
+    are built with keyword arguments (``LocalReportConfig(dir="out")``, not validated) or by :meth:`validate`.
+    No ``@dataclass`` decorator: a class statement costs nothing here, while a dataclass compiles its methods.
+    """
+
+    _fields: ClassVar[dict[str, _Setting]] = {}
+    _checks: ClassVar[dict[str, tuple[Check, Callable[[Any], Any] | None, bool]] | None] = None
     ignore_unknown: ClassVar[bool] = False
     """True: keys that are not fields are left for someone else (``[report]``'s reporter tables), not refused."""
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        fields = dict(cls._fields)  # the base's fields first, as dataclasses order them
+        for name, annotation in cls.__dict__.get("__annotations__", {}).items():
+            if isinstance(annotation, str) and annotation.split("[", 1)[0] in ("ClassVar", "typing.ClassVar"):
+                continue
+            if annotation is ClassVar or typing.get_origin(annotation) is ClassVar:
+                continue
+            value = cls.__dict__.get(name, _MISSING)
+            spec = value if isinstance(value, _Setting) else _Setting(value, _MISSING, Bounds(), None)
+            if isinstance(spec.default, (list, dict, set)):
+                raise TypeError(f"{cls.__name__}.{name}: mutable default {spec.default!r}; use "
+                                "setting(default_factory=...)")
+            if spec.default is _MISSING:
+                if name in cls.__dict__:
+                    delattr(cls, name)
+            else:
+                setattr(cls, name, spec.default)
+            fields[name] = spec
+        cls._fields = fields
+        cls._checks = None
+
+    def __init__(self, **values: Any) -> None:
+        cls = type(self)
+        for name in values:
+            if name not in cls._fields:
+                raise TypeError(f"{cls.__name__}() got an unexpected keyword argument {name!r}")
+        for name, spec in cls._fields.items():
+            if name in values:
+                value = values[name]
+            elif spec.factory is not _MISSING:
+                value = spec.factory()
+            elif spec.default is not _MISSING:
+                value = spec.default
+            else:
+                raise TypeError(f"{cls.__name__}() missing required keyword argument {name!r}")
+            object.__setattr__(self, name, value)
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        raise dataclasses.FrozenInstanceError(f"cannot assign to field {name!r}")
+
+    def __delattr__(self, name: str) -> None:
+        raise dataclasses.FrozenInstanceError(f"cannot delete field {name!r}")
+
+    def _values(self) -> tuple[Any, ...]:
+        return tuple(getattr(self, name) for name in self._fields)
+
+    def __eq__(self, other: object) -> bool:
+        if other.__class__ is not self.__class__:
+            return NotImplemented
+        return self._values() == other._values()  # type: ignore[attr-defined]
+
+    def __hash__(self) -> int:
+        return hash((self.__class__, self._values()))
+
+    def __repr__(self) -> str:
+        shown = ", ".join(f"{name}={getattr(self, name)!r}" for name in self._fields)
+        return f"{self.__class__.__qualname__}({shown})"
 
     def check(self) -> None:
         """Cross-field rules, run after every field is valid; raise ``ValueError`` with the problem."""
@@ -93,7 +174,7 @@ class Section:
         if not isinstance(data, Mapping):
             raise Invalid(loc, "model_type", f"Input should be a valid dictionary or instance of {cls.__name__}",
                           data)
-        checks = cls.__dict__.get("_checks") or _compile(cls)
+        checks = cls._checks or _compile(cls)
         values = {}
         for name, (check, before, required) in checks.items():
             if name not in data:
@@ -133,23 +214,36 @@ class Section:
 def field_names(cls: type) -> tuple[str, ...]:
     """The keys a schema accepts (a :class:`Section` or a pydantic model), in declaration order."""
     if isinstance(cls, type) and issubclass(cls, Section):
-        return tuple(f.name for f in dataclasses.fields(cls))  # type: ignore[arg-type]
+        return tuple(cls._fields)
     return tuple(getattr(cls, "model_fields", {}))
 
 
 def _compile(cls: type[Section]) -> dict[str, tuple[Check, Callable[[Any], Any] | None, bool]]:
     """One checker per field of ``cls``, built from its type hints on first use and kept on the class."""
-    try:
-        hints = typing.get_type_hints(cls, include_extras=True)
-    except NameError as exc:  # a name used in an annotation is not at module level
-        raise TypeError(f"robokit.sections: cannot resolve the field types of {cls.__qualname__}: {exc}") from None
-    checks = {}
-    for f in dataclasses.fields(cls):  # type: ignore[arg-type]
-        bounds = f.metadata.get("bounds") or Bounds()
-        required = f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING
-        checks[f.name] = (_checker(hints[f.name], bounds), f.metadata.get("before"), required)
+    hints = _field_types(cls)
+    checks = {name: (_checker(hints[name], spec.bounds), spec.before, spec.required)
+              for name, spec in cls._fields.items()}
     cls._checks = checks
     return checks
+
+
+def _field_types(cls: type[Section]) -> dict[str, Any]:
+    """The annotation of every field; a string annotation (``from __future__ import annotations``) is evaluated
+    in its class's module (a module without that import spares this: its annotations are objects already)."""
+    hints = {}
+    for owner in reversed(cls.__mro__):
+        for name, annotation in owner.__dict__.get("__annotations__", {}).items():
+            if name not in cls._fields:
+                continue
+            if isinstance(annotation, str):
+                namespace = vars(sys.modules[owner.__module__])
+                try:
+                    annotation = eval(annotation, namespace, dict(vars(owner)))  # noqa: S307 - the class's own code
+                except NameError as exc:  # a name used in an annotation is not at module level
+                    raise TypeError(f"robokit.sections: cannot resolve the field types of {cls.__qualname__}: "
+                                    f"{exc}") from None
+            hints[name] = annotation
+    return hints
 
 
 def _checker(tp: Any, bounds: Bounds) -> Check:

@@ -7,7 +7,6 @@ from __future__ import annotations
 import dataclasses
 import math
 import types
-from dataclasses import dataclass
 from typing import Annotated, Any, Literal
 
 import pytest
@@ -153,7 +152,6 @@ def test_a_whole_config_of_core_sections(tmp_path: Any) -> None:
 
 # ------------------------------------------------------------------ a plugin type with a light schema
 
-@dataclass(frozen=True, kw_only=True)
 class BeamConfig(Section):
     """A made-up range sensor's options."""
 
@@ -171,7 +169,7 @@ class BeamConfig(Section):
 class Beam(Sensor):
     """A made-up range sensor (its schema is a light one)."""
 
-    def read(self, tick: int) -> float:
+    def read(self) -> float:
         return self.config.range  # type: ignore[no-any-return]
 
 
@@ -191,7 +189,7 @@ def test_a_plugin_may_register_a_light_schema() -> None:
     raw = {"bodies": {"plane": PLANE}, "sensors": {"b": {"type": "beam", "body": "plane", "offsets": [1, 2]}}}
     spec = build_config(raw, plugins).sensors[0]
     assert spec.params == BeamConfig(body="plane", offsets=(1.0, 2.0))
-    cases = {
+    cases: dict[str, tuple[dict[str, Any], str]] = {
         "range = 0": ({"range": 0}, "sensors.b.range: input should be greater than 0, got 0"),
         "missing body": ({"body": None}, "sensors.b.body: input should be a valid string, got None"),
         "cross-field": ({"mode": "far"}, "sensors.b: mode 'far' needs range >= 10, got 2.0"),
@@ -207,14 +205,12 @@ def test_a_plugin_may_register_a_light_schema() -> None:
 
 
 def test_bounds_inside_annotated_and_unsupported_types() -> None:
-    @dataclass(frozen=True, kw_only=True)
     class Grid(Section):
         cells: tuple[Annotated[int, Bounds(ge=1)], Annotated[int, Bounds(ge=1)]] = (1, 1)
 
     assert refusal(Grid, {"cells": [2, 0]}) == "x.cells.1: input should be greater than or equal to 1, got 0"
     assert Grid.model_validate({"cells": [3, 4]}) == Grid(cells=(3, 4))
 
-    @dataclass(frozen=True, kw_only=True)
     class Odd(Section):
         value: complex = 0j
 
