@@ -9,20 +9,21 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from pydantic import Field
-
 from robokit import hookimpl
 from robokit.components import Delivery, Reporter
-from robokit.config import Schema
 from robokit.reporting import write_json_atomic
+from robokit.sections import Section, setting
 
 __all__ = ["LocalReportConfig", "LocalReporter", "write_json_atomic"]
 
 
-class LocalReportConfig(Schema):
-    """``dir``: folder for result files, relative to the working directory."""
+class LocalReportConfig(Section):
+    """``dir``: folder for result files, relative to the working directory.
 
-    dir: str = Field("results", min_length=1)
+    A light schema (:mod:`robokit.sections`): every run gets this reporter, and validating it imports no pydantic.
+    """
+
+    dir: str = setting("results", min_length=1)
 
 
 class LocalReporter(Reporter):

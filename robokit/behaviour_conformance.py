@@ -48,6 +48,7 @@ from robokit.conformance import ConformanceError, first_difference
 from robokit.errors import ConfigError, PluginError, UserError
 from robokit.lint import lint_paths
 from robokit.plugins import Plugins, PluginType, load_plugins
+from robokit.sections import Section
 from robokit.simulation import Simulation
 
 _UNKNOWN_KEY = "zz_conformance_unknown_key"
@@ -163,7 +164,7 @@ class _BehaviourCheck:
 
     def _check_declarations(self) -> None:
         schema, cls = self.ptype.schema, self.ptype.cls
-        if schema is None or not (isinstance(schema, type) and issubclass(schema, BaseModel)):
+        if schema is None or not (isinstance(schema, type) and issubclass(schema, (BaseModel, Section))):
             raise self.fail("schema", f"registered config schema {schema!r}; register a robokit.config.Schema "
                             "subclass (register(name, cls, MyConfig))")
         if not self.ptype.description:
@@ -177,7 +178,8 @@ class _BehaviourCheck:
                 raise self.fail("states", f"TIMEOUTS names unknown state(s) {', '.join(unknown)}")
             if not isinstance(getattr(cls, "INITIAL", None), states):
                 raise self.fail("states", f"INITIAL is not a member of {states.__name__}")
-        kind = "a robokit.config.Schema" if issubclass(schema, Schema) else "a pydantic model"
+        kind = ("a robokit.config.Schema" if issubclass(schema, Schema) else
+                "a robokit.sections.Section" if issubclass(schema, Section) else "a pydantic model")
         self.passed(f"declares schema {schema.__name__} ({kind}), description {self.ptype.description!r}")
 
     def _check_unknown_key(self) -> None:

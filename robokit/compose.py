@@ -35,9 +35,9 @@ from typing import Any
 
 from robokit import hookimpl
 from robokit.components import Behaviour, GoalCheck, SetupContext
-from robokit.config import Schema
 from robokit.crash import describe, where_raised
 from robokit.errors import PluginError
+from robokit.sections import Section
 
 
 @dataclass
@@ -108,8 +108,10 @@ class Monitored:
         return out
 
 
-class SequenceConfig(Schema):
-    """``[behaviour]`` with ``type = "sequence"``: the steps are ``[[behaviour.steps]]`` tables (read by the core)."""
+class SequenceConfig(Section):
+    """``[behaviour]`` with ``type = "sequence"``: the steps are ``[[behaviour.steps]]`` tables (read by the core).
+
+    A light schema (no options): building the simulation, which imports this module, imports no pydantic."""
 
 
 class Sequence(Behaviour):

@@ -5,8 +5,6 @@ was expected against what was found. Unknown keys are errors with a "did you mea
 by the schema their type registered.
 """
 
-from __future__ import annotations
-
 import copy
 import dataclasses
 import math
@@ -14,121 +12,81 @@ import sys
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
-from pydantic import (
-    BaseModel,
-    ConfigDict,
-    Field,
-    GetCoreSchemaHandler,
-    ValidationError,
-    field_validator,
-    model_validator,
-)
-from pydantic_core import CoreSchema
-
+from robokit import sections as _s
 from robokit.errors import ConfigError, UserError, did_you_mean
+from robokit.sections import FLOAT_LIMIT, Invalid, Section, field_names, setting
 
 if sys.version_info >= (3, 11):
     import tomllib
 else:  # pragma: no cover - exercised on 3.10 only
     import tomli as tomllib
 
+if TYPE_CHECKING:  # at run time these come from robokit.pydantic_schema on first use (see __getattr__)
+    from robokit.pydantic_schema import Angle as Angle
+    from robokit.pydantic_schema import Coord as Coord
+    from robokit.pydantic_schema import Gravity as Gravity
+    from robokit.pydantic_schema import Length as Length
+    from robokit.pydantic_schema import Newtons as Newtons
+    from robokit.pydantic_schema import Position as Position
+    from robokit.pydantic_schema import Schema as Schema
+    from robokit.pydantic_schema import Unit as Unit
+    from robokit.pydantic_schema import validation_error as validation_error
+
 Vec2 = tuple[float, float]
 Vec3 = tuple[float, float, float]
 Vec4 = tuple[float, float, float, float]
 
-FLOAT_LIMIT = 1e9
-"""Every float in a :class:`Schema` is finite and within ``±FLOAT_LIMIT`` unless its field says otherwise."""
+__all__ = ["FLOAT_LIMIT", "MAX_CONFIG_BYTES", "Config", "ComponentSpec", "Schema", "Section", "validate_model",
+           "validation_error", "build_config", "load_config", "read_toml", "set_dotted", "Vec2", "Vec3", "Vec4"]
+
 MAX_CONFIG_BYTES = 4 * 1024 * 1024
 """A config file larger than this is refused unread (a config is a few kilobytes of TOML)."""
 
-Coord = Annotated[float, Field(ge=-1e4, le=1e4, description="metres, world frame")]
-"""A position coordinate in metres: within ±10 km of the origin."""
-Angle = Annotated[float, Field(ge=-720.0, le=720.0, description="degrees")]
-Unit = Annotated[float, Field(ge=0.0, le=1.0)]
-Length = Annotated[float, Field(gt=0, le=1e3, description="metres")]
-Position = tuple[Coord, Coord, Coord]
-Gravity = Annotated[float, Field(ge=-1000.0, le=1000.0, description="m/s^2")]
-Newtons = Annotated[float, Field(ge=-1e6, le=1e6, description="newtons")]
-
-_STRICT_SCALARS = frozenset({"int", "float", "bool", "str"})
+_PYDANTIC_NAMES = frozenset({"Schema", "validation_error", "Coord", "Angle", "Unit", "Length", "Position",
+                             "Gravity", "Newtons"})
 
 
-def _harden(node: Any, owner: type) -> None:
-    """Make every scalar in a core schema strict; floats finite and within ``±FLOAT_LIMIT`` by default.
+def __getattr__(name: str) -> Any:
+    """``Schema``, ``validation_error`` and the pydantic field types, imported from
+    :mod:`robokit.pydantic_schema` when first asked for: importing this module does not import pydantic."""
+    if name in _PYDANTIC_NAMES:
+        from robokit import pydantic_schema
 
-    Strict scalars refuse ``true`` for a number, ``1`` or ``"no"`` for a bool and numbers for strings, while
-    containers stay lax (a TOML array is accepted for a tuple) and an integer is still accepted for a float.
-    Nested models are left alone: each :class:`Schema` subclass hardens its own fields.
-    """
-    if isinstance(node, dict):
-        if node.get("type") == "model" and node.get("cls") is not owner:
-            return
-        kind = node.get("type")
-        if isinstance(kind, str) and kind in _STRICT_SCALARS:
-            node["strict"] = True
-        if kind == "float":
-            node["allow_inf_nan"] = False
-            if "le" not in node and "lt" not in node:
-                node["le"] = FLOAT_LIMIT
-            if "ge" not in node and "gt" not in node:
-                node["ge"] = -FLOAT_LIMIT
-        for value in node.values():
-            _harden(value, owner)
-    elif isinstance(node, list):
-        for value in node:
-            _harden(value, owner)
+        return getattr(pydantic_schema, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-class Schema(BaseModel):
-    """Base of every config model: frozen, unknown keys rejected, strict types, finite numbers.
-
-    Plugin schemas should subclass it; they inherit the rules: no bool for a number or a number for a bool, no
-    string for a bool, every float finite and within ``±FLOAT_LIMIT`` unless the field declares its own bounds
-    (declare physically meaningful ones with ``Field(ge=..., le=...)``). An integer is accepted for a float.
-    """
-
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
-
-    @classmethod
-    def __get_pydantic_core_schema__(cls, source: Any, handler: GetCoreSchemaHandler) -> CoreSchema:
-        schema = handler(source)
-        _harden(schema, cls)
-        return schema
-
-
-class WorldConfig(Schema):
+class WorldConfig(Section):
     """``[world]``: physics and run settings."""
 
-    gravity: tuple[Gravity, Gravity, Gravity] = (0.0, 0.0, -9.81)
-    time_step: float = Field(1.0 / 240.0, gt=0, le=0.1, description="physics step, seconds")
-    solver_iterations: int = Field(50, ge=1, le=1000)
-    seed: int = Field(0, ge=0, le=2**63 - 1)
-    max_time: float = Field(60.0, gt=0, le=1e6, description="stop after this many sim seconds")
-    max_wall_time: float | None = Field(None, gt=0, le=1e6,
-                                        description="wall-clock budget in seconds (a watchdog: ends the run aborted)")
+    gravity: tuple[_s.Gravity, _s.Gravity, _s.Gravity] = (0.0, 0.0, -9.81)
+    time_step: float = setting(1.0 / 240.0, gt=0, le=0.1, description="physics step, seconds")
+    solver_iterations: int = setting(50, ge=1, le=1000)
+    seed: int = setting(0, ge=0, le=2**63 - 1)
+    max_time: float = setting(60.0, gt=0, le=1e6, description="stop after this many sim seconds")
+    max_wall_time: float | None = setting(None, gt=0, le=1e6,
+                                          description="wall-clock budget in seconds (a watchdog: ends the run "
+                                                      "aborted)")
     gui: bool = False
-    realtime: bool = Field(True, description="pace the GUI to wall-clock time (GUI only)")
+    realtime: bool = setting(True, description="pace the GUI to wall-clock time (GUI only)")
 
 
-class RegionConfig(Schema):
+class RegionConfig(Section):
     """``[regions.NAME]``: a rectangle that bodies with ``region = NAME`` are scattered in, seeded."""
 
-    model_config = ConfigDict(defer_build=True)  # built on first use: most configs have no regions
-
-    low: tuple[Coord, Coord]
-    high: tuple[Coord, Coord]
-    z: Coord = 0.0
-    min_spacing: float = Field(0.0, ge=0, le=1e3)
+    low: tuple[_s.Coord, _s.Coord] = setting()
+    high: tuple[_s.Coord, _s.Coord] = setting()
+    z: _s.Coord = 0.0
+    min_spacing: float = setting(0.0, ge=0, le=1e3)
     avoid: tuple[str, ...] = ()
-    clearance: float = Field(0.0, ge=0, le=1e3)
+    clearance: float = setting(0.0, ge=0, le=1e3)
 
-    @model_validator(mode="after")
-    def _ordered(self) -> RegionConfig:
+    def check(self) -> None:
+        """``low`` is below ``high`` on both axes."""
         if self.low[0] > self.high[0] or self.low[1] > self.high[1]:
             raise ValueError(f"low {list(self.low)} must be <= high {list(self.high)}")
-        return self
 
 
 def check_unit_colour(value: Any) -> Any:
@@ -144,61 +102,60 @@ def check_unit_colour(value: Any) -> Any:
     return value
 
 
-class MountConfig(Schema):
+class MountConfig(Section):
     """``mount = { body = "kuka", link = "lbr_iiwa_link_7", position = [0, 0, 0.05], rpy_deg = [0, 0, 0] }``.
 
     Fixes the body's base to ``body``'s ``link`` (its URDF link frame) with a fixed joint; ``position`` (metres)
     and ``rpy_deg`` place the mounted body's base frame in that link's frame.
     """
 
-    model_config = ConfigDict(defer_build=True)  # its schema is part of BodyConfig's; its own validator on demand
-
-    body: str
-    link: str
-    position: Position = (0.0, 0.0, 0.0)
-    rpy_deg: tuple[Angle, Angle, Angle] = (0.0, 0.0, 0.0)
-    max_force: float = Field(10_000.0, gt=0, le=1e9, description="N; how hard the joint holds")
+    body: str = setting()
+    link: str = setting()
+    position: _s.Position = (0.0, 0.0, 0.0)
+    rpy_deg: tuple[_s.Angle, _s.Angle, _s.Angle] = (0.0, 0.0, 0.0)
+    max_force: float = setting(10_000.0, gt=0, le=1e9, description="N; how hard the joint holds")
 
 
-class BodyConfig(Schema):
+class BodyConfig(Section):
     """``[bodies.NAME]`` and ``[robots.NAME]``: a primitive (``shape``) or a URDF (``urdf``)."""
 
     shape: Literal["box", "sphere", "cylinder"] | None = None
-    urdf: str | None = Field(None, min_length=1)
-    sdf: str | None = Field(None, min_length=1, description="an SDF file (each model in it a body: NAME, NAME_1, ...)")
-    mjcf: str | None = Field(None, min_length=1, description="a MuJoCo MJCF file, as far as pybullet's loader reads it")
-    mount: MountConfig | None = Field(None, description="fix this body's base to another body's link")
-    size: tuple[Length, Length, Length] = Field((0.1, 0.1, 0.1), description="box edge lengths, metres")
-    radius: Length = 0.05
-    height: Length = 0.1
-    mass: float = Field(1.0, ge=0, le=1e6, description="kg; 0 = static")
-    position: Position | None = None
+    urdf: str | None = setting(None, min_length=1)
+    sdf: str | None = setting(None, min_length=1, description="an SDF file (each model in it a body: NAME, NAME_1, "
+                                                              "...)")
+    mjcf: str | None = setting(None, min_length=1, description="a MuJoCo MJCF file, as far as pybullet's loader "
+                                                               "reads it")
+    mount: MountConfig | None = setting(None, description="fix this body's base to another body's link")
+    size: tuple[_s.Length, _s.Length, _s.Length] = setting((0.1, 0.1, 0.1), description="box edge lengths, metres")
+    radius: _s.Length = 0.05
+    height: _s.Length = 0.1
+    mass: float = setting(1.0, ge=0, le=1e6, description="kg; 0 = static")
+    position: _s.Position | None = None
     region: str | None = None
-    rpy_deg: tuple[Angle, Angle, Angle] | None = None
-    quaternion: Vec4 | None = Field(None, description="x, y, z, w (normalised on load)")
-    yaw_deg_range: tuple[Angle, Angle] | None = None
+    rpy_deg: tuple[_s.Angle, _s.Angle, _s.Angle] | None = None
+    quaternion: Vec4 | None = setting(None, description="x, y, z, w (normalised on load)")
+    yaw_deg_range: tuple[_s.Angle, _s.Angle] | None = None
     fixed_base: bool = False
-    scale: float = Field(1.0, gt=0, le=1e3)
-    rgba: tuple[Unit, Unit, Unit, Unit] = Field((0.7, 0.7, 0.7, 1.0), description="red, green, blue, alpha in 0-1")
-    lateral_friction: float | None = Field(None, ge=0, le=100)
-    rolling_friction: float | None = Field(None, ge=0, le=100)
-    spinning_friction: float | None = Field(None, ge=0, le=100)
-    restitution: float | None = Field(None, ge=0, le=1)
-    linear_damping: float | None = Field(None, ge=0, le=1)
-    angular_damping: float | None = Field(None, ge=0, le=1)
-    joint_positions: dict[str, Annotated[float, Field(ge=-1e3, le=1e3)]] = Field(default_factory=dict)
-    count: int = Field(1, ge=1, le=10_000)
+    scale: float = setting(1.0, gt=0, le=1e3)
+    rgba: tuple[_s.Unit, _s.Unit, _s.Unit, _s.Unit] = setting((0.7, 0.7, 0.7, 1.0), before=check_unit_colour,
+                                                              description="red, green, blue, alpha in 0-1")
+    lateral_friction: float | None = setting(None, ge=0, le=100)
+    rolling_friction: float | None = setting(None, ge=0, le=100)
+    spinning_friction: float | None = setting(None, ge=0, le=100)
+    restitution: float | None = setting(None, ge=0, le=1)
+    linear_damping: float | None = setting(None, ge=0, le=1)
+    angular_damping: float | None = setting(None, ge=0, le=1)
+    joint_positions: dict[str, Annotated[float, _s.Bounds(ge=-1e3, le=1e3)]] = setting(default_factory=dict)
+    count: int = setting(1, ge=1, le=10_000)
     self_collision: bool = False
-    collision: Literal["convex", "mesh"] = Field(
+    collision: Literal["convex", "mesh"] = setting(
         "convex", description="'mesh': a static box's collision shape as triangles (cheaper for lidar rays)")
 
-    @field_validator("rgba", mode="before")
-    @classmethod
-    def _unit_colour(cls, value: Any) -> Any:
-        return check_unit_colour(value)
+    def check(self) -> None:
+        """One kind of body; a pose from exactly one source; orientation, yaw range, mesh and count consistent."""
+        self._one_kind()
 
-    @model_validator(mode="after")
-    def _one_kind(self) -> BodyConfig:
+    def _one_kind(self) -> None:
         kinds = [k for k in ("shape", "urdf", "sdf", "mjcf") if getattr(self, k) is not None]
         if len(kinds) != 1:
             raise ValueError("give exactly one of 'shape' (box, sphere, cylinder), 'urdf', 'sdf' or 'mjcf'"
@@ -221,60 +178,56 @@ class BodyConfig(Schema):
             raise ValueError("collision = 'mesh' is for static boxes only (shape = 'box', mass = 0)")
         if self.count > 1 and self.region is None:
             raise ValueError("'count' > 1 needs a 'region' to scatter the copies in")
-        return self
 
 
-class EventConfig(Schema):
+class EventConfig(Section):
     """``[[events]]``: something done to the world at a sim time (lesson 01's push).
 
     ``force``: apply ``force`` (N, world frame) for ``duration`` seconds (default one step);
     ``set_pose``: teleport ``body`` to ``position`` (and ``rpy_deg``); ``remove``: delete ``body``.
     """
 
-    model_config = ConfigDict(defer_build=True)  # built on first use: most configs have no events
+    at: float = setting(ge=0, le=1e6, description="sim seconds")
+    type: Literal["force", "set_pose", "remove"] = setting()
+    body: str = setting()
+    force: tuple[_s.Newtons, _s.Newtons, _s.Newtons] | None = None
+    duration: float = setting(0.0, ge=0, le=1e6)
+    position: _s.Position | None = None
+    rpy_deg: tuple[_s.Angle, _s.Angle, _s.Angle] | None = None
 
-    at: float = Field(ge=0, le=1e6, description="sim seconds")
-    type: Literal["force", "set_pose", "remove"]
-    body: str
-    force: tuple[Newtons, Newtons, Newtons] | None = None
-    duration: float = Field(0.0, ge=0, le=1e6)
-    position: Position | None = None
-    rpy_deg: tuple[Angle, Angle, Angle] | None = None
-
-    @model_validator(mode="after")
-    def _fields(self) -> EventConfig:
+    def check(self) -> None:
+        """A ``force`` event has a force, a ``set_pose`` event a position."""
         if self.type == "force" and self.force is None:
             raise ValueError("a 'force' event needs 'force' = [fx, fy, fz] in newtons")
         if self.type == "set_pose" and self.position is None:
             raise ValueError("a 'set_pose' event needs 'position' = [x, y, z]")
-        return self
 
 
-class ReportConfig(Schema):
+class ReportConfig(Section):
     """``[report]``: who the run is for, and one sub-table per reporter (``[report.local]``, ``[report.http]``)."""
 
-    model_config = ConfigDict(extra="allow", frozen=True)
+    ignore_unknown = True
     student: str | None = None
     project: str | None = None
-    keep_local: bool = Field(True, description="always add the local reporter")
+    keep_local: bool = setting(True, description="always add the local reporter")
 
 
-class RecordConfig(Schema):
+class RecordConfig(Section):
     """``[record]``: what a ``robokit run`` keeps in its run folder besides the result and the trace."""
 
-    pose_hz: float = Field(30.0, ge=0, description="pose log samples per sim second; 0 = no pose log")
-    save_frames: bool = Field(False, description="every camera saves the frames it renders as PNGs")
+    pose_hz: float = setting(30.0, ge=0, description="pose log samples per sim second; 0 = no pose log")
+    save_frames: bool = setting(False, description="every camera saves the frames it renders as PNGs")
 
 
-class GuiConfig(Schema):
+class GuiConfig(Section):
     """``[gui]``: the PyBullet window's camera and panels (used with ``--gui`` only)."""
 
-    distance: float = Field(1.6, gt=0, description="camera distance from the target, metres")
-    yaw: float = Field(45.0, description="degrees")
-    pitch: float = Field(-35.0, ge=-89.9, le=89.9, description="degrees")
-    target: Vec3 | None = Field(None, description="point looked at (world, metres); default: the scene's centre")
-    panels: bool = Field(False, description="show PyBullet's side panels (sliders, camera previews)")
-    shadows: bool | None = Field(None, description="shadows on/off (default: PyBullet's own setting)")
+    distance: float = setting(1.6, gt=0, description="camera distance from the target, metres")
+    yaw: float = setting(45.0, description="degrees")
+    pitch: float = setting(-35.0, ge=-89.9, le=89.9, description="degrees")
+    target: Vec3 | None = setting(None, description="point looked at (world, metres); default: the scene's centre")
+    panels: bool = setting(False, description="show PyBullet's side panels (sliders, camera previews)")
+    shadows: bool | None = setting(None, description="shadows on/off (default: PyBullet's own setting)")
 
 
 @dataclass(frozen=True)
@@ -287,7 +240,7 @@ class ComponentSpec:
     rate_hz: float | None
     params: Any
     key: str
-    children: tuple[ComponentSpec, ...] = ()
+    children: tuple["ComponentSpec", ...] = ()
     """The steps of a ``sequence`` behaviour (``[[behaviour.steps]]``), each a behaviour section of its own."""
 
 
@@ -310,14 +263,15 @@ class Config:
     raw: Mapping[str, Any]
     monitors: tuple[ComponentSpec, ...] = ()
     """Behaviours that run beside the task (``[monitors.NAME]``), see :mod:`robokit.compose`."""
-    record: RecordConfig = field(default_factory=lambda: RecordConfig.model_validate({}))
-    gui: GuiConfig = field(default_factory=lambda: GuiConfig.model_validate({}))
+    record: RecordConfig = field(default_factory=RecordConfig)
+    gui: GuiConfig = field(default_factory=GuiConfig)
 
 
 SECTIONS = ("world", "regions", "bodies", "robots", "sensors", "actuators", "behaviour", "monitors", "report",
             "events", "record", "gui", "env")
 """``env`` is read by :mod:`robokit.gym` (a Gymnasium environment made from the config); runs ignore it."""
 _COMPONENT_KEYS = ("type", "rate_hz")
+_REPORT_KEYS = field_names(ReportConfig)
 
 
 def read_toml(path: str | Path) -> dict[str, Any]:
@@ -371,52 +325,45 @@ def _describe(value: Any) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
-def validation_error(exc: ValidationError, prefix: str = "") -> ConfigError:
-    """Turn the first pydantic error into a one-line ConfigError at ``prefix.loc``."""
-    err = exc.errors()[0]
-    loc = [str(part) for part in err["loc"]]
-    key = ".".join([prefix, *loc] if prefix else loc)
-    if err["type"] == "extra_forbidden":
-        fields = getattr(exc, "_robokit_fields", None) or []
-        msg = f"unknown key {loc[-1]!r}{did_you_mean(loc[-1], fields)}"
+def error_from_parts(loc: tuple[Any, ...], kind: str, msg: str, value: Any, prefix: str = "",
+                     fields: Any = ()) -> ConfigError:
+    """One validation problem as a one-line ConfigError at ``prefix.loc``.
+
+    ``kind`` and ``msg`` are in pydantic's terms (its error type and message), as both kinds of schema report them
+    (:mod:`robokit.pydantic_schema`, :mod:`robokit.sections`): an unknown key gets a "did you mean" and the valid
+    keys (``fields``), a short array "too few values", and every type or bound error the value found.
+    """
+    parts = [str(part) for part in loc]
+    key = ".".join([prefix, *parts] if prefix else parts)
+    if kind == "extra_forbidden":
+        msg = f"unknown key {parts[-1]!r}{did_you_mean(parts[-1], fields)}"
         if fields:
             msg += f"; valid keys: {', '.join(sorted(fields))}"
         return ConfigError(msg, key=key)
-    if err["type"] == "missing" and loc and loc[-1].isdigit():
+    if kind == "missing" and parts and parts[-1].isdigit():
         key = key.rsplit(".", 1)[0]
-        return ConfigError(f"too few values, got {_describe(err.get('input'))}", key=key)
-    msg = str(err["msg"]).replace("a valid tuple", "a list").replace("a valid dictionary", "a table")
+        return ConfigError(f"too few values, got {_describe(value)}", key=key)
+    msg = msg.replace("a valid tuple", "a list").replace("a valid dictionary", "a table")
     if msg.startswith("Value error, "):
         msg = msg[len("Value error, ") :]
-    if err["type"] not in ("value_error", "missing", "assertion_error"):
-        msg = f"{msg[0].lower()}{msg[1:]}, got {_describe(err.get('input'))}"
+    if kind not in ("value_error", "missing", "assertion_error"):
+        msg = f"{msg[0].lower()}{msg[1:]}, got {_describe(value)}"
     return ConfigError(msg, key=key)
 
 
-def validate_model(model: type[BaseModel], data: Any, key: str) -> Any:
-    """Validate ``data`` against a pydantic model; raise a one-line ConfigError placed at ``key``."""
+def validate_model(model: type, data: Any, key: str) -> Any:
+    """Validate ``data`` against a config schema, a light :class:`~robokit.sections.Section` or a pydantic model
+    (only the latter imports pydantic); raise a one-line ConfigError placed at ``key``."""
     if not isinstance(data, Mapping):
         raise ConfigError(f"expected a table, got {_describe(data)}", key=key)
-    try:
-        return model.model_validate(data)
-    except ValidationError as exc:
-        fields = _nested_fields(model, exc)
-        exc._robokit_fields = fields  # type: ignore[attr-defined]
-        raise validation_error(exc, key) from None
+    if issubclass(model, Section):
+        try:
+            return model.validate(data)
+        except Invalid as exc:
+            raise error_from_parts(exc.loc, exc.kind, exc.msg, exc.value, key, exc.fields) from None
+    from robokit.pydantic_schema import validate_pydantic
 
-
-def _nested_fields(model: type[BaseModel], exc: ValidationError) -> list[str]:
-    """Field names of the (possibly nested) model an unknown-key error is about."""
-    loc = exc.errors()[0]["loc"][:-1]
-    current: Any = model
-    for part in loc:
-        field = getattr(current, "model_fields", {}).get(part)
-        if field is None:
-            return list(getattr(current, "model_fields", {}))
-        ann = field.annotation
-        if isinstance(ann, type) and issubclass(ann, BaseModel):
-            current = ann
-    return list(getattr(current, "model_fields", {}))
+    return validate_pydantic(model, data, key)  # type: ignore[arg-type]
 
 
 def _table(raw: Mapping[str, Any], name: str) -> Mapping[str, Any]:
@@ -475,10 +422,10 @@ def _components(raw: Mapping[str, Any], section: str, kind: str, plugins: Any, p
 def _reporters(report: Mapping[str, Any], plugins: Any) -> tuple[ComponentSpec, ...]:
     specs = []
     for name, data in report.items():
-        if name in ReportConfig.model_fields:
+        if name in _REPORT_KEYS:
             continue
         if not isinstance(data, Mapping):
-            valid = sorted(set(ReportConfig.model_fields) | set(plugins.types["reporter"]))
+            valid = sorted(set(_REPORT_KEYS) | set(plugins.types["reporter"]))
             raise ConfigError(f"unknown key {name!r}{did_you_mean(name, valid)}; valid keys: {', '.join(valid)}",
                               key=f"report.{name}")
         try:
@@ -490,7 +437,8 @@ def _reporters(report: Mapping[str, Any], plugins: Any) -> tuple[ComponentSpec, 
     keep_local = report.get("keep_local", True)
     if keep_local and "local" not in report and "local" in plugins.types["reporter"]:
         schema = plugins.types["reporter"]["local"].schema
-        specs.insert(0, ComponentSpec("reporter", "local", "local", None, schema() if schema else None, "report.local"))
+        params = validate_model(schema, {}, "report.local") if schema else None
+        specs.insert(0, ComponentSpec("reporter", "local", "local", None, params, "report.local"))
     return tuple(specs)
 
 
@@ -551,8 +499,7 @@ def _build(raw: Mapping[str, Any], plugins: Any, source: str, base_dir: Path) ->
                               key=f"monitors.{name}")
     monitors = _components(raw, "monitors", "behaviour", plugins, physics_hz)
     report_raw = _table(raw, "report")
-    report = validate_model(ReportConfig, {k: v for k, v in report_raw.items() if k in ReportConfig.model_fields},
-                            "report")
+    report = validate_model(ReportConfig, {k: v for k, v in report_raw.items() if k in _REPORT_KEYS}, "report")
     reporters = _reporters(report_raw, plugins)
     events_raw = raw.get("events", [])
     if not isinstance(events_raw, list):

@@ -45,6 +45,7 @@ from pydantic import BaseModel
 from robokit.config import Schema, build_config
 from robokit.errors import ConfigError, PluginError, UserError
 from robokit.plugins import Plugins, PluginType, load_plugins
+from robokit.sections import Section
 from robokit.simulation import Simulation
 
 DEFAULT_TICKS = 48
@@ -212,7 +213,7 @@ class _Check:
 
     def _check_declarations(self) -> None:
         schema, cls = self.ptype.schema, self.ptype.cls
-        if schema is None or not (isinstance(schema, type) and issubclass(schema, BaseModel)):
+        if schema is None or not (isinstance(schema, type) and issubclass(schema, (BaseModel, Section))):
             raise self.fail("schema", f"registered config schema {schema!r}; register a robokit.config.Schema "
                             "subclass (register(name, cls, MyConfig))")
         if not self.ptype.description:
@@ -222,7 +223,8 @@ class _Check:
         if not isinstance(reading_type, type) or reading_type is object:
             raise self.fail("reading_type", f"{cls.__name__}.reading_type is {reading_type!r}; declare the type "
                             "every reading is an instance of")
-        kind_of_schema = "a robokit.config.Schema" if issubclass(schema, Schema) else "a pydantic model"
+        kind_of_schema = ("a robokit.config.Schema" if issubclass(schema, Schema) else
+                          "a robokit.sections.Section" if issubclass(schema, Section) else "a pydantic model")
         self.passed(f"declares schema {schema.__name__} ({kind_of_schema}), reading_type "
                     f"{reading_type.__name__}, description {self.ptype.description!r}")
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import inspect
 import os
+import sys
 import warnings
 from collections.abc import Iterable, Iterator, MutableMapping
 from dataclasses import dataclass, field
@@ -174,6 +175,8 @@ class Plugins:
 
 
 _LABELS: dict[Any, tuple[str, str]] = {}
+_PYDANTIC_PLUGINS: bool | None = None
+"""Whether a distribution declares pydantic plugins (the ``pydantic`` entry-point group); None until discovery."""
 
 
 def _dist_label(dist: md.Distribution | None) -> tuple[str, str]:
@@ -196,8 +199,11 @@ def _entry_points() -> tuple[list[md.EntryPoint], dict[tuple[str, str], str] | N
     """
     import importlib.metadata as md
 
+    global _PYDANTIC_PLUGINS
     every = md.entry_points()
-    _answer_pydantic_plugin_scan(every)
+    _PYDANTIC_PLUGINS = bool(every.select(group="pydantic"))
+    if "robokit.pydantic_schema" in sys.modules:  # pydantic in use already: answer its scan now
+        answer_pydantic_plugin_scan()
     seen: dict[tuple[str, str], md.EntryPoint] = {}
     for ep in every.select(group=ENTRY_POINT_GROUP):  # a distribution can be visible twice (editable + path)
         seen.setdefault((ep.name, ep.value), ep)
@@ -210,16 +216,18 @@ def _entry_points() -> tuple[list[md.EntryPoint], dict[tuple[str, str], str] | N
     return eps, index
 
 
-def _answer_pydantic_plugin_scan(every: Any) -> None:
-    """Spare pydantic its own scan of every distribution's entry points when ours already shows the answer.
+def answer_pydantic_plugin_scan() -> None:
+    """Spare pydantic its own scan of every distribution's entry points when robokit's already shows the answer.
 
     On the first model it builds, pydantic looks for plugins in the ``pydantic`` entry-point group: the same read
-    of every distribution's metadata that :func:`_entry_points` just did (~10 ms of a ``robokit run``). When that
-    group is empty, pydantic's cache is set to what its scan would find (no plugins); when it is not, or
+    of every distribution's metadata that :func:`_entry_points` did (~10 ms). When that group was empty, pydantic's
+    cache is set to what its scan would find (no plugins); when it was not, or robokit has not scanned yet, or
     ``PYDANTIC_DISABLE_PLUGINS`` is set, or pydantic has scanned already (or no longer keeps this cache), nothing
-    is touched and pydantic loads its plugins itself.
+    is touched and pydantic loads its plugins itself. Called when pydantic is about to be used
+    (:mod:`robokit.pydantic_schema` is imported), never during discovery: a run of core sections only imports no
+    pydantic at all.
     """
-    if every.select(group="pydantic") or os.environ.get("PYDANTIC_DISABLE_PLUGINS") is not None:
+    if _PYDANTIC_PLUGINS is not False or os.environ.get("PYDANTIC_DISABLE_PLUGINS") is not None:
         return
     try:
         from pydantic.plugin import _loader

@@ -92,3 +92,65 @@ def test_calling_main_from_code_leaves_the_collector_and_environment_alone(
     assert main(["run", "trivial.toml", "--quiet"]) == 0
     assert gc.isenabled() and gc.get_freeze_count() == frozen
     assert "OPENBLAS_NUM_THREADS" not in os.environ
+
+
+# pydantic (~75 ms of import) is loaded only for plugin types whose schema is a pydantic model: the core sections
+# and the local reporter are validated by robokit.sections.
+PYDANTIC_PROBE = """
+import json, sys
+from robokit.cli import main
+code = main(sys.argv[1:])
+loader = sys.modules.get("pydantic.plugin._loader")
+print(json.dumps({"code": code, "pydantic": "pydantic" in sys.modules,
+                  "plugin_cache": None if loader is None else repr(getattr(loader, "_plugins", "?"))}))
+"""
+LIDAR = """[world]
+max_time = 0.05
+
+[robots.robot]
+urdf = "robots/diffbot.urdf"
+position = [0, 0, 0.06]
+
+[sensors.scan]
+type = "lidar"
+rate_hz = 10
+rays = {rays}
+"""
+
+
+def probe(tmp_path: Path, *argv: str) -> tuple[dict[str, object], str]:
+    proc = subprocess.run([sys.executable, "-c", PYDANTIC_PROBE, *argv], cwd=tmp_path, capture_output=True,
+                          text=True, timeout=120)
+    assert "Traceback" not in proc.stderr, proc.stderr
+    out: dict[str, object] = json.loads(proc.stdout.strip().splitlines()[-1])
+    return out, proc.stderr
+
+
+def test_a_trivial_run_imports_no_pydantic(tmp_path: Path) -> None:
+    (tmp_path / "trivial.toml").write_text(TRIVIAL)
+    out, _ = probe(tmp_path, "run", "trivial.toml", "--quiet")
+    assert out == {"code": 0, "pydantic": False, "plugin_cache": None}
+    results = list((tmp_path / "results").glob("*/result.json"))  # the local reporter ran, with its light schema
+    assert len(results) == 1 and json.loads(results[0].read_text())["outcome"] == "succeeded"
+
+
+def test_a_bad_core_config_is_one_line_without_pydantic(tmp_path: Path) -> None:
+    (tmp_path / "bad.toml").write_text(TRIVIAL.replace('shape = "box"', 'shape = "box"\nmass = true'))
+    out, err = probe(tmp_path, "run", "bad.toml", "--quiet")
+    assert out["code"] == 2 and out["pydantic"] is False
+    assert err == "robokit: error: bad.toml: bodies.box.mass: input should be a valid number, got True\n"
+    assert not (tmp_path / "results").exists()
+
+
+def test_a_plugin_with_a_pydantic_schema_imports_pydantic_and_is_validated_by_it(tmp_path: Path) -> None:
+    import importlib.metadata as md
+
+    (tmp_path / "lidar.toml").write_text(LIDAR.format(rays=36))
+    out, _ = probe(tmp_path, "run", "lidar.toml", "--quiet")
+    assert out["code"] == 0 and out["pydantic"] is True
+    # pydantic's own scan for its plugins was answered from robokit's entry-point scan (when there are none)
+    assert (out["plugin_cache"] == "{}") == (not md.entry_points(group="pydantic"))
+    (tmp_path / "lidar.toml").write_text(LIDAR.format(rays=0))
+    out, err = probe(tmp_path, "run", "lidar.toml", "--quiet")
+    assert out["code"] == 2 and out["pydantic"] is True
+    assert err == "robokit: error: lidar.toml: sensors.scan.rays: input should be greater than or equal to 1, got 0\n"

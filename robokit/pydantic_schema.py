@@ -1,0 +1,115 @@
+"""pydantic config schemas for plugin types: :class:`Schema` and the validation that turns pydantic's errors into
+one-line :class:`~robokit.errors.ConfigError`\\ s.
+
+Imported only when a plugin type with a pydantic schema is used (its module does ``from robokit.config import
+Schema``, which lands here), or by commands that load every plugin: a run whose config uses only the core
+sections and light schemas (:mod:`robokit.sections`) never imports pydantic. ``robokit.config`` re-exports
+everything public here.
+"""
+
+from __future__ import annotations
+
+import sys
+from typing import Annotated, Any
+
+from pydantic import BaseModel, ConfigDict, Field, GetCoreSchemaHandler, ValidationError
+from pydantic_core import CoreSchema
+
+from robokit.config import FLOAT_LIMIT, error_from_parts
+from robokit.errors import ConfigError
+
+Coord = Annotated[float, Field(ge=-1e4, le=1e4, description="metres, world frame")]
+"""A position coordinate in metres: within ±10 km of the origin."""
+Angle = Annotated[float, Field(ge=-720.0, le=720.0, description="degrees")]
+Unit = Annotated[float, Field(ge=0.0, le=1.0)]
+Length = Annotated[float, Field(gt=0, le=1e3, description="metres")]
+Position = tuple[Coord, Coord, Coord]
+Gravity = Annotated[float, Field(ge=-1000.0, le=1000.0, description="m/s^2")]
+Newtons = Annotated[float, Field(ge=-1e6, le=1e6, description="newtons")]
+
+_STRICT_SCALARS = frozenset({"int", "float", "bool", "str"})
+
+
+def _harden(node: Any, owner: type) -> None:
+    """Make every scalar in a schema strict; floats finite and within ``±FLOAT_LIMIT`` by default.
+
+    Strict scalars refuse ``true`` for a number, ``1`` or ``"no"`` for a bool and numbers for strings, while
+    containers stay lax (a TOML array is accepted for a tuple) and an integer is still accepted for a float.
+    Nested models are left alone: each :class:`Schema` subclass hardens its own fields.
+    """
+    if isinstance(node, dict):
+        if node.get("type") == "model" and node.get("cls") is not owner:
+            return
+        kind = node.get("type")
+        if isinstance(kind, str) and kind in _STRICT_SCALARS:
+            node["strict"] = True
+        if kind == "float":
+            node["allow_inf_nan"] = False
+            if "le" not in node and "lt" not in node:
+                node["le"] = FLOAT_LIMIT
+            if "ge" not in node and "gt" not in node:
+                node["ge"] = -FLOAT_LIMIT
+        for value in node.values():
+            _harden(value, owner)
+    elif isinstance(node, list):
+        for value in node:
+            _harden(value, owner)
+
+
+class Schema(BaseModel):
+    """Base of every pydantic config model: frozen, unknown keys rejected, strict types, finite numbers.
+
+    Plugin schemas should subclass it; they inherit the rules: no bool for a number or a number for a bool, no
+    string for a bool, every float finite and within ``±FLOAT_LIMIT`` unless the field declares its own bounds
+    (declare physically meaningful ones with ``Field(ge=..., le=...)``). An integer is accepted for a float.
+    """
+
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+    @classmethod
+    def __get_pydantic_core_schema__(cls, source: Any, handler: GetCoreSchemaHandler) -> CoreSchema:
+        schema = handler(source)
+        _harden(schema, cls)
+        return schema
+
+
+def validation_error(exc: ValidationError, prefix: str = "") -> ConfigError:
+    """Turn the first pydantic error into a one-line ConfigError at ``prefix.loc``."""
+    err = exc.errors()[0]
+    fields = getattr(exc, "_robokit_fields", None) or []
+    return error_from_parts(tuple(err["loc"]), err["type"], str(err["msg"]), err.get("input"), prefix, fields)
+
+
+def validate_pydantic(model: type[BaseModel], data: Any, key: str) -> Any:
+    """Validate a mapping against a pydantic model; raise a one-line ConfigError placed at ``key``."""
+    try:
+        return model.model_validate(data)
+    except ValidationError as exc:
+        fields = _nested_fields(model, exc)
+        exc._robokit_fields = fields  # type: ignore[attr-defined]
+        raise validation_error(exc, key) from None
+
+
+def _nested_fields(model: type[BaseModel], exc: ValidationError) -> list[str]:
+    """Field names of the (possibly nested) model an unknown-key error is about."""
+    loc = exc.errors()[0]["loc"][:-1]
+    current: Any = model
+    for part in loc:
+        field = getattr(current, "model_fields", {}).get(part)
+        if field is None:
+            return list(getattr(current, "model_fields", {}))
+        ann = field.annotation
+        if isinstance(ann, type) and issubclass(ann, BaseModel):
+            current = ann
+    return list(getattr(current, "model_fields", {}))
+
+
+def _answer_plugin_scan() -> None:
+    """Let robokit's entry-point scan answer pydantic's own, when robokit's plugin discovery ran in this process
+    (see :func:`robokit.plugins.answer_pydantic_plugin_scan`)."""
+    plugins = sys.modules.get("robokit.plugins")
+    if plugins is not None:
+        plugins.answer_pydantic_plugin_scan()
+
+
+_answer_plugin_scan()
