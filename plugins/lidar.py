@@ -125,6 +125,7 @@ class Lidar(Sensor):
         self.angle_min, self.angle_max, self.angle_inc = scan_angles(cfg.rays, cfg.fov_deg)
         angles = self.angle_min + self.angle_inc * np.arange(cfg.rays) + math.radians(cfg.yaw_offset_deg)
         self.local_dirs = np.stack([np.cos(angles), np.sin(angles), np.zeros_like(angles)], axis=1)
+        self._local_t = np.ascontiguousarray(self.local_dirs.T)  # (3, N)
         self.scans = 0
         self._zeros = np.zeros(cfg.rays)
         self.caster = RayCaster(self.world, skip=() if self.body is None else (self.body,), mask=RAY_MASK,
@@ -181,7 +182,7 @@ class Lidar(Sensor):
         cfg = self.config
         origin, rot = self._sensor_frame()
         # axis-first (3, N) layouts: numpy's per-axis work is then on contiguous rows (the same numbers as (N, 3))
-        dirs = np.ascontiguousarray((self.local_dirs @ rot.T).T)
+        dirs = rot @ self._local_t
         near = np.maximum(cfg.range_min, self._exit_distances(origin, dirs))
         o = origin[:, None]
         starts = o + dirs * near
@@ -194,7 +195,7 @@ class Lidar(Sensor):
             noisy = ranges + self.ctx.tick_rng().normal(0.0, cfg.range_noise, len(ranges))
             ranges = np.minimum(np.maximum(noisy, cfg.range_min), cfg.range_max)
         # no return: the ray's end (the same arithmetic as ``ends``)
-        points = np.ascontiguousarray((o + dirs * np.where(hit, ranges, cfg.range_max)).T)
+        points = (o + dirs * np.where(hit, ranges, cfg.range_max)).T
         ranges = np.where(hit, ranges, np.inf)
         self.scans += 1
         if cfg.draw and self.world.gui:
