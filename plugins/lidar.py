@@ -163,17 +163,18 @@ class Lidar(Sensor):
         if self.body is None:
             return self._zeros
         aabb = self.world.client.getAABB
-        boxes = np.array([aabb(self.body, link) for link in self._links])  # (links, 2, 3)
-        lo_ = boxes[:, 0].min(axis=0) - SELF_MARGIN
-        hi_ = boxes[:, 1].max(axis=0) + SELF_MARGIN
-        if not ((origin > lo_) & (origin < hi_)).all():
+        lows, highs = zip(*(aabb(self.body, link) for link in self._links), strict=True)
+        o = origin.tolist()
+        lo_ = [min(c) - SELF_MARGIN for c in zip(*lows, strict=True)]
+        hi_ = [max(c) + SELF_MARGIN for c in zip(*highs, strict=True)]
+        if not all(low < x < high for low, x, high in zip(lo_, o, hi_, strict=True)):
             return self._zeros
         # An axis a ray has no component along never bounds its exit: a zero component is replaced by a tiny one,
         # whose huge quotient loses the minimum (the origin is strictly inside, so both bounds are finite).
         dirs_t = dirs.T
-        inv = 1.0 / np.where(dirs_t == 0.0, 1e-300, dirs_t)
-        exits = np.maximum((hi_ - origin)[:, None] * inv, (lo_ - origin)[:, None] * inv)
-        return np.minimum(np.minimum(exits[0], exits[1]), exits[2])
+        inv = np.divide(1.0, dirs_t if dirs_t.all() else np.where(dirs_t == 0.0, 1e-300, dirs_t), order="C")
+        bounds = np.array([[high - x, low - x] for low, x, high in zip(lo_, o, hi_, strict=True)])  # (3, 2)
+        return np.minimum.reduce(np.maximum(bounds[:, :1] * inv, bounds[:, 1:] * inv))  # type: ignore[no-any-return]
 
     def read(self) -> LaserScan:
         """Cast every ray once (at most one ``rayTestBatch``) and return the scan."""
@@ -188,9 +189,10 @@ class Lidar(Sensor):
         hit = (ids >= 0) & (ids != (-2 if self.body is None else self.body))
         ranges = near + frac * (cfg.range_max - near)
         if cfg.range_noise > 0:
-            ranges = np.clip(ranges + self.ctx.tick_rng().normal(0.0, cfg.range_noise, len(ranges)), cfg.range_min,
-                             cfg.range_max)
-        points = np.where(hit[:, None], origin + dirs * ranges[:, None], ends)
+            noisy = ranges + self.ctx.tick_rng().normal(0.0, cfg.range_noise, len(ranges))
+            ranges = np.minimum(np.maximum(noisy, cfg.range_min), cfg.range_max)
+        # no return: the ray's end (the same arithmetic as ``ends``)
+        points = origin + dirs * np.where(hit, ranges, cfg.range_max)[:, None]
         ranges = np.where(hit, ranges, np.inf)
         self.scans += 1
         if cfg.draw and self.world.gui:

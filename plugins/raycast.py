@@ -32,6 +32,7 @@ EDGE_TOLERANCE = 2e-4
 for a box face ``a x b`` that is ``1e-4 * b`` m beyond an edge of length ``a``. Rays within twice that (per box,
 of its longest edge) of a box edge are cast by PyBullet."""
 _TINY = 1e-300
+"""Added to ray components in box frames: 0 becomes it, any component above ~1e-284 is unchanged."""
 AABB_PAD = 1e-3
 """m added around PyBullet's bounding boxes before testing rays against them (they already include its margins)."""
 
@@ -85,10 +86,12 @@ class RayCaster:
         self._centre = np.zeros((0, 3))
         self._rot = np.zeros((0, 3, 3))
         self._others: list[tuple[int, int]] = []  # (body, link) tested by bounding box
-        self._to_local = np.zeros((0, 4))
+        # one slab test covers the boxes (rows 0..B-1) and the others' bounding boxes (rows B..B+K-1, world axes):
+        # frame[i, r] = (row r's axis i in the world, -(axis i . centre)); grown[i, r] = half extent tested along it
+        self._frame = np.zeros((3, 0, 4))
         self._grown = np.zeros((3, 0))
         self._ids = np.zeros(0, dtype=int)
-        self._axes = np.zeros((0, 3))
+        self._starts_h = np.ones((4, 0))  # starts as homogeneous columns (x, y, z, 1), reused between casts
         self.rays_cast = 0
         """Rays PyBullet cast so far (for benchmarks and tests)."""
         self.rays_total = 0
@@ -110,13 +113,17 @@ class RayCaster:
         self._boxes = self._probe(boxes)
         others.extend((body, -1) for body in boxes if body not in self._boxes)
         self._others = others
+        nb, rows = len(self._boxes), len(self._boxes) + len(others)
         self._half = np.array([self.world.mesh_boxes[b] for b in self._boxes], float).reshape(-1, 3)
         self._tol = EDGE_TOLERANCE * 2.0 * self._half.max(axis=1, initial=0.0) + 1e-6
-        self._grown = (self._half + self._tol[:, None]).T  # (3, B)
-        self._poses = [None] * len(self._boxes)
+        self._grown = np.zeros((3, rows))
+        self._grown[:, :nb] = (self._half + self._tol[:, None]).T
+        self._frame = np.zeros((3, rows, 4))
+        self._frame[:, nb:, :3] = np.eye(3)[:, None, :]  # the others' rows: world axes (centres set per cast)
+        self._poses = [None] * nb
         self._ids = np.asarray(self._boxes, dtype=int)
-        self._centre = np.zeros((len(self._boxes), 3))
-        self._rot = np.zeros((len(self._boxes), 3, 3))
+        self._centre = np.zeros((nb, 3))
+        self._rot = np.zeros((nb, 3, 3))
 
     def _is_static_mesh_box(self, body: int) -> bool:
         c = self.client
@@ -150,7 +157,8 @@ class RayCaster:
         return [body for k, body in enumerate(boxes) if any(h[0] == body for h in hits[6 * k:6 * k + 6])]
 
     def _refresh(self) -> None:
-        """Re-sort the bodies if any were added or removed; re-read the boxes' poses."""
+        """Re-sort the bodies if any were added or removed; re-read the boxes' poses and the others' bounding
+        boxes (padded by ``AABB_PAD``)."""
         c = self.client
         signature = (c.getNumBodies(), self.world.removals)
         if signature != self._signature:
@@ -164,12 +172,16 @@ class RayCaster:
                 self._centre[k] = pose[0]
                 self._rot[k] = np.asarray(c.getMatrixFromQuaternion(pose[1]), float).reshape(3, 3)
                 moved = True
+        nb = len(self._boxes)
         if moved:
-            # row (axis i, box b) at i * B + b: a point's coordinate along box b's axis i is row . (x, y, z, 1)
             axes = self._rot.transpose(2, 0, 1)  # (3, B, 3): axes[i, b] = box b's axis i in the world
-            offset = -np.einsum("ibj,bj->ib", axes, self._centre)
-            self._to_local = np.concatenate([axes, offset[:, :, None]], axis=2).reshape(-1, 4)
-            self._axes = np.ascontiguousarray(axes.reshape(-1, 3))
+            self._frame[:, :nb, :3] = axes
+            self._frame[:, :nb, 3] = -np.einsum("ibj,bj->ib", axes, self._centre)
+        if self._others and nb:  # (without boxes every ray is cast: no test)
+            aabb = c.getAABB
+            lo_hi = np.array([aabb(b, link) for b, link in self._others], float)  # (K, 2, 3)
+            self._frame[:, nb:, 3] = lo_hi.sum(axis=1).T * -0.5
+            self._grown[:, nb:] = (lo_hi[:, 1] - lo_hi[:, 0]).T * 0.5 + AABB_PAD
 
     # ----------------------------------------------------------------- casting
     def cast(self, starts: np.ndarray, ends: np.ndarray, *, detail: bool = True) -> RayHits:
@@ -186,13 +198,12 @@ class RayCaster:
         pos = np.zeros((n, 3)) if detail else None
         normal = np.zeros((n, 3)) if detail else None
         if self.analytic and self._boxes:  # without mesh boxes the bounding-box test alone rarely pays
+            if self._starts_h.shape[1] != n:
+                self._starts_h = np.ones((4, n))
             # axis-first (3, N) layouts: numpy's per-axis work is then on contiguous rows
-            s_t = np.ascontiguousarray(starts.T)
-            d_t = np.ascontiguousarray(ends.T) - s_t
-            inv_len = 1.0 / np.sqrt(np.einsum("ij,ij->j", d_t, d_t))
-            need, limit = self._intersect_boxes(s_t, d_t, inv_len, body, frac, pos, normal)
-            need |= self._crosses_others(s_t, d_t, inv_len, limit)
-            idx = np.flatnonzero(need)
+            self._starts_h[:3] = starts.T
+            d_t = np.subtract(ends.T, self._starts_h[:3], order="C")
+            idx = np.flatnonzero(self._intersect(d_t, body, frac, pos, normal))
         else:
             idx = np.arange(n)
         link = np.full(n, -1, dtype=int)
@@ -212,28 +223,30 @@ class RayCaster:
         self.rays_total += n
         return RayHits(body, link, frac, pos, normal, cast)
 
-    def _intersect_boxes(self, s_t: np.ndarray, d_t: np.ndarray, inv_len: np.ndarray, body: np.ndarray,
-                         frac: np.ndarray, pos: np.ndarray | None, normal: np.ndarray | None,
-                         ) -> tuple[np.ndarray, np.ndarray]:
-        """Fill in place the rays' nearest mesh-box hits that Bullet reports alike; return (rays PyBullet must
-        cast, per ray the fraction up to which other bodies matter).
+    def _intersect(self, d_t: np.ndarray, body: np.ndarray, frac: np.ndarray, pos: np.ndarray | None,
+                   normal: np.ndarray | None) -> np.ndarray:
+        """Fill in place the rays' nearest mesh-box hits that Bullet reports alike; return per ray whether
+        PyBullet must cast it.
 
-        ``s_t``, ``d_t``: starts and segment vectors, shape (3, N); ``inv_len``: 1 / segment length.
+        ``d_t``: segment vectors, shape (3, N); the starts are in ``self._starts_h``.
 
         Every box is first tested grown by its tolerance (Bullet's hits lie on the grown box: a triangle hit is
         accepted up to the tolerance outside the triangle); the nearest grown entry names the box, whose exact hit
         is then computed. The answer is PyBullet's unless another box's grown entry comes at or before it, or the
-        hit itself is borderline (see below): those rays are cast by PyBullet.
+        hit itself is borderline (see below), or the segment up to the hit (or its end) crosses the bounding box
+        of any other body (tested in the same pass, as rows after the boxes'): those rays are cast by PyBullet.
         """
-        n = s_t.shape[1]
-        nb = len(self._boxes)
-        if nb == 0:
-            return np.zeros(n, dtype=bool), np.ones(n)
-        # starts and segments in each box's frame, (3, B, N): one small matrix product each
-        o = (self._to_local @ np.vstack((s_t, np.ones((1, n))))).reshape(3, nb, n)
-        d = (self._axes @ d_t).reshape(3, nb, n)
-        if not d.all():
-            d[d == 0.0] = _TINY  # no division by zero: an axis the ray runs parallel to gives huge fractions
+        s_t = self._starts_h[:3]
+        n = d_t.shape[1]
+        nb, rows = len(self._boxes), self._grown.shape[1]
+        inv_len = 1.0 / np.sqrt(np.einsum("ij,ij->j", d_t, d_t))
+        # starts and segments in each row's frame, (3, R, N): one small matrix product each
+        frame = self._frame.reshape(-1, 4)
+        o = (frame @ self._starts_h).reshape(3, rows, n)
+        d = (frame[:, :3] @ d_t).reshape(3, rows, n)
+        # no division by zero: an axis the ray runs parallel to gets a tiny component (huge fractions); adding it
+        # leaves every other component as it is (it is far below their last bit)
+        d += _TINY
         with np.errstate(over="ignore"):
             inv = 1.0 / d
         oi = o * inv
@@ -241,10 +254,11 @@ class RayCaster:
         reach = self._grown[:, :, None] * ai
         g_near = (-reach - oi).max(axis=0)  # slab entry per axis: (-h - o) / d for d > 0, (h - o) / d for d < 0
         g_far = (reach - oi).min(axis=0)
-        g_hit = np.where((g_near <= g_far) & (g_far >= 0.0), g_near, np.inf)  # (B, N)
+        g_all = np.where((g_near <= g_far) & (g_far >= 0.0), g_near, np.inf)  # (R, N)
+        g_hit = g_all[:nb]
         cols = np.arange(n)
         if nb > 1:
-            first = np.argmin(g_hit, axis=0)
+            first = g_hit.T.copy().argmin(axis=1)  # (numpy's argmin runs faster along contiguous rows)
             flat = first * n + cols
             g_first = g_hit.reshape(-1).take(flat)
             g_hit.reshape(-1)[flat] = np.inf
@@ -270,13 +284,16 @@ class RayCaster:
         # tolerance outside that face (Bullet accepts a plane crossing up to the tolerance outside its face and
         # reports the first one). Between crossing face j's plane (lo_j) and the entry face's (axis a, at best) the
         # ray closes in on slab a by (best - lo_j) * |d_a|: at least that far outside face j it crossed j's plane.
-        entry = np.argmax(lo, axis=0)
+        entry = (lo[1] > lo[0]).astype(np.intp)  # np.argmax(lo, axis=0), in fewer instructions
+        entry[lo[2] > np.maximum(lo[0], lo[1])] = 2
         ahead = best - lo
         at_entry = entry * n + cols
         ahead.reshape(-1)[at_entry] = np.inf
         clean = (has & (second > best + tf) & (g_first > 0.0) & (best <= 1.0 - tf)
                  & (ahead.min(axis=0) >= tolf * aif.reshape(-1).take(at_entry)))
         need = candidate & ~clean  # not a candidate: no box's grown entry lies within the segment
+        if rows > nb:  # another body's (padded) bounding box entered before the hit or the segment's end
+            need |= g_all[nb:].min(axis=0) <= best + AABB_PAD * inv_len
         if clean.any():
             k = np.flatnonzero(clean)
             fk = first[k]
@@ -287,28 +304,4 @@ class RayCaster:
                 ek = entry[k]
                 # outward normal of the entry face: box axis ek, against the ray's direction along it
                 normal[k] = self._rot[fk, :, ek] * -np.sign(idf.reshape(-1).take(ek * n + k))[:, None]
-        return need, best
-
-    def _crosses_others(self, s_t: np.ndarray, d_t: np.ndarray, inv_len: np.ndarray, limit: np.ndarray) -> np.ndarray:
-        """Per ray, True if its segment up to ``limit`` crosses the bounding box of any body not intersected here."""
-        n = s_t.shape[1]
-        if not self._others:
-            return np.zeros(n, dtype=bool)
-        aabb = self.client.getAABB
-        boxes = np.array([aabb(b, link) for b, link in self._others], float)  # (K, 2, 3)
-        # only the boxes that overlap the box around all the segments (the floor under a level scan does not)
-        ends_t = s_t + d_t
-        scan_lo = np.minimum(s_t.min(axis=1), ends_t.min(axis=1)) - AABB_PAD
-        scan_hi = np.maximum(s_t.max(axis=1), ends_t.max(axis=1)) + AABB_PAD
-        boxes = boxes[((boxes[:, 0] <= scan_hi) & (boxes[:, 1] >= scan_lo)).all(axis=1)]
-        if len(boxes) == 0:
-            return np.zeros(n, dtype=bool)
-        lo_b = boxes[:, 0, :].T[:, :, None] - AABB_PAD  # (3, K, 1)
-        hi_b = boxes[:, 1, :].T[:, :, None] + AABB_PAD
-        with np.errstate(over="ignore"):
-            inv = (1.0 / np.where(d_t == 0.0, _TINY, d_t))[:, None, :]
-        t1, t2 = (lo_b - s_t[:, None, :]) * inv, (hi_b - s_t[:, None, :]) * inv
-        near = np.minimum(t1, t2).max(axis=0)
-        far = np.maximum(t1, t2).min(axis=0)
-        crosses = (near <= far) & (far >= 0.0) & (near <= limit + AABB_PAD * inv_len)
-        return np.asarray(crosses.any(axis=0))
+        return need
