@@ -5,8 +5,8 @@ Measured, each as the median of ``--repeats`` fresh processes, interleaved (one 
 - ``python -c pass``: the interpreter alone;
 - ``python -c 'import numpy, pybullet'``: the floor of any run (both are needed to simulate anything);
 - the same trivial job written by hand: numpy's generator, a DIRECT client, plane + box, 24 steps, a JSON file;
-- the same plus ``pydantic`` and ``pluggy`` (the libraries robokit validates configs and loads plugins with): the
-  floor of robokit as built;
+- the same plus ``pydantic`` and ``pluggy``: what robokit's start-up cost when every config was validated with
+  pydantic (a trivial run now imports no pydantic: its sections have light schemas, see ``robokit.sections``);
 - ``robokit --help``: must import neither numpy, pybullet nor OpenCV (checked below);
 - ``robokit run TRIVIAL --quiet``: a plane and a falling box for 0.1 sim seconds with the default record (trace,
   pose log, ``result.json``) — target: under 200 ms of process time;
@@ -51,7 +51,7 @@ shape = "box"
 size = [0.1, 0.1, 0.1]
 position = [0, 0, 0.5]
 """
-HEAVY = ("numpy", "pybullet", "cv2", "pydantic", "transitions", "requests", "importlib.metadata")
+HEAVY = ("numpy", "pybullet", "cv2", "pydantic", "transitions", "requests", "importlib.metadata", "email")
 PROBE = """
 import sys
 from robokit.cli import main
@@ -73,9 +73,9 @@ args = cli._parser("run").parse_args(["run", sys.argv[1], "--quiet"])
 marks.append(("argument parser (run)", clock()))
 from robokit.plugins import load_plugins
 plugins = load_plugins()
-marks.append(("plugin discovery (numpy, pybullet, pydantic; entry points)", clock()))
+marks.append(("plugin discovery (numpy, pybullet; entry points)", clock()))
 from robokit.config import load_config
-marks.append(("import robokit.config (the core models)", clock()))
+marks.append(("import robokit.config (core sections, tomllib)", clock()))
 cfg = load_config(args.config, plugins)
 marks.append(("config read + validation (+ local reporter module)", clock()))
 from robokit.runner import run_config, summary

@@ -6,7 +6,6 @@ CLI prints it as one line and exits with code 2; a traceback is kept for bugs on
 
 from __future__ import annotations
 
-import difflib
 from collections.abc import Iterable
 
 
@@ -89,5 +88,7 @@ def plugin_fault(exc: BaseException) -> str:
 
 def did_you_mean(name: str, candidates: Iterable[str]) -> str:
     """Return ``" (did you mean 'x'?)"`` for the closest candidate, or ``""``."""
+    import difflib  # only when a name is wrong: every command imports this module
+
     close = difflib.get_close_matches(name, list(candidates), n=1, cutoff=0.6)
     return f" (did you mean {close[0]!r}?)" if close else ""

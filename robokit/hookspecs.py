@@ -10,7 +10,8 @@ returning lists, so one plugin module can register several types::
         register("imu", ImuSensor, ImuConfig)
 
 ``register(type_name, cls, schema)`` takes the type name used in configs (``type = "imu"``), the class, and a
-pydantic model that validates the type's config section (``None`` for a type with no options).
+schema that validates the type's config section: a pydantic model (a ``robokit.config.Schema`` subclass) or a light
+``robokit.sections.Section`` (no pydantic import; see ``docs/plugins.md``), ``None`` for a type with no options.
 """
 
 from __future__ import annotations

@@ -18,8 +18,13 @@ import pluggy
 from robokit import hookspecs
 from robokit.errors import Interrupted, LookupNameError, PluginError, UserError, plugin_fault
 
-if TYPE_CHECKING:  # importlib.metadata costs ~20 ms of start-up: imported when plugins are loaded, not for --help
+if TYPE_CHECKING:
     import importlib.metadata as md
+
+    from robokit import discovery
+
+    EntryPointLike = md.EntryPoint | discovery.EntryPoint
+    """An entry point as importlib.metadata or robokit.discovery gives it (name, value, group, dist, load())."""
 
 ENTRY_POINT_GROUP = "robokit"
 BUILTIN = "robokit"
@@ -113,7 +118,7 @@ class Plugins:
 
     def __post_init__(self) -> None:
         self.types = {k: KindTypes(k, self) for k in KINDS}
-        self._pending: dict[str, md.EntryPoint] = {}  # entry points not imported yet, by module
+        self._pending: dict[str, EntryPointLike] = {}  # entry points not imported yet, by module
         self._index: dict[tuple[str, str], str] = {}  # (kind, type name) -> module that registers it
         self._origins: dict[str, tuple[str, str]] = {}
         self._collected: set[tuple[str, str]] = set()  # (kind, plugin name) whose registration hook was called
@@ -179,7 +184,7 @@ _PYDANTIC_PLUGINS: bool | None = None
 """Whether a distribution declares pydantic plugins (the ``pydantic`` entry-point group); None until discovery."""
 
 
-def _dist_label(dist: md.Distribution | None) -> tuple[str, str]:
+def _dist_label(dist: md.Distribution | discovery.Distribution | None) -> tuple[str, str]:
     """``(name, version)`` of a distribution; its metadata is parsed once per process, not once per entry point."""
     if dist is None:
         return ("<local>", "")
@@ -187,29 +192,51 @@ def _dist_label(dist: md.Distribution | None) -> tuple[str, str]:
     label = _LABELS.get(key)
     if label is None:
         meta = dist.metadata
-        label = _LABELS[key] = (meta["Name"] or "<unknown>", meta["Version"] or "")
+        label = _LABELS[key] = (_header(meta, "Name") or "<unknown>", _header(meta, "Version"))
     return label
 
 
-def _entry_points() -> tuple[list[md.EntryPoint], dict[tuple[str, str], str] | None]:
+def _header(meta: Any, key: str) -> str:
+    """A metadata field, "" when missing (importlib.metadata gives None or raises KeyError, by version)."""
+    try:
+        return str(meta[key] or "")
+    except KeyError:
+        return ""
+
+
+def _read_entry_points(groups: tuple[str, ...]) -> list[EntryPointLike]:
+    """The entry points of ``groups``: read from the distributions' folders by :mod:`robokit.discovery` (no
+    ``importlib.metadata`` import, ~a tenth of a trivial run's start-up), or by ``importlib.metadata`` where that
+    reader steps aside (zip or egg files on ``sys.path``, import hooks with distributions of their own)."""
+    from robokit import discovery
+
+    found = discovery.entry_points(groups)
+    if found is not None:
+        return list(found)
+    import importlib.metadata as md
+
+    every = md.entry_points()
+    return [ep for group in groups for ep in every.select(group=group)]
+
+
+def _entry_points() -> tuple[list[EntryPointLike], dict[tuple[str, str], str] | None]:
     """The ``robokit`` entry points (sorted by distribution, then name) and the ``robokit.types`` index.
 
     The index maps ``(kind, type name)`` to the module that registers it (entry point ``"KIND.TYPE" = "module"``).
     It is None when two entries claim one type (a full load then reports the clash).
     """
-    import importlib.metadata as md
-
     global _PYDANTIC_PLUGINS
-    every = md.entry_points()
-    _PYDANTIC_PLUGINS = bool(every.select(group="pydantic"))
+    every = _read_entry_points((ENTRY_POINT_GROUP, INDEX_GROUP, "pydantic"))
+    _PYDANTIC_PLUGINS = any(ep.group == "pydantic" for ep in every)
     if "robokit.pydantic_schema" in sys.modules:  # pydantic in use already: answer its scan now
         answer_pydantic_plugin_scan()
-    seen: dict[tuple[str, str], md.EntryPoint] = {}
-    for ep in every.select(group=ENTRY_POINT_GROUP):  # a distribution can be visible twice (editable + path)
-        seen.setdefault((ep.name, ep.value), ep)
+    seen: dict[tuple[str, str], EntryPointLike] = {}
+    for ep in every:  # a distribution can be visible twice (editable + path)
+        if ep.group == ENTRY_POINT_GROUP:
+            seen.setdefault((ep.name, ep.value), ep)
     eps = sorted(seen.values(), key=lambda e: (_dist_label(e.dist)[0] if e.dist else "", e.name))
     index: dict[tuple[str, str], str] | None = {}
-    for ep in every.select(group=INDEX_GROUP):
+    for ep in (e for e in every if e.group == INDEX_GROUP):
         kind, _, name = ep.name.partition(".")
         if index is not None and index.setdefault((kind, name), ep.value) != ep.value:
             index = None
@@ -296,7 +323,7 @@ def load_plugins(extra: Iterable[object] = (), *, entry_points: bool = True, laz
     return plugins
 
 
-def _load_entry_point(plugins: Plugins, ep: md.EntryPoint, *, collect: bool = True) -> None:
+def _load_entry_point(plugins: Plugins, ep: EntryPointLike, *, collect: bool = True) -> None:
     """Import one entry point, register it and collect the types it registers (or record why not)."""
     dist, version = _dist_label(ep.dist)
     label = f"{dist} (entry point {ep.name!r})"
