@@ -182,9 +182,10 @@ class RayCaster:
             self._frame[:, :nb, 3] = -np.einsum("ibj,bj->ib", axes, self._centre)
         if self._others and nb:  # (without boxes every ray is cast: no test)
             aabb = c.getAABB
-            lo_hi = np.array([aabb(b, link) for b, link in self._others], float)  # (K, 2, 3)
-            self._frame[:, nb:, 3] = lo_hi.sum(axis=1).T * -0.5
-            self._grown[:, nb:] = (lo_hi[:, 1] - lo_hi[:, 0]).T * 0.5 + AABB_PAD
+            boxes = [aabb(b, link) for b, link in self._others]
+            # (a few floats per box: plain Python costs less than numpy's per-call overhead here)
+            self._frame[:, nb:, 3] = [[(lo[i] + hi[i]) * -0.5 for lo, hi in boxes] for i in range(3)]
+            self._grown[:, nb:] = [[(hi[i] - lo[i]) * 0.5 + AABB_PAD for lo, hi in boxes] for i in range(3)]
 
     # ----------------------------------------------------------------- casting
     def cast(self, starts: np.ndarray, ends: np.ndarray, *, detail: bool = True) -> RayHits:
