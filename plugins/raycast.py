@@ -93,6 +93,7 @@ class RayCaster:
         self._ids = np.zeros(0, dtype=int)
         self._starts_h = np.ones((4, 0))  # starts as homogeneous columns (x, y, z, 1), reused between casts
         self._grown_full = np.zeros((3, 0, 0))  # self._grown repeated for each ray, (3, R, N)
+        self._work = np.zeros((5, 3, 0, 0))
         self._fresh: tuple[np.ndarray, ...] = ()  # per ray: no hit body, link, fraction; not cast (copied per cast)
         self.rays_cast = 0
         """Rays PyBullet cast so far (for benchmarks and tests)."""
@@ -245,23 +246,25 @@ class RayCaster:
         nb, rows = len(self._boxes), self._grown.shape[1]
         inv_len = 1.0 / np.sqrt(np.einsum("ij,ij->j", d_t, d_t))
         # starts and segments in each row's frame, (3, R, N): one small matrix product each
-        frame = self._frame.reshape(-1, 4)
-        o = (frame @ self._starts_h).reshape(3, rows, n)
-        d = (frame[:, :3] @ d_t).reshape(3, rows, n)
-        # no division by zero: an axis the ray runs parallel to gets a tiny component (huge fractions); adding it
-        # leaves every other component as it is (it is far below their last bit)
-        d += _TINY
-        with np.errstate(over="ignore"):
-            ninv = -1.0 / d  # (negated: -o / d is then one product)
-        noi = o * ninv
-        ai = np.abs(ninv)
         if self._grown_full.shape != (3, rows, n):
             self._grown_full = np.repeat(self._grown[:, :, None], n, axis=2)
+            self._work = np.empty((5, 3, rows, n))  # buffers reused between casts (less memory traffic)
         elif rows > nb:  # (a product of whole arrays runs faster than a broadcast one)
             self._grown_full[:, nb:] = self._grown[:, nb:, None]
-        reach = self._grown_full * ai
-        g_near = (noi - reach).max(axis=0)  # slab entry per axis: (-h - o) / d for d > 0, (h - o) / d for d < 0
-        g_far = (noi + reach).min(axis=0)
+        noi, ninv, ai, reach, tmp = self._work
+        frame = self._frame.reshape(-1, 4)
+        np.matmul(frame, self._starts_h, out=noi.reshape(-1, n))  # o, the starts in each row's frame
+        np.matmul(frame[:, :3], d_t, out=ninv.reshape(-1, n))  # d, the segments
+        # no division by zero: an axis the ray runs parallel to gets a tiny component (huge fractions); adding it
+        # leaves every other component as it is (it is far below their last bit)
+        ninv += _TINY
+        with np.errstate(over="ignore"):
+            np.divide(-1.0, ninv, out=ninv)  # -1 / d (negated: -o / d is then one product)
+            np.multiply(noi, ninv, out=noi)  # -o / d
+        np.abs(ninv, out=ai)
+        np.multiply(self._grown_full, ai, out=reach)
+        g_near = np.subtract(noi, reach, out=tmp).max(axis=0)  # slab entry per axis: (-h - o) / d for d > 0, ...
+        g_far = np.add(noi, reach, out=tmp).min(axis=0)
         g_all = np.where((g_near <= g_far) & (g_far >= 0.0), g_near, np.inf)  # (R, N)
         g_hit = g_all[:nb]
         cols = np.arange(n)
