@@ -283,7 +283,7 @@ class RayCaster:
         tf = tolf * inv_len
         candidate = g_first <= 1.0 + tf
         # exact slabs of the named box, (3, N)
-        nof, nidf, aif = (a.reshape(3, -1).take(flat, axis=1) for a in (noi, ninv, ai))
+        nof, nidf, aif = self._work[:3].reshape(3, 3, -1).take(flat, axis=2)  # noi, ninv and ai at the named box
         h_ai = self._half.T.take(first, axis=1) * aif
         lo = nof - h_ai
         t_near = lo.max(axis=0)
