@@ -125,6 +125,7 @@ class Lidar(Sensor):
         self.angle_min, self.angle_max, self.angle_inc = scan_angles(cfg.rays, cfg.fov_deg)
         angles = self.angle_min + self.angle_inc * np.arange(cfg.rays) + math.radians(cfg.yaw_offset_deg)
         self.local_dirs = np.stack([np.cos(angles), np.sin(angles), np.zeros_like(angles)], axis=1)
+        self._local_t = np.ascontiguousarray(self.local_dirs.T)  # (3, N)
         self.scans = 0
         self._zeros = np.zeros(cfg.rays)
         self.caster = RayCaster(self.world, skip=() if self.body is None else (self.body,), mask=RAY_MASK,
@@ -155,6 +156,7 @@ class Lidar(Sensor):
 
     def _exit_distances(self, origin: np.ndarray, dirs: np.ndarray) -> np.ndarray:
         """Per ray, how far it runs (m) before it leaves the robot's own bounding box (grown by the broadphase margin).
+        ``dirs``: the rays' unit vectors, shape (3, N).
 
         Rays start there: the robot cannot see through itself, and a ray that starts inside the robot's box pays
         Bullet's per-object cost for each of the robot's links it overlaps even though they are filtered out
@@ -171,8 +173,7 @@ class Lidar(Sensor):
             return self._zeros
         # An axis a ray has no component along never bounds its exit: a zero component is replaced by a tiny one,
         # whose huge quotient loses the minimum (the origin is strictly inside, so both bounds are finite).
-        dirs_t = dirs.T
-        inv = np.divide(1.0, dirs_t if dirs_t.all() else np.where(dirs_t == 0.0, 1e-300, dirs_t), order="C")
+        inv = 1.0 / (dirs if dirs.all() else np.where(dirs == 0.0, 1e-300, dirs))
         bounds = np.array([[high - x, low - x] for low, x, high in zip(lo_, o, hi_, strict=True)])  # (3, 2)
         return np.minimum.reduce(np.maximum(bounds[:, :1] * inv, bounds[:, 1:] * inv))  # type: ignore[no-any-return]
 
@@ -180,11 +181,13 @@ class Lidar(Sensor):
         """Cast every ray once (at most one ``rayTestBatch``) and return the scan."""
         cfg = self.config
         origin, rot = self._sensor_frame()
-        dirs = self.local_dirs @ rot.T
+        # axis-first (3, N) layouts: numpy's per-axis work is then on contiguous rows (the same numbers as (N, 3))
+        dirs = rot @ self._local_t
         near = np.maximum(cfg.range_min, self._exit_distances(origin, dirs))
-        starts = origin + dirs * near[:, None]
-        ends = origin + dirs * cfg.range_max
-        hits = self.caster.cast(starts, ends, detail=False)
+        o = origin[:, None]
+        starts = o + dirs * near
+        ends = o + dirs * cfg.range_max
+        hits = self.caster.cast(starts.T, ends.T, detail=False)
         ids, frac = hits.body, hits.fraction
         hit = (ids >= 0) & (ids != (-2 if self.body is None else self.body))
         ranges = near + frac * (cfg.range_max - near)
@@ -192,11 +195,11 @@ class Lidar(Sensor):
             noisy = ranges + self.ctx.tick_rng().normal(0.0, cfg.range_noise, len(ranges))
             ranges = np.minimum(np.maximum(noisy, cfg.range_min), cfg.range_max)
         # no return: the ray's end (the same arithmetic as ``ends``)
-        points = origin + dirs * np.where(hit, ranges, cfg.range_max)[:, None]
+        points = (o + dirs * np.where(hit, ranges, cfg.range_max)).T
         ranges = np.where(hit, ranges, np.inf)
         self.scans += 1
         if cfg.draw and self.world.gui:
-            self._draw(starts, points, hit)
+            self._draw(starts.T, points, hit)
         yaw = math.atan2(rot[1, 0], rot[0, 0]) + math.radians(cfg.yaw_offset_deg)
         return LaserScan(self.angle_min, self.angle_max, self.angle_inc, cfg.range_min, cfg.range_max, ranges,
                          points, (float(origin[0]), float(origin[1]), float(origin[2])), yaw, self.world.time)

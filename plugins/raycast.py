@@ -92,6 +92,8 @@ class RayCaster:
         self._grown = np.zeros((3, 0))
         self._ids = np.zeros(0, dtype=int)
         self._starts_h = np.ones((4, 0))  # starts as homogeneous columns (x, y, z, 1), reused between casts
+        self._grown_full = np.zeros((3, 0, 0))  # self._grown repeated for each ray, (3, R, N)
+        self._fresh: tuple[np.ndarray, ...] = ()  # per ray: no hit body, link, fraction; not cast (copied per cast)
         self.rays_cast = 0
         """Rays PyBullet cast so far (for benchmarks and tests)."""
         self.rays_total = 0
@@ -119,6 +121,7 @@ class RayCaster:
         self._grown = np.zeros((3, rows))
         self._grown[:, :nb] = (self._half + self._tol[:, None]).T
         self._frame = np.zeros((3, rows, 4))
+        self._grown_full = np.zeros((3, 0, 0))
         self._frame[:, nb:, :3] = np.eye(3)[:, None, :]  # the others' rows: world axes (centres set per cast)
         self._poses = [None] * nb
         self._ids = np.asarray(self._boxes, dtype=int)
@@ -193,8 +196,9 @@ class RayCaster:
         ends = np.asarray(ends, float)
         n = len(starts)
         self._refresh()
-        body = np.full(n, -1, dtype=int)
-        frac = np.ones(n)
+        if len(self._fresh) == 0 or len(self._fresh[0]) != n:
+            self._fresh = (np.full(n, -1, dtype=int), np.ones(n), np.zeros(n, dtype=bool))
+        body, frac, cast = (a.copy() for a in self._fresh)
         pos = np.zeros((n, 3)) if detail else None
         normal = np.zeros((n, 3)) if detail else None
         if self.analytic and self._boxes:  # without mesh boxes the bounding-box test alone rarely pays
@@ -203,11 +207,10 @@ class RayCaster:
             # axis-first (3, N) layouts: numpy's per-axis work is then on contiguous rows
             self._starts_h[:3] = starts.T
             d_t = np.subtract(ends.T, self._starts_h[:3], order="C")
-            idx = np.flatnonzero(self._intersect(d_t, body, frac, pos, normal))
+            idx = self._intersect(d_t, body, frac, pos, normal).nonzero()[0]
         else:
             idx = np.arange(n)
-        link = np.full(n, -1, dtype=int)
-        cast = np.zeros(n, dtype=bool)
+        link = self._fresh[0].copy()
         if len(idx):
             results = self.client.rayTestBatch(starts[idx], ends[idx], numThreads=self.num_threads,
                                                collisionFilterMask=self.mask)
@@ -248,12 +251,16 @@ class RayCaster:
         # leaves every other component as it is (it is far below their last bit)
         d += _TINY
         with np.errstate(over="ignore"):
-            inv = 1.0 / d
-        oi = o * inv
-        ai = np.abs(inv)
-        reach = self._grown[:, :, None] * ai
-        g_near = (-reach - oi).max(axis=0)  # slab entry per axis: (-h - o) / d for d > 0, (h - o) / d for d < 0
-        g_far = (reach - oi).min(axis=0)
+            ninv = -1.0 / d  # (negated: -o / d is then one product)
+        noi = o * ninv
+        ai = np.abs(ninv)
+        if self._grown_full.shape != (3, rows, n):
+            self._grown_full = np.repeat(self._grown[:, :, None], n, axis=2)
+        elif rows > nb:  # (a product of whole arrays runs faster than a broadcast one)
+            self._grown_full[:, nb:] = self._grown[:, nb:, None]
+        reach = self._grown_full * ai
+        g_near = (noi - reach).max(axis=0)  # slab entry per axis: (-h - o) / d for d > 0, (h - o) / d for d < 0
+        g_far = (noi + reach).min(axis=0)
         g_all = np.where((g_near <= g_far) & (g_far >= 0.0), g_near, np.inf)  # (R, N)
         g_hit = g_all[:nb]
         cols = np.arange(n)
@@ -272,11 +279,11 @@ class RayCaster:
         tf = tolf * inv_len
         candidate = g_first <= 1.0 + tf
         # exact slabs of the named box, (3, N)
-        of, idf, aif = (a.reshape(3, -1).take(flat, axis=1) for a in (oi, inv, ai))
+        nof, nidf, aif = (a.reshape(3, -1).take(flat, axis=1) for a in (noi, ninv, ai))
         h_ai = self._half.T.take(first, axis=1) * aif
-        lo = -h_ai - of
+        lo = nof - h_ai
         t_near = lo.max(axis=0)
-        t_far = (h_ai - of).min(axis=0)
+        t_far = (nof + h_ai).min(axis=0)
         has = candidate & (t_near <= t_far) & (t_far >= 0.0)
         best = np.where(has, t_near, 1.0)
         # Clean if: no other box's grown entry comes before the hit (or the segment's end); the ray starts outside
@@ -295,7 +302,7 @@ class RayCaster:
         if rows > nb:  # another body's (padded) bounding box entered before the hit or the segment's end
             need |= g_all[nb:].min(axis=0) <= best + AABB_PAD * inv_len
         if clean.any():
-            k = np.flatnonzero(clean)
+            k = clean.nonzero()[0]
             fk = first[k]
             body[k] = self._ids[fk]
             frac[k] = best[k]
@@ -303,5 +310,5 @@ class RayCaster:
                 pos[k] = (s_t[:, k] + d_t[:, k] * best[k]).T
                 ek = entry[k]
                 # outward normal of the entry face: box axis ek, against the ray's direction along it
-                normal[k] = self._rot[fk, :, ek] * -np.sign(idf.reshape(-1).take(ek * n + k))[:, None]
+                normal[k] = self._rot[fk, :, ek] * np.sign(nidf.reshape(-1).take(ek * n + k))[:, None]
         return need
