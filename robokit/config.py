@@ -354,7 +354,7 @@ def validate_model(model: type, data: Any, key: str) -> Any:
     (only the latter imports pydantic); raise a one-line ConfigError placed at ``key``."""
     if not isinstance(data, Mapping):
         raise ConfigError(f"expected a table, got {_describe(data)}", key=key)
-    if issubclass(model, Section):
+    if isinstance(model, type) and issubclass(model, Section):
         try:
             return model.validate(data)
         except Invalid as exc:
