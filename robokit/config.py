@@ -16,7 +16,8 @@ from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 from robokit import sections as _s
 from robokit.errors import ConfigError, UserError, did_you_mean
-from robokit.sections import FLOAT_LIMIT, Invalid, Section, field_names, setting
+from robokit.sections import FLOAT_LIMIT as FLOAT_LIMIT  # re-exported: every float within ±FLOAT_LIMIT by default
+from robokit.sections import Invalid, Section, field_names, setting
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -37,9 +38,6 @@ if TYPE_CHECKING:  # at run time these come from robokit.pydantic_schema on firs
 Vec2 = tuple[float, float]
 Vec3 = tuple[float, float, float]
 Vec4 = tuple[float, float, float, float]
-
-__all__ = ["FLOAT_LIMIT", "MAX_CONFIG_BYTES", "Config", "ComponentSpec", "Schema", "Section", "validate_model",
-           "validation_error", "build_config", "load_config", "read_toml", "set_dotted", "Vec2", "Vec3", "Vec4"]
 
 MAX_CONFIG_BYTES = 4 * 1024 * 1024
 """A config file larger than this is refused unread (a config is a few kilobytes of TOML)."""
@@ -356,7 +354,7 @@ def validate_model(model: type, data: Any, key: str) -> Any:
     (only the latter imports pydantic); raise a one-line ConfigError placed at ``key``."""
     if not isinstance(data, Mapping):
         raise ConfigError(f"expected a table, got {_describe(data)}", key=key)
-    if issubclass(model, Section):
+    if isinstance(model, type) and issubclass(model, Section):
         try:
             return model.validate(data)
         except Invalid as exc:

@@ -38,17 +38,25 @@ Loc = tuple[Any, ...]
 Check = Callable[[Any, Loc], Any]
 
 
-@dataclasses.dataclass(frozen=True)
 class Bounds:
     """Constraints of a field (or, inside ``Annotated``, of a tuple item or table value): numbers within
     ``ge``/``gt``/``le``/``lt``, strings at least ``min_length`` long; ``description`` says the unit."""
 
-    ge: float | None = None
-    gt: float | None = None
-    le: float | None = None
-    lt: float | None = None
-    min_length: int | None = None
-    description: str = ""
+    __slots__ = ("ge", "gt", "le", "lt", "min_length", "description")
+
+    def __init__(self, ge: float | None = None, gt: float | None = None, le: float | None = None,
+                 lt: float | None = None, min_length: int | None = None, description: str = "") -> None:
+        self.ge, self.gt, self.le, self.lt, self.min_length, self.description = ge, gt, le, lt, min_length, description
+
+    def over(self, base: Bounds) -> Bounds:
+        """These bounds, completed by ``base`` where they say nothing."""
+        mine = [getattr(self, k) for k in self.__slots__]
+        return Bounds(*(getattr(base, k) if v is None or v == "" else v for k, v in zip(self.__slots__, mine,
+                                                                                        strict=True)))
+
+    def __repr__(self) -> str:
+        shown = ", ".join(f"{k}={getattr(self, k)!r}" for k in self.__slots__ if getattr(self, k) not in (None, ""))
+        return f"Bounds({shown})"
 
 
 class _Setting:
@@ -249,10 +257,10 @@ def _field_types(cls: type[Section]) -> dict[str, Any]:
 def _checker(tp: Any, bounds: Bounds) -> Check:
     origin, args = typing.get_origin(tp), typing.get_args(tp)
     if origin is Annotated:
-        extra = [m for m in tp.__metadata__ if isinstance(m, Bounds)]
-        merged = dataclasses.replace(bounds, **{k: v for m in extra for k, v in vars(m).items()
-                                                if v is not None and v != ""})
-        return _checker(args[0], merged)
+        for extra in tp.__metadata__:
+            if isinstance(extra, Bounds):
+                bounds = extra.over(bounds)
+        return _checker(args[0], bounds)
     if origin in (typing.Union, types.UnionType) and type(None) in args:
         rest = [a for a in args if a is not type(None)]
         if len(rest) != 1:

@@ -140,6 +140,19 @@ def test_defaults_are_the_declared_ones_and_objects_are_frozen() -> None:
     assert field_names(RecordConfig) == ("pose_hz", "save_frames")
 
 
+def test_sections_survive_pickle_and_deepcopy() -> None:
+    import copy
+    import pickle
+
+    body = validate_model(BodyConfig, {"urdf": "r2d2.urdf", "mount": {"body": "a", "link": "b"},
+                                       "joint_positions": {"j": 0.5}}, "x")
+    for twin in (pickle.loads(pickle.dumps(body)), copy.deepcopy(body)):
+        assert twin == body and twin is not body and twin.mount == body.mount
+        assert twin.joint_positions == {"j": 0.5} and twin.joint_positions is not body.joint_positions
+    assert hash(WorldConfig()) == hash(validate_model(WorldConfig, {}, "world"))
+    assert repr(MountConfig(body="a", link="b")).startswith("MountConfig(body='a', link='b', position=(0.0, 0.0, 0.0)")
+
+
 def test_a_whole_config_of_core_sections(tmp_path: Any) -> None:
     cfg = build_config({"world": {"seed": 3}, "bodies": {"plane": PLANE}, "record": {"pose_hz": 10}},
                        load_plugins(), base_dir=tmp_path)
