@@ -93,6 +93,7 @@ class RayCaster:
         self._ids = np.zeros(0, dtype=int)
         self._starts_h = np.ones((4, 0))  # starts as homogeneous columns (x, y, z, 1), reused between casts
         self._grown_full = np.zeros((3, 0, 0))  # self._grown repeated for each ray, (3, R, N)
+        self._work = np.zeros((5, 3, 0, 0))
         self._fresh: tuple[np.ndarray, ...] = ()  # per ray: no hit body, link, fraction; not cast (copied per cast)
         self.rays_cast = 0
         """Rays PyBullet cast so far (for benchmarks and tests)."""
@@ -182,9 +183,10 @@ class RayCaster:
             self._frame[:, :nb, 3] = -np.einsum("ibj,bj->ib", axes, self._centre)
         if self._others and nb:  # (without boxes every ray is cast: no test)
             aabb = c.getAABB
-            lo_hi = np.array([aabb(b, link) for b, link in self._others], float)  # (K, 2, 3)
-            self._frame[:, nb:, 3] = lo_hi.sum(axis=1).T * -0.5
-            self._grown[:, nb:] = (lo_hi[:, 1] - lo_hi[:, 0]).T * 0.5 + AABB_PAD
+            boxes = [aabb(b, link) for b, link in self._others]
+            # (a few floats per box: plain Python costs less than numpy's per-call overhead here)
+            self._frame[:, nb:, 3] = [[(lo[i] + hi[i]) * -0.5 for lo, hi in boxes] for i in range(3)]
+            self._grown[:, nb:] = [[(hi[i] - lo[i]) * 0.5 + AABB_PAD for lo, hi in boxes] for i in range(3)]
 
     # ----------------------------------------------------------------- casting
     def cast(self, starts: np.ndarray, ends: np.ndarray, *, detail: bool = True) -> RayHits:
@@ -244,23 +246,25 @@ class RayCaster:
         nb, rows = len(self._boxes), self._grown.shape[1]
         inv_len = 1.0 / np.sqrt(np.einsum("ij,ij->j", d_t, d_t))
         # starts and segments in each row's frame, (3, R, N): one small matrix product each
-        frame = self._frame.reshape(-1, 4)
-        o = (frame @ self._starts_h).reshape(3, rows, n)
-        d = (frame[:, :3] @ d_t).reshape(3, rows, n)
-        # no division by zero: an axis the ray runs parallel to gets a tiny component (huge fractions); adding it
-        # leaves every other component as it is (it is far below their last bit)
-        d += _TINY
-        with np.errstate(over="ignore"):
-            ninv = -1.0 / d  # (negated: -o / d is then one product)
-        noi = o * ninv
-        ai = np.abs(ninv)
         if self._grown_full.shape != (3, rows, n):
             self._grown_full = np.repeat(self._grown[:, :, None], n, axis=2)
+            self._work = np.empty((5, 3, rows, n))  # buffers reused between casts (less memory traffic)
         elif rows > nb:  # (a product of whole arrays runs faster than a broadcast one)
             self._grown_full[:, nb:] = self._grown[:, nb:, None]
-        reach = self._grown_full * ai
-        g_near = (noi - reach).max(axis=0)  # slab entry per axis: (-h - o) / d for d > 0, (h - o) / d for d < 0
-        g_far = (noi + reach).min(axis=0)
+        noi, ninv, ai, reach, tmp = self._work
+        frame = self._frame.reshape(-1, 4)
+        np.matmul(frame, self._starts_h, out=noi.reshape(-1, n))  # o, the starts in each row's frame
+        np.matmul(frame[:, :3], d_t, out=ninv.reshape(-1, n))  # d, the segments
+        # no division by zero: an axis the ray runs parallel to gets a tiny component (huge fractions); adding it
+        # leaves every other component as it is (it is far below their last bit)
+        ninv += _TINY
+        with np.errstate(over="ignore"):
+            np.divide(-1.0, ninv, out=ninv)  # -1 / d (negated: -o / d is then one product)
+            np.multiply(noi, ninv, out=noi)  # -o / d
+        np.abs(ninv, out=ai)
+        np.multiply(self._grown_full, ai, out=reach)
+        g_near = np.subtract(noi, reach, out=tmp).max(axis=0)  # slab entry per axis: (-h - o) / d for d > 0, ...
+        g_far = np.add(noi, reach, out=tmp).min(axis=0)
         g_all = np.where((g_near <= g_far) & (g_far >= 0.0), g_near, np.inf)  # (R, N)
         g_hit = g_all[:nb]
         cols = np.arange(n)
@@ -279,7 +283,7 @@ class RayCaster:
         tf = tolf * inv_len
         candidate = g_first <= 1.0 + tf
         # exact slabs of the named box, (3, N)
-        nof, nidf, aif = (a.reshape(3, -1).take(flat, axis=1) for a in (noi, ninv, ai))
+        nof, nidf, aif = self._work[:3].reshape(3, 3, -1).take(flat, axis=2)  # noi, ninv and ai at the named box
         h_ai = self._half.T.take(first, axis=1) * aif
         lo = nof - h_ai
         t_near = lo.max(axis=0)

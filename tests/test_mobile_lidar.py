@@ -104,6 +104,18 @@ def test_range_noise_is_seeded_and_of_the_configured_size() -> None:
     assert 0.007 < np.std(error) < 0.013 and abs(np.mean(error)) < 0.004
 
 
+@pytest.mark.parametrize("seed", [0, 5, 2**40])
+def test_range_noise_is_the_tick_generators(seed: int) -> None:
+    """The lidar builds its per-tick noise generator itself (fewer conversions): its draws are those of
+    ``ctx.tick_rng()``, the generator every sensor's per-reading noise comes from, at every tick."""
+    with make_sim(scene(rays=36, range_noise=0.01), seed=seed) as sim:
+        lidar = sim.components["scan"]
+        for _ in range(3):
+            sim.step(7)
+            ours, shared = lidar._noise_rng(), lidar.ctx.tick_rng()
+            assert np.array_equal(ours.normal(0.0, 0.01, 36), shared.normal(0.0, 0.01, 36))
+
+
 XVFB_RUN = shutil.which("xvfb-run")
 
 

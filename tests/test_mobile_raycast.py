@@ -120,3 +120,49 @@ def test_a_box_the_mask_leaves_out_is_left_to_pybullet() -> None:
         fast = RayCaster(w, mask=-1 ^ 0x100)
         hits = fast.cast(np.array([[0.0, 0.0, 0.25]]), np.array([[5.0, 0.0, 0.25]]))
         assert hits.body[0] == -1 and hits.cast[0]  # probed at set-up: PyBullet's rays do not see it
+
+
+def fan(origin: list[float], n: int = 360, tilt: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """A lidar-like fan of ``n`` rays from ``origin`` (tilted about x by ``tilt`` rad), 0.1 m to RANGE."""
+    a = np.linspace(-math.pi, math.pi, n, endpoint=False)
+    dirs = np.stack([np.cos(a), np.sin(a) * math.cos(tilt), np.sin(a) * math.sin(tilt)], axis=1)
+    return np.asarray(origin) + dirs * 0.1, np.asarray(origin) + dirs * RANGE
+
+
+def test_bodies_moved_between_casts_are_followed() -> None:
+    """The other bodies' bounding boxes are read at each cast, in the same pass as the mesh boxes: a can pushed in
+    front of a wall between two casts is seen by the next one, a box teleported away is no longer hit."""
+    with World() as w:
+        c = w.client
+        w.add_primitive("wall", "box", size=[0.1, 4, 0.5], mass=0, mesh_collision=True, position=[2, 0, 0.25])
+        w.add_primitive("post", "box", size=[0.3, 0.3, 0.5], mass=0, mesh_collision=True, position=[-1, 1, 0.25])
+        can = w.add_primitive("can", "cylinder", radius=0.05, height=0.2, mass=0.2, position=[0, -6, 0.1])
+        fast, reference = RayCaster(w), RayCaster(w, analytic=False)
+        starts, ends = fan([0.0, 0.0, 0.1])
+        before = fast.cast(starts, ends)
+        assert_same(before, reference.cast(starts, ends))
+        assert w.body("can") not in before.body and not before.cast[180]  # ray 180 points along +x: the wall
+        assert w.body("post") in before.body
+        c.resetBasePositionAndOrientation(can, [1.0, 0.0, 0.1], [0, 0, 0, 1])
+        c.resetBasePositionAndOrientation(w.body("post"), [-6, -6, 0.25], [0, 0, 0, 1])
+        after = fast.cast(starts, ends)
+        assert_same(after, reference.cast(starts, ends))
+        assert after.body[180] == can and after.cast[180]  # crosses the can's box: PyBullet's answer
+        assert w.body("post") not in after.body
+
+
+def test_a_tilted_fan_and_a_changing_ray_count_give_pybullets_answers() -> None:
+    """Rays not parallel to any box face (a tilted fan over a rotated box) and casts of different sizes in turn
+    (the caster's per-size buffers) all give PyBullet's answers."""
+    with World() as w:
+        c = w.client
+        w.load_urdf("plane", "plane.urdf")
+        w.add_primitive("wall", "box", size=[0.1, 6, 0.5], mass=0, mesh_collision=True, position=[2, 0, 0.25],
+                        orientation=c.getQuaternionFromEuler([0, 0, 0.4]))
+        w.add_primitive("block", "box", size=[0.5, 0.5, 0.3], mass=0, mesh_collision=True, position=[-1, -1, 0.15])
+        fast, reference = RayCaster(w), RayCaster(w, analytic=False)
+        for n, tilt in ((360, 0.05), (7, -0.1), (360, 0.0), (1, 0.0)):
+            starts, ends = fan([0.0, 0.0, 0.2], n, tilt)
+            hits = fast.cast(starts, ends)
+            assert_same(hits, reference.cast(starts, ends))
+        assert fast.rays_cast < fast.rays_total  # the numpy path answered rays itself
