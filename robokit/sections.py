@@ -290,8 +290,9 @@ def _literal(choices: tuple[Any, ...]) -> Check:
     expected = shown[0] if len(shown) == 1 else f"{', '.join(shown[:-1])} or {shown[-1]}"
 
     def check(value: Any, loc: Loc) -> Any:
-        if any(value == c and type(value) is type(c) for c in choices):
-            return value
+        for choice in choices:  # a str subclass (numpy's) matches a string choice; otherwise the type must match
+            if (isinstance(value, str) if isinstance(choice, str) else type(value) is type(choice)) and value == choice:
+                return choice
         raise Invalid(loc, "literal_error", f"Input should be {expected}", value)
 
     return check
@@ -299,16 +300,20 @@ def _literal(choices: tuple[Any, ...]) -> Check:
 
 def _tuple(items: tuple[Check, ...], each: Check | None) -> Check:
     def check(value: Any, loc: Loc) -> Any:
-        if not isinstance(value, (list, tuple)):
+        if isinstance(value, (list, tuple)):
+            given = value
+        elif isinstance(value, (str, bytes, bytearray, Mapping)) or not hasattr(value, "__iter__"):
             raise Invalid(loc, "tuple_type", "Input should be a valid tuple", value)
+        else:  # like pydantic's lax tuples: any other iterable (a numpy array, a set, a generator) is read once
+            given = list(value)
         if each is not None:
-            return tuple(each(v, (*loc, i)) for i, v in enumerate(value))
-        if len(value) > len(items):
+            return tuple(each(v, (*loc, i)) for i, v in enumerate(given))
+        if len(given) > len(items):
             raise Invalid(loc, "too_long", f"Tuple should have at most {len(items)} item{'s' * (len(items) != 1)}"
-                          f" after validation, not {len(value)}", value)
-        out = tuple(c(v, (*loc, i)) for i, (c, v) in enumerate(zip(items, value, strict=False)))  # a short one: below
-        if len(value) < len(items):
-            raise Invalid((*loc, len(value)), "missing", "Field required", value)
+                          f" after validation, not {len(given)}", value)
+        out = tuple(c(v, (*loc, i)) for i, (c, v) in enumerate(zip(items, given, strict=False)))  # a short one: below
+        if len(given) < len(items):
+            raise Invalid((*loc, len(given)), "missing", "Field required", value)
         return out
 
     return check
@@ -361,18 +366,33 @@ def _float(bounds: Bounds) -> Check:
     within = _bounded(bounds, default_limit=True)
 
     def check(value: Any, loc: Loc) -> Any:
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise Invalid(loc, "float_type", "Input should be a valid number", value)
-        try:
-            number = float(value)
-        except OverflowError:
-            number = math.inf
+        number: float
+        if type(value) is float:
+            number = value
+        else:
+            like = _float_like(value)
+            if like is None:
+                raise Invalid(loc, "float_type", "Input should be a valid number", value)
+            number = like
         if not math.isfinite(number):
             raise Invalid(loc, "finite_number", "Input should be a finite number", value)
         within(number, value, loc)
         return number
 
     return check
+
+
+def _float_like(value: Any) -> float | None:
+    """A number (an int, a numpy scalar, a ``Decimal``...) as a float; None for a bool (numpy's too), a string,
+    an int too large for a float, or anything ``float()`` refuses."""
+    kind = type(value)
+    if isinstance(value, (bool, str, bytes, bytearray)) or (kind.__module__ == "numpy" and kind.__name__ in
+                                                            ("bool_", "bool")):
+        return None
+    try:
+        return float(value)
+    except (TypeError, ValueError, OverflowError):
+        return None
 
 
 def _int(bounds: Bounds) -> Check:

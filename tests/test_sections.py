@@ -68,6 +68,23 @@ def test_an_integer_is_a_float_and_values_are_converted() -> None:
     assert validate_model(WorldConfig, {"max_wall_time": None}, "world").max_wall_time is None
 
 
+def test_numbers_and_arrays_from_python_code() -> None:
+    """Configs built in code (gym, sweeps, tests) may hold numpy values: accepted where pydantic's rules took them."""
+    import numpy as np
+
+    world = validate_model(WorldConfig, {"time_step": np.float32(0.0125), "max_time": np.int64(3),
+                                         "gravity": np.array([0.0, 0.0, -9.81])}, "world")
+    assert world.max_time == 3.0 and type(world.max_time) is float and world.gravity == (0.0, 0.0, -9.81)
+    assert type(world.time_step) is float and math.isclose(world.time_step, 0.0125, rel_tol=1e-6)
+    assert refusal(WorldConfig, {"seed": np.int64(3)}) == "x.seed: input should be a valid integer, got np.int64(3)"
+    assert refusal(WorldConfig, {"max_time": np.bool_(True)}) == \
+        "x.max_time: input should be a valid number, got np.True_"  # a bool is not a number, numpy's neither
+    assert refusal(WorldConfig, {"max_time": 10**400}).startswith("x.max_time: input should be a valid number")
+    assert validate_model(BodyConfig, {"shape": np.str_("box"), "position": [0, 0, 1]}, "b").shape == "box"
+    assert refusal(WorldConfig, {"gravity": range(4)}) == \
+        "x.gravity: tuple should have at most 3 items after validation, not 4, got range(0, 4)"
+
+
 def test_unbounded_floats_are_held_within_the_float_limit() -> None:
     assert refusal(GuiConfig, {"yaw": 2e9}) == \
         "x.yaw: input should be less than or equal to 1000000000, got 2000000000.0"
