@@ -147,9 +147,15 @@ def _time_scans(lidar: Any) -> list[float]:
     return total
 
 
+_COUNTER: list[Callable[[], float]] = []
+
+
 def _instruction_counter() -> Callable[[], float]:
     """User-mode instructions this thread has executed, through ``perf_event_open``, scaled by the share of time
-    the counter ran (other processes' counters can crowd it out); a function returning 0 where that is refused."""
+    the counter ran (other processes' counters can crowd it out); a function returning 0 where that is refused.
+    One counter per process (each open counter takes a slot of the CPU's few)."""
+    if _COUNTER:
+        return _COUNTER[0]
     from _counters import _SYSCALL, _Attr
 
     number = _SYSCALL.get(platform.machine())
@@ -157,13 +163,14 @@ def _instruction_counter() -> Callable[[], float]:
     if number is not None and os.name == "posix":
         attr = _Attr(type=0, size=ctypes.sizeof(_Attr), config=1, read_format=3, flags=(1 << 5) | (1 << 6))
         fd = ctypes.CDLL(None, use_errno=True).syscall(number, ctypes.byref(attr), 0, -1, -1, 0)
-    if fd < 0:
-        return lambda: 0.0
 
     def read() -> float:
+        if fd < 0:
+            return 0.0
         value, enabled, running = struct.unpack("QQQ", os.read(fd, 24))
         return value * enabled / running if running else 0.0
 
+    _COUNTER.append(read)
     return read
 
 
@@ -196,7 +203,8 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"  {text}: {b['wall']:.2f} s vs {base['wall']:.2f} s without: "
                       f"ratio {b['wall'] / base['wall']:.3f} (process CPU {b['cpu'] / base['cpu']:.3f}); "
                       f"PyBullet cast {b['cast']:.1%} of the rays   (target <= 1.15)")
-                print(f"    a scan {b['scan_ms']:.2f} ms of process time ({b['scan_minstr']:.2f} M user instructions); "
+                instructions = f"{b['scan_minstr']:.2f} M" if b["scan_minstr"] > 0 else "n/a"
+                print(f"    a scan {b['scan_ms']:.2f} ms of process time ({instructions} user instructions); "
                       f"the rest of a tick {b['tick_us']:.0f} us "
                       f"(without the lidar {1e6 * base['cpu'] / base['ticks']:.0f} us)")
     return 0
