@@ -93,7 +93,7 @@ class RayCaster:
         self._ids = np.zeros(0, dtype=int)
         self._starts_h = np.ones((4, 0))  # starts as homogeneous columns (x, y, z, 1), reused between casts
         self._grown_full = np.zeros((3, 0, 0))  # self._grown repeated for each ray, (3, R, N)
-        self._work = np.zeros((5, 3, 0, 0))
+        self._work = np.zeros((3, 3, 0, 0))
         self._fresh: tuple[np.ndarray, ...] = ()  # per ray: no hit body, link, fraction; not cast (copied per cast)
         self.rays_cast = 0
         """Rays PyBullet cast so far (for benchmarks and tests)."""
@@ -248,10 +248,10 @@ class RayCaster:
         # starts and segments in each row's frame, (3, R, N): one small matrix product each
         if self._grown_full.shape != (3, rows, n):
             self._grown_full = np.repeat(self._grown[:, :, None], n, axis=2)
-            self._work = np.empty((5, 3, rows, n))  # buffers reused between casts (less memory traffic)
+            self._work = np.empty((3, 3, rows, n))  # buffers reused between casts (less memory traffic)
         elif rows > nb:  # (a product of whole arrays runs faster than a broadcast one)
             self._grown_full[:, nb:] = self._grown[:, nb:, None]
-        noi, ninv, ai, reach, tmp = self._work
+        noi, ninv, reach = self._work
         frame = self._frame.reshape(-1, 4)
         np.matmul(frame, self._starts_h, out=noi.reshape(-1, n))  # o, the starts in each row's frame
         np.matmul(frame[:, :3], d_t, out=ninv.reshape(-1, n))  # d, the segments
@@ -261,10 +261,10 @@ class RayCaster:
         with np.errstate(over="ignore"):
             np.divide(-1.0, ninv, out=ninv)  # -1 / d (negated: -o / d is then one product)
             np.multiply(noi, ninv, out=noi)  # -o / d
-        np.abs(ninv, out=ai)
-        np.multiply(self._grown_full, ai, out=reach)
-        g_near = np.subtract(noi, reach, out=tmp).max(axis=0)  # slab entry per axis: (-h - o) / d for d > 0, ...
-        g_far = np.add(noi, reach, out=tmp).min(axis=0)
+        np.abs(ninv, out=reach)
+        reach *= self._grown_full  # h / |d|
+        g_far = np.add(noi, reach).min(axis=0)
+        g_near = np.subtract(noi, reach, out=reach).max(axis=0)  # slab entry per axis: (-h - o) / d for d > 0, ...
         g_all = np.where((g_near <= g_far) & (g_far >= 0.0), g_near, np.inf)  # (R, N)
         g_hit = g_all[:nb]
         cols = np.arange(n)
@@ -283,7 +283,8 @@ class RayCaster:
         tf = tolf * inv_len
         candidate = g_first <= 1.0 + tf
         # exact slabs of the named box, (3, N)
-        nof, nidf, aif = self._work[:3].reshape(3, 3, -1).take(flat, axis=2)  # noi, ninv and ai at the named box
+        nof, nidf = self._work[:2].reshape(2, 3, -1).take(flat, axis=2)  # noi and ninv at the named box
+        aif = np.abs(nidf)
         h_ai = self._half.T.take(first, axis=1) * aif
         lo = nof - h_ai
         t_near = lo.max(axis=0)
