@@ -41,7 +41,7 @@ class Counters:
         if number is None or os.name != "posix":
             return None
         libc = ctypes.CDLL(None, use_errno=True)
-        fds = []
+        fds: list[int] = []
         for config in (_CYCLES, _INSTRUCTIONS):
             attr = _Attr(type=_HARDWARE, size=ctypes.sizeof(_Attr), config=config, flags=_FLAGS)
             fd = libc.syscall(number, ctypes.byref(attr), 0, -1, -1, 0)

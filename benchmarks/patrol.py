@@ -91,7 +91,8 @@ class ScriptedPlugin:
 
 def lidar_cost(config: Path, seconds: float, repeats: int, threads: int = 1,
                reference: bool = False) -> dict[str, dict[str, float]]:
-    """Wall and process-CPU seconds of ``seconds`` sim seconds with the lidar (map intersected in numpy, and with
+    """Wall and process-CPU seconds (and user-mode instructions, where Linux counts them: the same on any load) of
+    ``seconds`` sim seconds with the lidar (map intersected in numpy, and with
     ``reference`` also with every ray cast by PyBullet) and without it: best of ``repeats`` interleaved runs, the
     order of the variants turned round at each repeat. Also the share of rays PyBullet cast."""
     from robokit.config import read_toml
@@ -113,11 +114,13 @@ def lidar_cost(config: Path, seconds: float, repeats: int, threads: int = 1,
             with make_sim(variants[label], extra_plugins=[ScriptedPlugin()], base_dir=config.parent) as sim:
                 ticks = round(seconds / sim.world.time_step)
                 in_scans = _time_scans(sim.components.get("scan"))
-                t0, c0 = time.perf_counter(), time.process_time()
+                count = _instruction_counter()
+                t0, c0, i0 = time.perf_counter(), time.process_time(), count()
                 sim.step(ticks)
-                wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+                wall, cpu, instr = time.perf_counter() - t0, time.process_time() - c0, count() - i0
                 b = best[label]
                 b["wall"], b["cpu"], b["ticks"] = min(b["wall"], wall), min(b["cpu"], cpu), ticks
+                b["instr"] = min(b.get("instr", math.inf), instr)
                 if "scan" in sim.components:
                     lidar = sim.components["scan"]
                     b["cast"] = lidar.caster.rays_cast / max(lidar.caster.rays_total, 1)
@@ -201,7 +204,9 @@ def main(argv: list[str] | None = None) -> int:
             if label in best:
                 b = best[label]
                 print(f"  {text}: {b['wall']:.2f} s vs {base['wall']:.2f} s without: "
-                      f"ratio {b['wall'] / base['wall']:.3f} (process CPU {b['cpu'] / base['cpu']:.3f}); "
+                      f"ratio {b['wall'] / base['wall']:.3f} (process CPU {b['cpu'] / base['cpu']:.3f}"
+                      + (f", user instructions {b['instr'] / base['instr']:.3f}" if base["instr"] > 0 else "")
+                      + "); "
                       f"PyBullet cast {b['cast']:.1%} of the rays   (target <= 1.15)")
                 instructions = f"{b['scan_minstr']:.2f} M" if b["scan_minstr"] > 0 else "n/a"
                 print(f"    a scan {b['scan_ms']:.2f} ms of process time ({instructions} user instructions); "

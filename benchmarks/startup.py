@@ -37,6 +37,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 ROOT = Path(__file__).resolve().parent.parent
 TRIVIAL = """[world]
@@ -119,17 +120,32 @@ def child_env(blas_threads: bool = False) -> dict[str, str]:
     return env
 
 
-def measure(cmd: list[str], cwd: str, env: dict[str, str]) -> tuple[float, float]:
-    """(process seconds, wall seconds) of one run of ``cmd``."""
+_COUNTERS: list[Any] = []
+
+
+def _instructions() -> float:
+    """User-mode instructions of this process and its reaped children so far (``perf_event_open`` with inherit:
+    a child's count is added when it ends); 0 where Linux refuses the counter."""
+    if not _COUNTERS:
+        from _counters import Counters
+
+        _COUNTERS.append(Counters.open())
+    return float(_COUNTERS[0].read()[1]) if _COUNTERS[0] is not None else 0.0
+
+
+def measure(cmd: list[str], cwd: str, env: dict[str, str]) -> tuple[float, float, float]:
+    """(process seconds, wall seconds, user-mode instructions) of one run of ``cmd``."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    i0 = _instructions()
     t0 = time.perf_counter()
     proc = subprocess.run(cmd, cwd=cwd, capture_output=True, text=True, env=env)
     wall = time.perf_counter() - t0
+    instructions = _instructions() - i0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if proc.returncode not in (0, 1):
         raise SystemExit(f"{' '.join(cmd)} failed ({proc.returncode}): {proc.stderr.strip()[-400:]}")
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
-    return cpu, wall
+    return cpu, wall, instructions
 
 
 def stages(config: Path, repeats: int, cwd: str, env: dict[str, str]) -> None:
@@ -199,7 +215,7 @@ def main() -> None:
         print(f"load: {' '.join(f'{v:.2f}' for v in os.getloadavg())} (1/5/15 min) on {os.cpu_count()} cores; "
               f"{args.repeats} runs each, interleaved; medians of process time (user + system, all threads)",
               flush=True)
-        samples: dict[str, list[tuple[float, float]]] = {name: [] for name in cases}
+        samples: dict[str, list[tuple[float, float, float]]] = {name: [] for name in cases}
         for _ in range(args.repeats):
             for name, (cmd, cenv) in cases.items():
                 samples[name].append(measure(cmd, tmp, cenv))
@@ -207,9 +223,12 @@ def main() -> None:
         for name, runs in samples.items():
             cpu = sorted(r[0] for r in runs)
             wall = statistics.median(r[1] for r in runs)
+            instr = statistics.median(r[2] for r in runs)
+            shown = f"  {instr / 1e6:5.0f} M instructions" if instr > 0 else ""
             note = "  (target < 200 ms)" if name == "robokit run trivial.toml" else ""
             print(f"{name:<46} process {medians[name] * 1e3:6.0f} ms (p10-p90 {cpu[len(cpu) // 10] * 1e3:4.0f}-"
-                  f"{cpu[-1 - len(cpu) // 10] * 1e3:4.0f})   wall {wall * 1e3:6.0f} ms{note}")
+                  f"{cpu[-1 - len(cpu) // 10] * 1e3:4.0f})   wall {wall * 1e3:6.0f} ms{shown}{note}")
+        instructions = {name: statistics.median(r[2] for r in runs) for name, runs in samples.items()}
         run = medians["robokit run trivial.toml"]
         floor = medians["python -c 'import numpy, pybullet'  (floor)"]
         by_hand = medians["the same job by hand (pybullet, numpy rng, json)"]
@@ -217,11 +236,22 @@ def main() -> None:
         print(f"trivial run: {run / by_hand:.2f}x the same job by hand ({(run - by_hand) * 1e3:+.0f} ms); "
               f"{(run - floor) * 1e3:.0f} ms above the numpy + pybullet import floor, {(run - libs) * 1e3:.0f} ms "
               f"above that floor plus pydantic and pluggy; load now {os.getloadavg()[0]:.2f}")
+        hand_i = instructions["the same job by hand (pybullet, numpy rng, json)"]
+        if hand_i > 0:  # the work done, the same on any load: process time scales with it on a given machine
+            run_i = instructions["robokit run trivial.toml"]
+            print(f"trivial run in user-mode instructions: {run_i / hand_i:.2f}x the same job by hand "
+                  f"({run_i / 1e6:.0f} M against {hand_i / 1e6:.0f} M); at the by-hand job's measured process time "
+                  f"that would be {by_hand * run_i / hand_i * 1e3:.0f} ms")
         if args.against:
             before = medians[f"robokit run trivial.toml at {args.against}"]
             now = medians["robokit run trivial.toml (python -m)"]
             print(f"trivial run, this checkout / {args.against}: {now / before:.3f} ({now * 1e3:.0f} ms against "
                   f"{before * 1e3:.0f} ms; both `python -m robokit.cli`, OPENBLAS_NUM_THREADS left unset)")
+            old_i = instructions[f"robokit run trivial.toml at {args.against}"]
+            if old_i > 0:
+                new_i = instructions["robokit run trivial.toml (python -m)"]
+                print(f"  in user-mode instructions: {new_i / old_i:.3f} "
+                      f"({new_i / 1e6:.0f} M against {old_i / 1e6:.0f} M)")
         for argv in (["--help"], ["run", str(trivial), "--quiet"]):
             probe = subprocess.run([py, "-c", PROBE.format(heavy=HEAVY), *argv], cwd=tmp, capture_output=True,
                                    text=True, env=env)
