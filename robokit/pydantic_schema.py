@@ -10,22 +10,33 @@ everything public here.
 from __future__ import annotations
 
 import sys
+import typing
 from typing import Annotated, Any
 
 from pydantic import BaseModel, ConfigDict, Field, GetCoreSchemaHandler, ValidationError
 from pydantic_core import CoreSchema
 
+from robokit import sections
 from robokit.config import FLOAT_LIMIT, error_from_parts
 from robokit.errors import ConfigError
 
-Coord = Annotated[float, Field(ge=-1e4, le=1e4, description="metres, world frame")]
+
+def _field(alias: Any) -> Any:
+    """The bounds of a unit type of :mod:`robokit.sections` (``Annotated[float, Bounds(...)]``) as a pydantic
+    ``Field``: each unit's bounds are defined once, for both kinds of schema."""
+    bounds = typing.get_args(alias)[1]
+    limits = {k: getattr(bounds, k) for k in ("ge", "gt", "le", "lt") if getattr(bounds, k) is not None}
+    return Field(**limits, description=bounds.description or None)
+
+
+Coord = Annotated[float, _field(sections.Coord)]
 """A position coordinate in metres: within ±10 km of the origin."""
-Angle = Annotated[float, Field(ge=-720.0, le=720.0, description="degrees")]
-Unit = Annotated[float, Field(ge=0.0, le=1.0)]
-Length = Annotated[float, Field(gt=0, le=1e3, description="metres")]
+Angle = Annotated[float, _field(sections.Angle)]
+Unit = Annotated[float, _field(sections.Unit)]
+Length = Annotated[float, _field(sections.Length)]
 Position = tuple[Coord, Coord, Coord]
-Gravity = Annotated[float, Field(ge=-1000.0, le=1000.0, description="m/s^2")]
-Newtons = Annotated[float, Field(ge=-1e6, le=1e6, description="newtons")]
+Gravity = Annotated[float, _field(sections.Gravity)]
+Newtons = Annotated[float, _field(sections.Newtons)]
 
 _STRICT_SCALARS = frozenset({"int", "float", "bool", "str"})
 

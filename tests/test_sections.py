@@ -260,3 +260,27 @@ def test_pydantic_schemas_keep_working_through_the_same_door() -> None:
     assert refusal(Gain, {"kp": True}, "g") == "g.kp: input should be a valid number, got True"
     assert refusal(Gain, {"kpp": 1}, "g") == "g.kpp: unknown key 'kpp' (did you mean 'kp'?); valid keys: kp"
     assert callable(validation_error) and field_names(Gain) == ("kp",)
+
+
+@pytest.mark.parametrize("unit", ["Coord", "Angle", "Unit", "Length", "Gravity", "Newtons"])
+def test_the_pydantic_unit_types_have_the_core_sections_bounds(unit: str) -> None:
+    import robokit.config
+    from robokit import sections
+
+    light = getattr(sections, unit).__metadata__[0]
+    # (built with type(): this module postpones annotations, and a local name cannot be resolved from a string)
+    Light = type("Light", (Section,), {"__annotations__": {"value": getattr(sections, unit)}, "value": 0.5})
+    Rich = type("Rich", (robokit.config.Schema,), {"__annotations__": {"value": getattr(robokit.config, unit)},
+                                                   "value": 0.5, "__module__": __name__})
+
+    edges = [b for b in (light.ge, light.gt, light.le, light.lt) if b is not None]
+    assert edges
+    for edge in edges:
+        for value in (edge, edge - 1e-3, edge + 1e-3):
+            outcomes = []
+            for schema in (Light, Rich):
+                try:
+                    outcomes.append(validate_model(schema, {"value": value}, "x").value)
+                except ConfigError as exc:
+                    outcomes.append(str(exc))
+            assert outcomes[0] == outcomes[1], (unit, value, outcomes)
