@@ -41,14 +41,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from pydantic import BaseModel
-
-from robokit.config import Schema, build_config
-from robokit.conformance import ConformanceError, first_difference
+from robokit.config import build_config
+from robokit.conformance import ConformanceError, declaration_problem, first_difference, schema_kind
 from robokit.errors import ConfigError, PluginError, UserError
 from robokit.lint import lint_paths
 from robokit.plugins import Plugins, PluginType, load_plugins
-from robokit.sections import Section
 from robokit.simulation import Simulation
 
 _UNKNOWN_KEY = "zz_conformance_unknown_key"
@@ -164,12 +161,9 @@ class _BehaviourCheck:
 
     def _check_declarations(self) -> None:
         schema, cls = self.ptype.schema, self.ptype.cls
-        if schema is None or not (isinstance(schema, type) and issubclass(schema, (BaseModel, Section))):
-            raise self.fail("schema", f"registered config schema {schema!r}; register a robokit.config.Schema "
-                            "subclass (register(name, cls, MyConfig))")
-        if not self.ptype.description:
-            raise self.fail("description", f"{cls.__name__} has no docstring (its first line is the description "
-                            "`robokit plugins` shows)")
+        problem = declaration_problem(self.ptype)
+        if problem is not None:
+            raise self.fail(*problem)
         states = getattr(cls, "STATES", None)
         if isinstance(states, type) and issubclass(states, enum.Enum):
             names = {s.name for s in states}
@@ -178,9 +172,7 @@ class _BehaviourCheck:
                 raise self.fail("states", f"TIMEOUTS names unknown state(s) {', '.join(unknown)}")
             if not isinstance(getattr(cls, "INITIAL", None), states):
                 raise self.fail("states", f"INITIAL is not a member of {states.__name__}")
-        kind = ("a robokit.config.Schema" if issubclass(schema, Schema) else
-                "a robokit.sections.Section" if issubclass(schema, Section) else "a pydantic model")
-        self.passed(f"declares schema {schema.__name__} ({kind}), description {self.ptype.description!r}")
+        self.passed(f"declares schema {schema_kind(schema)}, description {self.ptype.description!r}")
 
     def _check_unknown_key(self) -> None:
         raw = copy.deepcopy(self.raw)

@@ -213,19 +213,14 @@ class _Check:
 
     def _check_declarations(self) -> None:
         schema, cls = self.ptype.schema, self.ptype.cls
-        if schema is None or not (isinstance(schema, type) and issubclass(schema, (BaseModel, Section))):
-            raise self.fail("schema", f"registered config schema {schema!r}; register a robokit.config.Schema "
-                            "subclass (register(name, cls, MyConfig))")
-        if not self.ptype.description:
-            raise self.fail("description", f"{cls.__name__} has no docstring (its first line is the description "
-                            "`robokit plugins` shows)")
+        problem = declaration_problem(self.ptype)
+        if problem is not None:
+            raise self.fail(*problem)
         reading_type = getattr(cls, "reading_type", object)
         if not isinstance(reading_type, type) or reading_type is object:
             raise self.fail("reading_type", f"{cls.__name__}.reading_type is {reading_type!r}; declare the type "
                             "every reading is an instance of")
-        kind_of_schema = ("a robokit.config.Schema" if issubclass(schema, Schema) else
-                          "a robokit.sections.Section" if issubclass(schema, Section) else "a pydantic model")
-        self.passed(f"declares schema {schema.__name__} ({kind_of_schema}), reading_type "
+        self.passed(f"declares schema {schema_kind(schema)}, reading_type "
                     f"{reading_type.__name__}, description {self.ptype.description!r}")
 
     def _check_unknown_key(self) -> None:
@@ -407,6 +402,27 @@ def _module_dir(cls: type) -> Path:
         return Path(inspect.getfile(cls)).parent
     except (TypeError, OSError):  # defined in a module without a file
         return Path.cwd()
+
+
+def declaration_problem(ptype: PluginType) -> tuple[str, str] | None:
+    """What is wrong with a type's declarations, as ``(check, message)``: its schema is not a schema class (a
+    ``robokit.config.Schema``, another pydantic model or a light ``robokit.sections.Section``), or its class has no
+    docstring. None when both are right."""
+    schema, cls = ptype.schema, ptype.cls
+    if schema is None or not (isinstance(schema, type) and issubclass(schema, (BaseModel, Section))):
+        return ("schema", f"registered config schema {schema!r}; register a robokit.config.Schema (or "
+                "robokit.sections.Section) subclass (register(name, cls, MyConfig))")
+    if not ptype.description:
+        return ("description", f"{cls.__name__} has no docstring (its first line is the description "
+                "`robokit plugins` shows)")
+    return None
+
+
+def schema_kind(schema: Any) -> str:
+    """``"MyConfig (a robokit.config.Schema)"``: a declared schema's name and kind, for a passed check."""
+    kind = ("a robokit.config.Schema" if issubclass(schema, Schema) else
+            "a robokit.sections.Section" if issubclass(schema, Section) else "a pydantic model")
+    return f"{schema.__name__} ({kind})"
 
 
 def first_difference(a: Any, b: Any, path: str = "reading") -> str | None:
