@@ -8,12 +8,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from robokit._dataclass import dataclass
 from robokit._quiet import quiet_stdout
 from robokit.errors import LookupNameError, UserError
 
