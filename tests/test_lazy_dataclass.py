@@ -5,9 +5,9 @@ standard decorator."""
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import inspect
-import copy
 import subprocess
 import sys
 import types
@@ -103,7 +103,7 @@ BODIES: dict[str, tuple[dict[str, Any], dict[str, Any]]] = {
     "no repr, no init": ({"__doc__": "Doc.", "__annotations__": {"x": "int"}, "x": 3}, {"repr": False,
                                                                                       "init": False}),
     "fields": ({"__doc__": "Doc.", "__annotations__": {"x": "int", "items": "list", "hidden": "int",
-                                                       "ignored": "int", "k": "int", "c": "ClassVar[int]"},
+                                                       "ignored": "int", "k": "int", "c": ClassVar[int]},
                 "items": _F(default_factory=list), "hidden": _F(default=0, repr=False),
                 "ignored": _F(default=5, compare=False, init=False), "k": _F(default=1, kw_only=True), "c": 7},
                {}),
@@ -204,7 +204,7 @@ def test_a_non_default_field_after_a_default_one_is_refused_at_once() -> None:
 
 
 def _robokit_classes() -> list[type]:
-    from robokit import _quiet, compose, components, config, plugins, result, runner, scheduler, world
+    from robokit import _quiet, components, compose, config, plugins, result, runner, scheduler, world
     from robokit.record import format as record_format
 
     return [plugins.PluginType, plugins.Plugins, _quiet.CapturedOutput, config.ComponentSpec, config.Config,
