@@ -168,16 +168,15 @@ class RayCaster:
         if signature != self._signature:
             self._classify()
             self._signature = signature
-        moved = False
-        for k, body in enumerate(self._boxes):
-            pose = c.getBasePositionAndOrientation(body)
-            if pose != self._poses[k]:
-                self._poses[k] = pose
-                self._centre[k] = pose[0]
-                self._rot[k] = np.asarray(c.getMatrixFromQuaternion(pose[1]), float).reshape(3, 3)
-                moved = True
+        pose = c.getBasePositionAndOrientation
+        poses = [pose(body) for body in self._boxes]
         nb = len(self._boxes)
-        if moved:
+        if poses != self._poses:
+            for k, p in enumerate(poses):
+                if p != self._poses[k]:
+                    self._centre[k] = p[0]
+                    self._rot[k] = np.asarray(c.getMatrixFromQuaternion(p[1]), float).reshape(3, 3)
+            self._poses = poses
             axes = self._rot.transpose(2, 0, 1)  # (3, B, 3): axes[i, b] = box b's axis i in the world
             self._frame[:, :nb, :3] = axes
             self._frame[:, :nb, 3] = -np.einsum("ibj,bj->ib", axes, self._centre)
@@ -255,17 +254,18 @@ class RayCaster:
         frame = self._frame.reshape(-1, 4)
         np.matmul(frame, self._starts_h, out=noi.reshape(-1, n))  # o, the starts in each row's frame
         np.matmul(frame[:, :3], d_t, out=ninv.reshape(-1, n))  # d, the segments
-        # no division by zero: an axis the ray runs parallel to gets a tiny component (huge fractions); adding it
-        # leaves every other component as it is (it is far below their last bit)
+        # no division by zero: an axis the ray runs parallel to gets a tiny component (huge fractions, no overflow:
+        # |1 / 1e-300| and metres times it stay finite); adding it leaves every other component as it is (it is far
+        # below their last bit)
         ninv += _TINY
-        with np.errstate(over="ignore"):
-            np.divide(-1.0, ninv, out=ninv)  # -1 / d (negated: -o / d is then one product)
-            np.multiply(noi, ninv, out=noi)  # -o / d
+        np.divide(-1.0, ninv, out=ninv)  # -1 / d (negated: -o / d is then one product)
+        np.multiply(noi, ninv, out=noi)  # -o / d
         np.abs(ninv, out=reach)
         reach *= self._grown_full  # h / |d|
         g_far = np.add(noi, reach).min(axis=0)
-        g_near = np.subtract(noi, reach, out=reach).max(axis=0)  # slab entry per axis: (-h - o) / d for d > 0, ...
-        g_all = np.where((g_near <= g_far) & (g_far >= 0.0), g_near, np.inf)  # (R, N)
+        g_all = np.subtract(noi, reach, out=reach).max(axis=0)  # slab entry per axis: (-h - o) / d for d > 0, ...
+        # the grown entry per row and ray, (R, N): +inf where the segment's line misses the box or it lies behind
+        np.copyto(g_all, np.inf, where=~(np.maximum(g_all, 0.0) <= g_far))  # (NaN too)
         g_hit = g_all[:nb]
         cols = np.arange(n)
         if nb > 1:
