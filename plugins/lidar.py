@@ -263,8 +263,8 @@ class Lidar(Sensor):
         # tiny (its huge quotient loses the minimum: the origin is strictly inside, so both bounds are finite) and
         # leaves every other one as it is (far below its last bit).
         inv = 1.0 / (dirs + 1e-300)
-        bounds = np.array([[[high - x], [low - x]] for low, x, high in zip(lo_, o, hi_, strict=True)])  # (3, 2, 1)
-        return np.multiply(bounds, inv[:, None]).max(axis=1).min(axis=0)  # type: ignore[no-any-return]
+        bounds = np.array([[high - x, low - x] for low, x, high in zip(lo_, o, hi_, strict=True)])  # (3, 2)
+        return np.maximum(bounds[:, :1] * inv, bounds[:, 1:] * inv).min(axis=0)  # type: ignore[no-any-return]
 
     def read(self) -> LaserScan:
         """Cast every ray once (at most one ``rayTestBatch``) and return the scan."""
