@@ -6,9 +6,11 @@ Per seed (each seed is a different random layout of the cans) it runs ``configs/
 prints: the share of runs that reached every waypoint with zero collisions, the share of objects collected, the
 median localisation error of the logged object positions, and the real-time factor. Then it measures the cost of a
 360-ray lidar at 10 Hz: the same scene and the same scripted drive, once with the lidar read at every scan and
-once without the lidar, as a ratio of wall times (best of ``--repeats`` interleaved runs; the process-CPU ratio is
-printed too, and the load average; per scan, its process time and user-mode instructions). ``--reference`` adds
-the lidar with every ray cast by PyBullet.
+twice without the lidar, all alive in this one process and stepped a quarter of a sim second each in turn, so that
+a host whose speed drifts treats them alike. It prints the ratio of wall times to the runs without the lidar (the
+median over ``--repeats`` passes; also process CPU, user-mode instructions, the spread of the per-chunk ratios, the
+load average, and per scan its process time and instructions) and the two runs without the lidar against each
+other: the yardstick's own error. ``--reference`` adds the lidar with every ray cast by PyBullet.
 """
 
 from __future__ import annotations
@@ -16,9 +18,9 @@ from __future__ import annotations
 import argparse
 import copy
 import ctypes
-import math
 import os
 import platform
+import random
 import statistics
 import struct
 import sys
@@ -89,12 +91,24 @@ class ScriptedPlugin:
         register("scripted_drive", ScriptedDrive, None)
 
 
-def lidar_cost(config: Path, seconds: float, repeats: int, threads: int = 1,
-               reference: bool = False) -> dict[str, dict[str, float]]:
-    """Wall and process-CPU seconds (and user-mode instructions, where Linux counts them: the same on any load) of
-    ``seconds`` sim seconds with the lidar (map intersected in numpy, and with
-    ``reference`` also with every ray cast by PyBullet) and without it: best of ``repeats`` interleaved runs, the
-    order of the variants turned round at each repeat. Also the share of rays PyBullet cast."""
+def lidar_cost(config: Path, seconds: float, repeats: int, threads: int = 1, reference: bool = False,
+               chunk_seconds: float = 0.25) -> list[dict[str, dict[str, Any]]]:
+    """What the lidar costs, measured with the variants side by side in this one process.
+
+    Variants: the lidar (map intersected in numpy), with ``reference`` also every ray cast by PyBullet, the run
+    without the lidar, and a control: the run without the lidar once more. All their sims are alive at once and
+    are stepped ``chunk_seconds`` of sim time each in turn (in a new seeded random order every round, so that no
+    variant always follows the same one and inherits its traces in the CPU's caches) until each has run
+    ``seconds``, so every variant meets the host in the same state: on a shared host whose speed drifts by tens of
+    per cent within a minute, whole runs one after another do not. The baseline is the mean of the two runs
+    without the lidar; their ratio to each other shows how far the yardstick itself is off (1.00 if exact).
+    ``repeats`` passes, each with fresh sims.
+
+    Per pass and variant: wall and process-CPU seconds summed over the chunks, the per-chunk ratios to the run
+    without the lidar, user-mode instructions (where Linux counts them; the same on any load), and for the lidar
+    the time and instructions inside its scans and the share of rays PyBullet cast."""
+    import contextlib
+
     from robokit.config import read_toml
     from robokit.testing import make_sim
 
@@ -107,27 +121,45 @@ def lidar_cost(config: Path, seconds: float, repeats: int, threads: int = 1,
         variants["pybullet"]["sensors"]["scan"]["map_in_numpy"] = False
     variants["without"] = copy.deepcopy(raw)
     del variants["without"]["sensors"]["scan"]
-    best = {label: {"wall": math.inf, "cpu": math.inf, "cast": 1.0} for label in variants}
-    for rep in range(repeats):
-        order = list(variants) if rep % 2 == 0 else list(reversed(variants))
-        for label in order:
-            with make_sim(variants[label], extra_plugins=[ScriptedPlugin()], base_dir=config.parent) as sim:
-                ticks = round(seconds / sim.world.time_step)
-                in_scans = _time_scans(sim.components.get("scan"))
-                count = _instruction_counter()
-                t0, c0, i0 = time.perf_counter(), time.process_time(), count()
-                sim.step(ticks)
-                wall, cpu, instr = time.perf_counter() - t0, time.process_time() - c0, count() - i0
-                b = best[label]
-                b["wall"], b["cpu"], b["ticks"] = min(b["wall"], wall), min(b["cpu"], cpu), ticks
-                b["instr"] = min(b.get("instr", math.inf), instr)
+    variants["control"] = copy.deepcopy(variants["without"])
+    count = _instruction_counter()
+    shuffle = random.Random(0).shuffle
+    passes = []
+    for _ in range(repeats):
+        with contextlib.ExitStack() as stack:
+            sims = {label: stack.enter_context(make_sim(cfg, extra_plugins=[ScriptedPlugin()],
+                                                        base_dir=config.parent))
+                    for label, cfg in variants.items()}
+            step = sims["with"].world.time_step
+            ticks, chunk = round(seconds / step), max(1, round(chunk_seconds / step))
+            in_scans = {label: _time_scans(sim.components.get("scan")) for label, sim in sims.items()}
+            out: dict[str, dict[str, Any]] = {label: {"wall": 0.0, "cpu": 0.0, "instr": 0.0, "ticks": ticks, "chunks": []}
+                   for label in sims}
+            labels = list(sims)
+            done = 0
+            while done < ticks:
+                n = min(chunk, ticks - done)
+                shuffle(labels)
+                for label in labels:
+                    t0, c0, i0 = time.perf_counter(), time.process_time(), count()
+                    sims[label].step(n)
+                    wall, cpu, instr = time.perf_counter() - t0, time.process_time() - c0, count() - i0
+                    o = out[label]
+                    o["wall"] += wall
+                    o["cpu"] += cpu
+                    o["instr"] += instr
+                    o["chunks"].append(cpu)
+                done += n
+            for label, sim in sims.items():
+                o = out[label]
                 if "scan" in sim.components:
                     lidar = sim.components["scan"]
-                    b["cast"] = lidar.caster.rays_cast / max(lidar.caster.rays_total, 1)
-                    b["scan_ms"] = min(b.get("scan_ms", math.inf), 1000.0 * in_scans[0] / max(lidar.scans, 1))
-                    b["scan_minstr"] = in_scans[1] / max(lidar.scans, 1) / 1e6
-                    b["tick_us"] = 1e6 * (cpu - in_scans[0]) / ticks
-    return best
+                    o["cast"] = lidar.caster.rays_cast / max(lidar.caster.rays_total, 1)
+                    o["scan_ms"] = 1000.0 * in_scans[label][0] / max(lidar.scans, 1)
+                    o["scan_minstr"] = in_scans[label][1] / max(lidar.scans, 1) / 1e6
+                    o["tick_us"] = 1e6 * (o["cpu"] - in_scans[label][0]) / ticks
+        passes.append(out)
+    return passes
 
 
 def _time_scans(lidar: Any) -> list[float]:
@@ -183,8 +215,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--start-seed", type=int, default=0, help="first seed")
     parser.add_argument("--workers", type=int, default=2, help="worker processes of the sweep engine")
     parser.add_argument("--config", type=Path, default=CONFIG)
-    parser.add_argument("--cost-seconds", type=float, default=30.0, help="sim seconds per lidar cost run")
-    parser.add_argument("--repeats", type=int, default=3, help="lidar cost runs per variant (best is kept)")
+    parser.add_argument("--cost-seconds", type=float, default=30.0, help="sim seconds per variant of the lidar cost")
+    parser.add_argument("--chunk-seconds", type=float, default=0.25,
+                        help="sim seconds each variant runs before the next one's turn")
+    parser.add_argument("--repeats", type=int, default=3,
+                        help="passes of the lidar cost, each with fresh sims (the median ratio is reported)")
     parser.add_argument("--skip-cost", action="store_true")
     parser.add_argument("--lidar-threads", type=int, default=1, help="rayTestBatch threads for the cost run")
     parser.add_argument("--reference", action="store_true",
@@ -194,25 +229,55 @@ def main(argv: list[str] | None = None) -> int:
     if args.trials > 0:
         report_trials(args)
     if not args.skip_cost:
-        best = lidar_cost(args.config, args.cost_seconds, args.repeats, args.lidar_threads, args.reference)
-        base = best["without"]
-        load = " ".join(f"{x:.2f}" for x in os.getloadavg())
-        print(f"lidar cost, {args.cost_seconds:g} sim s, best of {args.repeats} interleaved runs, "
-              f"{args.lidar_threads} ray thread(s), load average {load}:")
-        for label, text in (("with", "360 rays @ 10 Hz, map in numpy"),
-                            ("pybullet", "360 rays @ 10 Hz, every ray by PyBullet")):
-            if label in best:
-                b = best[label]
-                print(f"  {text}: {b['wall']:.2f} s vs {base['wall']:.2f} s without: "
-                      f"ratio {b['wall'] / base['wall']:.3f} (process CPU {b['cpu'] / base['cpu']:.3f}"
-                      + (f", user instructions {b['instr'] / base['instr']:.3f}" if base["instr"] > 0 else "")
-                      + "); "
-                      f"PyBullet cast {b['cast']:.1%} of the rays   (target <= 1.15)")
-                instructions = f"{b['scan_minstr']:.2f} M" if b["scan_minstr"] > 0 else "n/a"
-                print(f"    a scan {b['scan_ms']:.2f} ms of process time ({instructions} user instructions); "
-                      f"the rest of a tick {b['tick_us']:.0f} us "
-                      f"(without the lidar {1e6 * base['cpu'] / base['ticks']:.0f} us)")
+        passes = lidar_cost(args.config, args.cost_seconds, args.repeats, args.lidar_threads, args.reference,
+                            args.chunk_seconds)
+        report_cost(passes, args)
     return 0
+
+
+def report_cost(passes: list[dict[str, dict[str, Any]]], args: argparse.Namespace) -> None:
+    """Print the lidar cost: per variant, the median over the passes of the ratio of its summed time to the run
+    without the lidar (the mean of that run and its control), the spread of the per-chunk ratios, instructions,
+    what a scan costs; and the control's ratio to the run without the lidar (the yardstick's own error)."""
+    load = " ".join(f"{x:.2f}" for x in os.getloadavg())
+    print(f"lidar cost, {args.cost_seconds:g} sim s per variant in chunks of {args.chunk_seconds:g} sim s, variants "
+          f"interleaved in one process, {len(passes)} pass(es), {args.lidar_threads} ray thread(s), "
+          f"load average {load}:")
+
+    def base(p: dict[str, dict[str, Any]], key: str) -> Any:
+        if key == "chunks":
+            return [(a + b) / 2 for a, b in zip(p["without"]["chunks"], p["control"]["chunks"], strict=True)]
+        return (p["without"][key] + p["control"][key]) / 2
+
+    def ratio(label: str, key: str, against: Any = base) -> float:
+        return statistics.median(p[label][key] / against(p, key) for p in passes)
+
+    def only_without(p: dict[str, dict[str, Any]], key: str) -> Any:
+        return p["without"][key]
+
+    for label, text in (("with", "360 rays @ 10 Hz, map in numpy"),
+                        ("pybullet", "360 rays @ 10 Hz, every ray by PyBullet")):
+        if label not in passes[0]:
+            continue
+        chunks = sorted(a / b for p in passes for a, b in zip(p[label]["chunks"], base(p, "chunks"), strict=True))
+        p10, p50, p90 = (chunks[int(q * (len(chunks) - 1))] for q in (0.1, 0.5, 0.9))
+        each = ", ".join(f"{p[label]['wall'] / base(p, 'wall'):.3f}" for p in passes)
+        instructions = (f", user instructions {ratio(label, 'instr'):.3f}" if passes[0]["without"]["instr"] > 0
+                        else "")
+        print(f"  {text}: ratio {ratio(label, 'wall'):.3f} in wall time (passes: {each}); process CPU "
+              f"{ratio(label, 'cpu'):.3f}{instructions}; per chunk median {p50:.3f} (p10-p90 {p10:.3f}-{p90:.3f})"
+              "   (target <= 1.15)")
+        b = passes[-1][label]
+        scan_ms = statistics.median(p[label]["scan_ms"] for p in passes)
+        tick_us = statistics.median(p[label]["tick_us"] for p in passes)
+        base_us = statistics.median(1e6 * base(p, "cpu") / p["without"]["ticks"] for p in passes)
+        minstr = f"{b['scan_minstr']:.2f} M" if b["scan_minstr"] > 0 else "n/a"
+        print(f"    a scan {scan_ms:.2f} ms of process time ({minstr} user instructions); the rest of a tick "
+              f"{tick_us:.0f} us (without the lidar {base_us:.0f} us); PyBullet cast {b['cast']:.1%} of the rays")
+    each = ", ".join(f"{p['control']['wall'] / p['without']['wall']:.3f}" for p in passes)
+    error = ratio("control", "wall", only_without)
+    print(f"  the yardstick's own error: the run without the lidar, twice: ratio {error:.3f} (passes: {each})"
+          f"   (1.00 if the host treated every variant alike)")
 
 
 def report_trials(args: argparse.Namespace) -> None:

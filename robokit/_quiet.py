@@ -10,7 +10,8 @@ import tempfile
 from collections import Counter
 from collections.abc import Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass
+
+from robokit._dataclass import dataclass
 
 
 @contextmanager

@@ -25,12 +25,13 @@ from __future__ import annotations
 
 import zlib
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
+from robokit._dataclass import dataclass
 from robokit.errors import ConfigError, LookupNameError
 
 if TYPE_CHECKING:

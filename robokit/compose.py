@@ -30,10 +30,10 @@ import enum
 import re
 from collections.abc import Mapping
 from collections.abc import Sequence as Seq
-from dataclasses import dataclass
 from typing import Any
 
 from robokit import hookimpl
+from robokit._dataclass import dataclass
 from robokit.components import Behaviour, GoalCheck, SetupContext
 from robokit.crash import describe, where_raised
 from robokit.errors import PluginError

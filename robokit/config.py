@@ -10,11 +10,12 @@ import dataclasses
 import math
 import sys
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import field
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 from robokit import sections as _s
+from robokit._dataclass import dataclass
 from robokit.errors import ConfigError, UserError, did_you_mean
 from robokit.sections import FLOAT_LIMIT as FLOAT_LIMIT  # re-exported: every float within ±FLOAT_LIMIT by default
 from robokit.sections import Invalid, Section, field_names, setting

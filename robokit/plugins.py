@@ -10,12 +10,13 @@ import os
 import sys
 import warnings
 from collections.abc import Iterable, Iterator, MutableMapping
-from dataclasses import dataclass, field
+from dataclasses import field
 from typing import TYPE_CHECKING, Any
 
 import pluggy
 
 from robokit import hookspecs
+from robokit._dataclass import dataclass
 from robokit.errors import Interrupted, LookupNameError, PluginError, UserError, plugin_fault
 
 if TYPE_CHECKING:

@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, field
 from typing import Any
+
+from robokit._dataclass import dataclass
 
 SCHEMA = "robokit.run/1"
 OUTCOME_EXIT_CODES = {"succeeded": 0, "failed": 1, "aborted": 1, "error": 3, "interrupted": 130}

@@ -8,11 +8,12 @@ import json
 import uuid
 import warnings
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import field
 from pathlib import Path
 from typing import IO, Any
 
 from robokit import __version__
+from robokit._dataclass import dataclass
 from robokit.components import Delivery
 from robokit.config import Config
 from robokit.errors import ConfigError, Interrupted, PluginError, UserError, plugin_fault

@@ -17,9 +17,10 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Iterator, Mapping
-from dataclasses import dataclass, field
+from dataclasses import field
 from typing import Any
 
+from robokit._dataclass import dataclass
 from robokit.errors import Interrupted, PluginError, plugin_fault
 
 

@@ -95,6 +95,20 @@ def test_seeded_placement_is_reproducible_and_spaced() -> None:
     assert np.all((a >= 0) & (a <= 1))
 
 
+def test_the_generator_is_the_seeds_stream_whenever_it_is_first_used() -> None:
+    """The run's generator is made on first use: the same numbers, and the same spawned children, as one made with
+    the World; one assigned instead is the one used."""
+    with World(seed=11) as w:
+        w.step()
+        assert w.rng is w.rng
+        assert w.rng.random() == np.random.default_rng(11).random()
+    with World(seed=11) as w:
+        child = w.rng.spawn(1)[0]
+        assert child.random() == np.random.default_rng(11).spawn(1)[0].random()
+        w.rng = np.random.default_rng(3)
+        assert w.rng.random() == np.random.default_rng(3).random()
+
+
 def test_placement_avoids_boxes() -> None:
     with World(seed=1) as w:
         pts = w.sample_positions(30, (0, 0), (2, 2), avoid=[((0.5, 0.5, 0), (1.5, 1.5, 1))], clearance=0.1)

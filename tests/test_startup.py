@@ -47,7 +47,8 @@ code = main()
 print(json.dumps({
     "code": code, **seen, "gc_enabled_after": gc.isenabled(),
     "blas": os.environ.get("OPENBLAS_NUM_THREADS"),
-    "imported": sorted(m for m in ("cv2", "transitions", "requests", "robokit.sweep.engine", "robokit.fsm")
+    "imported": sorted(m for m in ("cv2", "transitions", "requests", "robokit.sweep.engine", "robokit.fsm",
+                                   "numpy.random")
                        if m in sys.modules),
 }))
 """
@@ -75,7 +76,8 @@ def test_a_trivial_run_uses_one_blas_thread_and_imports_only_what_it_needs(tmp_p
     out = run_child(tmp_path, {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"})
     assert out["code"] == 0 and out["gc_enabled_after"] is True
     assert out["blas"] == "1"
-    assert out["imported"] == []  # no camera, no state machine: no OpenCV, transitions, requests, sweep engine
+    assert out["imported"] == []  # no camera, no state machine: no OpenCV, transitions, requests, sweep engine;
+    # nothing random: no numpy.random (the run's generator is made on first use)
 
 
 def test_the_users_openblas_setting_is_kept(tmp_path: Path) -> None:
