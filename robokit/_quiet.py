@@ -6,10 +6,10 @@ import io
 import os
 import re
 import sys
-import tempfile
 from collections import Counter
 from collections.abc import Iterator
 from contextlib import contextmanager
+from typing import IO, Any
 
 from robokit._dataclass import dataclass
 
@@ -41,14 +41,32 @@ def quiet_stdout() -> Iterator[None]:
         os.close(devnull)
 
 
+_FFLUSH: list[Any] = []
+
+
 def _flush_c_stdio() -> None:
     """Flush C stdio buffers so text printed while silenced is not written after the redirect ends."""
     try:
-        import ctypes
+        if not _FFLUSH:
+            import ctypes
 
-        ctypes.CDLL(None).fflush(None)
+            _FFLUSH.append(ctypes.CDLL(None).fflush)
+        _FFLUSH[0](None)
     except (OSError, AttributeError):
         pass
+
+
+def _scratch_file() -> IO[bytes]:
+    """A nameless file to capture into: in memory (``memfd``) where Linux offers it, else a temporary file."""
+    make = getattr(os, "memfd_create", None)
+    if make is not None:
+        try:
+            return open(make("robokit-captured-output", os.MFD_CLOEXEC), "w+b")  # noqa: SIM115 - caller closes
+        except OSError:  # an old kernel, a sandbox refusing it
+            pass
+    import tempfile
+
+    return tempfile.TemporaryFile()  # noqa: SIM115 - closed by the caller
 
 
 @contextmanager
@@ -113,7 +131,7 @@ def capture_c_stdout() -> Iterator[CapturedOutput]:
     saved = {fd: os.dup(fd) for fd in (1, 2)}
     olds = {name: getattr(sys, name) for name in streams}
     swapped = []
-    with tempfile.TemporaryFile() as sink:
+    with _scratch_file() as sink:
         for fd, name in zip((1, 2), streams, strict=True):
             stream = olds[name]
             try:

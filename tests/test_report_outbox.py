@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import threading
 from collections.abc import Iterator
 from pathlib import Path
@@ -158,3 +159,5 @@ def test_local_reporter_never_overwrites_an_earlier_result(tmp_path: Path) -> No
     assert json.loads(Path(first.stored or "").read_text())["outcome"] == "succeeded"
     run_folder = tmp_path / "results" / payload["run_id"]
     assert [p.name for p in run_folder.iterdir()] == ["result.json"]  # no temp files
+    if os.name == "posix":  # written through a new file only its owner can read, as tempfile.mkstemp makes them
+        assert (run_folder / "result.json").stat().st_mode & 0o777 == 0o600
