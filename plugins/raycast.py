@@ -90,7 +90,9 @@ class RayCaster:
         # frame[i, r] = (row r's axis i in the world, -(axis i . centre)); grown[i, r] = half extent tested along it
         self._frame = np.zeros((3, 0, 4))
         self._grown = np.zeros((3, 0))
-        self._ids = np.zeros(0, dtype=int)
+        self._box_table = np.zeros((5, 0))
+        self._cols = np.zeros(0, dtype=int)
+        self._checks = np.zeros((5, 0), dtype=bool)
         self._starts_h = np.ones((4, 0))  # starts as homogeneous columns (x, y, z, 1), reused between casts
         self._grown_full = np.zeros((3, 0, 0))  # self._grown repeated for each ray, (3, R, N)
         self._work = np.zeros((3, 3, 0, 0))
@@ -125,7 +127,8 @@ class RayCaster:
         self._grown_full = np.zeros((3, 0, 0))
         self._frame[:, nb:, :3] = np.eye(3)[:, None, :]  # the others' rows: world axes (centres set per cast)
         self._poses = [None] * nb
-        self._ids = np.asarray(self._boxes, dtype=int)
+        # per box: tolerance, half extents, body id (one take gives the named box's)
+        self._box_table = np.vstack([self._tol, self._half.T, self._boxes]).reshape(5, nb)
         self._centre = np.zeros((nb, 3))
         self._rot = np.zeros((nb, 3, 3))
 
@@ -168,16 +171,15 @@ class RayCaster:
         if signature != self._signature:
             self._classify()
             self._signature = signature
-        moved = False
-        for k, body in enumerate(self._boxes):
-            pose = c.getBasePositionAndOrientation(body)
-            if pose != self._poses[k]:
-                self._poses[k] = pose
-                self._centre[k] = pose[0]
-                self._rot[k] = np.asarray(c.getMatrixFromQuaternion(pose[1]), float).reshape(3, 3)
-                moved = True
+        pose = c.getBasePositionAndOrientation
+        poses = [pose(body) for body in self._boxes]
         nb = len(self._boxes)
-        if moved:
+        if poses != self._poses:
+            for k, p in enumerate(poses):
+                if p != self._poses[k]:
+                    self._centre[k] = p[0]
+                    self._rot[k] = np.asarray(c.getMatrixFromQuaternion(p[1]), float).reshape(3, 3)
+            self._poses = poses
             axes = self._rot.transpose(2, 0, 1)  # (3, B, 3): axes[i, b] = box b's axis i in the world
             self._frame[:, :nb, :3] = axes
             self._frame[:, :nb, 3] = -np.einsum("ibj,bj->ib", axes, self._centre)
@@ -209,7 +211,8 @@ class RayCaster:
             # axis-first (3, N) layouts: numpy's per-axis work is then on contiguous rows
             self._starts_h[:3] = starts.T
             d_t = np.subtract(ends.T, self._starts_h[:3], order="C")
-            idx = self._intersect(d_t, body, frac, pos, normal).nonzero()[0]
+            inv_len = 1.0 / np.sqrt(np.einsum("ij,ij->j", d_t, d_t))
+            idx = self._intersect(d_t, inv_len, body, frac, pos, normal).nonzero()[0]
         else:
             idx = np.arange(n)
         link = self._fresh[0].copy()
@@ -228,92 +231,99 @@ class RayCaster:
         self.rays_total += n
         return RayHits(body, link, frac, pos, normal, cast)
 
-    def _intersect(self, d_t: np.ndarray, body: np.ndarray, frac: np.ndarray, pos: np.ndarray | None,
-                   normal: np.ndarray | None) -> np.ndarray:
+    def _intersect(self, d_t: np.ndarray, inv_len: np.ndarray, body: np.ndarray, frac: np.ndarray,
+                   pos: np.ndarray | None, normal: np.ndarray | None) -> np.ndarray:
         """Fill in place the rays' nearest mesh-box hits that Bullet reports alike; return per ray whether
         PyBullet must cast it.
 
-        ``d_t``: segment vectors, shape (3, N); the starts are in ``self._starts_h``.
+        ``d_t``: segment vectors, shape (3, N); the starts are in ``self._starts_h``; ``inv_len``: 1 / each
+        segment's length (it scales the tolerances into fractions of the segment).
 
         Every box is first tested grown by its tolerance (Bullet's hits lie on the grown box: a triangle hit is
         accepted up to the tolerance outside the triangle); the nearest grown entry names the box, whose exact hit
         is then computed. The answer is PyBullet's unless another box's grown entry comes at or before it, or the
         hit itself is borderline (see below), or the segment up to the hit (or its end) crosses the bounding box
         of any other body (tested in the same pass, as rows after the boxes'): those rays are cast by PyBullet.
+        A scan runs cold in the caches, where each numpy call costs several times its warm time: the steps below
+        are merged into as few calls as give the same numbers.
         """
-        s_t = self._starts_h[:3]
         n = d_t.shape[1]
         nb, rows = len(self._boxes), self._grown.shape[1]
-        inv_len = 1.0 / np.sqrt(np.einsum("ij,ij->j", d_t, d_t))
         # starts and segments in each row's frame, (3, R, N): one small matrix product each
         if self._grown_full.shape != (3, rows, n):
             self._grown_full = np.repeat(self._grown[:, :, None], n, axis=2)
             self._work = np.empty((3, 3, rows, n))  # buffers reused between casts (less memory traffic)
+            self._cols = np.arange(n)
+            self._checks = np.empty((5, n), dtype=bool)
         elif rows > nb:  # (a product of whole arrays runs faster than a broadcast one)
             self._grown_full[:, nb:] = self._grown[:, nb:, None]
         noi, ninv, reach = self._work
         frame = self._frame.reshape(-1, 4)
         np.matmul(frame, self._starts_h, out=noi.reshape(-1, n))  # o, the starts in each row's frame
         np.matmul(frame[:, :3], d_t, out=ninv.reshape(-1, n))  # d, the segments
-        # no division by zero: an axis the ray runs parallel to gets a tiny component (huge fractions); adding it
-        # leaves every other component as it is (it is far below their last bit)
+        # no division by zero: an axis the ray runs parallel to gets a tiny component (huge fractions, no overflow:
+        # |1 / 1e-300| and metres times it stay finite); adding it leaves every other component as it is (it is far
+        # below their last bit)
         ninv += _TINY
-        with np.errstate(over="ignore"):
-            np.divide(-1.0, ninv, out=ninv)  # -1 / d (negated: -o / d is then one product)
-            np.multiply(noi, ninv, out=noi)  # -o / d
+        np.divide(-1.0, ninv, out=ninv)  # -1 / d (negated: -o / d is then one product)
+        np.multiply(noi, ninv, out=noi)  # -o / d
         np.abs(ninv, out=reach)
         reach *= self._grown_full  # h / |d|
         g_far = np.add(noi, reach).min(axis=0)
-        g_near = np.subtract(noi, reach, out=reach).max(axis=0)  # slab entry per axis: (-h - o) / d for d > 0, ...
-        g_all = np.where((g_near <= g_far) & (g_far >= 0.0), g_near, np.inf)  # (R, N)
+        g_all = np.subtract(noi, reach, out=reach).max(axis=0)  # slab entry per axis: (-h - o) / d for d > 0, ...
+        # the grown entry per row and ray, (R, N): +inf where the segment's line misses the box or it lies behind
+        np.copyto(g_all, np.inf, where=~(np.maximum(g_all, 0.0) <= g_far))  # (NaN too)
         g_hit = g_all[:nb]
-        cols = np.arange(n)
-        if nb > 1:
-            first = g_hit.T.copy().argmin(axis=1)  # (numpy's argmin runs faster along contiguous rows)
-            flat = first * n + cols
-            g_first = g_hit.reshape(-1).take(flat)
-            g_hit.reshape(-1)[flat] = np.inf
-            second = g_hit.min(axis=0)  # the next box's grown entry
-        else:
-            first = np.zeros(n, dtype=int)
-            flat = cols
-            g_first = g_hit[0]
-            second = np.full(n, np.inf)
-        tolf = self._tol.take(first)
+        # the named box (the nearest grown entry, the first on ties) and the next box's grown entry
+        first = g_hit.argmin(axis=0)
+        flat = first * n
+        flat += self._cols
+        g_flat = g_hit.reshape(-1)
+        g_first = g_flat.take(flat)
+        g_flat[flat] = np.inf
+        second = g_hit.min(axis=0)
+        named = self._box_table.take(first, axis=1)  # the named box's tolerance, half extents (3) and id
+        tolf = named[0]
         tf = tolf * inv_len
-        candidate = g_first <= 1.0 + tf
         # exact slabs of the named box, (3, N)
         nof, nidf = self._work[:2].reshape(2, 3, -1).take(flat, axis=2)  # noi and ninv at the named box
         aif = np.abs(nidf)
-        h_ai = self._half.T.take(first, axis=1) * aif
+        h_ai = np.multiply(named[1:4], aif)
         lo = nof - h_ai
         t_near = lo.max(axis=0)
-        t_far = (nof + h_ai).min(axis=0)
-        has = candidate & (t_near <= t_far) & (t_far >= 0.0)
-        best = np.where(has, t_near, 1.0)
-        # Clean if: no other box's grown entry comes before the hit (or the segment's end); the ray starts outside
-        # the grown box and ends well past the hit; and it crossed each other front face's plane at least the
-        # tolerance outside that face (Bullet accepts a plane crossing up to the tolerance outside its face and
-        # reports the first one). Between crossing face j's plane (lo_j) and the entry face's (axis a, at best) the
-        # ray closes in on slab a by (best - lo_j) * |d_a|: at least that far outside face j it crossed j's plane.
-        entry = (lo[1] > lo[0]).astype(np.intp)  # np.argmax(lo, axis=0), in fewer instructions
-        entry[lo[2] > np.maximum(lo[0], lo[1])] = 2
-        ahead = best - lo
-        at_entry = entry * n + cols
-        ahead.reshape(-1)[at_entry] = np.inf
-        clean = (has & (second > best + tf) & (g_first > 0.0) & (best <= 1.0 - tf)
-                 & (ahead.min(axis=0) >= tolf * aif.reshape(-1).take(at_entry)))
-        need = candidate & ~clean  # not a candidate: no box's grown entry lies within the segment
+        t_far = np.add(nof, h_ai, out=nof).min(axis=0)
+        entry = lo.argmax(axis=0)  # the entry face's axis
+        at_entry = entry * n
+        at_entry += self._cols
+        lo_flat = lo.reshape(-1)
+        tol_entry = tolf * aif.reshape(-1).take(at_entry)
+        lo_flat[at_entry] = -np.inf
+        # Clean if: the named box is hit (not behind the start); no other box's grown entry comes before the hit
+        # plus the tolerance; the ray starts outside the grown box and ends well past the hit; and it crossed each
+        # other front face's plane at least the tolerance outside that face (Bullet accepts a plane crossing up to
+        # the tolerance outside its face and reports the first one). Between crossing face j's plane (lo_j) and the
+        # entry face's (axis a, at t_near) the ray closes in on slab a by (t_near - lo_j) * |d_a|: at least that far
+        # outside face j it crossed j's plane. (A clean ray is a candidate: its grown entry is within the segment.)
+        checks = self._checks
+        np.less_equal(np.maximum(t_near, 0.0), t_far, out=checks[0])
+        np.greater(second, t_near + tf, out=checks[1])
+        np.greater(g_first, 0.0, out=checks[2])
+        np.less_equal(t_near, 1.0 - tf, out=checks[3])
+        np.greater_equal(t_near - lo.max(axis=0), tol_entry, out=checks[4])
+        clean = checks.all(axis=0)
+        # not a candidate (no box's grown entry lies within the segment): no hit, and nothing to cast
+        need = np.less_equal(g_first, 1.0 + tf)
+        need ^= clean
         if rows > nb:  # another body's (padded) bounding box entered before the hit or the segment's end
-            need |= g_all[nb:].min(axis=0) <= best + AABB_PAD * inv_len
-        if clean.any():
+            best = np.where(clean, t_near, 1.0)
+            best += AABB_PAD * inv_len
+            need |= g_all[nb:].min(axis=0) <= best
+        np.copyto(frac, t_near, where=clean)
+        np.copyto(body, named[4], where=clean, casting="unsafe")
+        if pos is not None and normal is not None and clean.any():
             k = clean.nonzero()[0]
-            fk = first[k]
-            body[k] = self._ids[fk]
-            frac[k] = best[k]
-            if pos is not None and normal is not None:
-                pos[k] = (s_t[:, k] + d_t[:, k] * best[k]).T
-                ek = entry[k]
-                # outward normal of the entry face: box axis ek, against the ray's direction along it
-                normal[k] = self._rot[fk, :, ek] * np.sign(nidf.reshape(-1).take(ek * n + k))[:, None]
+            pos[k] = (self._starts_h[:3, k] + d_t[:, k] * t_near[k]).T
+            ek = entry[k]
+            # outward normal of the entry face: box axis ek, against the ray's direction along it
+            normal[k] = self._rot[first[k], :, ek] * np.sign(nidf.reshape(-1).take(ek * n + k))[:, None]
         return need

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from robokit_plugins.lidar import TickSeeder
 
 from robokit.cli import main
 from robokit.msgs.mobile import LaserScan
@@ -114,6 +115,15 @@ def test_range_noise_is_the_tick_generators(seed: int) -> None:
             sim.step(7)
             ours, shared = lidar._noise_rng(), lidar.ctx.tick_rng()
             assert np.array_equal(ours.normal(0.0, 0.01, 36), shared.normal(0.0, 0.01, 36))
+
+
+def test_tick_seeder_gives_numpys_generator_state() -> None:
+    """The lidar's plain-Python SeedSequence + PCG64 seeding equals numpy's for any three 32-bit words."""
+    words = np.random.default_rng(7).integers(0, 2**32, size=(300, 3), dtype=np.uint64).tolist()
+    words += [[0, 0, 0], [2**32 - 1] * 3, [0, 2**32 - 1, 1], [5, 0, 2**31]]
+    for seed, crc, tick in words:
+        numpys = np.random.PCG64(np.random.SeedSequence([seed, crc, tick])).state["state"]
+        assert TickSeeder(seed, crc).state(tick) == (numpys["state"], numpys["inc"])
 
 
 XVFB_RUN = shutil.which("xvfb-run")
