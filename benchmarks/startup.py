@@ -64,28 +64,43 @@ heavy = [m for m in {heavy!r} if m in sys.modules]
 print("heavy modules imported:", ", ".join(heavy) or "none", file=sys.stderr)
 """
 STAGES = """
-import json, sys, time
+import json, os, sys, time
 clock = time.process_time
-marks = [("interpreter start-up (before the first line)", clock())]
+counter = None
+if os.environ.get("STAGE_INSTRUCTIONS"):  # user-mode instructions too; the counter's own imports are then undone
+    before = set(sys.modules)
+    sys.path.insert(0, os.environ["STAGE_INSTRUCTIONS"])
+    from _counters import Counters
+    counter = Counters.open()
+    sys.path.pop(0)
+    for name in set(sys.modules) - before:
+        del sys.modules[name]
+def mark(name):
+    marks.append((name, clock(), counter.read()[1] if counter is not None else 0))
+marks = []
+mark("interpreter start-up (before the first line)")
 import robokit.cli as cli
-marks.append(("import robokit.cli (pluggy, argparse)", clock()))
+mark("import robokit.cli")
 cli._pause_gc_for_startup()  # as the robokit command does
-args = cli._parser("run").parse_args(["run", sys.argv[1], "--quiet"])
-marks.append(("argument parser (run)", clock()))
+argv = ["run", sys.argv[1], "--quiet"]
+args = cli._quick_run_args(argv) or cli._parser("run").parse_args(argv)
+from robokit._quiet import capture_c_stdout
+from robokit.interrupts import StopGuard
+mark("command line, output capture, signal guard")
 from robokit.plugins import load_plugins
 plugins = load_plugins()
-marks.append(("plugin discovery (numpy, pybullet; entry points)", clock()))
+mark("plugin discovery (numpy, pybullet; entry points)")
 from robokit.config import load_config
-marks.append(("import robokit.config (core sections, tomllib)", clock()))
+mark("import robokit.config (core sections, tomllib)")
 cfg = load_config(args.config, plugins)
-marks.append(("config read + validation (+ local reporter module)", clock()))
+mark("config read + validation (+ local reporter module)")
 from robokit.runner import run_config, summary
-marks.append(("import robokit.runner (simulation, world, recorder)", clock()))
+mark("import robokit.runner (simulation, world)")
 cli._end_startup_gc_pause()
 out = run_config(cfg, plugins, max_time=None, on_problem=None)
-marks.append(("build + run + record + report", clock()))
+mark("build + run + record + report")
 summary(out)
-print(json.dumps([(name, t) for name, t in marks]))
+print(json.dumps(marks))
 """
 BY_HAND = """
 import json, os, uuid
@@ -149,8 +164,10 @@ def measure(cmd: list[str], cwd: str, env: dict[str, str]) -> tuple[float, float
 
 
 def stages(config: Path, repeats: int, cwd: str, env: dict[str, str]) -> None:
-    """Where a trivial run's process time goes: each stage of what ``robokit run`` does, in fresh processes."""
-    per_stage: dict[str, list[float]] = {}
+    """Where a trivial run's process time (and user-mode instructions) go: each stage of what ``robokit run`` does,
+    in fresh processes. The counter is opened before the first mark: its small cost lands in no stage."""
+    env = {**env, "STAGE_INSTRUCTIONS": str(Path(__file__).resolve().parent)} if _instructions() > 0 else env
+    per_stage: dict[str, list[tuple[float, float]]] = {}
     for _ in range(repeats):
         proc = subprocess.run([sys.executable, "-c", STAGES, str(config)], cwd=cwd, capture_output=True,
                               text=True, env=env)
@@ -158,16 +175,20 @@ def stages(config: Path, repeats: int, cwd: str, env: dict[str, str]) -> None:
             print(f"  (stage breakdown failed: {proc.stderr.strip()[-400:]})")
             return
         marks = json.loads(proc.stdout.strip().splitlines()[-1])
-        previous = 0.0
-        for name, t in marks:
-            per_stage.setdefault(name, []).append(t - previous)
-            previous = t
-    total = 0.0
+        previous = (0.0, float(marks[0][2]))
+        for name, t, instructions in marks:
+            per_stage.setdefault(name, []).append((t - previous[0], instructions - previous[1]))
+            previous = (t, float(instructions))
+    total = [0.0, 0.0]
     for name, values in per_stage.items():
-        ms = statistics.median(values) * 1e3
-        total += ms
-        print(f"  {name:<58} {ms:6.1f} ms")
-    print(f"  {'sum of the medians (interpreter exit not included)':<58} {total:6.1f} ms")
+        ms = statistics.median(v[0] for v in values) * 1e3
+        mi = statistics.median(v[1] for v in values) / 1e6
+        total[0] += ms
+        total[1] += mi
+        shown = f"  {mi:6.1f} M instructions" if mi > 0 else ""
+        print(f"  {name:<58} {ms:6.1f} ms{shown}")
+    shown = f"  {total[1]:6.1f} M" if total[1] > 0 else ""
+    print(f"  {'sum of the medians (interpreter exit not included)':<58} {total[0]:6.1f} ms{shown}")
 
 
 def main() -> None:
@@ -256,7 +277,8 @@ def main() -> None:
             probe = subprocess.run([py, "-c", PROBE.format(heavy=HEAVY), *argv], cwd=tmp, capture_output=True,
                                    text=True, env=env)
             print(f"robokit {argv[0]}: {probe.stderr.strip().splitlines()[-1]}")
-        print(f"inside a trivial run, process time per stage (fresh processes, median of {args.repeats}):")
+        print(f"inside a trivial run, per stage (fresh processes, median of {args.repeats}; the interpreter's own "
+              "start-up is counted in the first stage's time only):")
         stages(trivial, args.repeats, tmp, env)
 
 
