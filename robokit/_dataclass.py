@@ -96,18 +96,15 @@ def _deferred(cls: type, options: dict[str, Any]) -> type:
 
     if init and "__init__" not in own:
         every = [f for f in fields.values() if f._field_type in (dc._FIELD, dc._FIELD_INITVAR)]
-        std, kw_only = dc._fields_in_init_order(every)
-        _check_default_order(std)  # the standard decorator refuses such a class at once, not at the first call
+        _check_default_order(every)  # the standard decorator refuses such a class at once, not at the first call
         has_post_init = hasattr(cls, "__post_init__")
         self_name = "__dataclass_self__" if "self" in fields else "self"
-        lazy("__init__", lambda: dc._init_fn(every, std, kw_only, frozen, has_post_init, self_name, globals_, False))
+        lazy("__init__", lambda: dc._init_fn(every, *dc._fields_in_init_order(every), frozen, has_post_init,
+                                             self_name, globals_, False))
     if repr_ and "__repr__" not in own:
-        shown = [f for f in field_list if f.repr]
-        lazy("__repr__", lambda: dc._repr_fn(shown, globals_))
+        lazy("__repr__", lambda: dc._repr_fn([f for f in field_list if f.repr], globals_))
     if eq and "__eq__" not in own:
-        compared = [f for f in field_list if f.compare]
-        mine, other = dc._tuple_str("self", compared), dc._tuple_str("other", compared)
-        lazy("__eq__", lambda: dc._cmp_fn("__eq__", "==", mine, other, globals=globals_))
+        lazy("__eq__", lambda: _eq_fn([f for f in field_list if f.compare], globals_))
     if frozen:  # one helper makes both; each is compiled on its own first use
         lazy("__setattr__", lambda: dc._frozen_get_del_attr(cls, field_list, globals_)[0])
         lazy("__delattr__", lambda: dc._frozen_get_del_attr(cls, field_list, globals_)[1])
@@ -119,9 +116,18 @@ def _deferred(cls: type, options: dict[str, Any]) -> type:
     return cls
 
 
-def _check_default_order(std: tuple[Any, ...]) -> None:
+def _eq_fn(compared: list[Any], globals_: dict[str, Any]) -> Any:
+    dc: Any = dataclasses
+    return dc._cmp_fn("__eq__", "==", dc._tuple_str("self", compared), dc._tuple_str("other", compared),
+                      globals=globals_)
+
+
+def _check_default_order(fields: list[Any]) -> None:
+    """No field without a default after one with a default, among ``__init__``'s positional parameters."""
     seen_default = False
-    for f in std:
+    for f in fields:
+        if not f.init or f.kw_only:
+            continue
         if not (f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING):
             seen_default = True
         elif seen_default:

@@ -11,8 +11,6 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import IO, Any
 
-from robokit._dataclass import dataclass
-
 
 @contextmanager
 def quiet_stdout() -> Iterator[None]:
@@ -96,11 +94,17 @@ def c_stdout_to_stderr() -> Iterator[None]:
 _ARGV = re.compile(r"^(argv\[\d+\]=\s*|pybullet build time: .*)$")
 
 
-@dataclass
 class CapturedOutput:
-    """What C code wrote to file descriptor 1 while :func:`capture_c_stdout` was active."""
+    """What C code wrote to file descriptor 1 while :func:`capture_c_stdout` was active (``text``, set when the
+    capture ends)."""
 
-    text: str = ""
+    __slots__ = ("text",)
+
+    def __init__(self, text: str = "") -> None:
+        self.text = text
+
+    def __repr__(self) -> str:
+        return f"CapturedOutput(text={self.text!r})"
 
     def lines(self) -> list[str]:
         """Non-empty lines, without pybullet's empty start-up echo (``argv[0]=``)."""

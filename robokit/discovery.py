@@ -14,7 +14,6 @@ the caller asks ``importlib.metadata`` instead.
 from __future__ import annotations
 
 import os
-import re
 import sys
 from collections.abc import Iterable
 from functools import reduce
@@ -71,8 +70,12 @@ class EntryPoint:
 
 
 def _normalized(stem: str) -> str:
-    """The distribution name of a ``NAME-VERSION.dist-info`` folder, normalised as ``importlib.metadata`` does."""
-    return re.sub(r"[-_.]+", "_", stem.partition("-")[0]).lower()
+    """The distribution name of a ``NAME-VERSION.dist-info`` folder, normalised as ``importlib.metadata`` does
+    (each run of ``-``, ``_``, ``.`` made one ``_``, lower case)."""
+    name = stem.partition("-")[0].replace("-", "_").replace(".", "_")
+    while "__" in name:
+        name = name.replace("__", "_")
+    return name.lower()
 
 
 def entry_points(groups: Iterable[str]) -> list[EntryPoint] | None:
@@ -87,22 +90,24 @@ def entry_points(groups: Iterable[str]) -> list[EntryPoint] | None:
     try:
         for entry in sys.path:
             root = entry or "."
-            if os.path.isfile(root) or root.lower().endswith(".egg"):
-                return None  # a zip, an egg: importlib.metadata reads those
+            if root.lower().endswith(".egg"):
+                return None  # an egg: importlib.metadata reads those
             try:
-                names = os.listdir(root)
+                listing = os.scandir(root)  # listing order, as os.listdir; entries know whether they are folders
+            except NotADirectoryError:
+                return None  # a zip: importlib.metadata reads those
             except OSError:  # a missing folder on sys.path is skipped, as importlib.metadata does
                 continue
-            for name in names:
-                if not name.lower().endswith(_INFO_SUFFIXES):
-                    continue
-                key = _normalized(name.rsplit(".", 1)[0])
-                if key in seen:
-                    continue
-                seen.add(key)
-                path = os.path.join(root, name)
-                if os.path.isdir(path):
-                    found.extend(_read(path, wanted))
+            with listing:
+                for item in listing:
+                    if not item.name.lower().endswith(_INFO_SUFFIXES):
+                        continue
+                    key = _normalized(item.name.rsplit(".", 1)[0])
+                    if key in seen:
+                        continue
+                    seen.add(key)
+                    if item.is_dir():
+                        found.extend(_read(item.path, wanted))
     except (OSError, UnicodeDecodeError, ValueError):
         return None
     return found
@@ -111,9 +116,11 @@ def entry_points(groups: Iterable[str]) -> list[EntryPoint] | None:
 def _read(path: str, wanted: set[str]) -> list[EntryPoint]:
     """The entry points of the wanted groups in one distribution folder's ``entry_points.txt``."""
     try:
-        with open(os.path.join(path, "entry_points.txt"), encoding="utf-8") as fh:
-            text = fh.read()
+        with open(os.path.join(path, "entry_points.txt"), "rb") as fh:
+            text = fh.read().decode("utf-8")
     except FileNotFoundError:
+        return []
+    if not any(group in text for group in wanted):  # most distributions: nothing of ours to parse
         return []
     dist = Distribution(path)
     group = None

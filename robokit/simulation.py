@@ -8,22 +8,24 @@ import time
 import uuid
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from robokit import __version__
 from robokit.components import SetupContext
-from robokit.compose import Member, Monitored
 from robokit.config import BodyConfig, ComponentSpec, Config
 from robokit.errors import ConfigError, Interrupted, PluginError, UserError, plugin_fault
 from robokit.interrupts import StopGuard
 from robokit.plugins import Plugins
-from robokit.reading_check import ReadingCheck, Unserialisable
 from robokit.result import RunResult
 from robokit.scheduler import Slot, TickScheduler, period_ticks
-from robokit.walltime import WallTiming
 from robokit.world import World, to_quaternion
+
+if TYPE_CHECKING:  # imported where used: a run without monitors, sensors or a wall-clock budget needs none of them
+    from robokit.compose import Member
+    from robokit.reading_check import ReadingCheck
+    from robokit.walltime import WallTiming
 
 
 class Simulation:
@@ -108,6 +110,8 @@ class Simulation:
         stepped, period = self.behaviour, period_ticks(cfg.behaviour.rate_hz, hz) if cfg.behaviour else 1
         if self.monitors:  # the task and its monitors, stepped as one, each at its own rate
             task = self._member(cfg.behaviour, self.behaviour) if cfg.behaviour else None
+            from robokit.compose import Monitored
+
             self._monitored = Monitored(task, self.monitors, self.world)
             stepped, period = self._monitored, 1
         self.scheduler = TickScheduler(self.world, sensors, actuators, stepped, period,
@@ -121,6 +125,8 @@ class Simulation:
 
     def _member(self, spec: ComponentSpec, instance: Any = None) -> Member:
         """A behaviour of a composition (a sequence step or a monitor), built unless ``instance`` is given."""
+        from robokit.compose import Member
+
         comp = self._instantiate(spec) if instance is None else instance
         self._instances[spec.key] = comp
         return Member(spec.name, spec.type, comp, period_ticks(spec.rate_hz, self.world.physics_hz),
@@ -164,6 +170,8 @@ class Simulation:
     def _reading_check(self, slot: Slot) -> Callable[[Slot], None]:
         """The check run after each reading a sensor computes: non-finite values are flagged (in the trace and the
         result's warnings), values that cannot be serialised end the run naming the sensor."""
+        from robokit.reading_check import ReadingCheck, Unserialisable
+
         check = ReadingCheck(allow_inf=bool(getattr(slot.component, "allow_inf", False)))
         self._checks[slot.name] = check
 
@@ -295,7 +303,11 @@ class Simulation:
         t0 = wall_clock()
         outcome, reason = "aborted", ""
         pace = self.world.gui and self.config.world.realtime
-        timing = WallTiming(self.scheduler, wall_clock) if budget is not None else None
+        timing = None
+        if budget is not None:
+            from robokit.walltime import WallTiming
+
+            timing = WallTiming(self.scheduler, wall_clock)
         with StopGuard.ensure() as guard, guard.soft(self.interrupt):
             if guard.signalled:  # Ctrl-C arrived while the guard was soft elsewhere: stop at once
                 self.interrupt(guard.signal or "SIGINT")

@@ -37,6 +37,15 @@ def test_the_same_entry_points_as_importlib_metadata_in_this_environment() -> No
     assert ("robokit", "local_report", "robokit_plugins.local_report", "robokit") in [m[:4] for m in mine]
 
 
+@pytest.mark.parametrize("stem", ["robokit-0.1.0", "Foo.Bar-1.0", "foo__bar-2", "a-._b-3", "_x_-1", "zope.interface-7",
+                                  "PySocks-1.7.1", "typing_extensions-4", "plain"])
+def test_distribution_names_are_normalised_as_importlib_metadata_does(stem: str) -> None:
+    import re
+
+    name = stem.partition("-")[0]
+    assert discovery._normalized(stem) == re.sub(r"[-_.]+", "-", name).lower().replace("-", "_")
+
+
 def test_a_distribution_on_sys_path_the_first_of_a_name_winning(tmp_path: Path,
                                                                  monkeypatch: pytest.MonkeyPatch) -> None:
     first = make_dist(tmp_path / "a", "robokit-extra", "1.0", FAULTY_SENSORS)

@@ -204,10 +204,10 @@ def test_a_non_default_field_after_a_default_one_is_refused_at_once() -> None:
 
 
 def _robokit_classes() -> list[type]:
-    from robokit import _quiet, components, compose, config, plugins, result, runner, scheduler, world
+    from robokit import components, compose, config, plugins, result, runner, scheduler, world
     from robokit.record import format as record_format
 
-    return [plugins.PluginType, plugins.Plugins, _quiet.CapturedOutput, config.ComponentSpec, config.Config,
+    return [plugins.PluginType, plugins.Plugins, config.ComponentSpec, config.Config,
             components.Outcome, components.GoalCheck, components.SetupContext, components.Delivery,
             result.RunResult, compose.Member, scheduler.Slot, scheduler.TickScheduler, world.JointInfo,
             runner.RunOutput, runner._UnbuiltReporter, record_format.Span, record_format.RunRecord]
