@@ -163,6 +163,10 @@ class RayCaster:
         hits = c.rayTestBatch(starts, ends, numThreads=1, collisionFilterMask=self.mask)
         return [body for k, body in enumerate(boxes) if any(h[0] == body for h in hits[6 * k:6 * k + 6])]
 
+    def refresh(self) -> None:
+        """Re-read the scene (see :meth:`cast_lean`); :meth:`cast` does it itself."""
+        self._refresh()
+
     def _refresh(self) -> None:
         """Re-sort the bodies if any were added or removed; re-read the boxes' poses and the others' bounding
         boxes (padded by ``AABB_PAD``)."""
@@ -238,13 +242,16 @@ class RayCaster:
             self._starts_h = np.ones((4, n))
         return self._starts_h[:3]
 
-    def cast_lean(self, ends: np.ndarray, inv_len: np.ndarray, *, ignore: int = -2) -> tuple[np.ndarray, np.ndarray]:
+    def cast_lean(self, ends: np.ndarray, inv_len: np.ndarray, *, ignore: int = -2,
+                  refresh: bool = True) -> tuple[np.ndarray, np.ndarray]:
         """Hit body (``-1``: none) and fraction per segment, from :meth:`starts` to ``ends`` (3, N), given
         ``1 / length`` of each segment: :meth:`cast` with ``detail=False`` for a sensor that scans every few ticks,
-        in fewer steps (no link, no per-ray flags; a hit on body ``ignore`` counts as none)."""
+        in fewer steps (no link, no per-ray flags; a hit on body ``ignore`` counts as none). ``refresh=False``:
+        the caller called :meth:`refresh` just before (nothing moved since)."""
         s_t = self._starts_h[:3]
         n = s_t.shape[1]
-        self._refresh()
+        if refresh:
+            self._refresh()
         if len(self._fresh) == 0 or len(self._fresh[0]) != n:
             self._fresh = (np.full(n, -1, dtype=int), np.ones(n), np.zeros(n, dtype=bool))
         body, frac = self._fresh[0].copy(), self._fresh[1].copy()
