@@ -163,6 +163,10 @@ class RayCaster:
         hits = c.rayTestBatch(starts, ends, numThreads=1, collisionFilterMask=self.mask)
         return [body for k, body in enumerate(boxes) if any(h[0] == body for h in hits[6 * k:6 * k + 6])]
 
+    def refresh(self) -> None:
+        """Re-read the scene (see :meth:`cast_lean`); :meth:`cast` does it itself."""
+        self._refresh()
+
     def _refresh(self) -> None:
         """Re-sort the bodies if any were added or removed; re-read the boxes' poses and the others' bounding
         boxes (padded by ``AABB_PAD``)."""
@@ -231,6 +235,41 @@ class RayCaster:
         self.rays_total += n
         return RayHits(body, link, frac, pos, normal, cast)
 
+    def starts(self, n: int) -> np.ndarray:
+        """The segment starts :meth:`cast_lean` reads: a (3, n) array (world frame, m, one row per axis) for the
+        caller to fill in place (it is the caster's own buffer: no copy per cast)."""
+        if self._starts_h.shape[1] != n:
+            self._starts_h = np.ones((4, n))
+        return self._starts_h[:3]
+
+    def cast_lean(self, ends: np.ndarray, inv_len: np.ndarray, *, ignore: int = -2,
+                  refresh: bool = True) -> tuple[np.ndarray, np.ndarray]:
+        """Hit body (``-1``: none) and fraction per segment, from :meth:`starts` to ``ends`` (3, N), given
+        ``1 / length`` of each segment: :meth:`cast` with ``detail=False`` for a sensor that scans every few ticks,
+        in fewer steps (no link, no per-ray flags; a hit on body ``ignore`` counts as none). ``refresh=False``:
+        the caller called :meth:`refresh` just before (nothing moved since)."""
+        s_t = self._starts_h[:3]
+        n = s_t.shape[1]
+        if refresh:
+            self._refresh()
+        if len(self._fresh) == 0 or len(self._fresh[0]) != n:
+            self._fresh = (np.full(n, -1, dtype=int), np.ones(n), np.zeros(n, dtype=bool))
+        body, frac = self._fresh[0].copy(), self._fresh[1].copy()
+        if self.analytic and self._boxes:
+            idx = self._intersect(np.subtract(ends, s_t), inv_len, body, frac, None, None).nonzero()[0]
+        else:
+            idx = np.arange(n)
+        if len(idx):
+            results = self.client.rayTestBatch(s_t.T[idx], ends.T[idx], numThreads=self.num_threads,
+                                               collisionFilterMask=self.mask)
+            for k, r in zip(idx.tolist(), results, strict=True):  # (a few rays: plain Python)
+                if r[0] != ignore:
+                    body[k] = r[0]
+                frac[k] = r[2]
+        self.rays_cast += len(idx)
+        self.rays_total += n
+        return body, frac
+
     def _intersect(self, d_t: np.ndarray, inv_len: np.ndarray, body: np.ndarray, frac: np.ndarray,
                    pos: np.ndarray | None, normal: np.ndarray | None) -> np.ndarray:
         """Fill in place the rays' nearest mesh-box hits that Bullet reports alike; return per ray whether
@@ -272,7 +311,10 @@ class RayCaster:
         g_far = np.add(noi, reach).min(axis=0)
         g_all = np.subtract(noi, reach, out=reach).max(axis=0)  # slab entry per axis: (-h - o) / d for d > 0, ...
         # the grown entry per row and ray, (R, N): +inf where the segment's line misses the box or it lies behind
-        np.copyto(g_all, np.inf, where=~(np.maximum(g_all, 0.0) <= g_far))  # (NaN too)
+        # (entries before the start count as 0: the start lies in the grown box, a ray PyBullet casts either way;
+        # fmax makes a NaN entry 0 too, and a NaN exit keeps the entry: both cast)
+        np.fmax(g_all, 0.0, out=g_all)
+        np.copyto(g_all, np.inf, where=g_all > g_far)
         g_hit = g_all[:nb]
         # the named box (the nearest grown entry, the first on ties) and the next box's grown entry
         first = g_hit.argmin(axis=0)
