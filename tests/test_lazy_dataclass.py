@@ -210,7 +210,15 @@ def _robokit_classes() -> list[type]:
     return [plugins.PluginType, plugins.Plugins, config.ComponentSpec, config.Config,
             components.Outcome, components.GoalCheck, components.SetupContext, components.Delivery,
             result.RunResult, compose.Member, scheduler.Slot, scheduler.TickScheduler, world.JointInfo,
-            runner.RunOutput, runner._UnbuiltReporter, record_format.Span, record_format.RunRecord]
+            runner.RunOutput, runner._UnbuiltReporter, record_format.Span, record_format.RunRecord,
+            *_message_types()]
+
+
+def _message_types() -> list[type]:
+    """Every dataclass in :mod:`robokit.msgs` (the message types plugins exchange)."""
+    from robokit import msgs
+
+    return [v for v in vars(msgs).values() if isinstance(v, type) and dataclasses.is_dataclass(v)]
 
 
 @pytest.mark.parametrize("cls", _robokit_classes(), ids=lambda c: f"{c.__module__}.{c.__qualname__}")

@@ -17,9 +17,11 @@ Frames and conventions:
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import field
 
 import numpy as np
+
+from robokit._dataclass import dataclass
 
 __all__ = [
     "Vec3",
