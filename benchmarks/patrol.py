@@ -133,8 +133,8 @@ def lidar_cost(config: Path, seconds: float, repeats: int, threads: int = 1, ref
             step = sims["with"].world.time_step
             ticks, chunk = round(seconds / step), max(1, round(chunk_seconds / step))
             in_scans = {label: _time_scans(sim.components.get("scan")) for label, sim in sims.items()}
-            out: dict[str, dict[str, Any]] = {label: {"wall": 0.0, "cpu": 0.0, "instr": 0.0, "ticks": ticks, "chunks": []}
-                   for label in sims}
+            out: dict[str, dict[str, Any]] = {
+                label: {"wall": 0.0, "cpu": 0.0, "instr": 0.0, "ticks": ticks, "chunks": []} for label in sims}
             labels = list(sims)
             done = 0
             while done < ticks:
