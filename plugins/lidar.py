@@ -15,7 +15,6 @@ Set ``rate_hz`` (e.g. 10) in the config: the scan is computed only when due and 
 from __future__ import annotations
 
 import math
-import zlib
 from typing import Any, ClassVar
 
 import numpy as np
@@ -30,90 +29,9 @@ from robokit.msgs.mobile import LaserScan
 OWN_BODY_GROUP = 0x100
 """Collision group the lidar puts its robot's links in (their collisions with other bodies are unchanged)."""
 RAY_MASK = -1 ^ OWN_BODY_GROUP
+"""Rays hit every collision group but the robot's own."""
 SELF_MARGIN = 0.03
 """m: the robot's own box is grown by this much (Bullet grows broadphase boxes by its 0.02 m contact threshold)."""
-"""Rays hit every collision group but the robot's own."""
-
-# numpy's SeedSequence (a pool of four uint32 words) and PCG64 seeding, written out for the lidar's noise generator:
-# the entropy words [run seed, crc32 of the sensor's key, tick] hashed and mixed exactly as numpy does, in plain
-# Python integers. A scan runs once every few physics ticks, cold in the caches, where numpy's SeedSequence, PCG64
-# and Generator constructors cost about a tenth of the scan; this gives the same generator state in a few Python
-# operations and one state assignment (checked against numpy in tests/test_mobile_lidar.py).
-_M32, _M128 = 2**32 - 1, 2**128 - 1
-_MIX_L, _MIX_R = 0xCA01F9DD, 0x4973F715
-_PCG_MULT = (2549297995355413924 << 64) + 4865540595714422341
-
-
-def _hash_constants(init: int, mult: int, count: int) -> list[tuple[int, int]]:
-    """SeedSequence's running hash constant: (the value XORed in, the multiplier) of each successive hash."""
-    out = []
-    for _ in range(count):
-        nxt = init * mult & _M32
-        out.append((init, nxt))
-        init = nxt
-    return out
-
-
-_POOL_HASH = _hash_constants(0x43B0D7E5, 0x931E8875, 16)  # mix_entropy's 4 + 12 hashes
-_STATE_HASH = _hash_constants(0x8B51F9DD, 0x58F38DED, 8)  # generate_state's 8 output words
-
-
-def _hashmix(value: int, k: int) -> int:
-    xor, mult = _POOL_HASH[k]
-    value = (value ^ xor) * mult & _M32
-    return value ^ value >> 16
-
-
-def _mix(x: int, y: int) -> int:
-    r = (_MIX_L * x - _MIX_R * y) & _M32
-    return r ^ r >> 16
-
-
-class TickSeeder:
-    """The state of ``np.random.PCG64(np.random.SeedSequence([seed, key_crc, tick]))`` for any tick (all three
-    words below 2**32), without numpy.
-
-    SeedSequence hashes each entropy word into a pool of four (the fourth from 0), then mixes every pool word into
-    every other one, source by source, each mix with the next hash constant, and hashes the pool out into four
-    64-bit words: PCG64's initial state and increment. The tick enters pool word 2 only, so everything mixed before
-    that word is first used as a source is computed once, here.
-    """
-
-    def __init__(self, seed: int, key_crc: int) -> None:
-        self.seed = seed
-        pool = [_hashmix(seed, 0), _hashmix(key_crc, 1), 0, _hashmix(0, 3)]
-        self._tick_terms: list[int] = []  # mixed into pool word 2 after the tick's own hash
-        k = 4
-        for src in (0, 1):
-            for dst in (d for d in range(4) if d != src):
-                term = _hashmix(pool[src], k)
-                k += 1
-                if dst == 2:
-                    self._tick_terms.append(term)
-                else:
-                    pool[dst] = _mix(pool[dst], term)
-        self._pool = pool
-
-    def state(self, tick: int) -> tuple[int, int]:
-        """PCG64's ``(state, inc)`` for this tick (128-bit integers)."""
-        pool = self._pool.copy()
-        word = _hashmix(tick, 2)
-        for term in self._tick_terms:
-            word = _mix(word, term)
-        pool[2] = word
-        k = 10
-        for src in (2, 3):
-            for dst in (d for d in range(4) if d != src):
-                pool[dst] = _mix(pool[dst], _hashmix(pool[src], k))
-                k += 1
-        w = []
-        for i, (xor, mult) in enumerate(_STATE_HASH):
-            v = (pool[i & 3] ^ xor) * mult & _M32
-            w.append(v ^ v >> 16)
-        # uint32 words read as little-endian uint64s; PCG64 takes (high, low) pairs as its 128-bit seed and stream
-        seed = w[1] << 96 | w[0] << 64 | w[3] << 32 | w[2]
-        inc = (w[5] << 97 | w[4] << 65 | w[7] << 33 | w[6] << 1 | 1) & _M128
-        return ((inc + seed) * _PCG_MULT + inc) & _M128, inc  # pcg_setseq_128_srandom_r
 
 
 class LidarConfig(Schema):
@@ -212,10 +130,6 @@ class Lidar(Sensor):
         self._near_min = np.full(cfg.rays, cfg.range_min)
         self._yaw_offset = math.radians(cfg.yaw_offset_deg)
         self._offset = np.asarray(cfg.offset, float) if any(cfg.offset) else None
-        self._key_crc = zlib.crc32(ctx.key.encode("utf-8"))
-        self._seeder: TickSeeder | None = None
-        self._noise_bits = np.random.PCG64(0)
-        self._noise_gen = np.random.Generator(self._noise_bits)
         self.caster = RayCaster(self.world, skip=() if self.body is None else (self.body,), mask=RAY_MASK,
                                 num_threads=cfg.num_threads, analytic=cfg.map_in_numpy)
 
@@ -289,7 +203,7 @@ class Lidar(Sensor):
         origin, rot, link_yaw = self._sensor_frame()
         box = self._own_box(origin)
         self.caster.refresh()
-        noise = self._noise_rng().normal(0.0, cfg.range_noise, cfg.rays) if cfg.range_noise > 0 else None
+        noise = self.ctx.tick_rng().normal(0.0, cfg.range_noise, cfg.rays) if cfg.range_noise > 0 else None
         dirs = rot @ self._local_t
         near = self._near(box, dirs)
         o = origin[:, None]
@@ -318,21 +232,6 @@ class Lidar(Sensor):
         return LaserScan(self.angle_min, self.angle_max, self.angle_inc, cfg.range_min, cfg.range_max, ranges,
                          points.T, (float(origin[0]), float(origin[1]), float(origin[2])),
                          link_yaw + self._yaw_offset, self.world.time)
-
-    def _noise_rng(self) -> np.random.Generator:
-        """``ctx.tick_rng()`` for this tick, built in fewer steps: the generator state numpy derives from the same
-        seed words (the run's seed, the crc32 of the sensor's key, the tick), computed by :class:`TickSeeder` and
-        set on one generator kept between scans (a seed or a tick outside 32 bits takes ``ctx.tick_rng()``
-        itself). The same draws; valid until the next call."""
-        seed, tick = self.world.seed, self.world.tick
-        if 0 <= seed < 2**32 and 0 <= tick < 2**32:
-            if self._seeder is None or self._seeder.seed != seed:
-                self._seeder = TickSeeder(seed, self._key_crc)
-            state, inc = self._seeder.state(tick)
-            self._noise_bits.state = {"bit_generator": "PCG64", "state": {"state": state, "inc": inc},
-                                      "has_uint32": 0, "uinteger": 0}
-            return self._noise_gen
-        return self.ctx.tick_rng()
 
     def _draw(self, starts: np.ndarray, points: np.ndarray, hit: np.ndarray) -> None:
         """Draw the scan (GUI only). Rendering is paused meanwhile: each debug line is a round trip to the GUI

@@ -204,17 +204,14 @@ class RayCaster:
         ends = np.asarray(ends, float)
         n = len(starts)
         self._refresh()
-        if len(self._fresh) == 0 or len(self._fresh[0]) != n:
-            self._fresh = (np.full(n, -1, dtype=int), np.ones(n), np.zeros(n, dtype=bool))
-        body, frac, cast = (a.copy() for a in self._fresh)
+        body, frac, cast = (a.copy() for a in self._blank(n))
         pos = np.zeros((n, 3)) if detail else None
         normal = np.zeros((n, 3)) if detail else None
         if self.analytic and self._boxes:  # without mesh boxes the bounding-box test alone rarely pays
-            if self._starts_h.shape[1] != n:
-                self._starts_h = np.ones((4, n))
             # axis-first (3, N) layouts: numpy's per-axis work is then on contiguous rows
-            self._starts_h[:3] = starts.T
-            d_t = np.subtract(ends.T, self._starts_h[:3], order="C")
+            s_t = self.starts(n)
+            s_t[:] = starts.T
+            d_t = np.subtract(ends.T, s_t, order="C")
             inv_len = 1.0 / np.sqrt(np.einsum("ij,ij->j", d_t, d_t))
             idx = self._intersect(d_t, inv_len, body, frac, pos, normal).nonzero()[0]
         else:
@@ -235,6 +232,12 @@ class RayCaster:
         self.rays_total += n
         return RayHits(body, link, frac, pos, normal, cast)
 
+    def _blank(self, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Answers of ``n`` rays that hit nothing, not cast (body ``-1``, fraction 1, flag False): kept, to copy."""
+        if len(self._fresh) == 0 or len(self._fresh[0]) != n:
+            self._fresh = (np.full(n, -1, dtype=int), np.ones(n), np.zeros(n, dtype=bool))
+        return self._fresh  # type: ignore[return-value]
+
     def starts(self, n: int) -> np.ndarray:
         """The segment starts :meth:`cast_lean` reads: a (3, n) array (world frame, m, one row per axis) for the
         caller to fill in place (it is the caster's own buffer: no copy per cast)."""
@@ -252,9 +255,8 @@ class RayCaster:
         n = s_t.shape[1]
         if refresh:
             self._refresh()
-        if len(self._fresh) == 0 or len(self._fresh[0]) != n:
-            self._fresh = (np.full(n, -1, dtype=int), np.ones(n), np.zeros(n, dtype=bool))
-        body, frac = self._fresh[0].copy(), self._fresh[1].copy()
+        fresh = self._blank(n)
+        body, frac = fresh[0].copy(), fresh[1].copy()
         if self.analytic and self._boxes:
             idx = self._intersect(np.subtract(ends, s_t), inv_len, body, frac, None, None).nonzero()[0]
         else:

@@ -11,7 +11,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from robokit_plugins.lidar import TickSeeder
 
 from robokit.cli import main
 from robokit.msgs.mobile import LaserScan
@@ -107,23 +106,32 @@ def test_range_noise_is_seeded_and_of_the_configured_size() -> None:
 
 @pytest.mark.parametrize("seed", [0, 5, 2**40])
 def test_range_noise_is_the_tick_generators(seed: int) -> None:
-    """The lidar builds its per-tick noise generator itself (fewer conversions): its draws are those of
-    ``ctx.tick_rng()``, the generator every sensor's per-reading noise comes from, at every tick."""
-    with make_sim(scene(rays=36, range_noise=0.01), seed=seed) as sim:
-        lidar = sim.components["scan"]
+    """A scan's range noise is drawn from ``ctx.tick_rng()`` at the scan's tick: the same lidar without noise, in
+    the same run, gives the ranges the noise was added to."""
+    with make_sim(scene(rays=36, range_noise=0.01), seed=seed) as noisy, \
+            make_sim(scene(rays=36, range_noise=0.0), seed=seed) as clean:
+        lidar = noisy.components["scan"]
         for _ in range(3):
-            sim.step(7)
-            ours, shared = lidar._noise_rng(), lidar.ctx.tick_rng()
-            assert np.array_equal(ours.normal(0.0, 0.01, 36), shared.normal(0.0, 0.01, 36))
+            noisy.step(7)
+            clean.step(7)
+            a, b = noisy.components["scan"].read(), clean.components["scan"].read()
+            inside = (b.ranges > 0.1) & (b.ranges < 4.9)  # (clipped to [range_min, range_max] otherwise; inf: no hit)
+            drawn = lidar.ctx.tick_rng().normal(0.0, 0.01, 36)
+            assert inside.sum() > 10
+            assert np.allclose(a.ranges[inside], b.ranges[inside] + drawn[inside], rtol=0, atol=1e-12)
 
 
-def test_tick_seeder_gives_numpys_generator_state() -> None:
-    """The lidar's plain-Python SeedSequence + PCG64 seeding equals numpy's for any three 32-bit words."""
-    words = np.random.default_rng(7).integers(0, 2**32, size=(300, 3), dtype=np.uint64).tolist()
-    words += [[0, 0, 0], [2**32 - 1] * 3, [0, 2**32 - 1, 1], [5, 0, 2**31]]
-    for seed, crc, tick in words:
-        numpys = np.random.PCG64(np.random.SeedSequence([seed, crc, tick])).state["state"]
-        assert TickSeeder(seed, crc).state(tick) == (numpys["state"], numpys["inc"])
+@pytest.mark.parametrize("seed", [0, 5, 2**32 - 1, 2**40])
+def test_the_tick_generator_is_the_documented_one(seed: int) -> None:
+    """``tick_rng`` (a quicker construction where every seed word fits 32 bits) draws what
+    ``default_rng([seed, crc32(key), tick])`` draws."""
+    import zlib
+
+    with make_sim(scene(rays=36, range_noise=0.01), seed=seed) as sim:
+        ctx = sim.components["scan"].ctx
+        for tick in (0, 7, 2**31, 2**32 - 1, 2**32):
+            documented = np.random.default_rng([seed, zlib.crc32(ctx.key.encode("utf-8")), tick])
+            assert np.array_equal(ctx.tick_rng(tick).normal(0.0, 1.0, 20), documented.normal(0.0, 1.0, 20))
 
 
 XVFB_RUN = shutil.which("xvfb-run")
