@@ -177,7 +177,15 @@ def _load(args: argparse.Namespace) -> tuple[Any, Any]:
 
 def cmd_run(args: argparse.Namespace) -> int:
     """``robokit run``: build, run, report; print a summary (or the RunResult JSON with ``--json``)."""
-    plugins, cfg = _load(args)  # first: robokit.runner imports robokit.config, see _load
+    from robokit.process.interrupts import StopGuard
+
+    guard = StopGuard.current()
+    try:
+        plugins, cfg = _load(args)  # first: robokit.runner imports robokit.config, see _load
+    except BaseException as exc:  # a signal broke into start-up (imports, plugins): keep what can be kept
+        if isinstance(exc, KeyboardInterrupt) or (guard is not None and guard.signalled):
+            return _interrupted_before_config(args, guard.signal if guard is not None else None)
+        raise
     from robokit.runner import run_config
 
     _end_startup_gc_pause()
@@ -228,6 +236,22 @@ def cmd_run(args: argparse.Namespace) -> int:
 
         video_after_run(cfg, out.result.run_id, args.video, quiet=args.quiet)
     return out.exit_code
+
+
+def _interrupted_before_config(args: argparse.Namespace, signal_name: str | None) -> int:
+    """A signal ended start-up before the config was loaded: keep an ``aborted`` result.json all the same, written
+    with the standard library alone (whatever was being imported is left alone)."""
+    from robokit.core.result import early_result, write_early_result
+
+    path, payload = early_result(args.config, signal_name or "SIGINT", seed=args.seed)
+    try:
+        write_early_result(path, payload)
+        kept = f"the result was kept in {path}"
+    except OSError as err:
+        kept = f"no result kept: {path}: {err.strerror or err}"
+    if args.json:
+        print(json.dumps(payload, indent=2), flush=True)
+    return _interrupted(f"during start-up, before the config was loaded; {kept}")
 
 
 def _show_outcome(args: argparse.Namespace, out: Any, cfg: Any) -> None:
@@ -504,7 +528,7 @@ def _dispatch(args: argparse.Namespace) -> int:
     guard = StopGuard.current()
     try:
         code: int = args.func(args)
-        if guard is not None and guard.signalled and args.command != "run":  # run says what it kept itself
+        if guard is not None and guard.signalled and code != guard.exit_code:  # else the command said so itself
             return _interrupted(None)
     except KeyboardInterrupt:
         return _interrupted(None)

@@ -148,7 +148,7 @@ def run_config(
     sim: Simulation | None = None
     with StopGuard.ensure() as guard:
         try:
-            with guard.deferred(STARTUP_GRACE):  # a signal is noted: nothing is left half-built
+            with guard.immediate():  # a signal stops building at once (the run ends aborted, no ticks)
                 if guard.signalled:  # it came before this run began (imports, the config): build nothing
                     raise Interrupted(guard.signal or "SIGINT")
                 sim = _build(cfg, plugins, gui=gui, seed=seed, run_id=run_id, run_dir=run_dir,
@@ -252,7 +252,8 @@ def _keep(cfg: Config, plugins: Plugins, result: RunResult, guard: StopGuard, *,
         local = [r for r in reporters if not getattr(r, "sends", False)]
         with guard.deferred(), guard.critical():
             deliveries += deliver(local, payload, stop=guard)
-        deliveries += deliver([r for r in reporters if r not in local], payload, stop=guard)
+        with guard.immediate():
+            deliveries += deliver([r for r in reporters if r not in local], payload, stop=guard)
     return RunOutput(result, payload, deliveries, error=error)
 
 

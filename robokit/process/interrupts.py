@@ -3,7 +3,8 @@
 One :class:`StopGuard` handles SIGINT and SIGTERM for a whole command. What a signal does depends on the *phase*
 the command is in (phases nest; the innermost decides):
 
-- **no phase** (e.g. a delivery waiting on a slow server): :class:`~robokit.errors.Interrupted` is raised at once;
+- **no phase** or **immediate** (:meth:`StopGuard.immediate`: building the world, a delivery waiting on a slow
+  server): :class:`~robokit.errors.Interrupted` is raised at once;
 - **soft** (:meth:`StopGuard.soft`, the physics loop): the first signal asks the loop to stop at the next tick
   boundary;
 - **deferred** (:meth:`StopGuard.deferred`: start-up, imports, the writes at the end of a run): the first signal is
@@ -48,7 +49,7 @@ SIGNAL_EXIT_CODES = {"SIGINT": 130, "SIGTERM": 143}
 """Exit code of a command stopped by each signal (128 + the signal's number, as shells report it)."""
 GRACE = 0.5
 """Seconds a soft or deferred phase gets to reach its boundary after a signal before it is broken out of."""
-STARTUP_GRACE = 0.8
+STARTUP_GRACE = 0.5
 """The same for start-up (imports, plugin loading, building the world): long enough to reach the point where a
 result can be written, short enough to end within a second."""
 
@@ -64,6 +65,7 @@ class _Phase:
     on_signal: Callable[[str], None] | None  # None: deferred (only noted)
     grace: float
     absorbs: tuple[str, ...] = ()  # signals that only end this phase (KeyboardInterrupt), not the command
+    raises: bool = False  # a signal raises at once (a wait worth breaking: building the world, a network call)
 
 
 class StopGuard:
@@ -85,6 +87,7 @@ class StopGuard:
         self._critical = 0
         self._postponed: str | None = None
         self._closing: tuple[int, str] | None = None
+        self._process = False
         self._timers: list[threading.Timer] = []
 
     # ----------------------------------------------------------------- installing
@@ -111,6 +114,7 @@ class StopGuard:
         call. Never uninstalled; :meth:`closing` decides what a signal does once the exit code is known."""
         guard = cls().__enter__()
         guard._phases.append(_Phase(next(cls._ids), None, STARTUP_GRACE))
+        guard._process = True
         return guard
 
     def __enter__(self) -> StopGuard:
@@ -158,7 +162,9 @@ class StopGuard:
         first = self.signal is None
         if first:
             self.signal = name
-        if first and phase is not None and not phase.absorbs:
+            if self._process:  # objects a forced break leaves half-built may complain as they go: the process ends
+                sys.unraisablehook = _ignore_unraisable
+        if first and phase is not None and not phase.absorbs and not phase.raises:
             if phase.on_signal is not None:
                 phase.on_signal(name)
             self._force_after(phase, name)
@@ -193,6 +199,17 @@ class StopGuard:
         """A signal is only noted (:attr:`signalled`); after ``grace`` seconds still inside, it breaks out."""
         with self._entered(None, self.grace if grace is None else grace):
             yield
+
+    @contextmanager
+    def immediate(self) -> Iterator[None]:
+        """Inside a deferred phase, a part that a signal breaks into at once (building the world: nothing built
+        is kept; a network call: the reporter keeps the result in its outbox)."""
+        phase = _Phase(next(self._ids), None, self.grace, raises=True)
+        self._phases.append(phase)
+        try:
+            yield
+        finally:
+            self._phases.remove(phase)
 
     @contextmanager
     def absorbing(self, signals: tuple[str, ...] = ("SIGINT",)) -> Iterator[None]:
@@ -267,6 +284,11 @@ class StopGuard:
         for timer in self._timers:
             timer.cancel()
         self._timers.clear()
+
+
+def _ignore_unraisable(_unraisable: Any) -> None:
+    """After a signal, a finaliser of something the break left half-built (a half-made pybullet client) may raise:
+    not worth a traceback on the way out."""
 
 
 def _exit_now(code: int, name: str) -> None:

@@ -2,13 +2,12 @@
 
 Exit codes: 0 every trial ran and succeeded; 1 some trial failed, aborted or errored (or ``--max-trials`` left some
 to run); 2 usage or config error (before any trial runs); 130 interrupted (finished trials are kept: re-run the
-same command to resume).
+same command to resume; 143 for SIGTERM).
 """
 
 from __future__ import annotations
 
 import argparse
-import signal
 import sys
 from pathlib import Path
 from typing import Any
@@ -86,23 +85,19 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         junit=Path(args.junit) if args.junit else None, plot=args.plot or file_opts.get("plot"),
         progress=None if args.quiet else sys.stdout,
     )
-    old = signal.signal(signal.SIGTERM, _sigterm)
-    try:
+    from robokit.process.interrupts import StopGuard
+
+    with StopGuard.ensure() as guard, guard.immediate():  # SIGINT / SIGTERM stop the sweep at once
         run = run_sweep(spec, opts)
-    finally:
-        signal.signal(signal.SIGTERM, old)
     if not args.quiet:
         print(to_markdown(run.summary), end="")
         print(f"trials: {out / 'trials.jsonl'}; summary: {out / 'summary.md'}"
               + (f"; ran {run.ran}, {run.skipped} already done" if run.skipped else ""))
     if run.interrupted:
-        print(f"robokit: interrupted: {len(run.rows)} trials kept; re-run the same command to resume",
-              file=sys.stderr)
-        return 130
+        print(f"robokit: interrupted ({guard.signal or 'SIGINT'}): {len(run.rows)} trials kept; re-run the same "
+              "command to resume", file=sys.stderr)
+        return guard.exit_code
     if run.remaining:
         print(f"robokit: {run.remaining} trials still to run; re-run the same command to continue", file=sys.stderr)
     return 0 if run.all_succeeded else 1
 
-
-def _sigterm(_signum: int, _frame: Any) -> None:
-    raise KeyboardInterrupt

@@ -238,16 +238,30 @@ def _deliver(reporting: tuple[Any, list[Any]], row: dict[str, Any], result: dict
     return all(d.delivered or d.stored for _, d in deliver(reporters, payload))
 
 
+class SweepWarning(UserWarning):
+    """Part of a sweep's outputs could not be made (a plot); the rest is written."""
+
+
 def _write_outputs(run: SweepRun, opts: SweepOptions) -> list[Path]:
+    """The summary (JSON, Markdown) and the JUnit file first; then the plots, whose failure is only a warning."""
     files: list[Path] = []
     if opts.out is not None:
         (opts.out / "summary.json").write_text(json.dumps(run.summary, indent=2) + "\n", encoding="utf-8")
         (opts.out / "summary.md").write_text(to_markdown(run.summary), encoding="utf-8")
         files += [opts.out / "summary.json", opts.out / "summary.md"]
-        files += write_plots(run.summary, run.rows, opts.out, opts.plot)
     if opts.junit is not None:
         write_junit(run.rows, opts.junit)
         files.append(opts.junit)
+    if opts.out is not None:
+        try:
+            files += write_plots(run.summary, run.rows, opts.out, opts.plot)
+        except Exception as exc:  # noqa: BLE001 - a plot is never worth the summary
+            import warnings
+
+            from robokit.process.crash import describe
+
+            warnings.warn(f"sweep: the plots in {opts.out} could not be drawn: {describe(exc)}; the summary, table "
+                          "and JUnit file are written", SweepWarning, stacklevel=2)
     return files
 
 

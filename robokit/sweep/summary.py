@@ -16,14 +16,24 @@ Z95 = 1.959963984540054
 
 
 def wilson(successes: int, n: int, z: float = Z95) -> tuple[float, float]:
-    """The Wilson score interval of a success rate (95 % by default); (0, 1) when there are no trials."""
+    """The Wilson score interval of a success rate (95 % by default); (0, 1) when there are no trials.
+
+    Always ``0 <= low <= successes / n <= high <= 1``: computed in floating point the bounds can land a hair on
+    the wrong side (``wilson(10, 10)`` gave an upper bound of 0.9999999999999999, below the rate itself), so they
+    are clamped here, where they are made.
+    """
     if n == 0:
         return 0.0, 1.0
     p = successes / n
     denom = 1 + z * z / n
     centre = (p + z * z / (2 * n)) / denom
     half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
-    return max(0.0, centre - half), min(1.0, centre + half)
+    return min(max(0.0, centre - half), p), max(min(1.0, centre + half), p)
+
+
+def error_bars(rate: float, low: float, high: float) -> tuple[float, float]:
+    """The (below, above) error bar lengths of ``rate`` within ``[low, high]``, never negative."""
+    return max(0.0, rate - low), max(0.0, high - rate)
 
 
 def percentile(values: Sequence[float], q: float) -> float:
@@ -132,8 +142,8 @@ def write_plots(summary: Mapping[str, Any], rows: Sequence[Mapping[str, Any]], f
     written = []
     fig, ax = plt.subplots(figsize=(max(4.0, 0.9 * len(cells) + 2), 3.6))
     rates = [100 * (c["success_rate"] or 0.0) for c in cells]
-    err = [[r - 100 * c["wilson95"][0] for r, c in zip(rates, cells, strict=True)],
-           [100 * c["wilson95"][1] - r for r, c in zip(rates, cells, strict=True)]]
+    bars = [error_bars(r, 100 * c["wilson95"][0], 100 * c["wilson95"][1]) for r, c in zip(rates, cells, strict=True)]
+    err = [[b[0] for b in bars], [b[1] for b in bars]]
     ax.bar(range(len(cells)), rates, yerr=err, capsize=4, color="#4c72b0")
     ax.set_xticks(range(len(cells)), labels, rotation=30, ha="right", fontsize=7)
     ax.set_ylabel("success rate, % (95 % Wilson)")
