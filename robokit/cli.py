@@ -95,6 +95,9 @@ _RUN_OPTIONS: tuple[tuple[str, dict[str, Any]], ...] = (
     ("--save-frames", {"action": "store_true", "help": "cameras save the frames they render as PNGs (RGB, depth, "
                                                        "segmentation) in the run folder"}),
     ("--video", {"metavar": "FILE", "help": "render an MP4 of the run right after it (robokit video)"}),
+    ("--set", {"dest": "sets", "action": "append", "default": [], "metavar": "KEY=VALUE",
+               "help": "set a dotted config key to a TOML value, e.g. --set behaviour.speed=0.8 (repeatable; what "
+                       "robokit sweep prints to reproduce a trial)"}),
 )
 """``robokit run``'s options."""
 
@@ -163,6 +166,13 @@ def _overrides(args: argparse.Namespace) -> dict[str, Any]:
         out["report.http.url"] = args.report_url
     if getattr(args, "max_wall", None) is not None:
         out["world.max_wall_time"] = args.max_wall
+    for item in getattr(args, "sets", None) or []:
+        key, sep, text = item.partition("=")
+        if not sep or not key.strip() or not text.strip():
+            raise UserError(f"--set: expected KEY=VALUE (e.g. behaviour.speed=0.8), got {item!r}")
+        from robokit.sweep.spec import parse_value
+
+        out[key.strip()] = parse_value(text.strip())
     return out
 
 

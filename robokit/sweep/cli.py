@@ -42,6 +42,10 @@ def add_sweep_command(sub: Any) -> None:
     p.add_argument("--report-url", metavar="URL", help="post every trial's result (the http reporter, outbox)")
     p.add_argument("--student", help="override report.student")
     p.add_argument("--project", help="override report.project")
+    p.add_argument("--new-out", action="store_true",
+                   help="when --out holds a sweep whose inputs changed, start a new folder beside it (DIR-2 ...)")
+    p.add_argument("--keep", choices=("failed", "all", "none"), default="failed",
+                   help="keep the run record (result, trace, poses) of these trials in DIR/runs/ (default: failed)")
     p.add_argument("--quiet", action="store_true", help="no progress and no summary table")
     p.set_defaults(func=cmd_sweep)
 
@@ -62,7 +66,7 @@ def _spec(args: argparse.Namespace) -> tuple[Any, dict[str, Any]]:
     fixed = {**{k: v for k, v in spec.fixed.items() if k not in overlap}, **fixed}
     metrics = tuple(m.strip() for m in args.metrics.split(",") if m.strip()) if args.metrics else spec.metrics
     spec = SweepSpec(spec.config, parse_seeds(args.seeds) if args.seeds else spec.seeds, grid, fixed, metrics,
-                     tuple(dict.fromkeys([*spec.plugins, *args.plugins])))
+                     tuple(dict.fromkeys([*spec.plugins, *args.plugins])), spec.sweep_file)
     return spec, options
 
 
@@ -83,12 +87,15 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         trial_timeout=args.trial_timeout or file_opts.get("trial_timeout"), max_trials=args.max_trials,
         report_url=args.report_url, student=args.student, project=args.project,
         junit=Path(args.junit) if args.junit else None, plot=args.plot or file_opts.get("plot"),
-        progress=None if args.quiet else sys.stdout,
+        new_out=args.new_out, keep=args.keep, progress=None if args.quiet else sys.stdout,
     )
     from robokit.process.interrupts import StopGuard
 
     with StopGuard.ensure() as guard, guard.immediate():  # SIGINT / SIGTERM stop the sweep at once
         run = run_sweep(spec, opts)
+    if run.out is not None and run.out != out:
+        print(f"robokit: {out} holds a sweep with other inputs: this one is in {run.out}", file=sys.stderr)
+        out = run.out
     if not args.quiet:
         print(to_markdown(run.summary), end="")
         print(f"trials: {out / 'trials.jsonl'}; summary: {out / 'summary.md'}"

@@ -79,6 +79,40 @@ def summarise(rows: Sequence[Mapping[str, Any]], cells: Sequence[str], metrics: 
             "metrics": names, "cells": out_cells}
 
 
+def toml_literal(value: Any) -> str:
+    """A value as TOML writes it (what ``--set KEY=VALUE`` reads back to the same value)."""
+    import json
+
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (int, float)):
+        return repr(value)
+    if isinstance(value, str):
+        return json.dumps(value)
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(toml_literal(v) for v in value) + "]"
+    if isinstance(value, Mapping):
+        return "{" + ", ".join(f"{k} = {toml_literal(v)}" for k, v in value.items()) + "}"
+    return json.dumps(str(value))
+
+
+def reproduce_command(config: str, seed: int, overrides: Mapping[str, Any]) -> str:
+    """The ``robokit run`` command line that runs one trial alone (its config, seed and overrides), shell-quoted."""
+    import shlex
+
+    parts = ["robokit", "run", shlex.quote(config), "--seed", str(seed)]
+    for key, value in overrides.items():
+        parts += ["--set", shlex.quote(f"{key}={toml_literal(value)}")]
+    return " ".join(parts)
+
+
+def failed_trials(rows: Sequence[Mapping[str, Any]], config: str) -> list[dict[str, Any]]:
+    """Every trial that did not succeed: key, outcome, reason, the command that reproduces it, its kept record."""
+    return [{"key": r["key"], "cell": r["cell"], "seed": r["seed"], "outcome": r["outcome"], "reason": r["reason"],
+             "command": reproduce_command(config, int(r["seed"]), r.get("overrides", {})),
+             "record": r.get("record")} for r in rows if r["outcome"] != "succeeded"]
+
+
 def _fmt(value: float) -> str:
     return f"{value:.4g}"
 
@@ -100,7 +134,19 @@ def to_markdown(summary: Mapping[str, Any]) -> str:
     lines.append("")
     lines.append(f"{summary['trials']} trials, {summary['succeeded']} succeeded, {summary['errors']} errors "
                  f"(success 95 % CI {100 * lo:.1f}–{100 * hi:.1f} %).")
+    failed = summary.get("failed_trials") or []
+    if failed:
+        lines += ["", f"Trials that did not succeed ({len(failed)}):", ""]
+        for f in failed[:MAX_LISTED]:
+            lines.append(f"- `{f['key']}`: {f['outcome']}: {f['reason'] or '(no reason given)'}")
+            lines.append(f"  reproduce: `{f['command']}`" + (f"; record: {f['record']}" if f.get("record") else ""))
+        if len(failed) > MAX_LISTED:
+            lines.append(f"- ... and {len(failed) - MAX_LISTED} more (every one is in summary.json)")
     return "\n".join(lines) + "\n"
+
+
+MAX_LISTED = 50
+"""Failed trials listed in the Markdown table's footer (summary.json lists them all)."""
 
 
 def write_junit(rows: Sequence[Mapping[str, Any]], path: Path, name: str = "robokit sweep") -> None:
