@@ -422,6 +422,8 @@ class Sort(MachineBehaviour):
         return {
             **counts,
             "failures": sum(len(o.failures) for o in self.objects),
+            "misses": {"count": sum(len(o.failures) for o in self.objects),  # the sort's own, retried or not
+                       "reasons": [f"{o.body or o.colour}: {why}" for o in self.objects for why in o.failures]},
             "total_time": round(end - start, 4),
             "looks": self.looks,
             "picks": self.picks,
