@@ -111,7 +111,8 @@ class Project(models.Model):
 class Result(models.Model):
     run_id = models.CharField(max_length=64, unique=True)
     classroom = models.ForeignKey(Classroom, on_delete=models.CASCADE, related_name="results")
-    project = models.ForeignKey(Project, on_delete=models.PROTECT, related_name="results")
+    # RESTRICT: a project with results cannot be deleted on its own, but deleting its class removes both.
+    project = models.ForeignKey(Project, on_delete=models.RESTRICT, related_name="results")
     student = models.ForeignKey(Student, on_delete=models.SET_NULL, null=True, blank=True, related_name="results")
     student_name = models.CharField(max_length=100, help_text="who the run counts for (the token's owner if any)")
     posted_student = models.CharField(max_length=100, blank=True, help_text="the payload's own 'student'")

@@ -20,6 +20,11 @@ class Migration(migrations.Migration):
             name='classroom',
             field=models.ForeignKey(on_delete=django.db.models.deletion.CASCADE, related_name='projects', to='course.classroom'),
         ),
+        migrations.AlterField(
+            model_name='result',
+            name='project',
+            field=models.ForeignKey(on_delete=django.db.models.deletion.RESTRICT, related_name='results', to='course.project'),
+        ),
         migrations.AddConstraint(
             model_name='project',
             constraint=models.UniqueConstraint(fields=('classroom', 'name'), name='project_name_unique_in_class'),
