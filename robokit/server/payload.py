@@ -116,10 +116,21 @@ def _check_values(value: Any, path: str, depth: int) -> None:
     elif isinstance(value, dict):
         for key, item in value.items():
             _check_text(key, path or "(a key)")
-            _check_values(item, f"{path}.{key}" if path else key, depth + 1)
+            _check_values(item, _join(path, key), depth + 1)
     elif isinstance(value, list):
         for i, item in enumerate(value):
             _check_values(item, f"{path}[{i}]", depth + 1)
+
+
+_PLAIN_KEY = re.compile(r"^[A-Za-z0-9_-]{1,40}$")
+
+
+def _join(path: str, key: str) -> str:
+    """``result.score``; a key that is not a plain name is quoted (``result["a b"]``), so a path is one line."""
+    if _PLAIN_KEY.match(key):
+        return f"{path}.{key}" if path else key
+    quoted = json.dumps(key[:40])
+    return f"{path}[{quoted}]"
 
 
 def _check_text(text: str, path: str) -> None:
