@@ -16,6 +16,7 @@ from typing import Any
 
 from django.conf import settings
 from django.core.exceptions import RequestDataTooBig, TooManyFilesSent
+from django.core.files.uploadedfile import SimpleUploadedFile
 from django.db import IntegrityError, transaction
 from django.http import HttpRequest, JsonResponse
 from django.http.multipartparser import MultiPartParserError
@@ -262,7 +263,9 @@ def _check_upload(upload: Any) -> tuple[Any, Any, str]:
     head = upload.read(64)
     upload.seek(0)
     whole = upload.read() if kind.kind in TEXT_KINDS and not name.endswith(".png") else None
-    check_content(name, kind, head, whole)
+    replacement = check_content(name, kind, head, whole)
+    if replacement is not None:  # an SVG: what is stored (and hashed) is the rebuilt file, never the upload
+        upload = SimpleUploadedFile(name, replacement, content_type=kind.content_type)
     digest = hashlib.sha256()
     upload.seek(0)
     for chunk in upload.chunks():
