@@ -223,8 +223,11 @@ def post_artifacts(request: HttpRequest, run_id: str) -> JsonResponse:
         return error(400, "file", f"a multipart/form-data upload was expected ({exc})")
     if not files:
         return error(400, "file", "no file in the upload (send multipart/form-data with one or more files)")
-    if record.artifacts.count() + len(files) > settings.MAX_ARTIFACTS_PER_RUN:
-        return error(400, "file", f"a run keeps at most {settings.MAX_ARTIFACTS_PER_RUN} files")
+    stored_names = set(record.artifacts.values_list("name", flat=True))
+    names = stored_names | {os.path.basename(f.name or "") for f in files}
+    if len(names) > settings.MAX_ARTIFACTS_PER_RUN:  # files already stored count; sending one again does not
+        return error(400, "file", f"a run keeps at most {settings.MAX_ARTIFACTS_PER_RUN} files "
+                     f"({len(stored_names)} stored, {len(names) - len(stored_names)} new in this upload)")
     checked = []
     for upload in files:
         try:
