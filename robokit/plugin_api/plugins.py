@@ -10,22 +10,22 @@ import os
 import sys
 import warnings
 from collections.abc import Iterable, Iterator, MutableMapping
-from dataclasses import field
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import pluggy
 
-from robokit import hookspecs
-from robokit._dataclass import dataclass
 from robokit.errors import Interrupted, LookupNameError, PluginError, UserError, plugin_fault
+from robokit.plugin_api import hookspecs
 
 if TYPE_CHECKING:
     import importlib.metadata as md
 
-    from robokit import discovery
+    from robokit.plugin_api import discovery
 
     EntryPointLike = md.EntryPoint | discovery.EntryPoint
-    """An entry point as importlib.metadata or robokit.discovery gives it (name, value, group, dist, load())."""
+    """An entry point as importlib.metadata or robokit.plugin_api.discovery gives it (name, value, group, dist,
+    load())."""
 
 ENTRY_POINT_GROUP = "robokit"
 BUILTIN = "robokit"
@@ -206,10 +206,10 @@ def _header(meta: Any, key: str) -> str:
 
 
 def _read_entry_points(groups: tuple[str, ...]) -> list[EntryPointLike]:
-    """The entry points of ``groups``: read from the distributions' folders by :mod:`robokit.discovery` (no
+    """The entry points of ``groups``: read from the distributions' folders by :mod:`robokit.plugin_api.discovery` (no
     ``importlib.metadata`` import, ~a tenth of a trivial run's start-up), or by ``importlib.metadata`` where that
     reader steps aside (zip or egg files on ``sys.path``, import hooks with distributions of their own)."""
-    from robokit import discovery
+    from robokit.plugin_api import discovery
 
     found = discovery.entry_points(groups)
     if found is not None:
@@ -229,7 +229,7 @@ def _entry_points() -> tuple[list[EntryPointLike], dict[tuple[str, str], str] | 
     global _PYDANTIC_PLUGINS
     every = _read_entry_points((ENTRY_POINT_GROUP, INDEX_GROUP, "pydantic"))
     _PYDANTIC_PLUGINS = any(ep.group == "pydantic" for ep in every)
-    if "robokit.pydantic_schema" in sys.modules:  # pydantic in use already: answer its scan now
+    if "robokit.config.schema" in sys.modules:  # pydantic in use already: answer its scan now
         answer_pydantic_plugin_scan()
     seen: dict[tuple[str, str], EntryPointLike] = {}
     for ep in every:  # a distribution can be visible twice (editable + path)
@@ -252,7 +252,7 @@ def answer_pydantic_plugin_scan() -> None:
     cache is set to what its scan would find (no plugins); when it was not, or robokit has not scanned yet, or
     ``PYDANTIC_DISABLE_PLUGINS`` is set, or pydantic has scanned already (or no longer keeps this cache), nothing
     is touched and pydantic loads its plugins itself. Called when pydantic is about to be used
-    (:mod:`robokit.pydantic_schema` is imported), never during discovery: a run of core sections only imports no
+    (:mod:`robokit.config.schema` is imported), never during discovery: a run of core sections only imports no
     pydantic at all.
     """
     if _PYDANTIC_PLUGINS is not False or os.environ.get("PYDANTIC_DISABLE_PLUGINS") is not None:
@@ -397,7 +397,7 @@ def _collect(plugins: Plugins, kind: str, origins: dict[str, tuple[str, str]], o
 
 def _import_pybullet_quietly() -> None:
     """Import pybullet once with its C-level banner silenced (plugin modules import it as they load)."""
-    from robokit._quiet import quiet_stdout
+    from robokit.process.quiet import quiet_stdout
 
     with quiet_stdout():
         try:
