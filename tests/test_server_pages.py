@@ -277,3 +277,21 @@ def test_migrations_match_the_models() -> None:
     from django.core.management import call_command
 
     call_command("makemigrations", "course", "--check", "--dry-run", verbosity=0)  # exits 1 if a change is missing
+
+
+def test_robokit_manage_narrows_a_data_folder_and_database_left_open_by_an_earlier_version(tmp_path: Path) -> None:
+    import os
+    import stat
+
+    data = tmp_path / "srv"
+    data.mkdir()
+    (data / "db.sqlite3").touch()  # an empty file is an empty SQLite database
+    os.chmod(data, 0o755)
+    os.chmod(data / "db.sqlite3", 0o644)
+    proc = _robokit("manage", "--data", str(data), "migrate", cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert stat.S_IMODE(data.stat().st_mode) == 0o700 and stat.S_IMODE((data / "db.sqlite3").stat().st_mode) == 0o600
+    assert f"robokit: {data / 'db.sqlite3'} was readable by other users: now 0600" in proc.stderr
+    assert f"robokit: data folder {data} was readable by other users: now 0700" in proc.stderr
+    again = _robokit("manage", "--data", str(data), "migrate", cwd=tmp_path)
+    assert "readable by other users" not in again.stderr  # said once, when it changed something

@@ -1,7 +1,8 @@
 """Files and folders only the server's own user may read: the data folder, the database, uploads.
 
 Modes are set at creation and then by ``chmod``, so the result does not depend on the process's umask (a umask
-of 022 would otherwise leave a new SQLite database and upload folders readable by every user of the machine).
+of 022 would otherwise leave a new SQLite database and upload folders readable by every user of the machine). The
+data folder and the SQLite files that earlier versions left readable by others are narrowed when the server starts.
 """
 
 from __future__ import annotations
@@ -39,9 +40,26 @@ def private_file(path: Path) -> None:
     os.chmod(path, FILE_MODE)
 
 
-def private_sqlite(database: dict[str, Any]) -> None:
-    """For Django's ``DATABASES["default"]``: when it is a SQLite file, create it (and its folder) private now."""
+def private_sqlite(database: dict[str, Any]) -> list[Path]:
+    """For Django's ``DATABASES["default"]``: when it is a SQLite file, create it (and its folder) private now, and
+    make an existing one (with its ``-wal`` and ``-shm`` files) private if others could read it, as versions before
+    this one left it. Returns the files whose mode was narrowed."""
     name = str(database.get("NAME") or "")
-    if database.get("ENGINE", "").endswith("sqlite3") and name and name != ":memory:" and not name.startswith("file:"):
-        private_dir(Path(name).parent)
-        private_file(Path(name))
+    if not database.get("ENGINE", "").endswith("sqlite3") or not name or name == ":memory:" or name.startswith("file:"):
+        return []
+    path = Path(name)
+    private_dir(path.parent)
+    private_file(path)
+    return [p for p in (path, Path(f"{name}-wal"), Path(f"{name}-shm")) if narrow(p, FILE_MODE)]
+
+
+def narrow(path: Path, mode: int) -> bool:
+    """Take away group and other access from an existing ``path`` (to ``mode``); True when its mode changed."""
+    try:
+        current = path.stat().st_mode & 0o777
+    except FileNotFoundError:
+        return False
+    if current & 0o077 == 0:
+        return False
+    os.chmod(path, mode)
+    return True
