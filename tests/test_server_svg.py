@@ -17,7 +17,7 @@ from urllib.parse import quote
 import pytest
 from course_helpers import Course, post, robokit_payload
 
-from robokit.server.models import Artifact
+from robokit.server.models import Artifact, Result
 
 pytest_plugins = ["course_fixtures"]
 pytestmark = pytest.mark.django_db
@@ -170,6 +170,33 @@ def test_doctype_without_internal_subset_is_accepted_and_dropped(client: Any, co
             b'"http://www.w3.org/Graphics/SVG/1.1/DTD/svg11.dtd">\n<svg xmlns="http://www.w3.org/2000/svg"/>')
     assert _upload(client, course, 4, "plot.svg", sent).status_code == 201
     assert b"DOCTYPE" not in _stored(media, "plot.svg").read_bytes()
+
+
+def test_svgs_stored_by_an_earlier_version_are_rebuilt_by_the_migration(client: Any, course: Course,
+                                                                         media: Path) -> None:
+    import importlib
+
+    from django.apps import apps
+
+    payload = robokit_payload(5)
+    post(client, payload, course.kim_token)
+    record = Result.objects.get()
+    old = {"old.svg": HOSTILE["prefixed_script"].encode(), "use.svg": HOSTILE["use_data"].encode(),
+           "broken.svg": b'<svg xmlns="http://www.w3.org/2000/svg"><rect></svg>'}
+    for name, data in old.items():  # as the earlier version stored them: the bytes as sent
+        rel = f"artifacts/{payload['run_id']}/{name}"
+        (media / rel).parent.mkdir(parents=True, exist_ok=True)
+        (media / rel).write_bytes(data)
+        Artifact.objects.create(result=record, name=name, kind="plot", content_type="image/svg+xml",
+                                size=len(data), sha256=hashlib.sha256(data).hexdigest(), path=rel)
+    importlib.import_module("robokit.server.migrations.0005_rebuild_stored_svgs").rebuild(apps, None)
+    for name in ("old.svg", "use.svg"):
+        stored = _stored(media, name).read_bytes()
+        assert stored != old[name] and _problems(stored) == []
+        row = Artifact.objects.get(name=name)
+        assert (row.size, row.sha256) == (len(stored), hashlib.sha256(stored).hexdigest())
+    assert not Artifact.objects.filter(name="broken.svg").exists()
+    assert not (media / "artifacts" / payload["run_id"] / "broken.svg").exists()
 
 
 CHROMIUM, CHROMEDRIVER = "/usr/bin/chromium", "/usr/bin/chromedriver"
