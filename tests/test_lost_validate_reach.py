@@ -35,6 +35,7 @@ def validate_reach(overrides: dict[str, Any]) -> list[str]:
 
 
 @pytest.mark.slow  # 200 runs of the main job: several minutes on two cores
+@pytest.mark.timeout(3600)
 def test_validate_and_the_runs_agree_on_reach(tmp_path: Path) -> None:
     grid = {"bodies.red_bin.position": tuple([x, y, 0.0] for x, y in RED),
             "bodies.blue_bin.position": tuple([x, y, 0.0] for x, y in BLUE)}
