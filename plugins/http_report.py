@@ -416,7 +416,7 @@ class HttpReporter(Reporter):
             return Delivery(True, None, _delivered(url, result))
         if outcome == "failed":
             return Refused(False, str(entry.path), f"REFUSED ({result.detail}); kept in {entry.path}",
-                           why=result.detail, advice=result.advice)
+                           why=result.detail, advice=result.advice, status=result.status)
         return Delivery(False, str(entry.path), f"not delivered ({result.detail}); result kept in the outbox "
                         f"{entry.path} - `robokit outbox flush --dir {outbox.root}` sends it later")
 

@@ -244,9 +244,7 @@ def _refused(out: Any) -> int | None:
 
     refusals = [(name, d) for name, d in out.deliveries if isinstance(d, Refused)]
     for name, d in refusals:
-        kept = f"; the result is kept ({d.stored})" if d.stored else ""
-        print(f"robokit: error: report[{name}] refused: {d.why}" + (f" - {d.advice}" if d.advice else "") + kept,
-              file=sys.stderr)
+        print(f"robokit: error: report[{name}] {d.line()}", file=sys.stderr)
     return EXIT_REFUSED if refusals else None
 
 

@@ -82,8 +82,9 @@ def test_a_401_is_one_loud_line_exit_5_result_kept_and_retry_delivers_it(server,
     assert _run(server.url) == 5
     err = capsys.readouterr().err
     [line] = [x for x in err.splitlines() if "refused" in x]
-    assert line.startswith("robokit: error: report[http] refused: HTTP 401")
-    assert "export ROBOKIT_TOKEN=... (the token your teacher gave you)" in line and "robokit outbox retry" in line
+    assert line.startswith("robokit: error: report[http] refused (HTTP 401): no token sent: export ROBOKIT_TOKEN=... "
+                           "(the token your teacher gave you), then `robokit outbox retry ")
+    assert "the result is kept (outbox/failed/" in line
     [rid] = [p.name for p in (here / "results").iterdir()]
     assert json.loads((here / "results" / rid / "result.json").read_text())["run_id"] == rid  # the result is kept
     [refused] = Outbox(here / "outbox").failed()
@@ -114,7 +115,8 @@ def test_a_400_names_the_field_and_retry_can_change_it(server, here, capsys) -> 
 def test_a_failed_run_whose_report_is_refused_still_exits_5(server, here, capsys) -> None:
     server.script(Answer(403, json.dumps({"error": "this class is closed", "field": None}), store=False))
     assert _run(server.url, "--max-time", "0.2") == 5  # the run itself was aborted (exit 1): the refusal wins
-    assert "this class is closed" in capsys.readouterr().err
+    line = next(x for x in capsys.readouterr().err.splitlines() if "refused" in x)
+    assert "(HTTP 403): the server said: this class is closed" in line
 
 
 def test_retry_leaves_an_entry_made_under_another_token_unless_claimed(server, here, monkeypatch, capsys) -> None:

@@ -31,6 +31,13 @@ class Refused(Delivery):
 
     why: str = ""
     advice: str = ""
+    status: int | None = None
+
+    def line(self) -> str:
+        """One line for people: the HTTP status and what to change (else the server's answer)."""
+        where = f" (HTTP {self.status})" if self.status else ""
+        return f"refused{where}: {self.advice or self.why}" + (f"; the result is kept ({self.stored})"
+                                                               if self.stored else "")
 
 
 def build_payload(
