@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import os
 import re
+import signal
 import sqlite3
 import subprocess
 from collections.abc import Iterator
@@ -43,7 +44,7 @@ class Background:
     """A documented ``robokit serve`` line running in the background until :meth:`stop`."""
 
     def __init__(self, command: str, cwd: Path, env: dict[str, str]) -> None:
-        self.proc = subprocess.Popen(["bash", "-c", f"exec {command}"], cwd=cwd, env=env, text=True,
+        self.proc = subprocess.Popen(["bash", "-c", command], cwd=cwd, env=env, text=True, start_new_session=True,
                                      stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
         assert self.proc.stdout is not None
         self.lines: list[str] = []
@@ -54,7 +55,7 @@ class Background:
         raise AssertionError(f"`{command}` exited before listening:\n" + "".join(self.lines))
 
     def stop(self) -> None:
-        self.proc.terminate()
+        os.killpg(self.proc.pid, signal.SIGTERM)  # bash and the robokit serve it started (their own group)
         assert self.proc.stdout is not None
         self.lines += self.proc.stdout.readlines()
         self.proc.wait(60)
@@ -80,6 +81,7 @@ class Journey:
         return ok(sh(line, self.repo, env or self.env), line)
 
     def start(self, line: str) -> None:
+        line = line.split(" #")[0].rstrip()  # the comment, as bash would drop it
         if "--port" not in line:  # a bare `robokit serve`: its documented default port is the placeholder
             line += f" --port {self.port}"
         self.stop()
