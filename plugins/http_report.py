@@ -257,6 +257,9 @@ def advice(result: SendResult, name: str, token: str | None, run_id: str) -> str
     again = f"then `robokit outbox retry {run_id}`"
     if result.status == 401 and not token:
         return f"no token sent: export {name}=... (the token your teacher gave you), {again}"
+    if field == "student" and not token:  # a class that wants tokens, or a name left out: say both
+        return (f"{message}: no token sent: export {name}=... (the token your teacher gave you), {again} "
+                f"(in a class without tokens: `robokit outbox retry {run_id} --student NAME`)")
     if result.status == 401:
         return (f"the server did not accept the token in ${name} ({message}): check it or ask your teacher for "
                 f"a new one, {again}")

@@ -123,6 +123,7 @@ def test_the_class_journey_as_docs_server_md_tells_it(journey: Journey, tmp_path
     """One test, its steps in the doc's order (a random test order must not split a journey)."""
     teacher_installs_starts_and_makes_a_class(journey)
     two_students_runs_are_verified_under_their_names(journey, tmp_path)
+    a_run_without_the_token_is_refused_loudly_and_retry_delivers_it(journey)
     offline_runs_are_flushed_each_by_its_owner_once_with_files(journey)
     the_teachers_sweep_makes_official_rows(journey)
     assert journey.server is not None
@@ -189,6 +190,25 @@ def two_students_runs_are_verified_under_their_names(journey: Journey, tmp_path:
     assert journey.server is not None
     board = _leaderboard(f"http://127.0.0.1:{journey.port}", tmp_path)
     assert sorted(board["students"]) == sorted(STUDENTS) and "unverified" not in board
+
+
+def a_run_without_the_token_is_refused_loudly_and_retry_delivers_it(journey: Journey) -> None:
+    run_block, outbox_block = blocks_under(DOC, "3. Point students at it")
+    export, *rest = shell_lines(run_block)
+    assert export.startswith("export ROBOKIT_TOKEN=")
+    [command] = rest
+    before = journey.runs()
+    proc = sh(substitute(command, journey.subs), journey.repo, journey.env)  # the student forgot the export
+    assert proc.returncode == 5, proc.stdout + proc.stderr  # the documented code
+    [line] = [x for x in proc.stderr.splitlines() if x.startswith("robokit: error:")]
+    assert "export ROBOKIT_TOKEN=" in line and "robokit outbox retry" in line
+    [rid] = journey.runs() - before
+    assert (journey.repo / "results" / rid / "result.json").exists()
+    assert rid not in {r["run_id"] for r in journey.rows()}
+    out = journey.as_student("박지호", "\n".join([export, outbox_block]))
+    assert f"{rid}: delivered" in out, out
+    row = next(r for r in journey.rows() if r["run_id"] == rid)
+    assert (row["student_name"], row["verified"]) == ("박지호", 1)
 
 
 def offline_runs_are_flushed_each_by_its_owner_once_with_files(journey: Journey) -> None:

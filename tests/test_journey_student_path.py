@@ -132,3 +132,11 @@ def test_retry_leaves_an_entry_made_under_another_token_unless_claimed(server, h
     assert "not yours" in capsys.readouterr().out and len(server.requests) == 1
     assert main(["outbox", "retry", "--claim"]) == 0
     assert _auth(server)[-1] == "Bearer rks_new-kim"
+
+
+def test_a_400_for_a_missing_student_without_a_token_names_the_token(server, here, capsys) -> None:
+    """A server that answers a token-less post with 400 ``student: missing``: the line still says what is wrong."""
+    server.script(Answer(400, json.dumps({"error": "student: missing", "field": "student"}), store=False))
+    assert main(["run", str(DROP_TEST), "--report-url", server.url, "--project", "A"]) == 5
+    line = next(x for x in capsys.readouterr().err.splitlines() if "refused" in x)
+    assert "student: missing: no token sent: export ROBOKIT_TOKEN=..." in line and "--student NAME" in line
