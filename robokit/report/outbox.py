@@ -391,9 +391,12 @@ def others_line(others: dict[str, list[str]]) -> str:
     """One line: whose entries a flush left waiting, and how they are sent."""
     parts = [f"{len(ids)} made {'without a token' if who == NO_TOKEN else 'under token ' + who}"
              for who, ids in sorted(others.items())]
-    return (f"left waiting, not yours: {'; '.join(parts)}. Whoever made them sends them with "
+    line = (f"left waiting, not yours: {'; '.join(parts)}. Whoever made them sends them with "
             "`robokit outbox flush` with their own token set (`robokit outbox list` shows whose each is); "
             "`robokit outbox retry RUN` sends one made without a token as yours")
+    if UNKNOWN in others:
+        line += "; `robokit outbox retry RUN --claim` one made before robokit recorded whose entries are"
+    return line
 
 
 def _line(outcome: str, entry: Entry, result: SendResult) -> str:
