@@ -228,12 +228,13 @@ def offline_runs_are_flushed_each_by_its_owner_once_with_files(journey: Journey)
     journey.run(serve)
 
     kim, lee = STUDENTS
-    first = journey.as_student(kim, outbox_block)
-    assert f"{offline[kim]}: delivered" in first and "artifacts: " in first
+    export = shell_lines(run_block)[0]  # "with their token set": the same shell as their run
+    first = journey.as_student(kim, "\n".join([export, outbox_block]))
+    assert f"{offline[kim]}: delivered" in first and "artifacts: " in first, first
     assert "left waiting, not yours: 1 made under token sha256:" in first
     rows = {r["run_id"]: r for r in journey.rows()}
     assert offline[kim] in rows and offline[lee] not in rows  # nothing stored under the wrong name
-    second = journey.as_student(lee, outbox_block)
+    second = journey.as_student(lee, "\n".join([export, outbox_block]))
     assert f"{offline[lee]}: delivered" in second and "left waiting" not in second
 
     rows_list = journey.rows()

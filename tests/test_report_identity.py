@@ -103,3 +103,20 @@ def test_flush_uploads_the_runs_files_when_its_config_asked(server, here, monkey
     assert [r.path for r in uploads] == [f"/api/robotics/result/{rid}/artifacts/"]
     assert uploads[0].headers["authorization"] == f"Bearer {KIM}" and b'filename="trace.jsonl"' in uploads[0].body
     assert "artifacts: 1/1 uploaded" in capsys.readouterr().out
+
+
+def test_an_entry_from_before_identities_waits_until_claimed(server, here, monkeypatch, capsys) -> None:
+    from robokit_plugins.http_report import HttpOptions
+
+    from robokit.report.reporting import write_json_atomic
+
+    box = Outbox("outbox")
+    entry = box.put(make_payload(12), server.url, HttpOptions(token_env="ROBOKIT_TOKEN", retries=0).to_dict())
+    old = {k: v for k, v in entry.data.items() if k != "identity"}  # as robokit wrote entries before
+    write_json_atomic(entry.path, old, overwrite=True)
+    monkeypatch.setenv("ROBOKIT_TOKEN", KIM)
+    assert main(["outbox", "flush"]) == 0
+    assert server.requests == [] and "--claim" in capsys.readouterr().out
+    assert main(["outbox", "retry", entry.run_id]) == 1  # named, but not provably yours
+    assert main(["outbox", "retry", entry.run_id, "--claim"]) == 0
+    assert [r.headers["authorization"] for r in server.requests] == [f"Bearer {KIM}"]
