@@ -12,7 +12,7 @@ from robokit.errors import UserError
 
 EXTRAS: dict[str, tuple[str, ...]] = {
     "video": ("matplotlib", "imageio_ffmpeg"),
-    "server": ("django", "dj_database_url", "waitress", "whitenoise"),
+    "server": ("django", "dj_database_url", "waitress", "whitenoise", "lxml"),
     "ray": ("ray",),
     "gym": ("gymnasium",),
 }

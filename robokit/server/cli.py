@@ -43,7 +43,7 @@ def setup(data: str | None) -> Path:
     """Point Django at the data folder (created, with a secret key file) and set it up; returns the folder."""
     from robokit.extras import require
 
-    require("server", "the course server")  # Django, waitress, whitenoise, dj-database-url: before any work
+    require("server", "the course server")  # Django, waitress, whitenoise, dj-database-url, lxml: before any work
     import django
 
     folder = Path(data or os.environ.get(DATA_ENV) or DEFAULT_DATA_DIR).resolve()
