@@ -2,7 +2,7 @@
 
 Exit codes: 0 succeeded; 1 the behaviour failed or was aborted (e.g. ``max_time`` reached); 2 usage or config
 error; 3 a plugin (or robokit itself) raised (outcome ``error``); 4 the result could be neither delivered nor
-stored; 130 interrupted (Ctrl-C / SIGTERM).
+stored; 5 the server refused the result (kept; ``robokit outbox retry``); 130 interrupted (Ctrl-C / SIGTERM).
 
 No input gives a Python traceback: user errors are one line; anything unexpected is one line naming what raised and
 where, plus the path of a file with the full traceback. ``--debug`` (anywhere on the command line, or
