@@ -39,7 +39,9 @@ def here(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
 
 
 def _run(url: str, *extra: str) -> int:
-    return main(["run", str(DROP_TEST), "--report-url", url, "--student", "kim", "--project", "A", *extra])
+    """The drop test, its behaviour cut to 0.5 sim-s (it then succeeds) by ``--set``, reported to ``url``."""
+    return main(["run", str(DROP_TEST), "--report-url", url, "--student", "kim", "--project", "A",
+                 "--set", "behaviour.duration=0.5", *extra])
 
 
 def _auth(server: CourseServer) -> list[str | None]:
@@ -65,9 +67,9 @@ def test_no_token_anywhere_sends_none(server, here) -> None:
 
 
 def test_run_set_overrides_a_config_key_with_sweeps_syntax(server, here) -> None:
-    assert _run(server.url, "--set", "world.seed=7", "--set", "world.max_time=0.5") == 1  # 0.5 s: aborted
+    assert _run(server.url, "--set", "world.seed=7", "--set", "world.max_time=0.25") == 1  # before 0.5: aborted
     body = server.requests[0].json()
-    assert body["seed"] == 7 and body["outcome"] == "aborted" and abs(body["sim_time"] - 0.5) < 0.01
+    assert body["seed"] == 7 and body["outcome"] == "aborted" and abs(body["sim_time"] - 0.25) < 0.01
 
 
 def test_run_set_with_several_values_is_a_usage_error(here, capsys) -> None:
@@ -137,6 +139,7 @@ def test_retry_leaves_an_entry_made_under_another_token_unless_claimed(server, h
 def test_a_400_for_a_missing_student_without_a_token_names_the_token(server, here, capsys) -> None:
     """A server that answers a token-less post with 400 ``student: missing``: the line still says what is wrong."""
     server.script(Answer(400, json.dumps({"error": "student: missing", "field": "student"}), store=False))
-    assert main(["run", str(DROP_TEST), "--report-url", server.url, "--project", "A"]) == 5
+    assert main(["run", str(DROP_TEST), "--report-url", server.url, "--project", "A", "--set",
+                 "behaviour.duration=0.5"]) == 5
     line = next(x for x in capsys.readouterr().err.splitlines() if "refused" in x)
     assert "student: missing: no token sent: export ROBOKIT_TOKEN=..." in line and "--student NAME" in line
