@@ -120,3 +120,12 @@ def test_an_entry_from_before_identities_waits_until_claimed(server, here, monke
     assert main(["outbox", "retry", entry.run_id]) == 1  # named, but not provably yours
     assert main(["outbox", "retry", entry.run_id, "--claim"]) == 0
     assert [r.headers["authorization"] for r in server.requests] == [f"Bearer {KIM}"]
+
+
+def test_upload_artifacts_sends_the_token_in_robokit_token(server, here, monkeypatch) -> None:
+    (here / "results" / "run-1").mkdir(parents=True)
+    (here / "results" / "run-1" / "trace.jsonl").write_text('{"kind": "header"}\n')
+    monkeypatch.setenv("ROBOKIT_TOKEN", KIM)
+    assert main(["upload-artifacts", "run-1", "--url", server.url]) == 0
+    [req] = server.requests
+    assert req.path == "/api/robotics/result/run-1/artifacts/" and req.headers["authorization"] == f"Bearer {KIM}"
