@@ -169,6 +169,7 @@ class BodyConfig(Section):
         if len(kinds) != 1:
             raise ValueError("give exactly one of 'shape' (box, sphere, cylinder), 'urdf', 'sdf' or 'mjcf'"
                              + (f", not {' and '.join(kinds)}" if kinds else ""))
+        self._key_matches_file(kinds[0])
         if self.mount is not None:
             if self.region is not None or self.count > 1:
                 raise ValueError("a mounted body takes its pose from 'mount': no 'region' or 'count'")
@@ -187,6 +188,18 @@ class BodyConfig(Section):
             raise ValueError("collision = 'mesh' is for static boxes only (shape = 'box', mass = 0)")
         if self.count > 1 and self.region is None:
             raise ValueError("'count' > 1 needs a 'region' to scatter the copies in")
+
+
+    def _key_matches_file(self, key: str) -> None:
+        """``urdf = "x.sdf"``: pybullet's URDF loader cannot read it; say which key reads that kind of file."""
+        path = getattr(self, key)
+        wanted = _MODEL_KEYS.get(Path(path).suffix.lower()) if key != "shape" else None
+        if wanted is not None and wanted != key:
+            raise ValueError(f'{key} = "{path}" is {"an" if wanted in ("sdf", "mjcf") else "a"} {wanted.upper()} '
+                             f'file: the key for it is {wanted} = "{path}"')
+
+
+_MODEL_KEYS = {".urdf": "urdf", ".sdf": "sdf", ".xml": "mjcf", ".mjcf": "mjcf"}
 
 
 class EventConfig(Section):
