@@ -1,5 +1,6 @@
 """Text a student pastes or trusts: shell blocks in README.md and every page under docs/ (lessons in both languages
-included) hold no ``<placeholder>`` a shell would choke on, and the configs' comments say where results really go."""
+included) hold no ``<placeholder>`` a shell would choke on, the configs' comments say where results really go, and
+the error lines the README shows are what robokit prints."""
 
 from __future__ import annotations
 
@@ -44,3 +45,27 @@ def test_config_comments_name_the_run_folder_layout(config: Path) -> None:
     for n, line in enumerate(config.read_text(encoding="utf-8").splitlines(), 1):
         if line.lstrip().startswith("#") and "results/<run" in line:
             assert not re.search(r"results/<run[ _]id>\.json", line), f"{config.name}:{n}: {line.strip()}"
+
+
+def test_the_readme_error_lines_are_what_validate_prints(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                         capsys: pytest.CaptureFixture[str]) -> None:
+    """README's config reference shows two error lines for ``configs/x.toml``: a negative mass and a misspelt key.
+    Both configs are written here and validated; the lines must be what robokit prints (``...`` ends a cut)."""
+    from robokit.cli import main
+
+    shown = [line for line in (ROOT / "README.md").read_text(encoding="utf-8").splitlines()
+             if line.startswith("robokit: error: configs/x.toml:")]
+    assert len(shown) == 2
+    (tmp_path / "configs").mkdir()
+    monkeypatch.chdir(tmp_path)
+    box = '[bodies.box]\nshape = "box"\nposition = [0, 0, 0.5]\n'
+    printed = []
+    for config in (box + "mass = -1.0\n", "[world]\ngravty = [0, 0, -9.81]\n\n" + box):
+        (tmp_path / "configs" / "x.toml").write_text(config)
+        assert main(["validate", "configs/x.toml"]) == 2
+        printed.append(capsys.readouterr().err.strip())
+    for line, real in zip(shown, printed, strict=True):
+        if line.endswith("..."):
+            assert real.startswith(line[:-3]), (line, real)
+        else:
+            assert real == line
