@@ -53,7 +53,8 @@ def test_list_says_where_it_looked_and_finds_runs_started_from_configs(
     assert main(["results", "list"]) == 0
     captured = capsys.readouterr()
     assert captured.out.startswith("no runs in results/")
-    assert "(also 1 run(s) in configs/results/: robokit results list --dir configs/results)" in captured.err
+    assert captured.err.splitlines() == [
+        "(also 1 run(s) in configs/results/: robokit results list --dir configs/results)"]
     assert main(["results", "list", "--dir", "configs/results"]) == 0
     captured = capsys.readouterr()
     assert len(captured.out.splitlines()) == 2 and "scene.toml" in captured.out

@@ -78,7 +78,9 @@ def cmd_results_list(args: argparse.Namespace) -> int:
     from robokit.record.results import list_runs, where_note
 
     print(list_runs(args.dir, args.n))
-    print(where_note(args.dir), file=sys.stderr)
+    note = where_note(args.dir)
+    if note:
+        print(note, file=sys.stderr)
     return 0
 
 

@@ -73,20 +73,23 @@ def _short(path: str, width: int = 32) -> str:
     return "..." + tail
 
 
-def checkout_root(start: Path | None = None) -> Path:
+def checkout_root(start: Path | None = None) -> Path | None:
     """The checkout ``start`` (default: the current folder) is in: the nearest folder upwards with ``.git`` or
-    ``pyproject.toml``; ``start`` itself when there is none."""
+    ``pyproject.toml``; None outside any."""
     here = (start or Path.cwd()).resolve()
     for folder in (here, *here.parents):
         if (folder / ".git").exists() or (folder / "pyproject.toml").is_file():
             return folder
-    return here
+    return None
 
 
 def other_results(looked_in: Path, start: Path | None = None, depth: int = 3) -> list[tuple[Path, int]]:
     """Other ``results`` folders of this checkout holding runs (a run started from ``configs/`` keeps its record
-    in ``configs/results/``), at most ``depth`` folders below the checkout's root, with how many runs each holds."""
+    in ``configs/results/``), at most ``depth`` folders below the checkout's root, with how many runs each holds.
+    Outside a checkout, only the current folder's own sub-folders are looked at."""
     root = checkout_root(start)
+    if root is None:
+        root, depth = (start or Path.cwd()).resolve(), 1
     skip = looked_in.resolve()
     found = []
     for here, dirs, _files in os.walk(root):
@@ -102,10 +105,10 @@ def other_results(looked_in: Path, start: Path | None = None, depth: int = 3) ->
 
 
 def where_note(root: str | None, start: Path | None = None) -> str:
-    """Which folder ``results list`` read, and where else in this checkout runs were found (with the command that
-    lists them)."""
+    """Which folder ``results list`` read (when it listed runs from it), and where else in this checkout runs were
+    found, each with the command that lists them."""
     base = results_dir(root)
-    lines = [f"(runs in {_shown(base)}/)"]
+    lines = [f"(runs in {_shown(base)}/)"] if run_folders(base) else []
     for folder, count in other_results(base, start):
         shown = _shown(folder)
         lines.append(f"(also {count} run(s) in {shown}/: robokit results list --dir {shown})")
