@@ -300,6 +300,7 @@ def builtin_types() -> dict[str, list[Any]]:
 # ----------------------------------------------------------------- the page
 TEXT: dict[str, dict[str, str]] = {
     "en": {
+        "lang": "en",
         "title": "# Config reference",
         "other": "[한국어](config-reference.ko.md) · [README](../README.md)",
         "generated": ("Generated from the schemas by `python -m robokit.checks.config_reference`; a test fails when "
@@ -353,6 +354,7 @@ TEXT: dict[str, dict[str, str]] = {
         "below": "(see below)",
     },
     "ko": {
+        "lang": "ko",
         "title": "# 설정 파일 참고서",
         "other": "[English](config-reference.md) · [README](../README.md)",
         "generated": ("`python -m robokit.checks.config_reference`가 스키마에서 만든 페이지입니다. "
@@ -422,13 +424,26 @@ def _table(schema: type, t: dict[str, str], owner: str, seen: set[type]) -> list
         default = "(필수)" if k.default == "(required)" and t is TEXT["ko"] else k.default
         if k.nested is not None and default.startswith("{") and len(default) > 40:
             default = t["below"]
-        cells = (k.type_text, default, k.bounds, k.meaning)
+        cells = (_words(k.type_text, t), _words(default, t), _words(k.bounds, t), k.meaning)
         lines.append(f"| `{k.name}` | " + " | ".join(_cell(c) for c in cells) + " |")
     for k in keys:
         if k.nested is not None and k.nested not in seen:
             seen.add(k.nested)
             lines += ["", t["nested"].format(owner=owner, key=_path(k)), "", *_table(k.nested, t, owner, seen)]
     return lines
+
+
+def _words(text: str, t: dict[str, str]) -> str:
+    """The page's own words in a type, default or bounds cell (``(none)``, ``or``, ``each``...) in its language."""
+    for english, word in WORDS.get(t["lang"], ()):
+        text = re.sub(english, word, text)
+    return text
+
+
+WORDS = {"ko": (
+    (r"^\(none\)$", "(없음)"), (r" \(optional\)$", " (선택)"), (r"^each ", "각 항목 "), (r" or ", " 또는 "),
+    (r"^table of (.*)$", r"\1의 표"), (r"at least (\d+) long", r"길이 \1 이상"),
+)}
 
 
 def _path(key: Key) -> str:
