@@ -360,6 +360,9 @@ def render(lang: str) -> str:
             if ptype.schema is None or not keys_of(ptype.schema):
                 rate = t["rate"] if kind in ("sensor", "actuator", "behaviour") else ""
                 out.append(t["no_keys"].format(rate=rate))
+                said = _summary(ptype.schema) if ptype.schema is not None else ""
+                if said:  # e.g. a sequence's steps, tables the core reads
+                    out += ["", _cell(said)]
             else:
                 out += _table(ptype.schema, t, f"`{ptype.name}`", set())
     return "\n".join(out) + "\n"
