@@ -153,12 +153,12 @@ def type_name(tp: Any) -> str:
         return " or ".join(f'"{a}"' if isinstance(a, str) else _toml(a) for a in args)
     if origin is tuple:
         if len(args) == 2 and args[1] is Ellipsis:
-            return f"[{type_name(args[0])}, ...]"
-        return "[" + ", ".join(type_name(a) for a in args) + "]"
+            return f"[{_inner(args[0])}, ...]"
+        return "[" + ", ".join(_inner(a) for a in args) + "]"
     if origin in (list, set, frozenset):
-        return f"[{type_name(args[0])}, ...]" if args else "list"
+        return f"[{_inner(args[0])}, ...]" if args else "list"
     if origin is dict:
-        return f"table of {type_name(args[1])}" if args else "table"
+        return f"table of {_inner(args[1])}" if args else "table"
     if tp is Any:
         return "any"
     if isinstance(tp, type):
@@ -166,6 +166,12 @@ def type_name(tp: Any) -> str:
             return "table"
         return {"float": "float", "int": "int", "bool": "bool", "str": "string"}.get(tp.__name__, tp.__name__)
     return str(tp).replace("typing.", "")
+
+
+def _inner(tp: Any) -> str:
+    """A type inside a list or table, parenthesised when it is a choice (``table of (string or [string, ...])``)."""
+    text = type_name(tp)
+    return f"({text})" if " or " in text else text
 
 
 def _number(value: float) -> str:
