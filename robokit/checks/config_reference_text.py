@@ -122,6 +122,6 @@ TEXT: dict[str, dict[str, str]] = {
 WORDS = {"ko": (
     (r"^\(required\)$", "(필수)"), (r"^\(none\)$", "(없음)"), (r" \(optional\)$", " (선택)"),
     (r"^each ", "각 항목 "), (r" or ", " 또는 "), (r"^table of (.*)$", r"\1의 표"),
-    (r"at least (\d+) long", r"길이 \1 이상"),
+    (r"at least (\d+) long", r"길이 \1 이상"), (r"table of ", "표: "),
 )}
 """The page's own words in type, default and bounds cells, per language other than English (regex, replacement)."""
