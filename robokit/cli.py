@@ -7,7 +7,8 @@ Exit codes:
 - 2: usage or config error (nothing ran);
 - 3: a plugin (or robokit itself) raised (outcome ``error``);
 - 4: the result could be neither delivered nor stored;
-- 5: the run succeeded and its result was kept, but its record (trace, pose log) could not be written in full (a
+- 5: the server refused the result (kept; ``robokit outbox retry``);
+- 6: the run succeeded and its result was kept, but its record (trace, pose log) could not be written in full (a
   full disk, a file-size limit): each failure is a one-line warning naming the file and the reason;
 - 130: interrupted by SIGINT (Ctrl-C), 143: by SIGTERM, at any moment from start-up to exit (one line on stderr;
   whatever result exists is kept: a signal during start-up gives an ``aborted`` result with no ticks, one during
@@ -38,7 +39,7 @@ if TYPE_CHECKING:
     import argparse
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_PLUGIN, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
-EXIT_RECORD_INCOMPLETE = 5
+EXIT_RECORD_INCOMPLETE = 6
 
 
 def _finite_float(text: str) -> float:
@@ -87,7 +88,13 @@ _RUN_OPTIONS: tuple[tuple[str, dict[str, Any]], ...] = (
     ("--quiet", {"action": "store_true", "help": "print nothing but errors (and --json output)"}),
     ("--student", {"help": "override report.student"}),
     ("--project", {"help": "override report.project"}),
-    ("--report-url", {"metavar": "URL", "help": "post the result to this URL (the http reporter)"}),
+    ("--report-url", {"metavar": "URL", "help": "post the result to this URL (the http reporter; the token is "
+                                                "read from $ROBOKIT_TOKEN when that is set)"}),
+    ("--token-env", {"metavar": "NAME", "help": "read the bearer token from this environment variable "
+                                                "(report.http.token_env; default ROBOKIT_TOKEN when set)"}),
+    ("--set", {"dest": "sets", "action": "append", "default": [], "metavar": "KEY=VALUE",
+               "help": "override a dotted config key, as robokit sweep does (e.g. report.http.upload_artifacts=true);"
+                       " repeatable"}),
     ("--gui-hold", {"action": "store_true", "help": "with --gui: keep the window open after the run"}),
     ("--pose-hz", {"type": float, "metavar": "HZ",
                    "help": "pose log rate, sim Hz (default [record] pose_hz = 30; 0 = none)"}),
@@ -95,9 +102,6 @@ _RUN_OPTIONS: tuple[tuple[str, dict[str, Any]], ...] = (
     ("--save-frames", {"action": "store_true", "help": "cameras save the frames they render as PNGs (RGB, depth, "
                                                        "segmentation) in the run folder"}),
     ("--video", {"metavar": "FILE", "help": "render an MP4 of the run right after it (robokit video)"}),
-    ("--set", {"dest": "sets", "action": "append", "default": [], "metavar": "KEY=VALUE",
-               "help": "set a dotted config key to a TOML value, e.g. --set behaviour.speed=0.8 (repeatable; what "
-                       "robokit sweep prints to reproduce a trial)"}),
 )
 """``robokit run``'s options."""
 
@@ -155,7 +159,8 @@ def _add_extra_commands(sub: Any) -> None:
 
 
 def _overrides(args: argparse.Namespace) -> dict[str, Any]:
-    out: dict[str, Any] = {}
+    sets = getattr(args, "sets", None)
+    out: dict[str, Any] = _set_overrides(sets) if sets else {}
     if getattr(args, "seed", None) is not None:
         out["world.seed"] = args.seed
     if getattr(args, "student", None) is not None:
@@ -166,14 +171,21 @@ def _overrides(args: argparse.Namespace) -> dict[str, Any]:
         out["report.http.url"] = args.report_url
     if getattr(args, "max_wall", None) is not None:
         out["world.max_wall_time"] = args.max_wall
-    for item in getattr(args, "sets", None) or []:
-        key, sep, text = item.partition("=")
-        if not sep or not key.strip() or not text.strip():
-            raise UserError(f"--set: expected KEY=VALUE (e.g. behaviour.speed=0.8), got {item!r}")
-        from robokit.sweep.spec import parse_value
-
-        out[key.strip()] = parse_value(text.strip())
+    if getattr(args, "token_env", None) is not None:
+        out["report.http.token_env"] = args.token_env
     return out
+
+
+def _set_overrides(items: list[str]) -> dict[str, Any]:
+    """``--set KEY=VALUE`` options, read by robokit sweep's parser (one value each: a run is one cell)."""
+    from robokit.sweep.spec import parse_set
+
+    grid, fixed = parse_set(items)
+    if grid:
+        key = next(iter(grid))
+        raise UserError(f"--set {key}: robokit run takes one value per key (several values make a grid: "
+                        f"robokit sweep CONFIG --set {key}=...)")
+    return fixed
 
 
 def _load(args: argparse.Namespace) -> tuple[Any, Any]:
@@ -187,6 +199,10 @@ def _load(args: argparse.Namespace) -> tuple[Any, Any]:
 
 def cmd_run(args: argparse.Namespace) -> int:
     """``robokit run``: build, run, report; print a summary (or the RunResult JSON with ``--json``)."""
+    if args.video:  # before anything is simulated: the video needs imageio-ffmpeg
+        from robokit.extras import require
+
+        require("video", "robokit run --video", ("imageio_ffmpeg",))
     from robokit.process.interrupts import StopGuard
 
     guard = StopGuard.current()
@@ -237,6 +253,9 @@ def cmd_run(args: argparse.Namespace) -> int:
             print(f"robokit: warning: {failure}", file=sys.stderr)
     else:
         show(out)
+    if not args.quiet:
+        _frames_note(cfg, out, args)
+    refused = _refused(out)
     if out.interrupted:
         if not args.quiet:
             print(f"robokit: interrupted ({out.signal or 'SIGINT'}); the result was kept (see above)",
@@ -245,7 +264,28 @@ def cmd_run(args: argparse.Namespace) -> int:
         from robokit.record.cli import video_after_run
 
         video_after_run(cfg, out.result.run_id, args.video, quiet=args.quiet)
-    return out.exit_code
+    return refused if refused is not None and out.exit_code not in (130, 143, 4) else out.exit_code
+
+
+def _refused(out: Any) -> int | None:
+    """A report the server refused: one loud line on stderr (what to change) and the exit code to end with."""
+    from robokit.report.reporting import EXIT_REFUSED, Refused
+
+    refusals = [(name, d) for name, d in out.deliveries if isinstance(d, Refused)]
+    for name, d in refusals:
+        print(f"robokit: error: report[{name}] {d.line()}", file=sys.stderr)
+    return EXIT_REFUSED if refusals else None
+
+
+def _frames_note(cfg: Any, out: Any, args: argparse.Namespace) -> None:
+    """With ``--save-frames`` (or a camera's ``save``): one line saying where the frames went."""
+    from robokit.config import results_root
+    from robokit.record.results import frames_note
+
+    folder = None if args.no_record else results_root(cfg) / out.result.run_id
+    note = frames_note(folder, args.save_frames or cfg.record.save_frames)
+    if note:
+        print(note, file=sys.stderr if args.json else sys.stdout)
 
 
 def _interrupted_before_config(args: argparse.Namespace, signal_name: str | None) -> int:

@@ -24,7 +24,7 @@ from robokit.report.reporting import build_payload, deliver
 
 EXIT_NOT_STORED = 4
 """Exit code when the result could be neither delivered nor stored locally by any reporter."""
-EXIT_RECORD_INCOMPLETE = 5
+EXIT_RECORD_INCOMPLETE = 6
 """Exit code of a run that succeeded and kept its result, but whose record (trace, pose log) could not be written in
 full (a full disk, a file-size limit): each failure is a one-line warning naming the file and the reason."""
 

@@ -319,7 +319,7 @@ def test_world_max_wall_time_from_the_config(site: Path, capsys) -> None:
 def test_a_failing_trace_writer_is_named_and_not_blamed_on_the_behaviour(site: Path, capsys) -> None:
     """/dev/full accepts the open and fails every write (ENOSPC): the run goes on, the trace writer is named."""
     cfg = config(site, what="nothing")
-    assert main(["run", str(cfg), "--trace", "/dev/full"]) == 5  # succeeded, the result kept, a record incomplete
+    assert main(["run", str(cfg), "--trace", "/dev/full"]) == 6  # succeeded, the result kept, a record incomplete
     out = capsys.readouterr().out
     assert "outcome: succeeded" in out
     assert "warning: trace writer: writing /dev/full failed at tick 0: No space left on device; the trace stops " \

@@ -106,12 +106,12 @@ def test_a_second_signal_abandons_the_pose_log_and_keeps_the_result(
 
 
 @pytest.mark.skipif(shutil.which("prlimit") is None, reason="needs util-linux's prlimit")
-def test_a_file_size_limit_on_the_record_is_a_warning_naming_the_file_and_exit_5(scene: Path) -> None:
+def test_a_file_size_limit_on_the_record_is_a_warning_naming_the_file_and_exit_6(scene: Path) -> None:
     """``prlimit --fsize`` below the pose log's size (but above result.json's): EFBIG on the record's writes."""
     limit = 6000
     proc = subprocess.run(["prlimit", f"--fsize={limit}", sys.executable, "-m", "robokit.cli", "run",
                            str(scene)], cwd=scene.parent, capture_output=True, text=True, timeout=300)
-    assert proc.returncode == 5, proc.stderr
+    assert proc.returncode == 6, proc.stderr
     run = only_run(scene.parent)
     result = json.loads((run / "result.json").read_text())
     assert result["outcome"] == "succeeded"
@@ -126,7 +126,7 @@ def test_a_file_size_limit_on_the_record_is_a_warning_naming_the_file_and_exit_5
 
 @pytest.mark.parametrize("outcome, stored, failures, signal_name, expected", [
     ("succeeded", True, [], None, 0),
-    ("succeeded", True, ["run record: writing x failed"], None, 5),
+    ("succeeded", True, ["run record: writing x failed"], None, 6),
     ("failed", True, ["run record: writing x failed"], None, 1),
     ("error", True, ["run record: writing x failed"], None, 3),
     ("succeeded", False, ["run record: writing x failed"], None, 4),
@@ -136,7 +136,7 @@ def test_a_file_size_limit_on_the_record_is_a_warning_naming_the_file_and_exit_5
 def test_exit_codes_follow_the_documented_table(outcome: str, stored: bool, failures: list[str],
                                                 signal_name: str | None, expected: int) -> None:
     """The cli docstring's table: a signal first (130 / 143), then 4 (kept nowhere), then the outcome's code, and
-    5 only in place of a success."""
+    6 only in place of a success."""
     from robokit.components import Delivery
     from robokit.core.result import RunResult
     from robokit.runner import RunOutput
