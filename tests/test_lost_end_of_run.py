@@ -146,3 +146,20 @@ def test_exit_codes_follow_the_documented_table(outcome: str, stored: bool, fail
     out = RunOutput(result, {}, [("local", Delivery(stored, None, ""))], interrupted=signal_name is not None,
                     signal=signal_name, record_failures=failures)
     assert out.exit_code == expected
+
+
+@pytest.mark.parametrize("sig, code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+def test_a_signal_after_the_command_ended_still_exits_with_its_code(sig: signal.Signals, code: int) -> None:
+    """The last moment: the command is done (exit code 0 decided) and Python is shutting down, which puts the
+    default handlers back; a signal then still ends the process with 130 / 143 and one line, not a silent kill."""
+    script = ("import os, signal, sys\n"
+              "from robokit.process.interrupts import StopGuard\n"
+              "guard = StopGuard.for_process()\n"
+              "code = guard.closing(0)\n"
+              "for s in (signal.SIGINT, signal.SIGTERM):\n"
+              "    signal.signal(s, signal.SIG_DFL)  # what the interpreter's shutdown does\n"
+              f"os.kill(os.getpid(), signal.{sig.name})\n"
+              "sys.exit(code)\n")
+    proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=60)
+    assert proc.returncode == code
+    assert proc.stderr == f"robokit: interrupted ({sig.name}) while exiting; exit code {code}\n"

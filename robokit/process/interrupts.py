@@ -31,6 +31,7 @@ stops at tick boundaries when asked.
 from __future__ import annotations
 
 import _thread
+import atexit
 import itertools
 import os
 import signal
@@ -240,6 +241,11 @@ class StopGuard:
         final = self.exit_code if self.signalled else code
         self._closing = (final, self.signal or "")
         self._cancel_timers()
+        if self.installed and hasattr(signal, "pthread_sigmask"):
+            # Past this point Python's own shutdown puts the default handlers back (a SIGTERM would kill the process
+            # with no word): hold the signals back instead, and look for one as the last exit handler runs.
+            signal.pthread_sigmask(signal.SIG_BLOCK, SIGNALS)
+            atexit.register(_exit_if_pending, final, bool(self.signal))
         return final
 
     def _force_after(self, phase: _Phase, reason: str) -> None:
@@ -286,6 +292,15 @@ class StopGuard:
         self._timers.clear()
 
 
+def _exit_if_pending(code: int, earlier: bool) -> None:
+    """At exit: a SIGINT / SIGTERM held back since the command ended ends the process with its code (the command's
+    own code if a signal had already decided it)."""
+    pending = signal.sigpending() & set(SIGNALS)
+    if pending:
+        sig = signal.Signals(min(pending))
+        _exit_now(code if earlier else exit_code_for(sig.name), sig.name)
+
+
 def _ignore_unraisable(_unraisable: Any) -> None:
     """After a signal, a finaliser of something the break left half-built (a half-made pybullet client) may raise:
     not worth a traceback on the way out."""
@@ -299,7 +314,7 @@ def _exit_now(code: int, name: str) -> None:
         except (OSError, ValueError):
             pass
     try:
-        os.write(2, f"robokit: {name} while exiting; exit code {code}\n".encode())
+        os.write(2, f"robokit: interrupted ({name}) while exiting; exit code {code}\n".encode())
     except OSError:
         pass
     os._exit(code)
