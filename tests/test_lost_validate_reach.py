@@ -19,8 +19,8 @@ from robokit.testing import make_sim
 
 ROOT = Path(__file__).resolve().parents[1]
 SORT = ROOT / "configs" / "sort_robot.toml"
-RED = [(0.35, 0.42), (0.62, 0.45), (0.72, 0.42), (0.1, 0.62), (0.02, 0.7)]
-BLUE = [(0.35, -0.42), (0.66, -0.45), (0.76, -0.40), (0.15, -0.65)]
+RED = [(0.35, 0.42), (0.62, 0.45), (0.68, 0.43), (0.72, 0.42), (0.02, 0.7)]  # near, far, near the edge, beyond it
+BLUE = [(0.35, -0.42), (0.66, -0.45), (0.70, -0.42), (0.15, -0.65)]
 SEEDS = range(10)
 
 
