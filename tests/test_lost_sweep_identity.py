@@ -41,6 +41,7 @@ def spec_of(config: Path, seeds: range = range(2)) -> SweepSpec:
 
 
 def test_sweep_json_records_the_files_the_config_refers_to_and_the_versions(scene: Path) -> None:
+    """... and growing an unchanged sweep is still accepted."""
     run_sweep(spec_of(scene), SweepOptions(out=scene.parent / "out", workers=1))
     meta = json.loads((scene.parent / "out" / "sweep.json").read_text())
     import hashlib
@@ -52,6 +53,8 @@ def test_sweep_json_records_the_files_the_config_refers_to_and_the_versions(scen
 
     assert meta["versions"]["robokit"] == metadata.version("robokit")
     assert meta["versions"]["pybullet"] == metadata.version("pybullet")
+    grown = run_sweep(spec_of(scene, range(3)), SweepOptions(out=scene.parent / "out", workers=1))
+    assert (grown.ran, grown.skipped) == (1, 2)
 
 
 @pytest.mark.parametrize("changed", ["cube.obj", "cube.urdf"])
@@ -79,13 +82,6 @@ def test_a_changed_robokit_version_is_refused_and_new_out_starts_a_folder_beside
     run = run_sweep(spec_of(scene), SweepOptions(out=out, workers=1, new_out=True))
     assert run.out == scene.parent / "out-2" and run.ran == 2
     assert len((scene.parent / "out-2" / "trials.jsonl").read_text().splitlines()) == 2
-
-
-def test_growing_an_unchanged_sweep_is_still_accepted(scene: Path) -> None:
-    out = scene.parent / "out"
-    run_sweep(spec_of(scene), SweepOptions(out=out, workers=1))
-    grown = run_sweep(spec_of(scene, range(3)), SweepOptions(out=out, workers=1))
-    assert (grown.ran, grown.skipped) == (1, 2)
 
 
 def robokit(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:

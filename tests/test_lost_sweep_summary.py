@@ -14,10 +14,10 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from robokit.cli import main
-from robokit.sweep import summary as summary_module
 from robokit.sweep.summary import error_bars, summarise, wilson, write_plots
 
 ROOT = Path(__file__).resolve().parent.parent
+PLUGINS = Path(__file__).resolve().parent / "sweep_plugins"
 
 
 def _holds(k: int, n: int) -> None:
@@ -90,12 +90,12 @@ def test_a_plot_that_fails_is_a_warning_and_the_rest_is_written(tmp_path: Path, 
     def broken_plots(*_args: Any, **_kwargs: Any) -> list[Path]:
         raise ValueError("'yerr' must not contain negative values")
 
-    monkeypatch.setattr(summary_module, "write_plots", broken_plots)
     monkeypatch.setattr("robokit.sweep.engine.write_plots", broken_plots)
+    monkeypatch.syspath_prepend(str(PLUGINS))  # the cheap test-only scene (workers inherit sys.path)
     monkeypatch.chdir(tmp_path)
     junit = tmp_path / "junit.xml"
-    code = main(["sweep", str(ROOT / "configs" / "drop_test.toml"), "--seeds", "0:2", "--workers", "1",
-                 "--out", "out", "--junit", str(junit)])
+    code = main(["sweep", str(PLUGINS / "fault.toml"), "--plugin", "sweep_faults", "--seeds", "0:2", "--workers",
+                 "1", "--out", "out", "--junit", str(junit)])
     captured = capsys.readouterr()
     assert code == 0
     assert "robokit: warning: sweep: the plots in out could not be drawn: ValueError: 'yerr' must not contain " \
