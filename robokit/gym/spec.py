@@ -207,6 +207,7 @@ class Observer:
         with equal bounds is not a space Gymnasium accepts without a warning.
         """
         limit, self.clip = self.spec.obs_limit, {}
+        self.observe(readings, task_obs)  # raises on an unknown entry or an image among numbers
         out = {}
         for key, entries in self.groups.items():
             value = self._value(readings, task_obs, *entries[0]) if len(entries) == 1 else None
