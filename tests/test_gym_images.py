@@ -65,6 +65,7 @@ def test_an_image_inside_a_vector_is_a_config_error() -> None:
         robokit.gym.make(camera_env(["arm.position", "cam.rgb"]))
 
 
+@pytest.mark.slow  # imports torch (robokit[rl], installed in the slow tier only)
 def test_sb3_takes_it_as_an_image_space() -> None:
     """stable-baselines3 (robokit[rl]) sees a CNN input, not a 6,720-number vector."""
     preprocessing = pytest.importorskip("stable_baselines3.common.preprocessing")
