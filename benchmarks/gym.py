@@ -60,23 +60,29 @@ class Runner:
         self.env, self.rng = env, np.random.default_rng(seed)
         self.low, self.high = env.action_space.low, env.action_space.high
         env.reset(seed=seed)
-        self.seconds, self.steps, self.episodes = 0.0, 0, 0
+        self.seconds, self.cpu, self.steps, self.episodes = 0.0, 0.0, 0, 0
 
     def run(self, steps: int) -> None:
         acts = self.rng.uniform(self.low, self.high, (steps, *self.env.action_space.shape)).astype(np.float32)
         env = self.env
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         for a in acts:
             _, _, terminated, truncated, _ = env.step(a)
             if terminated or truncated:
                 env.reset()
                 self.episodes += 1
         self.seconds += time.perf_counter() - t0
+        self.cpu += time.process_time() - c0
         self.steps += steps
 
     @property
     def rate(self) -> float:
         return self.steps / self.seconds
+
+    @property
+    def cpu_rate(self) -> float:
+        """Env steps per CPU second of this process (less sensitive to other processes' load than wall time)."""
+        return self.steps / self.cpu
 
 
 def reset_ms(env: Any, n: int) -> float:
@@ -149,7 +155,7 @@ def speed(task: str, args: argparse.Namespace) -> None:
     envs = {f"robokit {task}": make_robokit(task), f"panda-gym {PAIRS[task][1]}": make_panda_gym(task)}
     names = list(envs)
     rates: dict[str, list[float]] = {n: [] for n in names}
-    ratios = []
+    ratios, cpu_ratios = [], []
     for r in range(args.rounds):
         runners = {n: Runner(envs[n], seed=r) for n in names}
         for _ in range(args.steps // args.chunk):  # alternate in short chunks: load drift hits both alike
@@ -158,14 +164,16 @@ def speed(task: str, args: argparse.Namespace) -> None:
         for name in names:
             rates[name].append(runners[name].rate)
         ratios.append(rates[names[0]][-1] / rates[names[1]][-1])
+        cpu_ratios.append(runners[names[0]].cpu_rate / runners[names[1]].cpu_rate)
         print(f"round {r + 1}: " + "  ".join(f"{n} {rates[n][-1]:7.0f} steps/s" for n in names)
-              + f"  ratio {ratios[-1]:.2f}")
+              + f"  ratio {ratios[-1]:.2f} (CPU time {cpu_ratios[-1]:.2f})")
     for name in names:
         print(f"{name:34s} median {statistics.median(rates[name]):7.0f} env steps/s "
               f"(min {min(rates[name]):.0f}, max {max(rates[name]):.0f}); "
               f"reset {reset_ms(envs[name], args.resets):.3f} ms")
     print(f"{task}: ratio robokit / panda-gym: median {statistics.median(ratios):.2f} "
-          f"(min {min(ratios):.2f}, max {max(ratios):.2f}) over {args.rounds} rounds of {args.steps} steps")
+          f"(min {min(ratios):.2f}, max {max(ratios):.2f}) over {args.rounds} rounds of {args.steps} steps; "
+          f"by CPU time {statistics.median(cpu_ratios):.2f} (min {min(cpu_ratios):.2f}, max {max(cpu_ratios):.2f})")
     for env in envs.values():
         env.close()
 

@@ -183,7 +183,7 @@ class Observer:
                 if isinstance(value, np.ndarray) and value.ndim >= 2:
                     out[key] = image = as_image(value)
                     if key in self.clip:
-                        np.clip(image, *self.clip[key], out=image)
+                        clip_into(image, *self.clip[key])
                     continue
             values: list[float] = []
             for entry, path in entries:
@@ -194,7 +194,7 @@ class Observer:
                 values.extend(flatten(value))
             vector = out[key] = np.asarray(values, dtype=np.float32)
             if key in self.clip:
-                np.clip(vector, *self.clip[key], out=vector)
+                clip_into(vector, *self.clip[key])
         return out
 
     def fit_bounds(self, readings: Mapping[str, Any], task_obs: Mapping[str, Any],
@@ -233,6 +233,12 @@ class Observer:
         return out
 
 
+def clip_into(a: np.ndarray, low: np.ndarray, high: np.ndarray) -> None:
+    """Clip ``a`` in place (two ufunc calls: np.clip's dispatch costs more than the work on a few numbers)."""
+    np.maximum(a, low, out=a)
+    np.minimum(a, high, out=a)
+
+
 def as_image(value: np.ndarray) -> np.ndarray:
     """A camera image as an observation: RGB stays ``(H, W, 3)`` uint8; a one-channel image (depth, segmentation)
     gets a channel axis, ``(H, W, 1)``, keeping its dtype (float32 metres, int32 body ids)."""
@@ -244,7 +250,9 @@ def as_image(value: np.ndarray) -> np.ndarray:
 
 
 def _clip(a: Any) -> np.ndarray:
-    return np.clip(np.asarray(a, dtype=np.float64), -1.0, 1.0)
+    out = np.array(a, dtype=np.float64)  # a copy: the caller's action is not changed
+    np.maximum(out, -1.0, out=out)
+    return np.minimum(out, 1.0, out=out)  # type: ignore[no-any-return]
 
 
 class Actions:
