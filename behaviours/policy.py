@@ -98,7 +98,7 @@ class PolicyBehaviour(Behaviour):
 
     def _task(self, env_raw: Mapping[str, Any]) -> Task:
         from robokit.gym.task import TaskContext
-        from robokit.plugins import load_plugins
+        from robokit.plugin_api.plugins import load_plugins
 
         plugins = load_plugins()
         try:

@@ -13,7 +13,7 @@ import argparse
 import statistics
 import time
 
-from robokit.plugins import load_plugins
+from robokit.plugin_api.plugins import load_plugins
 from robokit.testing import ConformanceError, check_actuator, check_sensor
 
 CHECKS = {"sensor": check_sensor, "actuator": check_actuator}

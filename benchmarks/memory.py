@@ -35,7 +35,7 @@ def rss_mb() -> float:
 def one_trial(config: Path, seed: int, max_time: float) -> str:
     """Everything ``robokit run`` does after start-up, for one seed; returns the outcome."""
     from robokit.config import load_config
-    from robokit.plugins import load_plugins
+    from robokit.plugin_api.plugins import load_plugins
     from robokit.runner import run_config
 
     plugins = load_plugins()

@@ -38,10 +38,10 @@ TESTS: dict[str, list[str]] = {
     "plugins/keyboard.py": ["tests/test_teleop.py"],
     "plugins/ik_arm.py": ["tests/test_arm_ik.py", "tests/test_promises.py", "tests/test_preflight.py"],
     "plugins/gripper.py": ["tests/test_arm_gripper.py", "tests/test_arm_pick_place.py"],
-    "robokit/simulation.py": ["tests/test_core_scheduler.py", "tests/test_core_world.py", "tests/test_promises.py",
+    "robokit/core/simulation.py": ["tests/test_core_scheduler.py", "tests/test_core_world.py", "tests/test_promises.py",
                               "tests/test_outcomes.py", "tests/test_preflight.py"],
-    "robokit/scheduler.py": ["tests/test_core_scheduler.py", "tests/test_promises.py", "tests/test_outcomes.py"],
-    "robokit/preflight.py": ["tests/test_preflight.py"],
+    "robokit/core/scheduler.py": ["tests/test_core_scheduler.py", "tests/test_promises.py", "tests/test_outcomes.py"],
+    "robokit/core/preflight.py": ["tests/test_preflight.py"],
     "behaviours/avoidance.py": ["tests/test_mobile_nav.py", "tests/test_preflight.py"],
 }
 

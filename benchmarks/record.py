@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from robokit.config import load_config
-from robokit.plugins import load_plugins
+from robokit.plugin_api.plugins import load_plugins
 from robokit.record.format import RunRecord
 from robokit.runner import run_config
 

@@ -31,8 +31,8 @@ sys.path.insert(0, str(ROOT / "tests"))
 
 from server_proc import Server, free_port, robokit  # noqa: E402
 
-from robokit.reporting import build_payload  # noqa: E402
-from robokit.result import RunResult  # noqa: E402
+from robokit.core.result import RunResult  # noqa: E402
+from robokit.report.reporting import build_payload  # noqa: E402
 
 
 def payload(client: int, i: int, student: str) -> dict[str, Any]:

@@ -6,7 +6,7 @@ Measured, each as the median of ``--repeats`` fresh processes, interleaved (one 
 - ``python -c 'import numpy, pybullet'``: the floor of any run (both are needed to simulate anything);
 - the same trivial job written by hand: numpy's generator, a DIRECT client, plane + box, 24 steps, a JSON file;
 - the same plus ``pydantic`` and ``pluggy``: what robokit's start-up cost when every config was validated with
-  pydantic (a trivial run now imports no pydantic: its sections have light schemas, see ``robokit.sections``);
+  pydantic (a trivial run now imports no pydantic: its sections have light schemas, see ``robokit.config.sections``);
 - ``robokit --help``: must import neither numpy, pybullet nor OpenCV (checked below);
 - ``robokit run TRIVIAL --quiet``: a plane and a falling box for 0.1 sim seconds with the default record (trace,
   pose log, ``result.json``) — target: under 200 ms of process time;
@@ -83,11 +83,11 @@ import robokit.cli as cli
 mark("import robokit.cli")
 cli._pause_gc_for_startup()  # as the robokit command does
 argv = ["run", sys.argv[1], "--quiet"]
-args = cli._quick_run_args(argv) or cli._parser("run").parse_args(argv)
-from robokit._quiet import capture_c_stdout
-from robokit.interrupts import StopGuard
+args = cli._parser("run").parse_args(argv)
+from robokit.process.quiet import capture_c_stdout
+from robokit.process.interrupts import StopGuard
 mark("command line, output capture, signal guard")
-from robokit.plugins import load_plugins
+from robokit.plugin_api.plugins import load_plugins
 plugins = load_plugins()
 mark("plugin discovery (numpy, pybullet; entry points)")
 from robokit.config import load_config

@@ -29,7 +29,7 @@ from robokit import __version__, hookimpl
 from robokit.components import Delivery, Reporter
 from robokit.config import Schema
 from robokit.errors import Interrupted
-from robokit.outbox import Entry, Outbox, SendResult
+from robokit.report.outbox import Entry, Outbox, SendResult
 
 RETRY_STATUSES = frozenset([408, 429, *range(500, 600)])
 """Answers worth retrying: request timeout, too many requests, and every server error."""
@@ -163,7 +163,7 @@ def encode(payload: dict[str, Any]) -> bytes:
 
 
 class HttpSender:
-    """Sends outbox entries (a :data:`robokit.outbox.Sender`). ``url`` overrides each entry's URL."""
+    """Sends outbox entries (a :data:`robokit.report.outbox.Sender`). ``url`` overrides each entry's URL."""
 
     def __init__(self, url: str | None = None, token_env: str | None = None) -> None:
         self.url = url
@@ -284,7 +284,7 @@ def _redact(result: SendResult, token: str | None) -> SendResult:
 
 
 class HttpReporter(Reporter):
-    """POSTs the payload; on failure the payload waits in the outbox (see :mod:`robokit.outbox`)."""
+    """POSTs the payload; on failure the payload waits in the outbox (see :mod:`robokit.report.outbox`)."""
 
     sends = True
 
@@ -348,7 +348,7 @@ class HttpReporter(Reporter):
 
 def _with_artifacts(delivery: Delivery, cfg: HttpReportConfig, payload: dict[str, Any]) -> Delivery:
     """After the result arrived, upload its run folder's files; a failure is told, never changes the delivery."""
-    from robokit.artifact_upload import find_artifacts, upload_artifacts
+    from robokit.report.artifact_upload import find_artifacts, upload_artifacts
 
     run_id = str(payload["run_id"])
     files = find_artifacts(os.path.join(cfg.artifacts_dir, run_id), payload.get("config"))

@@ -11,8 +11,8 @@ from typing import Any
 
 from robokit import hookimpl
 from robokit.components import Delivery, Reporter
-from robokit.reporting import write_json_atomic
-from robokit.sections import Section, setting
+from robokit.config.sections import Section, setting
+from robokit.report.reporting import write_json_atomic
 
 __all__ = ["LocalReportConfig", "LocalReporter", "write_json_atomic"]
 
@@ -20,7 +20,8 @@ __all__ = ["LocalReportConfig", "LocalReporter", "write_json_atomic"]
 class LocalReportConfig(Section):
     """``dir``: folder for result files, relative to the working directory.
 
-    A light schema (:mod:`robokit.sections`): every run gets this reporter, and validating it imports no pydantic.
+    A light schema (:mod:`robokit.config.sections`): every run gets this reporter, and validating it imports no
+    pydantic.
     """
 
     dir: str = setting("results", min_length=1)

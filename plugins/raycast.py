@@ -62,7 +62,7 @@ class RayCaster:
     """``rayTestBatch`` for a world, with the static mesh boxes intersected in numpy (see the module doc).
 
     Args:
-        world: The World (its client, and :attr:`~robokit.world.World.mesh_boxes`).
+        world: The World (its client, and :attr:`~robokit.core.world.World.mesh_boxes`).
         skip: Body ids the rays can never hit (the caller puts them in a collision group the mask leaves out);
             they are neither intersected nor bounding-box tested.
         mask: ``collisionFilterMask`` passed to ``rayTestBatch``.

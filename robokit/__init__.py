@@ -10,6 +10,6 @@ import pluggy
 __version__ = "0.1.0"
 
 hookimpl = pluggy.HookimplMarker("robokit")
-"""Marker for hook implementations in robokit plugins (see :mod:`robokit.hookspecs`)."""
+"""Marker for hook implementations in robokit plugins (see :mod:`robokit.plugin_api.hookspecs`)."""
 
 __all__ = ["__version__", "hookimpl"]

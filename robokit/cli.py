@@ -18,13 +18,12 @@ import os
 import sys
 import warnings
 from collections.abc import Sequence
-from types import SimpleNamespace
 from typing import TYPE_CHECKING, Any, NoReturn
 
 from robokit import __version__
-from robokit.crash import describe, one_line, traceback_text, where_raised, write_traceback
 from robokit.errors import PluginError, UserError
-from robokit.plugins import PluginLoadWarning
+from robokit.plugin_api.plugins import PluginLoadWarning
+from robokit.process.crash import describe, one_line, traceback_text, where_raised, write_traceback
 
 if TYPE_CHECKING:
     import argparse
@@ -87,7 +86,7 @@ _RUN_OPTIONS: tuple[tuple[str, dict[str, Any]], ...] = (
                                                        "segmentation) in the run folder"}),
     ("--video", {"metavar": "FILE", "help": "render an MP4 of the run right after it (robokit video)"}),
 )
-"""``robokit run``'s options, for its argparse sub-parser and for :func:`_quick_run_args` alike."""
+"""``robokit run``'s options."""
 
 
 def _add_run_command(sub: Any) -> None:
@@ -96,39 +95,6 @@ def _add_run_command(sub: Any) -> None:
     for name, options in _RUN_OPTIONS:
         run.add_argument(name, **options)
     run.set_defaults(func=cmd_run)
-
-
-def _quick_run_args(argv: Sequence[str]) -> Any:
-    """``robokit run CONFIG [OPTIONS]`` read without argparse, when every word is one argparse reads only one way:
-    ``run``, one config path, ``run``'s options spelt out in full, each value its own word not starting with
-    ``-``. The result has the attributes (and values) argparse's would. Anything else (``--help``, an abbreviated
-    option, ``--opt=value``, a mistake) gives None, and argparse parses the command line as always (reporting any
-    error). Importing argparse and building ``run``'s parser cost ~3% of a trivial run's start-up.
-    """
-    if not argv or argv[0] != "run":
-        return None
-    options = dict(_RUN_OPTIONS)
-    values: dict[str, Any] = {"command": "run", "debug": False, "config": None, "func": cmd_run}
-    for name, option in _RUN_OPTIONS:
-        values[name[2:].replace("-", "_")] = False if option.get("action") == "store_true" else None
-    words = iter(argv[1:])
-    for word in words:
-        spec = options.get(word)
-        if spec is None:
-            if word.startswith("-") or values["config"] is not None:
-                return None
-            values["config"] = word
-        elif spec.get("action") == "store_true":
-            values[word[2:].replace("-", "_")] = True
-        else:
-            value = next(words, None)
-            if value is None or value.startswith("-"):
-                return None
-            try:
-                values[word[2:].replace("-", "_")] = spec.get("type", str)(value)
-            except Exception:  # noqa: BLE001 - argparse reports the bad value
-                return None
-    return SimpleNamespace(**values) if values["config"] is not None else None
 
 
 def _add_other_commands(sub: Any) -> None:
@@ -158,11 +124,11 @@ def _add_other_commands(sub: Any) -> None:
 def _add_extra_commands(sub: Any) -> None:
     """Commands that live in their own modules (kept out of the import path of ``--help``)."""
     try:
-        from robokit.outbox_cli import add_outbox_command
+        from robokit.report.outbox_cli import add_outbox_command
     except ImportError:
         return
     add_outbox_command(sub)
-    from robokit.artifact_upload import add_upload_command
+    from robokit.report.artifact_upload import add_upload_command
     from robokit.server.cli import add_server_commands  # no Django import until `serve` / `manage` runs
 
     add_server_commands(sub)
@@ -191,7 +157,7 @@ def _overrides(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def _load(args: argparse.Namespace) -> tuple[Any, Any]:
-    from robokit.plugins import load_plugins
+    from robokit.plugin_api.plugins import load_plugins
 
     plugins = load_plugins()  # before robokit.config builds its models: pydantic's plugin scan is answered then
     from robokit.config import load_config
@@ -207,14 +173,14 @@ def cmd_run(args: argparse.Namespace) -> int:
     _end_startup_gc_pause()
     gui = bool(args.gui or cfg.world.gui)
     if gui:
-        from robokit.gui import check_display
+        from robokit.core.gui import check_display
 
         check_display(f"robokit run {args.config} --gui")
     elif args.gui_hold:
         raise UserError("--gui-hold needs --gui (there is no window to hold)")
     hold = None
     if args.gui_hold:
-        from robokit.gui import hold as hold_window
+        from robokit.core.gui import hold as hold_window
 
         def hold(sim: Any) -> None:
             hold_window(sim.world)
@@ -248,7 +214,7 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 def _report_error(args: argparse.Namespace, out: Any, cfg: Any) -> None:
     """A run that ended in ``error``: the full traceback goes to the run folder (and stderr with --debug)."""
-    from robokit.runner import results_root
+    from robokit.config import results_root
 
     assert out.error is not None
     text = traceback_text(out.error)
@@ -281,7 +247,7 @@ def _warn_problem(problem: Exception) -> None:
 def cmd_validate(args: argparse.Namespace) -> int:
     """``robokit validate``: validate the config, set every component up in a DIRECT world and run every
     preflight check (reach, camera view, overlaps, ...), without stepping. Each problem is one line; exit 2."""
-    from robokit.simulation import Simulation
+    from robokit.core.simulation import Simulation
 
     plugins, cfg = _load(args)
     with Simulation(cfg, plugins, gui=False) as sim:
@@ -299,7 +265,7 @@ def cmd_validate(args: argparse.Namespace) -> int:
 
 def cmd_plugins(args: argparse.Namespace) -> int:
     """``robokit plugins``: every registered type with kind, distribution, version and description."""
-    from robokit.plugins import load_plugins
+    from robokit.plugin_api.plugins import load_plugins
 
     plugins = load_plugins()
     rows = [
@@ -322,7 +288,7 @@ def cmd_plugins(args: argparse.Namespace) -> int:
 
 def cmd_inspect(args: argparse.Namespace) -> int:
     """``robokit inspect``: lesson 02's joint table of a URDF."""
-    from robokit.world import World
+    from robokit.core.world import World
 
     with World() as world:
         world.load_urdf("robot", args.urdf, fixed_base=True)
@@ -344,11 +310,11 @@ def cmd_graph(args: argparse.Namespace) -> int:
     """``robokit graph``: a behaviour's state machine, or a config's task, sequence and monitors, as Mermaid."""
     from pathlib import Path
 
-    from robokit.plugins import load_plugins
+    from robokit.plugin_api.plugins import load_plugins
 
     if args.behaviour.endswith(".toml") or Path(args.behaviour).is_file():
-        from robokit.compose import config_mermaid
         from robokit.config import load_config
+        from robokit.core.compose import config_mermaid
 
         plugins = load_plugins()
         print(config_mermaid(load_config(args.behaviour, plugins), plugins), end="")
@@ -363,7 +329,7 @@ def cmd_graph(args: argparse.Namespace) -> int:
 
 def cmd_lint(args: argparse.Namespace) -> int:
     """``robokit lint``: one line per finding (file:line:col: code message); exit 1 if there is any."""
-    from robokit.lint import lint_paths
+    from robokit.checks.lint import lint_paths
 
     try:
         findings = lint_paths(args.paths)
@@ -399,19 +365,19 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def _main(argv: list[str]) -> int:
     """Parse ``argv`` and run the command (see :func:`main`)."""
-    from robokit._quiet import capture_c_stdout
-    from robokit.crash import debug_from_env
+    from robokit.process.crash import debug_from_env
+    from robokit.process.quiet import capture_c_stdout
 
     cut = argv.index("--") if "--" in argv else len(argv)
     debug = debug_from_env() or "--debug" in argv[:cut]
     argv = [a for a in argv[:cut] if a != "--debug"] + argv[cut:]
     try:
-        args = _quick_run_args(argv) or _parser(argv[0] if argv else None).parse_args(argv)
+        args = _parser(argv[0] if argv else None).parse_args(argv)
     except KeyboardInterrupt:
         print("robokit: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     args.debug = debug
-    from robokit.interrupts import StopGuard
+    from robokit.process.interrupts import StopGuard
 
     with warnings.catch_warnings(), StopGuard.ensure():  # restores the caller's warning settings and signals
         warnings.simplefilter("always", PluginLoadWarning)

@@ -6,7 +6,7 @@ Lifecycle, in order, for sensors, actuators and behaviours:
    of the type's section (or ``None`` if the type registered no schema). Do not touch the world here.
 2. ``setup(ctx)`` — once, after every body is in the world and before the first tick. Look up bodies, joints and
    links by name here and raise :class:`robokit.errors.ConfigError` (with a ``key``) for bad names.
-3. per tick, at the component's rate (see :mod:`robokit.scheduler`):
+3. per tick, at the component's rate (see :mod:`robokit.core.scheduler`):
    sensors ``read()``, behaviours ``step(readings, t)``, actuators ``update()``.
 4. ``close()`` — once, when the simulation closes; release anything held.
 
@@ -25,17 +25,16 @@ from __future__ import annotations
 
 import zlib
 from collections.abc import Callable, Mapping
-from dataclasses import field
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from robokit._dataclass import dataclass
 from robokit.errors import ConfigError, LookupNameError
 
 if TYPE_CHECKING:
-    from robokit.world import JointInfo, World
+    from robokit.core.world import JointInfo, World
 
 OUTCOMES = ("succeeded", "failed", "aborted")
 

@@ -80,7 +80,7 @@ class Interrupted(KeyboardInterrupt):
 
 def plugin_fault(exc: BaseException) -> str:
     """What a plugin raised and where, on one line: ``"TypeError: message (at path/file.py:42)"``."""
-    from robokit.crash import describe, where_raised
+    from robokit.process.crash import describe, where_raised
 
     where = where_raised(exc)
     return describe(exc) + (f" (at {where})" if where else "")

@@ -8,20 +8,19 @@ import json
 import uuid
 import warnings
 from collections.abc import Callable
-from dataclasses import field
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
 
 from robokit import __version__
-from robokit._dataclass import dataclass
 from robokit.components import Delivery
-from robokit.config import Config
+from robokit.config import Config, results_root
+from robokit.core.result import OUTCOME_EXIT_CODES, RunResult
+from robokit.core.simulation import Simulation
 from robokit.errors import ConfigError, Interrupted, PluginError, UserError, plugin_fault
-from robokit.interrupts import StopGuard
-from robokit.plugins import Plugins
-from robokit.reporting import build_payload, deliver
-from robokit.result import OUTCOME_EXIT_CODES, RunResult
-from robokit.simulation import Simulation
+from robokit.plugin_api.plugins import Plugins
+from robokit.process.interrupts import StopGuard
+from robokit.report.reporting import build_payload, deliver
 
 EXIT_NOT_STORED = 4
 """Exit code when the result could be neither delivered nor stored locally by any reporter."""
@@ -120,7 +119,7 @@ def run_config(
     With ``on_problem``, the preflight checks run first and each problem found is handed to it (``robokit run``
     prints them as warnings and runs anyway: the goal check then reports what happened).
     A plugin that raises during setup or the run gives outcome ``error``; whatever result exists is still reported.
-    Ctrl-C / SIGTERM at any point (see :mod:`robokit.interrupts`) stops promptly: during start-up the run ends
+    Ctrl-C / SIGTERM at any point (see :mod:`robokit.process.interrupts`) stops promptly: during start-up the run ends
     ``aborted`` with no ticks, during the loop at a tick boundary, during delivery at once; the result is kept
     (reporters that send it somewhere slow keep it in their outbox instead) and :attr:`RunOutput.exit_code` is 130.
     """
@@ -217,14 +216,6 @@ def _make_run_dir(folder: Path) -> Path | None:
 
 class RecordWarning(UserWarning):
     """The run record could not be kept (the run itself goes on)."""
-
-
-def results_root(cfg: Config) -> Path:
-    """Where run folders go: the local reporter's ``dir`` (``[report.local] dir``), default ``results``."""
-    for spec in cfg.reporters:
-        if spec.type == "local" and spec.params is not None and getattr(spec.params, "dir", None):
-            return Path(spec.params.dir)
-    return Path("results")
 
 
 def summary(out: RunOutput) -> str:

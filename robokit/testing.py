@@ -24,7 +24,7 @@ from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
 
-from robokit.simulation import Simulation, build
+from robokit.core.simulation import Simulation, build
 
 PLANE: dict[str, Any] = {"urdf": "plane.urdf", "position": [0, 0, 0]}
 """A ground plane body, for test configs: ``{"bodies": {"plane": PLANE}}``."""
@@ -105,17 +105,17 @@ def validate_error(config: str | Path) -> str:
     return lines[0]
 
 
-# Conformance checks for plugin types (see robokit.conformance for what they verify).
-from robokit.behaviour_conformance import BehaviourReport, check_behaviour  # noqa: E402
-from robokit.conformance import (  # noqa: E402
+# Conformance checks for plugin types (see robokit.checks.conformance for what they verify).
+from robokit.checks.behaviour_conformance import BehaviourReport, check_behaviour  # noqa: E402
+from robokit.checks.conformance import (  # noqa: E402
     ConformanceError,
     ConformanceReport,
     check_actuator,
     check_sensor,
     first_difference,
 )
-from robokit.lint import Finding, lint_paths, lint_source  # noqa: E402
-from robokit.scripted import ScriptedRun, ScriptedWorld, StandIn  # noqa: E402
+from robokit.checks.lint import Finding, lint_paths, lint_source  # noqa: E402
+from robokit.checks.scripted import ScriptedRun, ScriptedWorld, StandIn  # noqa: E402
 
 __all__ = [
     "PLANE", "BehaviourReport", "ConformanceError", "ConformanceReport", "Finding", "ScriptedRun", "ScriptedWorld",

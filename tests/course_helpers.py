@@ -39,8 +39,8 @@ def post(client: Any, data: Any, token: str | None = None, key: str | None = Non
 
 def robokit_payload(i: int = 0, student: str = "kim", project: str = "A", **result: Any) -> dict[str, Any]:
     """A full robokit payload (RunResult + course fields) with a deterministic run id."""
-    from robokit.reporting import build_payload
-    from robokit.result import RunResult
+    from robokit.core.result import RunResult
+    from robokit.report.reporting import build_payload
 
     result = result or {"red_sorted": 2, "blue_sorted": 2, "failures": i % 2, "total_time": 8.0 + i,
                         "objects": [{"colour": "red", "detected_position": [0.4, 0.1, 0.025], "outcome": "sorted"}]}

@@ -20,8 +20,8 @@ from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
 from typing import Any
 
-from robokit.reporting import build_payload
-from robokit.result import RunResult
+from robokit.core.result import RunResult
+from robokit.report.reporting import build_payload
 
 
 @dataclass(frozen=True)

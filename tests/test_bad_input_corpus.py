@@ -18,7 +18,7 @@ from robokit.cli import main
 
 
 def test_the_corpus_is_large_and_covers_every_section_and_built_in_type() -> None:
-    from robokit.plugins import load_plugins
+    from robokit.plugin_api.plugins import load_plugins
 
     SECTIONS = ("world", "regions", "bodies", "robots", "sensors", "actuators", "behaviour", "report", "events",
                 "record", "gui")  # the README's config reference ([env] belongs to robokit.gym's own tests)

@@ -16,7 +16,7 @@ import pytest
 from robokit import hookimpl
 from robokit.components import Actuator, Sensor
 from robokit.config import Schema
-from robokit.plugins import load_plugins
+from robokit.plugin_api.plugins import load_plugins
 from robokit.testing import ConformanceError, check_actuator, check_sensor, first_difference
 
 CHECKS = {"sensor": check_sensor, "actuator": check_actuator}

@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from robokit.core.world import World, to_quaternion, yaw_of
 from robokit.errors import LookupNameError, UserError
-from robokit.world import World, to_quaternion, yaw_of
 
 
 @pytest.fixture

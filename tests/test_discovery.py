@@ -1,4 +1,5 @@
-"""robokit's own entry-point reader (:mod:`robokit.discovery`) finds what ``importlib.metadata`` finds, and steps
+"""robokit's own entry-point reader (:mod:`robokit.plugin_api.discovery`) finds what ``importlib.metadata`` finds,
+and steps
 aside where it cannot (a zip on ``sys.path``): plugin discovery then asks ``importlib.metadata``."""
 
 from __future__ import annotations
@@ -12,8 +13,8 @@ from pathlib import Path
 import pytest
 from plugin_dists import FAULTY_SENSORS, make_dist
 
-from robokit import discovery
-from robokit.plugins import load_plugins
+from robokit.plugin_api import discovery
+from robokit.plugin_api.plugins import load_plugins
 
 GROUPS = ("robokit", "robokit.types", "console_scripts", "pytest11", "pydantic")
 
@@ -79,7 +80,7 @@ def test_a_zip_on_sys_path_hands_discovery_to_importlib_metadata(tmp_path: Path)
                     "Metadata-Version: 2.1\nName: zipped-plugin\nVersion: 1.0\n")
         zf.writestr("zipped_plugin-1.0.dist-info/entry_points.txt", "[robokit]\nzipped = zipped_plugin\n")
     code = ("import sys; sys.path.insert(0, sys.argv[1])\n"
-            "from robokit import discovery\nfrom robokit.plugins import load_plugins\n"
+            "from robokit.plugin_api import discovery\nfrom robokit.plugin_api.plugins import load_plugins\n"
             "print(discovery.entry_points(['robokit']) is None)\n"
             "t = load_plugins().get('sensor', 'flaky_read')\nprint(t.origin)\n")
     proc = subprocess.run([sys.executable, "-c", code, str(archive)], capture_output=True, text=True, timeout=120)
@@ -88,7 +89,8 @@ def test_a_zip_on_sys_path_hands_discovery_to_importlib_metadata(tmp_path: Path)
 
 
 def test_discovery_imports_no_importlib_metadata() -> None:
-    code = ("import sys\nfrom robokit.plugins import load_plugins\np = load_plugins()\np.get('reporter', 'local')\n"
+    code = ("import sys\nfrom robokit.plugin_api.plugins import load_plugins\n"
+            "p = load_plugins()\np.get('reporter', 'local')\n"
             "print('importlib.metadata' in sys.modules, 'email' in sys.modules)")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr

@@ -1,7 +1,7 @@
 """The docs are tested: every ``robokit`` command in README.md and docs/*.md parses with the real argument parser;
 the fast ones (validate, inspect, plugins, graph, outbox list, --help, --version) run from where the docs say to
 stand and exit as documented; short runs of shipped configs run in the slow pass; no absolute paths from the
-writer's machine; sample outputs match what their commands print now (``python -m robokit.docs_samples``).
+writer's machine; sample outputs match what their commands print now (``python -m robokit.checks.docs_samples``).
 
 Commands are read from fenced blocks (```sh, ```bash, ```console or plain ``` blocks whose lines start with
 ``$ robokit``); ``\\`` continues a line, ``#`` starts a comment, ``cd DIR`` in a block moves the commands after it.
@@ -203,13 +203,14 @@ def test_no_absolute_paths_from_the_writers_machine(doc: Path) -> None:
 @pytest.mark.slow
 def test_sample_outputs_are_what_their_commands_print() -> None:
     """Every ``<!-- sample: ... -->`` block matches a fresh run of its command (modulo run ids and times)."""
-    proc = subprocess.run([sys.executable, "-m", "robokit.docs_samples", "--check"], cwd=ROOT, capture_output=True,
+    proc = subprocess.run([sys.executable, "-m", "robokit.checks.docs_samples", "--check"], cwd=ROOT,
+                          capture_output=True,
                           text=True, timeout=3600)
     assert proc.returncode == 0, proc.stdout + proc.stderr[-1500:]
 
 
 def test_the_stale_samples_named_in_the_issue_are_generated() -> None:
-    from robokit.docs_samples import samples
+    from robokit.checks.docs_samples import samples
 
     marked = {str(p.relative_to(ROOT)): [c for _, c, _, _ in samples(p)] for p in DOCS}
     assert any("drop_test" in c for c in marked["README.md"])

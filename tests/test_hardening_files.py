@@ -163,7 +163,7 @@ def test_an_integer_is_still_a_float_and_containers_stay_lax(tmp_path: Path, cap
     path.write_text("[world]\ngravity = [0, 0, -10]\nmax_time = 1\n" + SCENE + "mass = 2\nsize = [1, 1, 1]\n")
     assert main(["validate", str(path)]) == 0
     from robokit.config import load_config
-    from robokit.plugins import load_plugins
+    from robokit.plugin_api.plugins import load_plugins
 
     cfg = load_config(path, load_plugins())
     assert cfg.world.gravity == (0.0, 0.0, -10.0) and isinstance(cfg.world.max_time, float)

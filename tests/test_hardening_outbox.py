@@ -15,7 +15,7 @@ from report_server import Answer, CourseServer, closed_port_url, make_payload
 from robokit_plugins.http_report import HttpSender
 
 from robokit.cli import main
-from robokit.outbox import Outbox
+from robokit.report.outbox import Outbox
 
 FAST = {"retries": 0, "connect_timeout": 2.0, "read_timeout": 5.0}
 
@@ -126,7 +126,7 @@ def test_a_filesystem_error_is_reported_as_one_not_as_a_connection_failure(tmp_p
 def test_lock_files_do_not_pile_up(tmp_path: Path, server, monkeypatch) -> None:
     """Every delivered run leaves nothing behind: no entry, no lock file (it used to leave one lock per run)."""
     from robokit.config import load_config
-    from robokit.plugins import load_plugins
+    from robokit.plugin_api.plugins import load_plugins
     from robokit.runner import run_config
 
     monkeypatch.chdir(tmp_path)

@@ -139,7 +139,7 @@ XVFB_RUN = shutil.which("xvfb-run")
 
 DRAW_PROBE = """
 import json, sys
-from robokit.simulation import build
+from robokit.core.simulation import build
 
 with build(sys.argv[1], gui=True) as sim:
     client = sim.world.client

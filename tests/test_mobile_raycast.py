@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from robokit_plugins.raycast import RayCaster
 
-from robokit.world import World
+from robokit.core.world import World
 
 RANGE = 5.0
 

@@ -16,8 +16,8 @@ import pytest
 from plugin_dists import BROKEN_REPORTER, FAULTY_SENSORS, RAISING_RUN_START, make_dist
 
 from robokit.cli import EXIT_PLUGIN, main
-from robokit.plugins import load_plugins
-from robokit.result import OUTCOME_EXIT_CODES
+from robokit.core.result import OUTCOME_EXIT_CODES
+from robokit.plugin_api.plugins import load_plugins
 from robokit.runner import run_config
 from robokit.testing import make_sim
 

@@ -13,7 +13,7 @@ import pytest
 from plugin_dists import BAD_SIGNATURE, BROKEN_IMPORT, GOOD_SENSOR, HALF_REGISTERING, UNKNOWN_HOOK, make_dist
 
 from robokit.cli import main
-from robokit.plugins import PluginLoadWarning, load_plugins
+from robokit.plugin_api.plugins import PluginLoadWarning, load_plugins
 
 
 def toml_config(path: Path, sensor_type: str) -> Path:
@@ -173,7 +173,7 @@ def test_a_config_imports_only_the_plugin_modules_it_uses():
     import subprocess
     import sys
 
-    code = ("import sys; from robokit.plugins import load_plugins; from robokit.config import load_config; "
+    code = ("import sys; from robokit.plugin_api.plugins import load_plugins; from robokit.config import load_config; "
             "p = load_plugins(); load_config(sys.argv[1], p); "
             "print(' '.join(sorted(m for m in sys.modules if m.startswith('robokit_') or m == 'cv2')))")
     config = Path(__file__).resolve().parent.parent / "configs" / "patrol_robot.toml"

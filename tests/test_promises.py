@@ -23,7 +23,7 @@ from robokit import hookimpl
 from robokit.components import Sensor
 from robokit.errors import ConfigError
 from robokit.msgs.arm import MoveTo
-from robokit.outbox import Outbox
+from robokit.report.outbox import Outbox
 from robokit.testing import make_sim, states_visited
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -221,7 +221,7 @@ def test_outbox_flushes_oldest_first_even_when_ids_sort_the_other_way(
     for i, run_id in enumerate(ids):
         entry = box.load(run_id)
         assert entry is not None
-        from robokit.reporting import write_json_atomic
+        from robokit.report.reporting import write_json_atomic
 
         write_json_atomic(entry.path, {**entry.data, "created_at": 1_700_000_000.0 - i}, overwrite=True)
     assert flush(box.root) == 0

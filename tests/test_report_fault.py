@@ -13,7 +13,7 @@ from report_server import Answer, CourseServer, Recorded, closed_port_url, make_
 from robokit_plugins.http_report import HttpReportConfig, HttpReporter
 
 from robokit.cli import main
-from robokit.outbox import IN_FLIGHT, Outbox
+from robokit.report.outbox import IN_FLIGHT, Outbox
 
 DROP_TEST = Path(__file__).resolve().parents[1] / "configs" / "drop_test.toml"
 FAULTY = {"retries": 1, "backoff_factor": 0.001, "backoff_max": 0.001, "backoff_jitter": 0.001,

@@ -12,7 +12,7 @@ from report_server import Answer, CourseServer, SilentListener, closed_port_url,
 from robokit_plugins.http_report import HttpReportConfig, HttpReporter
 
 from robokit.cli import main
-from robokit.outbox import Outbox
+from robokit.report.outbox import Outbox
 
 FAST = {"retries": 2, "backoff_factor": 0.01, "backoff_max": 0.01, "backoff_jitter": 0.0, "read_timeout": 2.0}
 

@@ -16,8 +16,8 @@ from robokit_plugins.local_report import LocalReportConfig, LocalReporter
 from test_report_http import make_payload
 
 from robokit.cli import main
-from robokit.outbox import Outbox
-from robokit.reporting import write_json_atomic
+from robokit.report.outbox import Outbox
+from robokit.report.reporting import write_json_atomic
 
 OPTS = HttpOptions(retries=0, backoff_factor=0.0, backoff_jitter=0.0).to_dict()
 

@@ -1,4 +1,4 @@
-"""robokit's own validator for light schemas (:mod:`robokit.sections`): the core sections and the ``local``
+"""robokit's own validator for light schemas (:mod:`robokit.config.sections`): the core sections and the ``local``
 reporter are validated without pydantic, with pydantic's rules and messages (``test_core_config_errors`` and the
 bad-input corpus hold the user-facing lines); here, its edge cases and plugin types with a light schema."""
 
@@ -23,9 +23,9 @@ from robokit.config import (
     build_config,
     validate_model,
 )
+from robokit.config.sections import Bounds, Section, field_names, setting
 from robokit.errors import ConfigError
-from robokit.plugins import load_plugins
-from robokit.sections import Bounds, Section, field_names, setting
+from robokit.plugin_api.plugins import load_plugins
 
 PLANE = {"urdf": "plane.urdf", "position": [0, 0, 0]}
 
@@ -251,7 +251,7 @@ def test_bounds_inside_annotated_and_unsupported_types() -> None:
 def test_pydantic_schemas_keep_working_through_the_same_door() -> None:
     from pydantic import Field
 
-    from robokit.config import Schema, validation_error  # re-exported from robokit.pydantic_schema on first use
+    from robokit.config import Schema, validation_error  # re-exported from robokit.config.schema on first use
 
     class Gain(Schema):
         kp: float = Field(1.0, ge=0)
@@ -265,7 +265,7 @@ def test_pydantic_schemas_keep_working_through_the_same_door() -> None:
 @pytest.mark.parametrize("unit", ["Coord", "Angle", "Unit", "Length", "Gravity", "Newtons"])
 def test_the_pydantic_unit_types_have_the_core_sections_bounds(unit: str) -> None:
     import robokit.config
-    from robokit import sections
+    from robokit.config import sections
 
     light = getattr(sections, unit).__metadata__[0]
     # (built with type(): this module postpones annotations, and a local name cannot be resolved from a string)

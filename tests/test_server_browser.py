@@ -15,8 +15,8 @@ import pytest
 import requests
 from server_proc import Server, free_port, robokit
 
-from robokit.reporting import build_payload
-from robokit.result import RunResult
+from robokit.core.result import RunResult
+from robokit.report.reporting import build_payload
 
 CHROMIUM, CHROMEDRIVER = "/usr/bin/chromium", "/usr/bin/chromedriver"
 PASSWORD = "browser-teacher-pass"

@@ -147,6 +147,15 @@ def test_tokens_never_appear_in_pages_or_logs(teacher_client: Any, course: Cours
     import logging
 
     caplog.set_level(logging.INFO)
+    access = logging.getLogger("robokit.server.access")  # settings.LOGGING stops it propagating to the root
+    access.addHandler(caplog.handler)
+    try:
+        _post_and_read_pages(teacher_client, course, caplog)
+    finally:
+        access.removeHandler(caplog.handler)
+
+
+def _post_and_read_pages(teacher_client: Any, course: Course, caplog: pytest.LogCaptureFixture) -> None:
     post(teacher_client, robokit_payload(1), course.kim_token)
     post(teacher_client, LESSON_08, course.kim_token + "x")
     html = "".join(teacher_client.get(u).content.decode() for u in (

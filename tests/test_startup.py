@@ -97,7 +97,7 @@ def test_calling_main_from_code_leaves_the_collector_and_environment_alone(
 
 
 # pydantic (~75 ms of import) is loaded only for plugin types whose schema is a pydantic model: the core sections
-# and the local reporter are validated by robokit.sections.
+# and the local reporter are validated by robokit.config.sections.
 PYDANTIC_PROBE = """
 import json, sys
 from robokit.cli import main

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 from robokit_plugins.colour_detector import fold_yaw
 
+from robokit.core.world import yaw_of
 from robokit.msgs.vision import Detections
 from robokit.testing import PLANE
-from robokit.world import yaw_of
 
 EDGE = 0.04
 

@@ -19,11 +19,11 @@ import numpy as np
 from gymnasium import spaces
 
 from robokit.config import Config, build_config, read_toml, set_dotted, validate_model
+from robokit.core.simulation import Simulation
 from robokit.errors import ConfigError, UserError
 from robokit.gym.spec import Actions, EnvSpec, Observer, finite_or
 from robokit.gym.task import Task, TaskContext
-from robokit.plugins import Plugins, load_plugins
-from robokit.simulation import Simulation
+from robokit.plugin_api.plugins import Plugins, load_plugins
 
 
 def load_env_config(config: str | Path | dict[str, Any], overrides: dict[str, Any] | None = None,

@@ -35,7 +35,7 @@ from robokit.config import Schema
 from robokit.errors import ConfigError, LookupNameError
 
 if TYPE_CHECKING:
-    from robokit.world import World
+    from robokit.core.world import World
 
 
 class TaskConfig(Schema):

@@ -15,9 +15,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import field
-
-from robokit._dataclass import dataclass
+from dataclasses import dataclass, field
 
 __all__ = [
     "Vec3",

@@ -7,9 +7,7 @@ Units: metres, radians, seconds, N·m; positions world frame ``(x, y, z)``; quat
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import field
-
-from robokit._dataclass import dataclass
+from dataclasses import dataclass, field
 
 Vec3 = tuple[float, float, float]
 Quat = tuple[float, float, float, float]

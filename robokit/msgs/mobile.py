@@ -7,10 +7,9 @@ otherwise; angles counter-clockwise about +z from +x (ROS REP 103).
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
-
-from robokit._dataclass import dataclass
 
 __all__ = [
     "Pose2D",

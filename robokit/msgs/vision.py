@@ -17,11 +17,9 @@ Frames and conventions:
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import field
+from dataclasses import dataclass, field
 
 import numpy as np
-
-from robokit._dataclass import dataclass
 
 __all__ = [
     "Vec3",

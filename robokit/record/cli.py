@@ -131,9 +131,9 @@ def cmd_view(args: argparse.Namespace) -> int:
 
 def video_after_run(cfg: Any, run_id: str, output: str, *, quiet: bool = False) -> None:
     """``robokit run --video FILE``: render the run just finished."""
+    from robokit.config import results_root
     from robokit.record.format import RunRecord
     from robokit.record.video import render_video
-    from robokit.runner import results_root
 
     stats = render_video(RunRecord(results_root(cfg) / run_id), Path(output))
     if not quiet:

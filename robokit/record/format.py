@@ -9,14 +9,13 @@ from __future__ import annotations
 import enum
 import json
 import sys
-from dataclasses import field
+from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from robokit._dataclass import dataclass
 from robokit.errors import UserError
 
 RECORD_SCHEMA = "robokit.record/1"

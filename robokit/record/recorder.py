@@ -1,6 +1,6 @@
 """The recorder: a monitor that keeps a run's record in ``<dir>/<run_id>/`` while the run goes.
 
-It sits in the loop as a monitor slot (:meth:`robokit.simulation.Simulation.add_monitor`): the scheduler calls
+It sits in the loop as a monitor slot (:meth:`robokit.core.simulation.Simulation.add_monitor`): the scheduler calls
 :meth:`Recorder.sample` at the start of every ``period``-th tick, before anything else happens in that tick, so a
 sample at tick ``k`` is the scene at sim time ``k * time_step``. Trace records (state transitions, events,
 ``record``-ed readings) stream into ``trace.jsonl`` as they happen; the pose log is kept in memory (a few hundred
@@ -19,8 +19,8 @@ import numpy as np
 import pybullet as p
 
 from robokit import __version__
+from robokit.core.result import jsonable
 from robokit.record.format import POSES_FILE, RECORD_SCHEMA, TRACE_FILE, machines_of
-from robokit.result import jsonable
 
 
 class Recorder:

@@ -64,9 +64,9 @@ def rebuild(rec: RunRecord) -> Scene:
         UserError: The record has no pose log, or its config's bodies cannot be built here (a URDF is missing).
     """
     from robokit.config import build_config
-    from robokit.plugins import load_plugins
-    from robokit.simulation import spawn_bodies
-    from robokit.world import World
+    from robokit.core.simulation import spawn_bodies
+    from robokit.core.world import World
+    from robokit.plugin_api.plugins import load_plugins
 
     header = rec.header
     if not rec.has_poses:

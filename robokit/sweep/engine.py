@@ -223,8 +223,8 @@ def _deliver(reporting: tuple[Any, list[Any]], row: dict[str, Any], result: dict
     The run id is derived from the sweep and the trial key, so a trial re-run after a crash between delivery and
     recording is sent with the same ``Idempotency-Key``.
     """
-    from robokit.reporting import build_payload, deliver
-    from robokit.result import RunResult
+    from robokit.core.result import RunResult
+    from robokit.report.reporting import build_payload, deliver
     from robokit.runner import error_result
 
     cfg, reporters = reporting

@@ -67,7 +67,7 @@ def worker_name() -> str:
 
 def plugins_for(modules: tuple[str, ...]) -> Any:
     """The plugin types, loaded once per process (and per set of extra modules)."""
-    from robokit.plugins import load_plugins
+    from robokit.plugin_api.plugins import load_plugins
 
     if modules not in _PLUGINS:
         _PLUGINS[modules] = load_plugins([importlib.import_module(m) for m in modules])
@@ -95,10 +95,10 @@ def build_trial_config(config_text: str, source: str, base_dir: str | Path, over
 
 def run_trial(task: TrialTask) -> dict[str, Any]:
     """Run one trial in this process and return its row (the RunResult dict under ``"result"``)."""
-    from robokit._quiet import quiet_stdout
+    from robokit.core.simulation import Simulation
     from robokit.errors import PluginError, UserError
+    from robokit.process.quiet import quiet_stdout
     from robokit.runner import error_result
-    from robokit.simulation import Simulation
 
     t0 = time.perf_counter()
     plugins = plugins_for(task.plugins)
@@ -130,7 +130,7 @@ def run_trial(task: TrialTask) -> dict[str, Any]:
 
 def _row(task: TrialTask, result: Any, extra: Mapping[str, Any], t0: float, run_wall: float = 0.0,
          error: str = "") -> dict[str, Any]:
-    from robokit.result import jsonable
+    from robokit.core.result import jsonable
 
     wall = time.perf_counter() - t0
     if result is None:

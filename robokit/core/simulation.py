@@ -15,17 +15,17 @@ import numpy as np
 from robokit import __version__
 from robokit.components import SetupContext
 from robokit.config import BodyConfig, ComponentSpec, Config
+from robokit.core.result import RunResult
+from robokit.core.scheduler import Slot, TickScheduler, period_ticks
+from robokit.core.world import World, to_quaternion
 from robokit.errors import ConfigError, Interrupted, PluginError, UserError, plugin_fault
-from robokit.interrupts import StopGuard
-from robokit.plugins import Plugins
-from robokit.result import RunResult
-from robokit.scheduler import Slot, TickScheduler, period_ticks
-from robokit.world import World, to_quaternion
+from robokit.plugin_api.plugins import Plugins
+from robokit.process.interrupts import StopGuard
 
 if TYPE_CHECKING:  # imported where used: a run without monitors, sensors or a wall-clock budget needs none of them
-    from robokit.compose import Member
-    from robokit.reading_check import ReadingCheck
-    from robokit.walltime import WallTiming
+    from robokit.core.compose import Member
+    from robokit.core.reading_check import ReadingCheck
+    from robokit.core.walltime import WallTiming
 
 
 class Simulation:
@@ -88,7 +88,7 @@ class Simulation:
         except UserError as exc:
             raise _as_config_error(exc, "bodies", cfg.source) from None
         if self.world.gui:
-            from robokit.gui import apply_view
+            from robokit.core.gui import apply_view
 
             apply_view(self.world, cfg.gui)
         hz = self.world.physics_hz
@@ -110,7 +110,7 @@ class Simulation:
         stepped, period = self.behaviour, period_ticks(cfg.behaviour.rate_hz, hz) if cfg.behaviour else 1
         if self.monitors:  # the task and its monitors, stepped as one, each at its own rate
             task = self._member(cfg.behaviour, self.behaviour) if cfg.behaviour else None
-            from robokit.compose import Monitored
+            from robokit.core.compose import Monitored
 
             self._monitored = Monitored(task, self.monitors, self.world)
             stepped, period = self._monitored, 1
@@ -125,7 +125,7 @@ class Simulation:
 
     def _member(self, spec: ComponentSpec, instance: Any = None) -> Member:
         """A behaviour of a composition (a sequence step or a monitor), built unless ``instance`` is given."""
-        from robokit.compose import Member
+        from robokit.core.compose import Member
 
         comp = self._instantiate(spec) if instance is None else instance
         self._instances[spec.key] = comp
@@ -170,7 +170,7 @@ class Simulation:
     def _reading_check(self, slot: Slot) -> Callable[[Slot], None]:
         """The check run after each reading a sensor computes: non-finite values are flagged (in the trace and the
         result's warnings), values that cannot be serialised end the run naming the sensor."""
-        from robokit.reading_check import ReadingCheck, Unserialisable
+        from robokit.core.reading_check import ReadingCheck, Unserialisable
 
         check = ReadingCheck(allow_inf=bool(getattr(slot.component, "allow_inf", False)))
         self._checks[slot.name] = check
@@ -236,7 +236,7 @@ class Simulation:
 
     def add_monitor(self, monitor: Any) -> None:
         """Put an observer in the loop: ``monitor.sample(tick)`` runs every ``monitor.period`` ticks (0 = never),
-        at the start of the tick, before the sensors (see :mod:`robokit.scheduler`)."""
+        at the start of the tick, before the sensors (see :mod:`robokit.core.scheduler`)."""
         if monitor.period:
             self.scheduler.monitors.append(monitor)
 
@@ -244,7 +244,7 @@ class Simulation:
         """What can be checked without running: the core's checks (bodies spawned overlapping), then every
         component's and the behaviour's ``preflight(ctx)``. Each problem is a ConfigError naming file and key.
         """
-        from robokit.preflight import overlapping_bodies
+        from robokit.core.preflight import overlapping_bodies
 
         problems = overlapping_bodies(self.world, self.body_keys)
         specs = list(self.config.sensors + self.config.actuators)
@@ -305,7 +305,7 @@ class Simulation:
         pace = self.world.gui and self.config.world.realtime
         timing = None
         if budget is not None:
-            from robokit.walltime import WallTiming
+            from robokit.core.walltime import WallTiming
 
             timing = WallTiming(self.scheduler, wall_clock)
         with StopGuard.ensure() as guard, guard.soft(self.interrupt):
@@ -587,7 +587,7 @@ def build(
 ) -> Simulation:
     """Build a Simulation from a TOML path or a config dict (loading plugins unless given)."""
     from robokit.config import build_config, load_config, set_dotted
-    from robokit.plugins import load_plugins
+    from robokit.plugin_api.plugins import load_plugins
 
     plugins = plugins or load_plugins(extra_plugins)
     if isinstance(config, dict):

@@ -8,21 +8,21 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from robokit._dataclass import dataclass
-from robokit._quiet import quiet_stdout
 from robokit.errors import LookupNameError, UserError
+from robokit.process.quiet import quiet_stdout
 
 with quiet_stdout():  # pybullet prints its build time on import and argv[0] on connect, to C stdout
     import pybullet as p
     import pybullet_data
     from pybullet_utils.bullet_client import BulletClient
 
-DATA_DIR = Path(__file__).parent / "data"
+DATA_DIR = Path(__file__).resolve().parents[1] / "data"
 """URDFs and meshes bundled with robokit (searched after the config's folder and ``pybullet_data``)."""
 
 JOINT_TYPES = {

@@ -30,14 +30,15 @@ import enum
 import re
 from collections.abc import Mapping
 from collections.abc import Sequence as Seq
+from dataclasses import dataclass
 from typing import Any
 
 from robokit import hookimpl
-from robokit._dataclass import dataclass
 from robokit.components import Behaviour, GoalCheck, SetupContext
-from robokit.crash import describe, where_raised
+from robokit.config import step_names as step_names  # re-exported: where sequences have always found it
+from robokit.config.sections import Section
 from robokit.errors import PluginError
-from robokit.sections import Section
+from robokit.process.crash import describe, where_raised
 
 
 @dataclass
@@ -206,21 +207,6 @@ class Sequence(Behaviour):
                 member.behaviour.close()
             except Exception:  # noqa: BLE001, S110 - closing must reach every step
                 pass
-
-
-def step_names(steps: Seq[Mapping[str, Any]]) -> list[str]:
-    """Names of sequence steps: the ``name`` key, else ``<type>`` (``<type>_<n>`` when unnamed steps share a type)."""
-    unnamed = [str(s.get("type", "step")) for s in steps if not s.get("name")]
-    names: list[str] = []
-    seen: dict[str, int] = {}
-    for step in steps:
-        if step.get("name"):
-            names.append(str(step["name"]))
-            continue
-        type_name = str(step.get("type", "step"))
-        seen[type_name] = seen.get(type_name, 0) + 1
-        names.append(type_name if unnamed.count(type_name) == 1 else f"{type_name}_{seen[type_name]}")
-    return names
 
 
 # ---------------------------------------------------------------------------------------------- graph

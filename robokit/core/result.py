@@ -3,10 +3,8 @@
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, field
+from dataclasses import asdict, dataclass, field
 from typing import Any
-
-from robokit._dataclass import dataclass
 
 SCHEMA = "robokit.run/1"
 OUTCOME_EXIT_CODES = {"succeeded": 0, "failed": 1, "aborted": 1, "error": 3, "interrupted": 130}
@@ -32,7 +30,7 @@ class RunResult:
     result: dict[str, Any] = field(default_factory=dict)
     interrupted: bool = False
     warnings: list[str] = field(default_factory=list)
-    """Things the outcome does not show: e.g. a sensor that returned NaN (see :mod:`robokit.reading_check`)."""
+    """Things the outcome does not show: e.g. a sensor that returned NaN (see :mod:`robokit.core.reading_check`)."""
     schema: str = SCHEMA
 
     def to_dict(self) -> dict[str, Any]:

@@ -43,10 +43,10 @@ import numpy as np
 from pydantic import BaseModel
 
 from robokit.config import Schema, build_config
+from robokit.config.sections import Section
+from robokit.core.simulation import Simulation
 from robokit.errors import ConfigError, PluginError, UserError
-from robokit.plugins import Plugins, PluginType, load_plugins
-from robokit.sections import Section
-from robokit.simulation import Simulation
+from robokit.plugin_api.plugins import Plugins, PluginType, load_plugins
 
 DEFAULT_TICKS = 48
 """Ticks each simulation of a check runs (an example may set ``"ticks"``)."""
@@ -406,12 +406,12 @@ def _module_dir(cls: type) -> Path:
 
 def declaration_problem(ptype: PluginType) -> tuple[str, str] | None:
     """What is wrong with a type's declarations, as ``(check, message)``: its schema is not a schema class (a
-    ``robokit.config.Schema``, another pydantic model or a light ``robokit.sections.Section``), or its class has no
-    docstring. None when both are right."""
+    ``robokit.config.Schema``, another pydantic model or a light ``robokit.config.sections.Section``), or its class
+    has no docstring. None when both are right."""
     schema, cls = ptype.schema, ptype.cls
     if schema is None or not (isinstance(schema, type) and issubclass(schema, (BaseModel, Section))):
         return ("schema", f"registered config schema {schema!r}; register a robokit.config.Schema (or "
-                "robokit.sections.Section) subclass (register(name, cls, MyConfig))")
+                "robokit.config.sections.Section) subclass (register(name, cls, MyConfig))")
     if not ptype.description:
         return ("description", f"{cls.__name__} has no docstring (its first line is the description "
                 "`robokit plugins` shows)")
@@ -421,7 +421,7 @@ def declaration_problem(ptype: PluginType) -> tuple[str, str] | None:
 def schema_kind(schema: Any) -> str:
     """``"MyConfig (a robokit.config.Schema)"``: a declared schema's name and kind, for a passed check."""
     kind = ("a robokit.config.Schema" if issubclass(schema, Schema) else
-            "a robokit.sections.Section" if issubclass(schema, Section) else "a pydantic model")
+            "a robokit.config.sections.Section" if issubclass(schema, Section) else "a pydantic model")
     return f"{schema.__name__} ({kind})"
 
 

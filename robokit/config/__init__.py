@@ -3,38 +3,48 @@
 Every problem is a :class:`~robokit.errors.ConfigError` whose text is one line: the file, the key path, and what
 was expected against what was found. Unknown keys are errors with a "did you mean". Plugin sections are validated
 by the schema their type registered.
+
+Lives here: the loader (this module: ``load``, ``Config`` and the core sections' schemas), ``sections`` (the light
+schema classes every core section and most plugins use, and the one-line error they raise) and ``schema``
+(``robokit.config.Schema``, the pydantic base for plugin schemas, imported only when a plugin uses it).
+
+May import: ``robokit.errors`` and the standard library; pydantic only in ``schema``. The plugin registries are
+handed in by the caller, so configuration never imports the loop, the plugin manager or a reporter.
 """
 
 import copy
 import dataclasses
 import math
 import sys
-from collections.abc import Mapping
-from dataclasses import field
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, Literal
 
-from robokit import sections as _s
-from robokit._dataclass import dataclass
+from robokit.config import sections as _s
+from robokit.config.sections import (
+    FLOAT_LIMIT as FLOAT_LIMIT,  # re-exported: every float within ±FLOAT_LIMIT by default
+)
+from robokit.config.sections import Invalid, Section, field_names, setting
+from robokit.config.sections import describe_value as _describe
+from robokit.config.sections import error_from_parts as error_from_parts  # re-exported
 from robokit.errors import ConfigError, UserError, did_you_mean
-from robokit.sections import FLOAT_LIMIT as FLOAT_LIMIT  # re-exported: every float within ±FLOAT_LIMIT by default
-from robokit.sections import Invalid, Section, field_names, setting
 
 if sys.version_info >= (3, 11):
     import tomllib
 else:  # pragma: no cover - exercised on 3.10 only
     import tomli as tomllib
 
-if TYPE_CHECKING:  # at run time these come from robokit.pydantic_schema on first use (see __getattr__)
-    from robokit.pydantic_schema import Angle as Angle
-    from robokit.pydantic_schema import Coord as Coord
-    from robokit.pydantic_schema import Gravity as Gravity
-    from robokit.pydantic_schema import Length as Length
-    from robokit.pydantic_schema import Newtons as Newtons
-    from robokit.pydantic_schema import Position as Position
-    from robokit.pydantic_schema import Schema as Schema
-    from robokit.pydantic_schema import Unit as Unit
-    from robokit.pydantic_schema import validation_error as validation_error
+if TYPE_CHECKING:  # at run time these come from robokit.config.schema on first use (see __getattr__)
+    from robokit.config.schema import Angle as Angle
+    from robokit.config.schema import Coord as Coord
+    from robokit.config.schema import Gravity as Gravity
+    from robokit.config.schema import Length as Length
+    from robokit.config.schema import Newtons as Newtons
+    from robokit.config.schema import Position as Position
+    from robokit.config.schema import Schema as Schema
+    from robokit.config.schema import Unit as Unit
+    from robokit.config.schema import validation_error as validation_error
 
 Vec2 = tuple[float, float]
 Vec3 = tuple[float, float, float]
@@ -49,9 +59,9 @@ _PYDANTIC_NAMES = frozenset({"Schema", "validation_error", "Coord", "Angle", "Un
 
 def __getattr__(name: str) -> Any:
     """``Schema``, ``validation_error`` and the pydantic field types, imported from
-    :mod:`robokit.pydantic_schema` when first asked for: importing this module does not import pydantic."""
+    :mod:`robokit.config.schema` when first asked for: importing this module does not import pydantic."""
     if name in _PYDANTIC_NAMES:
-        from robokit import pydantic_schema
+        from robokit.config import schema as pydantic_schema
 
         return getattr(pydantic_schema, name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
@@ -261,7 +271,7 @@ class Config:
     events: tuple[EventConfig, ...]
     raw: Mapping[str, Any]
     monitors: tuple[ComponentSpec, ...] = ()
-    """Behaviours that run beside the task (``[monitors.NAME]``), see :mod:`robokit.compose`."""
+    """Behaviours that run beside the task (``[monitors.NAME]``), see :mod:`robokit.core.compose`."""
     record: RecordConfig = field(default_factory=RecordConfig)
     gui: GuiConfig = field(default_factory=GuiConfig)
 
@@ -319,39 +329,8 @@ def _read_bytes(path: Path) -> bytes:
     return data
 
 
-def _describe(value: Any) -> str:
-    text = repr(value)
-    return text if len(text) <= 60 else text[:57] + "..."
-
-
-def error_from_parts(loc: tuple[Any, ...], kind: str, msg: str, value: Any, prefix: str = "",
-                     fields: Any = ()) -> ConfigError:
-    """One validation problem as a one-line ConfigError at ``prefix.loc``.
-
-    ``kind`` and ``msg`` are in pydantic's terms (its error type and message), as both kinds of schema report them
-    (:mod:`robokit.pydantic_schema`, :mod:`robokit.sections`): an unknown key gets a "did you mean" and the valid
-    keys (``fields``), a short array "too few values", and every type or bound error the value found.
-    """
-    parts = [str(part) for part in loc]
-    key = ".".join([prefix, *parts] if prefix else parts)
-    if kind == "extra_forbidden":
-        msg = f"unknown key {parts[-1]!r}{did_you_mean(parts[-1], fields)}"
-        if fields:
-            msg += f"; valid keys: {', '.join(sorted(fields))}"
-        return ConfigError(msg, key=key)
-    if kind == "missing" and parts and parts[-1].isdigit():
-        key = key.rsplit(".", 1)[0]
-        return ConfigError(f"too few values, got {_describe(value)}", key=key)
-    msg = msg.replace("a valid tuple", "a list").replace("a valid dictionary", "a table")
-    if msg.startswith("Value error, "):
-        msg = msg[len("Value error, ") :]
-    if kind not in ("value_error", "missing", "assertion_error"):
-        msg = f"{msg[0].lower()}{msg[1:]}, got {_describe(value)}"
-    return ConfigError(msg, key=key)
-
-
 def validate_model(model: type, data: Any, key: str) -> Any:
-    """Validate ``data`` against a config schema, a light :class:`~robokit.sections.Section` or a pydantic model
+    """Validate ``data`` against a config schema, a light :class:`~robokit.config.sections.Section` or a pydantic model
     (only the latter imports pydantic); raise a one-line ConfigError placed at ``key``."""
     if not isinstance(data, Mapping):
         raise ConfigError(f"expected a table, got {_describe(data)}", key=key)
@@ -360,7 +339,7 @@ def validate_model(model: type, data: Any, key: str) -> Any:
             return model.validate(data)
         except Invalid as exc:
             raise error_from_parts(exc.loc, exc.kind, exc.msg, exc.value, key, exc.fields) from None
-    from robokit.pydantic_schema import validate_pydantic
+    from robokit.config.schema import validate_pydantic
 
     return validate_pydantic(model, data, key)  # type: ignore[arg-type]
 
@@ -518,13 +497,26 @@ def _build(raw: Mapping[str, Any], plugins: Any, source: str, base_dir: Path) ->
                   reporters, events, copy.deepcopy(dict(raw)), monitors, record, gui)
 
 
+def step_names(steps: Sequence[Mapping[str, Any]]) -> list[str]:
+    """Names of sequence steps: the ``name`` key, else ``<type>`` (``<type>_<n>`` when unnamed steps share a type)."""
+    unnamed = [str(s.get("type", "step")) for s in steps if not s.get("name")]
+    names: list[str] = []
+    seen: dict[str, int] = {}
+    for step in steps:
+        if step.get("name"):
+            names.append(str(step["name"]))
+            continue
+        type_name = str(step.get("type", "step"))
+        seen[type_name] = seen.get(type_name, 0) + 1
+        names.append(type_name if unnamed.count(type_name) == 1 else f"{type_name}_{seen[type_name]}")
+    return names
+
+
 def _behaviour(data: Any, plugins: Any, physics_hz: float) -> ComponentSpec:
     """The ``[behaviour]`` section; for ``type = "sequence"`` also its ``[[behaviour.steps]]``, each validated as a
     behaviour section of its own (with an optional ``name``)."""
     if not (isinstance(data, Mapping) and data.get("type") == "sequence"):
         return _component("behaviour", "behaviour", data, "behaviour", plugins, physics_hz)
-    from robokit.compose import step_names
-
     steps = data.get("steps")
     if not isinstance(steps, list) or not steps or not all(isinstance(s, Mapping) for s in steps):
         raise ConfigError("a sequence needs steps: one or more [[behaviour.steps]] tables, each with a type",
@@ -562,3 +554,11 @@ def set_dotted(raw: dict[str, Any], dotted: str, value: Any) -> None:
             where = ".".join(parents[: i + 1])
             raise ConfigError(f"expected a table to set {last!r} in, got {_describe(node)}", key=where)
     node[last] = value
+
+
+def results_root(cfg: Config) -> Path:
+    """Where run folders go: the local reporter's ``dir`` (``[report.local] dir``), default ``results``."""
+    for spec in cfg.reporters:
+        if spec.type == "local" and spec.params is not None and getattr(spec.params, "dir", None):
+            return Path(spec.params.dir)
+    return Path("results")

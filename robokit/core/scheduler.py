@@ -17,10 +17,9 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Iterator, Mapping
-from dataclasses import field
+from dataclasses import dataclass, field
 from typing import Any
 
-from robokit._dataclass import dataclass
 from robokit.errors import Interrupted, PluginError, plugin_fault
 
 

@@ -11,7 +11,7 @@ returning lists, so one plugin module can register several types::
 
 ``register(type_name, cls, schema)`` takes the type name used in configs (``type = "imu"``), the class, and a
 schema that validates the type's config section: a pydantic model (a ``robokit.config.Schema`` subclass) or a light
-``robokit.sections.Section`` (no pydantic import; see ``docs/plugins.md``), ``None`` for a type with no options.
+``robokit.config.sections.Section`` (no pydantic import; see ``docs/plugins.md``), ``None`` for a type with no options.
 """
 
 from __future__ import annotations
@@ -55,4 +55,4 @@ def robokit_run_start(simulation: Any) -> None:
 
 @hookspec
 def robokit_run_end(simulation: Any, result: Any) -> None:
-    """Called once the loop has stopped, with the :class:`robokit.result.RunResult`, before reporting."""
+    """Called once the loop has stopped, with the :class:`robokit.core.result.RunResult`, before reporting."""

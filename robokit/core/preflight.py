@@ -1,7 +1,7 @@
 """Checks made before the first tick that belong to no single component (``robokit validate`` runs them).
 
 Components and behaviours add their own through ``preflight(ctx)`` (see :mod:`robokit.components`); the
-Simulation gathers everything in :meth:`robokit.simulation.Simulation.preflight`.
+Simulation gathers everything in :meth:`robokit.core.simulation.Simulation.preflight`.
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 from robokit.errors import ConfigError
 
 if TYPE_CHECKING:
-    from robokit.world import World
+    from robokit.core.world import World
 
 OVERLAP_TOLERANCE = 0.005
 """Metres of interpenetration two bodies may have at spawn (resting contact is about zero)."""

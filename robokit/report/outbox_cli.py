@@ -73,7 +73,7 @@ def _folder(args: argparse.Namespace) -> Path:
 
 def cmd_list(args: argparse.Namespace) -> int:
     """Print what waits (oldest first), then how many entries were refused and sit in ``failed/``."""
-    from robokit.outbox import Outbox
+    from robokit.report.outbox import Outbox
 
     box = Outbox(_folder(args))
     waiting, failed, broken = box.entries(), box.failed(), box.unreadable()
@@ -98,7 +98,7 @@ def cmd_flush(args: argparse.Namespace) -> int:
     from robokit_plugins.http_report import HttpSender, url_problem
 
     from robokit.errors import UserError
-    from robokit.outbox import Outbox, OutboxError
+    from robokit.report.outbox import Outbox, OutboxError
 
     if args.url is not None and url_problem(args.url):
         raise UserError(f"--url {args.url!r}: {url_problem(args.url)}")

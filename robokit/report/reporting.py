@@ -14,8 +14,8 @@ from pathlib import Path
 from typing import Any
 
 from robokit.components import Delivery
+from robokit.core.result import RunResult
 from robokit.errors import Interrupted, plugin_fault
-from robokit.result import RunResult
 
 COURSE_FIELDS = ("red_sorted", "blue_sorted", "failures", "total_time")
 
@@ -38,7 +38,7 @@ def build_payload(
 def deliver(reporters: Iterable[Any], payload: dict[str, Any], *, stop: Any = None) -> list[tuple[str, Delivery]]:
     """Run every reporter; a reporter that raises counts as a failed, unstored delivery (never propagates).
 
-    Once ``stop`` (a :class:`robokit.interrupts.StopGuard`) has seen Ctrl-C / SIGTERM, reporters are asked to
+    Once ``stop`` (a :class:`robokit.process.interrupts.StopGuard`) has seen Ctrl-C / SIGTERM, reporters are asked to
     ``keep()`` the payload instead (store it without sending: an HTTP reporter queues it in its outbox), so
     stopping never waits on a network; local reporters are run first.
     """

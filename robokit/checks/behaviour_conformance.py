@@ -14,7 +14,7 @@ The check builds the behaviour from its ``example`` (a minimal scene, its sensor
    one-line description (the class docstring); a machine behaviour's ``INITIAL`` and ``TIMEOUTS`` name its states;
 2. **pybullet-free**: importing the behaviour's module (in a fresh interpreter) imports neither pybullet nor
    OpenCV — readings in, commands out;
-3. **lint**: its module has no wall-clock reads, sleeps or global random generators (:mod:`robokit.lint`);
+3. **lint**: its module has no wall-clock reads, sleeps or global random generators (:mod:`robokit.checks.lint`);
 4. **builds** from the example and **ends with an outcome** (``succeeded``, ``failed`` or ``aborted``) within the
    example's ``world.max_time``;
 5. **deterministic, in sim time**: a second fresh simulation with the same seed — run while the wall clock jumps
@@ -22,7 +22,8 @@ The check builds the behaviour from its ``example`` (a minimal scene, its sensor
    wrote, transitions included), the same outcome and the same result;
 6. **result**: ``result()`` is JSON-serialisable.
 
-A failed check raises :class:`~robokit.conformance.ConformanceError` naming the type, its distribution and the check.
+A failed check raises :class:`~robokit.checks.conformance.ConformanceError` naming the type, its distribution and
+the check.
 """
 
 from __future__ import annotations
@@ -41,12 +42,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from robokit.checks.conformance import ConformanceError, declaration_problem, first_difference, schema_kind
+from robokit.checks.lint import lint_paths
 from robokit.config import build_config
-from robokit.conformance import ConformanceError, declaration_problem, first_difference, schema_kind
+from robokit.core.simulation import Simulation
 from robokit.errors import ConfigError, PluginError, UserError
-from robokit.lint import lint_paths
-from robokit.plugins import Plugins, PluginType, load_plugins
-from robokit.simulation import Simulation
+from robokit.plugin_api.plugins import Plugins, PluginType, load_plugins
 
 _UNKNOWN_KEY = "zz_conformance_unknown_key"
 _CLOCKS = ("time", "monotonic", "perf_counter", "process_time", "time_ns", "monotonic_ns", "perf_counter_ns")

@@ -31,6 +31,8 @@ import typing
 from collections.abc import Callable, Mapping
 from typing import Annotated, Any, ClassVar, Literal
 
+from robokit.errors import ConfigError, did_you_mean
+
 FLOAT_LIMIT = 1e9
 """Every float in a schema is finite and within ``±FLOAT_LIMIT`` unless its field says otherwise."""
 
@@ -214,9 +216,12 @@ class Section:
         Raises:
             robokit.errors.ConfigError: One line naming the key and the problem.
         """
-        from robokit.config import validate_model
-
-        return validate_model(cls, data, "")
+        if not isinstance(data, Mapping):
+            raise ConfigError(f"expected a table, got {describe_value(data)}")
+        try:
+            return cls.validate(data)
+        except Invalid as exc:
+            raise error_from_parts(exc.loc, exc.kind, exc.msg, exc.value, "", exc.fields) from None
 
 
 def field_names(cls: type) -> tuple[str, ...]:
@@ -248,7 +253,7 @@ def _field_types(cls: type[Section]) -> dict[str, Any]:
                 try:
                     annotation = eval(annotation, namespace, dict(vars(owner)))  # noqa: S307 - the class's own code
                 except NameError as exc:  # a name used in an annotation is not at module level
-                    raise TypeError(f"robokit.sections: cannot resolve the field types of {cls.__qualname__}: "
+                    raise TypeError(f"robokit.config.sections: cannot resolve the field types of {cls.__qualname__}: "
                                     f"{exc}") from None
             hints[name] = annotation
     return hints
@@ -264,7 +269,7 @@ def _checker(tp: Any, bounds: Bounds) -> Check:
     if origin in (typing.Union, types.UnionType) and type(None) in args:
         rest = [a for a in args if a is not type(None)]
         if len(rest) != 1:
-            raise TypeError(f"robokit.sections: unsupported field type {tp!r} (one type or None)")
+            raise TypeError(f"robokit.config.sections: unsupported field type {tp!r} (one type or None)")
         inner = _checker(rest[0], bounds)
         return lambda value, loc: None if value is None else inner(value, loc)
     if origin is Literal:
@@ -281,7 +286,7 @@ def _checker(tp: Any, bounds: Bounds) -> Check:
         return lambda value, loc: value
     scalar = _SCALARS.get(tp)
     if scalar is None:
-        raise TypeError(f"robokit.sections: unsupported field type {tp!r}")
+        raise TypeError(f"robokit.config.sections: unsupported field type {tp!r}")
     return scalar(bounds)
 
 
@@ -441,3 +446,35 @@ Length = Annotated[float, Bounds(gt=0, le=1e3, description="metres")]
 Position = tuple[Coord, Coord, Coord]
 Gravity = Annotated[float, Bounds(ge=-1000.0, le=1000.0, description="m/s^2")]
 Newtons = Annotated[float, Bounds(ge=-1e6, le=1e6, description="newtons")]
+
+
+def describe_value(value: Any) -> str:
+    """``repr(value)``, cut to 60 characters: how an error message shows what it found."""
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def error_from_parts(loc: tuple[Any, ...], kind: str, msg: str, value: Any, prefix: str = "",
+                     fields: Any = ()) -> ConfigError:
+    """One validation problem as a one-line ConfigError at ``prefix.loc``.
+
+    ``kind`` and ``msg`` are in pydantic's terms (its error type and message), as both kinds of schema report them
+    (:mod:`robokit.config.schema`, :mod:`robokit.config.sections`): an unknown key gets a "did you mean" and the valid
+    keys (``fields``), a short array "too few values", and every type or bound error the value found.
+    """
+    parts = [str(part) for part in loc]
+    key = ".".join([prefix, *parts] if prefix else parts)
+    if kind == "extra_forbidden":
+        msg = f"unknown key {parts[-1]!r}{did_you_mean(parts[-1], fields)}"
+        if fields:
+            msg += f"; valid keys: {', '.join(sorted(fields))}"
+        return ConfigError(msg, key=key)
+    if kind == "missing" and parts and parts[-1].isdigit():
+        key = key.rsplit(".", 1)[0]
+        return ConfigError(f"too few values, got {describe_value(value)}", key=key)
+    msg = msg.replace("a valid tuple", "a list").replace("a valid dictionary", "a table")
+    if msg.startswith("Value error, "):
+        msg = msg[len("Value error, ") :]
+    if kind not in ("value_error", "missing", "assertion_error"):
+        msg = f"{msg[0].lower()}{msg[1:]}, got {describe_value(value)}"
+    return ConfigError(msg, key=key)

@@ -167,7 +167,7 @@ class ScriptedRun:
         if isinstance(behaviour, Behaviour):
             return behaviour
         if isinstance(behaviour, str):
-            from robokit.plugins import load_plugins
+            from robokit.plugin_api.plugins import load_plugins
 
             ptype = load_plugins(tuple(extra_plugins)).get("behaviour", behaviour)
             cls, schema = ptype.cls, schema or ptype.schema

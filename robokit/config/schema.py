@@ -3,26 +3,25 @@ one-line :class:`~robokit.errors.ConfigError`\\ s.
 
 Imported only when a plugin type with a pydantic schema is used (its module does ``from robokit.config import
 Schema``, which lands here), or by commands that load every plugin: a run whose config uses only the core
-sections and light schemas (:mod:`robokit.sections`) never imports pydantic. ``robokit.config`` re-exports
+sections and light schemas (:mod:`robokit.config.sections`) never imports pydantic. ``robokit.config`` re-exports
 everything public here.
 """
 
 from __future__ import annotations
 
-import sys
 import typing
 from typing import Annotated, Any
 
 from pydantic import BaseModel, ConfigDict, Field, GetCoreSchemaHandler, ValidationError
 from pydantic_core import CoreSchema
 
-from robokit import sections
-from robokit.config import FLOAT_LIMIT, error_from_parts
+from robokit.config import sections
+from robokit.config.sections import FLOAT_LIMIT, error_from_parts
 from robokit.errors import ConfigError
 
 
 def _field(alias: Any) -> Any:
-    """The bounds of a unit type of :mod:`robokit.sections` (``Annotated[float, Bounds(...)]``) as a pydantic
+    """The bounds of a unit type of :mod:`robokit.config.sections` (``Annotated[float, Bounds(...)]``) as a pydantic
     ``Field``: each unit's bounds are defined once, for both kinds of schema."""
     bounds = typing.get_args(alias)[1]
     limits = {k: getattr(bounds, k) for k in ("ge", "gt", "le", "lt") if getattr(bounds, k) is not None}
@@ -113,14 +112,3 @@ def _nested_fields(model: type[BaseModel], exc: ValidationError) -> list[str]:
         if isinstance(ann, type) and issubclass(ann, BaseModel):
             current = ann
     return list(getattr(current, "model_fields", {}))
-
-
-def _answer_plugin_scan() -> None:
-    """Let robokit's entry-point scan answer pydantic's own, when robokit's plugin discovery ran in this process
-    (see :func:`robokit.plugins.answer_pydantic_plugin_scan`)."""
-    plugins = sys.modules.get("robokit.plugins")
-    if plugins is not None:
-        plugins.answer_pydantic_plugin_scan()
-
-
-_answer_plugin_scan()

@@ -29,9 +29,9 @@ from typing import Any
 
 from filelock import FileLock, Timeout
 
-from robokit.reporting import write_json_atomic
+from robokit.report.reporting import write_json_atomic
 
-SCHEMA = "robokit.outbox/1"
+SCHEMA = "robokit.report.outbox/1"
 IN_FLIGHT = "no answer recorded: the sender stopped while sending (it is sent again on the next flush)"
 """``last_error`` of an entry while it is being sent; it stays if the sender is killed mid-send."""
 _SAFE_ID = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,127}$")
