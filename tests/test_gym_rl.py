@@ -1,5 +1,5 @@
 """Training with stable-baselines3 (``robokit[rl]``; .ci/run's slow tier installs torch and the extra):
-``python -m robokit.train`` learns reach with PPO and writes a policy that ``robokit run`` runs unedited; SB3's
+``python -m robokit.gym.train`` learns reach with PPO and writes a policy that ``robokit run`` runs unedited; SB3's
 HerReplayBuffer trains on ``gymnasium.make("robokit/Reach-v0", goal_env=True)``."""
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ def test_ppo_learns_reach_and_the_saved_policy_runs_as_a_behaviour(tmp_path: Pat
     from robokit.testing import make_sim
 
     run = tmp_path / "run"
-    proc = subprocess.run([sys.executable, "-m", "robokit.train", str(REACH), "--algo", "ppo", "--timesteps",
+    proc = subprocess.run([sys.executable, "-m", "robokit.gym.train", str(REACH), "--algo", "ppo", "--timesteps",
                            str(PPO_TIMESTEPS), "--seed", "0", "--envs", "2", "--out", str(run)],
                           capture_output=True, text=True, timeout=900, cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr[-2000:]
@@ -38,7 +38,7 @@ def test_ppo_learns_reach_and_the_saved_policy_runs_as_a_behaviour(tmp_path: Pat
     assert lines[-2]["success_rate"] >= 0.9 and lines[-2]["episodes"] > lines[0]["episodes"] > 0
     assert list((run / "tb").rglob("events.out.tfevents.*")), "no TensorBoard file"
     toml = (run / "policy.toml").read_text()
-    assert toml.startswith("# Written by python -m robokit.train") and 'policy = "policy.zip"' in toml
+    assert toml.startswith("# Written by python -m robokit.gym.train") and 'policy = "policy.zip"' in toml
     # the policy config as written, not edited: the behaviour (not the env) reaches the goal on fresh seeds
     successes = 0
     for seed in range(100, 120):
@@ -80,7 +80,7 @@ def test_her_replay_buffer_trains_on_the_goal_env() -> None:
 @pytest.mark.slow
 def test_train_cli_mistakes_are_one_line(tmp_path: Path) -> None:
     def run(*args: str) -> subprocess.CompletedProcess[str]:
-        return subprocess.run([sys.executable, "-m", "robokit.train", *args, "--out", str(tmp_path / "r")],
+        return subprocess.run([sys.executable, "-m", "robokit.gym.train", *args, "--out", str(tmp_path / "r")],
                               capture_output=True, text=True, timeout=120)
 
     bad = run(str(REACH), "--algo", "ppo", "--her")

@@ -1,11 +1,11 @@
-"""Train PPO (stable-baselines3) on robokit's ``reach``: the documented ``python -m robokit.train`` run.
+"""Train PPO (stable-baselines3) on robokit's ``reach``: the documented ``python -m robokit.gym.train`` run.
 
     pip install torch==2.13.0 && pip install -e '.[rl]'     # torch first: the CPU build (see docs/gym.md)
-    python examples/rl/ppo_reach.py                          # = python -m robokit.train configs/gym/reach.toml
+    python examples/rl/ppo_reach.py                          # = python -m robokit.gym.train configs/gym/reach.toml
                                                              #     --algo ppo --timesteps 40000 --seed 0
     robokit run runs/train/reach-ppo-s0/policy.toml          # the learned policy as a behaviour, unedited
 
-Extra arguments go to ``robokit.train`` (``--timesteps``, ``--seed``, ``--envs``, ``--out``, ...; later ones win).
+Extra arguments go to ``robokit.gym.train`` (``--timesteps``, ``--seed``, ``--envs``, ``--out``, ...; later ones win).
 """
 
 from __future__ import annotations

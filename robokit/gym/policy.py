@@ -3,7 +3,7 @@
 A **linear policy** is an ``.npz`` file: ``action = clip(W @ ((obs - obs_mean) / obs_std) + b, -1, 1)``, plus the
 ``[env]`` section it was trained with (as JSON under ``env``) so that whoever runs it builds the same observation
 and sends the same commands. A **stable-baselines3** ``.zip`` (PPO, SAC, …) is loaded with stable-baselines3 if it
-is installed; ``python -m robokit.train`` stores the ``[env]`` section it was trained with in the ``.zip`` (member
+is installed; ``python -m robokit.gym.train`` stores the ``[env]`` section it was trained with in the ``.zip`` (member
 ``robokit_env.json``, which stable-baselines3 ignores); for a ``.zip`` written elsewhere it comes from an env config.
 """
 

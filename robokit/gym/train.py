@@ -2,8 +2,8 @@
 
 ::
 
-    python -m robokit.train configs/gym/reach.toml --algo ppo --timesteps 60000 --seed 0
-    python -m robokit.train configs/gym/reach.toml --algo sac --her --goal-env --timesteps 20000
+    python -m robokit.gym.train configs/gym/reach.toml --algo ppo --timesteps 40000 --seed 0
+    python -m robokit.gym.train configs/gym/reach.toml --algo sac --her --goal-env --timesteps 20000
     robokit run runs/train/reach-ppo-s0/policy.toml            # the learned policy as a behaviour
 
 Environments run in ``--envs`` worker processes (each builds its own World). The run folder (``--out``, default
@@ -165,7 +165,7 @@ def write_policy(run: Path, model: Any, config: str, env: dict[str, Any], facts:
     text = Path(config).read_text()
     toml = run / "policy.toml"
     toml.write_text(
-        f"# Written by python -m robokit.train from {config}: the learned policy as a behaviour.\n"
+        f"# Written by python -m robokit.gym.train from {config}: the learned policy as a behaviour.\n"
         f"#   robokit run {toml}\n"
         f"# policy.zip carries the [env] section it was trained with (the one below, overrides applied).\n\n"
         f"{text.rstrip()}\n\n[behaviour]\ntype = \"policy\"\npolicy = \"policy.zip\"\n")
@@ -234,7 +234,7 @@ def train(args: argparse.Namespace, log: Any = print) -> dict[str, Any]:
 
 
 def parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m robokit.train", description="Train a policy with stable-baselines3 "
+    p = argparse.ArgumentParser(prog="python -m robokit.gym.train", description="Train a policy with stable-baselines3 "
                                 "on a robokit env config.")
     p.add_argument("config", help="a config with an [env] section, e.g. configs/gym/reach.toml")
     p.add_argument("--algo", choices=ALGOS, default="ppo")
