@@ -90,3 +90,25 @@ def test_train_cli_mistakes_are_one_line(tmp_path: Path) -> None:
     assert bad.returncode == 2 and "not found" in bad.stderr and len(bad.stderr.strip().splitlines()) == 1
     bad = run(str(REACH), "--set", "world.time_step=0.01")
     assert bad.returncode == 2 and "only the [env] section" in bad.stderr
+
+
+@pytest.mark.slow
+def test_a_goal_env_policy_runs_as_a_behaviour(tmp_path: Path) -> None:
+    """SAC + HER through the command (a short run): the Dict-observation policy drives a robokit run, whose
+    result names the method; the [env] section in the .zip says goal_env."""
+    import zipfile
+
+    from robokit.testing import make_sim
+
+    run = tmp_path / "her"
+    proc = subprocess.run([sys.executable, "-m", "robokit.gym.train", str(REACH), "--algo", "sac", "--her",
+                           "--goal-env", "--timesteps", "400", "--learning-starts", "200", "--envs", "1",
+                           "--eval-episodes", "2", "--out", str(run)], capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    with zipfile.ZipFile(run / "policy.zip") as archive:
+        carried = json.loads(archive.read("robokit_env.json"))
+    assert carried["env"]["goal_env"] is True and carried["env"]["task"]["reward"] == "sparse"
+    with make_sim(run / "policy.toml", seed=5) as sim:
+        result = sim.run()
+    assert result.outcome in ("succeeded", "failed") and result.result["steps"] >= 1
+    assert result.result["policy"]["method"] == "stable-baselines3 SAC + HER"
