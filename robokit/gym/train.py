@@ -179,6 +179,8 @@ def train(args: argparse.Namespace, log: Any = print) -> dict[str, Any]:
         from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
     except ImportError:
         raise TrainError("training needs stable-baselines3: pip install -e '.[rl]' (see docs/gym.md)") from None
+    from gymnasium import spaces
+
     from robokit.config import read_toml
     from robokit.errors import ConfigError
 
@@ -193,7 +195,7 @@ def train(args: argparse.Namespace, log: Any = print) -> dict[str, Any]:
         probe = make_env(config, overrides)
     except ConfigError as exc:
         raise TrainError(str(exc)) from None
-    dict_obs = isinstance(probe.observation_space, __import__("gymnasium").spaces.Dict)
+    dict_obs = isinstance(probe.observation_space, spaces.Dict)
     probe.close()
     run = Path(args.out or Path("runs") / "train" / f"{Path(config).stem}-{args.algo}-s{args.seed}")
     run.mkdir(parents=True, exist_ok=True)
