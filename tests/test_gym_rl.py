@@ -22,6 +22,7 @@ PPO_TIMESTEPS = 40_000
 
 
 @pytest.mark.slow
+@pytest.mark.timeout(1800)  # ~2 min on a quiet machine; 10 min seen at load 12
 def test_ppo_learns_reach_and_the_saved_policy_runs_as_a_behaviour(tmp_path: Path) -> None:
     from robokit.testing import make_sim
 
