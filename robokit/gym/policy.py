@@ -71,19 +71,23 @@ class Sb3Policy:
         try:
             import stable_baselines3 as sb3
         except ImportError:
-            raise ValueError(f"{path}: a stable-baselines3 model needs `pip install stable-baselines3`") from None
-        data_algo = None
-        for name in ("PPO", "SAC", "TD3", "A2C", "DDPG"):
-            try:
-                data_algo = getattr(sb3, name).load(str(path), device="cpu")
-                break
-            except Exception:  # noqa: BLE001, S112 - try the next algorithm class
-                continue
-        if data_algo is None:
-            raise ValueError(f"{path}: not a stable-baselines3 model this version can load")
-        self.model = data_algo
+            raise ValueError(f"{path}: a stable-baselines3 model needs `pip install -e '.[rl]'`") from None
         self.env, meta = load_env_member(path)
-        self.meta: dict[str, Any] = {"kind": "sb3", "algorithm": type(data_algo).__name__, **meta}
+        named = str(meta.get("method", "")).split()  # "stable-baselines3 SAC + HER" from robokit.gym.train
+        names = [n for n in ("PPO", "SAC", "TD3", "A2C", "DDPG") if n in named] or ["PPO", "SAC", "TD3", "A2C", "DDPG"]
+        # acting needs no replay buffer: a HER buffer could not be made without an environment
+        no_buffer: dict[str, Any] = {"replay_buffer_class": None, "replay_buffer_kwargs": {}}
+        model, last = None, ""
+        for name in names:
+            try:
+                model = getattr(sb3, name).load(str(path), device="cpu", custom_objects=no_buffer)
+                break
+            except Exception as exc:  # noqa: BLE001 - try the next algorithm class
+                last = f"{type(exc).__name__}: {exc}".splitlines()[0]
+        if model is None:
+            raise ValueError(f"{path}: not a stable-baselines3 model this version can load ({last})")
+        self.model = model
+        self.meta: dict[str, Any] = {"kind": "sb3", "algorithm": type(model).__name__, **meta}
 
     def act(self, obs: Any) -> np.ndarray:
         """The model's deterministic action."""
