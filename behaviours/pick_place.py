@@ -176,7 +176,6 @@ class PickPlace(MachineBehaviour):
         super().__init__(name, config or PickPlaceConfig.model_validate({}))
         self.task: PickPlaceTask | None = None
         self.attempts = 0
-        self.started_at = 0.0
         self.finished_at: float | None = None
         self.failures: list[str] = []
         self.final_position: Vec3 | None = None
@@ -547,7 +546,7 @@ class PickPlace(MachineBehaviour):
             "final_position": list(self.final_position) if self.final_position else None,
             "final_yaw": self.final_yaw,
             "placement_error": self.placement_error,
-            "sim_time": round(end - self.started_at, 6),
+            "sim_time": round(end - (self.started_at if self.started_at is not None else end), 6),
             "phase_times": {k: round(v, 6) for k, v in self.phase_times.items()},
             **({"jobs": [*self.done, *([] if len(self.done) == len(self.jobs) else [self._current()])],
                 "placed": len(self.done)} if len(self.jobs) > 1 else {}),

@@ -250,7 +250,8 @@ class ComponentSpec:
     params: Any
     key: str
     children: tuple["ComponentSpec", ...] = ()
-    """The steps of a ``sequence`` behaviour (``[[behaviour.steps]]``), each a behaviour section of its own."""
+    """The children of a composite behaviour (a sequence's ``[[behaviour.steps]]``, a fallback's
+    ``[[behaviour.children]]``, a retry's ``[behaviour.child]``...), each a behaviour section of its own."""
 
 
 @dataclass(frozen=True)
@@ -472,8 +473,8 @@ def _build(raw: Mapping[str, Any], plugins: Any, source: str, base_dir: Path) ->
     if "behaviour" in raw:
         behaviour = _behaviour(raw["behaviour"], plugins, physics_hz)
     for name, data in _table(raw, "monitors").items():
-        if isinstance(data, Mapping) and data.get("type") == "sequence":
-            raise ConfigError("a monitor cannot be a sequence (monitors observe beside the task)",
+        if isinstance(data, Mapping) and _children_key(data.get("type"), plugins) is not None:
+            raise ConfigError(f"a monitor cannot be a {data.get('type')} (monitors observe beside the task)",
                               key=f"monitors.{name}")
     monitors = _components(raw, "monitors", "behaviour", plugins, physics_hz)
     report_raw = _table(raw, "report")
@@ -512,27 +513,45 @@ def step_names(steps: Sequence[Mapping[str, Any]]) -> list[str]:
     return names
 
 
-def _behaviour(data: Any, plugins: Any, physics_hz: float) -> ComponentSpec:
-    """The ``[behaviour]`` section; for ``type = "sequence"`` also its ``[[behaviour.steps]]``, each validated as a
-    behaviour section of its own (with an optional ``name``)."""
-    if not (isinstance(data, Mapping) and data.get("type") == "sequence"):
-        return _component("behaviour", "behaviour", data, "behaviour", plugins, physics_hz)
-    steps = data.get("steps")
-    if not isinstance(steps, list) or not steps or not all(isinstance(s, Mapping) for s in steps):
-        raise ConfigError("a sequence needs steps: one or more [[behaviour.steps]] tables, each with a type",
-                          key="behaviour.steps")
-    names = step_names(steps)
+def _children_key(type_name: Any, plugins: Any) -> tuple[str, tuple[int, int | None]] | None:
+    """The config key holding a composite type's children and how many it takes (None: not a composite)."""
+    try:
+        cls = plugins.get("behaviour", type_name).cls if isinstance(type_name, str) else None
+    except UserError:
+        return None
+    key = getattr(cls, "CHILDREN_KEY", None)
+    return (key, getattr(cls, "ARITY", (1, None))) if isinstance(key, str) else None
+
+
+def _behaviour(data: Any, plugins: Any, physics_hz: float, key: str = "behaviour",
+               name: str = "behaviour") -> ComponentSpec:
+    """A behaviour section; for a composite (``sequence``, ``fallback``, ``retry``, ``timeout``, ``parallel``)
+    also its children (``[[behaviour.steps]]``, ``[[behaviour.children]]`` or ``[behaviour.child]``), each
+    validated as a behaviour section of its own (with an optional ``name``), composites nesting."""
+    found = _children_key(data.get("type"), plugins) if isinstance(data, Mapping) else None
+    if found is None:
+        return _component("behaviour", name, data, key, plugins, physics_hz)
+    ckey, (least, most) = found
+    raw = data.get(ckey)
+    single = most == 1 and isinstance(raw, Mapping)
+    items = [raw] if single else raw
+    what = f"[{key}.{ckey}] table" if most == 1 else f"[[{key}.{ckey}]] tables"
+    if not isinstance(items, list) or not all(isinstance(s, Mapping) for s in items) or not (
+            least <= len(items) <= (most if most is not None else len(items))):
+        count = {(1, 1): "one", (1, None): "one or more"}.get((least, most), f"{least} or more")
+        noun = "steps" if ckey == "steps" else ("a child" if most == 1 else "children")
+        raise ConfigError(f"a {data.get('type')} needs {noun}: {count} {what}, each with a type",
+                          key=f"{key}.{ckey}")
+    names = step_names(items)
     children = []
-    for i, (step, name) in enumerate(zip(steps, names, strict=True)):
-        key = f"behaviour.steps[{i}]"
-        if step.get("type") == "sequence":
-            raise ConfigError("a sequence step cannot itself be a sequence", key=f"{key}.type")
-        if names.count(name) > 1:
-            raise ConfigError(f"two steps are named {name!r}; give each a distinct name", key=f"{key}.name")
+    for i, (step, child_name) in enumerate(zip(items, names, strict=True)):
+        child_key = f"{key}.{ckey}" if single else f"{key}.{ckey}[{i}]"
+        if names.count(child_name) > 1:
+            raise ConfigError(f"two steps are named {child_name!r}; give each a distinct name",
+                              key=f"{child_key}.name")
         own = {k: v for k, v in step.items() if k != "name"}
-        children.append(_component("behaviour", name, own, key, plugins, physics_hz))
-    spec = _component("behaviour", "behaviour", {k: v for k, v in data.items() if k != "steps"}, "behaviour",
-                      plugins, physics_hz)
+        children.append(_behaviour(own, plugins, physics_hz, child_key, child_name))
+    spec = _component("behaviour", name, {k: v for k, v in data.items() if k != ckey}, key, plugins, physics_hz)
     return dataclasses.replace(spec, children=tuple(children))
 
 

@@ -18,8 +18,10 @@ stepped, and the run goes on until the task ends. Its outcome and result go into
 
 The task itself may be a **sequence**: ``type = "sequence"`` with ``[[behaviour.steps]]`` tables, each a behaviour
 section of its own (``type``, ``rate_hz``, its options, and an optional ``name``). Each step starts when the
-previous one succeeded; the first step that fails (or is aborted) ends the sequence with its outcome. A step sees
-the sim time since *it* started (``t`` starts at 0 for every step), so its timeouts count from its own start.
+previous one succeeded; the first step that fails (or is aborted) ends the sequence with its outcome. Every step
+sees the world's sim time ``t`` (one clock for the run); its own stopwatch is ``behaviour.elapsed(t)``, so a
+``duration`` or ``timeout`` counts from the step's start. The other composites (fallback, retry, timeout, parallel)
+are in :mod:`robokit.core.composites`.
 
 :class:`Monitored` is what the scheduler steps when there are monitors (the task alone otherwise, at no cost).
 """
@@ -30,37 +32,15 @@ import enum
 import re
 from collections.abc import Mapping
 from collections.abc import Sequence as Seq
-from dataclasses import dataclass
 from typing import Any
 
-from robokit import hookimpl
-from robokit.components import Behaviour, GoalCheck, SetupContext
 from robokit.config import step_names as step_names  # re-exported: where sequences have always found it
-from robokit.config.sections import Section
+from robokit.core.composites import Member as Member
+from robokit.core.composites import Sequence as Sequence
+from robokit.core.composites import call
 from robokit.errors import PluginError
-from robokit.process.crash import describe, where_raised
 
-
-@dataclass
-class Member:
-    """A behaviour inside a composition: its name, instance, period in ticks and origin (for error messages)."""
-
-    name: str
-    type: str
-    behaviour: Any
-    period: int
-    origin: str
-
-
-def _call(member: Member, role: str, what: str, fn: Any, *args: Any) -> Any:
-    try:
-        return fn(*args)
-    except PluginError:
-        raise
-    except Exception as exc:
-        where = where_raised(exc)
-        raise PluginError(f"{role} {member.name!r} ({member.origin}) raised during {what}: {describe(exc)}"
-                          + (f" (at {where})" if where else ""), type_name=member.type) from exc
+_call = call
 
 
 class Monitored:
@@ -107,106 +87,6 @@ class Monitored:
             out[m.name] = {"type": m.type, "outcome": outcome.status if outcome else "running",
                            "reason": outcome.reason if outcome else "", **own}
         return out
-
-
-class SequenceConfig(Section):
-    """``[behaviour]`` with ``type = "sequence"``: the steps are ``[[behaviour.steps]]`` tables (read by the core).
-
-    A light schema (no options): building the simulation, which imports this module, imports no pydantic."""
-
-
-class Sequence(Behaviour):
-    """Runs behaviours one after another: each starts when the previous one succeeded."""
-
-    def __init__(self, name: str, config: Any) -> None:
-        super().__init__(name, config)
-        self.steps: list[Member] = []
-        self.index = 0
-        self.started_at = 0.0
-        self.ended: list[dict[str, Any]] = []
-
-    def add_steps(self, steps: Seq[Member]) -> None:
-        """Give the sequence its steps (built and set up by the simulation from ``[[behaviour.steps]]``)."""
-        self.steps = list(steps)
-
-    def setup(self, ctx: SetupContext) -> None:
-        super().setup(ctx)
-        self.clock = ctx.world
-        self._trace = ctx.trace
-        if self.steps:
-            self._trace("step_start", step=self.steps[0].name, index=0, type=self.steps[0].type)
-
-    @property
-    def current(self) -> Member | None:
-        """The step running now (None when the sequence has ended)."""
-        return self.steps[self.index] if self.index < len(self.steps) and self.outcome is None else None
-
-    def step(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any] | None:
-        """Step the current step with its own time (``t`` minus its start); move on when it succeeds."""
-        member = self.current
-        if member is None:
-            return None
-        commands = None
-        local = t - self.started_at
-        if round(local / self.clock.time_step) % member.period == 0:
-            commands = _call(member, "sequence step", "step", member.behaviour.step, readings, local)
-        outcome = member.behaviour.outcome
-        if outcome is not None:
-            self._end_step(member, outcome, t)
-        return commands
-
-    def _end_step(self, member: Member, outcome: Any, t: float) -> None:
-        self.ended.append({"name": member.name, "type": member.type, "outcome": outcome.status,
-                           "reason": outcome.reason, "started_at": round(self.started_at, 6),
-                           "sim_time": round(t - self.started_at, 6)})
-        self._trace("step_end", step=member.name, index=self.index, outcome=outcome.status, reason=outcome.reason)
-        if outcome.status != "succeeded":
-            self.finish(outcome.status, f"step {self.index + 1} {member.name!r} ({member.type}) {outcome.status}: "
-                                        f"{outcome.reason}")
-            return
-        self.index += 1
-        self.started_at = t + self.clock.time_step  # the next step's first step is the next tick
-        if self.index == len(self.steps):
-            self.finish("succeeded", f"all {len(self.steps)} steps succeeded")
-        else:
-            nxt = self.steps[self.index]
-            self._trace("step_start", step=nxt.name, index=self.index, type=nxt.type)
-
-    def check_goal(self, world: Any) -> GoalCheck | None:
-        """Every step's own goal (those that state one), evaluated at the end: met only if all are."""
-        checks = []
-        for member in self.steps[: self.index + 1]:
-            hook = getattr(member.behaviour, "check_goal", None)
-            check = _call(member, "sequence step", "check_goal", hook, world) if hook else None
-            if check is not None:
-                checks.append((member.name, check))
-        if not checks:
-            return None
-        missed = [f"{name}: {c.reason}" for name, c in checks if not c.met]
-        details = {name: {"met": c.met, "reason": c.reason, **dict(c.details)} for name, c in checks}
-        reason = "; ".join(missed) if missed else "; ".join(f"{name}: {c.reason}" for name, c in checks)
-        return GoalCheck(not missed, reason, {"steps": details})
-
-    def result(self) -> dict[str, Any]:
-        """Per step: name, type, outcome, reason, start and duration (sim s) and the step's own result."""
-        out = []
-        for i, member in enumerate(self.steps):
-            record = self.ended[i] if i < len(self.ended) else {"name": member.name, "type": member.type,
-                                                                   "outcome": "running" if i == self.index
-                                                                   else "not started", "reason": ""}
-            try:
-                own = dict(member.behaviour.result()) if i <= self.index else {}
-            except Exception as exc:  # noqa: BLE001
-                own = {"result_error": f"{type(exc).__name__}: {exc}"}
-            out.append({**record, "result": own})
-        return {"steps_completed": sum(1 for r in self.ended if r["outcome"] == "succeeded"), "steps": out}
-
-    def close(self) -> None:
-        for member in self.steps:
-            try:
-                member.behaviour.close()
-            except Exception:  # noqa: BLE001, S110 - closing must reach every step
-                pass
 
 
 # ---------------------------------------------------------------------------------------------- graph
@@ -265,8 +145,3 @@ def config_mermaid(cfg: Any, plugins: Any) -> str:
         lines.append("    }")
     lines.append("  }")
     return "\n".join(lines) + "\n"
-
-
-@hookimpl
-def robokit_register_behaviours(register: Any) -> None:
-    register("sequence", Sequence, SequenceConfig)

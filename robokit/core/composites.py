@@ -1,0 +1,472 @@
+"""Composites: behaviours made of behaviours, the vocabulary of behaviour trees over robokit's state machines.
+
+========== =========================================================== ==========================================
+type       rule                                                        children
+========== =========================================================== ==========================================
+sequence   run children in order; the first that does not succeed      ``[[behaviour.steps]]`` (one or more)
+           ends it with that outcome; succeeds when all succeeded
+fallback   run children in order; the first that succeeds ends it      ``[[behaviour.children]]`` (one or more)
+           (succeeded); fails when every child failed or aborted
+retry      run the child up to ``attempts`` times, each a fresh        ``[behaviour.child]`` (exactly one)
+           instance; succeeds at its first success
+timeout    run the child; halt it and fail when it has not ended       ``[behaviour.child]`` (exactly one)
+           ``seconds`` (sim time) after it started
+parallel   step every child each tick; ``success``/``failure``       ``[[behaviour.children]]`` (two or more)
+           policies (``"all"`` or ``"one"``) decide; the others are
+           halted then
+========== =========================================================== ==========================================
+
+Composites nest (a child may be any behaviour, composites included). **One clock**: every child's ``step`` receives
+the world's sim time ``t``; a child's own stopwatch is ``behaviour.elapsed(t)`` (its ``started_at`` is set when its
+composite starts it). A child started after another one ended starts at the next tick; a child's ``rate_hz``
+counts ticks from its own start.
+
+A child that is stopped before it ends (a timeout, a parallel decided, a monitor's abort) is **halted**: its
+optional ``halt(t)`` method runs (return commands to stop what it started, e.g. ``{"arm": HoldArm()}``) and it is
+never stepped again. Every start, end and halt is a trace record (``child_start``, ``child_end``, ``child_halt``;
+a sequence writes ``step_start`` and ``step_end``) naming the composite and the child.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from collections.abc import Sequence as Seq
+from dataclasses import dataclass, field
+from typing import Any, ClassVar, Literal
+
+from robokit import hookimpl
+from robokit.components import Behaviour, GoalCheck, Outcome, SetupContext
+from robokit.config.sections import Section, setting
+from robokit.errors import PluginError
+from robokit.process.crash import describe, where_raised
+
+
+@dataclass
+class Member:
+    """A behaviour inside a composition: its name, instance, period in ticks and origin (for error messages).
+
+    ``spec`` is the config section it was built from (a retry builds a fresh instance from it); ``start_tick`` is
+    the tick of its first step (its rate counts from there)."""
+
+    name: str
+    type: str
+    behaviour: Any
+    period: int
+    origin: str
+    spec: Any = None
+    start_tick: int = 0
+    record: dict[str, Any] = field(default_factory=dict)
+
+
+def call(member: Member, role: str, what: str, fn: Any, *args: Any) -> Any:
+    """Call a member's method; anything it raises becomes a PluginError naming it, its role and origin."""
+    try:
+        return fn(*args)
+    except PluginError:
+        raise
+    except Exception as exc:
+        where = where_raised(exc)
+        raise PluginError(f"{role} {member.name!r} ({member.origin}) raised during {what}: {describe(exc)}"
+                          + (f" (at {where})" if where else ""), type_name=member.type) from exc
+
+
+def merge(commands: dict[str, Any], more: Mapping[str, Any] | None, who: str) -> None:
+    """Add a child's commands; two children commanding one actuator in the same tick is an error."""
+    for name, cmd in (more or {}).items():
+        if name in commands:
+            raise PluginError(f"{who}: two children sent a command to actuator {name!r} in the same tick")
+        commands[name] = cmd
+
+
+class Composite(Behaviour):
+    """Base of composites: children as :class:`Member` objects, started, stepped, ended and halted on one clock.
+
+    Class attributes:
+        CHILDREN_KEY: The config key holding the children (``steps``, ``children`` or ``child``).
+        ARITY: Least and most children (None = no limit), checked when the config is read.
+    """
+
+    CHILDREN_KEY: ClassVar[str] = "children"
+    ARITY: ClassVar[tuple[int, int | None]] = (1, None)
+    ROLE: ClassVar[str] = "child"
+
+    def __init__(self, name: str, config: Any) -> None:
+        super().__init__(name, config)
+        self.children: list[Member] = []
+        self.runs: list[dict[str, Any]] = []
+        self.rebuild: Callable[[Member], Member] | None = None
+        """Builds a fresh, set-up instance of a child (the simulation provides it; a retry needs it)."""
+
+    def add_children(self, members: Seq[Member]) -> None:
+        """Give the composite its children (built and set up by the simulation from the config)."""
+        self.children = list(members)
+
+    def add_steps(self, steps: Seq[Member]) -> None:  # the name sequences have always used
+        self.add_children(steps)
+
+    def setup(self, ctx: SetupContext) -> None:
+        super().setup(ctx)
+        self.clock = ctx.world
+        self._trace = ctx.trace
+
+    # ------------------------------------------------------------------ children's lives
+    def begin(self, member: Member, t: float, index: int) -> None:
+        """Start a child now (its first step is this tick): its stopwatch and rate start here."""
+        member.behaviour.started_at = t
+        member.start_tick = self.clock.tick
+        member.record = {"name": member.name, "type": member.type, "outcome": "running", "reason": "",
+                         "started_at": round(t, 6)}
+        self._trace(self._kind("start"), composite=self.name, **{self._label(): member.name}, index=index,
+                    type=member.type)
+
+    def tick_child(self, member: Member, readings: Mapping[str, Any], t: float) -> Mapping[str, Any] | None:
+        """Step a running child if it is due (its period counts from its own first tick)."""
+        if (self.clock.tick - member.start_tick) % member.period:
+            return None
+        return call(member, self.ROLE, "step", member.behaviour.step, readings, t)  # type: ignore[no-any-return]
+
+    def end(self, member: Member, outcome: Outcome, t: float, index: int) -> None:
+        """Book a child's end (its outcome) in the result and the trace."""
+        member.record.update(outcome=outcome.status, reason=outcome.reason,
+                             sim_time=round(t - member.record["started_at"], 6))
+        self.runs.append(member.record)
+        self._trace(self._kind("end"), composite=self.name, **{self._label(): member.name}, index=index,
+                    outcome=outcome.status, reason=outcome.reason)
+
+    def halt_child(self, member: Member, t: float, reason: str) -> Mapping[str, Any] | None:
+        """Stop a running child before it ended: its ``halt(t)`` runs (its commands are returned), it is booked
+        ``halted`` and never stepped again."""
+        hook = getattr(member.behaviour, "halt", None)
+        commands = call(member, self.ROLE, "halt", hook, t) if hook is not None else None
+        member.record.update(outcome="halted", reason=reason, sim_time=round(t - member.record["started_at"], 6))
+        self.runs.append(member.record)
+        self._trace("child_halt", composite=self.name, child=member.name, reason=reason)
+        return commands  # type: ignore[no-any-return]
+
+    def halt(self, t: float) -> Mapping[str, Any] | None:
+        """Halt every running child (this composite is itself being halted)."""
+        commands: dict[str, Any] = {}
+        for member in self.running():
+            merge(commands, self.halt_child(member, t, f"{self.name!r} was halted"), self.name)
+        return commands or None
+
+    def running(self) -> list[Member]:
+        """Children started and not ended."""
+        return [m for m in self.children if m.record.get("outcome") == "running"]
+
+    def _kind(self, what: str) -> str:
+        return f"child_{what}"
+
+    def _label(self) -> str:
+        return "child"
+
+    # ------------------------------------------------------------------ result, goal, close
+    def result(self) -> dict[str, Any]:
+        """Every child run (name, type, outcome, reason, start and duration in sim s, its own result)."""
+        return {"children": [self._with_result(r) for r in self._records()]}
+
+    def _records(self) -> list[dict[str, Any]]:
+        booked = list(self.runs)
+        booked += [m.record for m in self.running() if m.record not in booked]
+        names = {r["name"] for r in booked}
+        return booked + [{"name": m.name, "type": m.type, "outcome": "not started", "reason": ""}
+                         for m in self.children if m.name not in names]
+
+    def _with_result(self, record: dict[str, Any]) -> dict[str, Any]:
+        member = next((m for m in self.children if m.name == record["name"]), None)
+        own: dict[str, Any] = {}
+        if member is not None and record["outcome"] != "not started":
+            try:
+                own = dict(member.behaviour.result())
+            except Exception as exc:  # noqa: BLE001 - the run's result must survive a faulty child
+                own = {"result_error": f"{type(exc).__name__}: {exc}"}
+        return {**record, "result": own}
+
+    def check_goal(self, world: Any) -> GoalCheck | None:
+        """The goals of the children that ran (those that state one): met only if all are."""
+        checks = []
+        for member in self.children:
+            if member.record.get("outcome") in (None, "not started", "halted"):
+                continue
+            hook = getattr(member.behaviour, "check_goal", None)
+            check = call(member, self.ROLE, "check_goal", hook, world) if hook else None
+            if check is not None:
+                checks.append((member.name, check))
+        if not checks:
+            return None
+        missed = [f"{name}: {c.reason}" for name, c in checks if not c.met]
+        details = {name: {"met": c.met, "reason": c.reason, **dict(c.details)} for name, c in checks}
+        reason = "; ".join(missed) if missed else "; ".join(f"{name}: {c.reason}" for name, c in checks)
+        return GoalCheck(not missed, reason, {self.CHILDREN_KEY: details})
+
+    def close(self) -> None:
+        for member in self.children:
+            try:
+                member.behaviour.close()
+            except Exception:  # noqa: BLE001, S110 - closing must reach every child
+                pass
+
+
+class Ordered(Composite):
+    """Children one after another (sequence, fallback): ``CONTINUE_ON`` says which outcome moves on."""
+
+    CONTINUE_ON: ClassVar[str] = "succeeded"
+
+    def __init__(self, name: str, config: Any) -> None:
+        super().__init__(name, config)
+        self.index = 0
+        self._next_at: int | None = None
+
+    def setup(self, ctx: SetupContext) -> None:
+        super().setup(ctx)
+        self._next_at = self.clock.tick if self.children else None
+
+    @property
+    def current(self) -> Member | None:
+        """The child running now (None when the composite has ended)."""
+        return self.children[self.index] if self.index < len(self.children) and self.outcome is None else None
+
+    def step(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any] | None:
+        member = self.current
+        if member is None or self.clock.tick < (self._next_at or 0):
+            return None
+        if member.record.get("outcome") != "running":
+            self.begin(member, t, self.index)
+        commands = self.tick_child(member, readings, t)
+        outcome = member.behaviour.outcome
+        if outcome is not None:
+            self.end(member, outcome, t, self.index)
+            self._after(member, outcome)
+        return commands
+
+    def _after(self, member: Member, outcome: Outcome) -> None:
+        if outcome.status != self.CONTINUE_ON:
+            self.finish(*self._stop(member, outcome))
+            return
+        self.index += 1
+        self._next_at = self.clock.tick + 1  # the next child's first step is the next tick
+        if self.index == len(self.children):
+            self.finish(*self._exhausted())
+
+    def _stop(self, member: Member, outcome: Outcome) -> tuple[str, str]:
+        raise NotImplementedError
+
+    def _exhausted(self) -> tuple[str, str]:
+        raise NotImplementedError
+
+
+class SequenceConfig(Section):
+    """``type = "sequence"``: the steps are ``[[behaviour.steps]]`` tables (read by the config loader)."""
+
+
+class Sequence(Ordered):
+    """Runs behaviours one after another: each starts when the previous one succeeded."""
+
+    CHILDREN_KEY = "steps"
+    ROLE = "sequence step"
+
+    def _kind(self, what: str) -> str:
+        return f"step_{what}"
+
+    def _label(self) -> str:
+        return "step"
+
+    @property
+    def steps(self) -> list[Member]:
+        return self.children
+
+    def _stop(self, member: Member, outcome: Outcome) -> tuple[str, str]:
+        return outcome.status, (f"step {self.index + 1} {member.name!r} ({member.type}) {outcome.status}: "
+                                f"{outcome.reason}")
+
+    def _exhausted(self) -> tuple[str, str]:
+        return "succeeded", f"all {len(self.children)} steps succeeded"
+
+    def result(self) -> dict[str, Any]:
+        """Per step: name, type, outcome, reason, start and duration (sim s) and the step's own result."""
+        steps = [self._with_result(r) for r in self._records()]
+        done = sum(1 for r in self.runs if r["outcome"] == "succeeded")
+        return {"steps_completed": done, "steps": steps}
+
+
+class FallbackConfig(Section):
+    """``type = "fallback"``: the alternatives are ``[[behaviour.children]]`` tables, tried in order."""
+
+
+class Fallback(Ordered):
+    """Tries alternatives in order: the first that succeeds ends it; it fails when every one failed."""
+
+    CONTINUE_ON = "failed"
+    ROLE = "fallback child"
+
+    def _after(self, member: Member, outcome: Outcome) -> None:
+        if outcome.status == "aborted":  # an aborted alternative counts as failed: try the next
+            outcome = Outcome("failed", outcome.reason)
+        super()._after(member, outcome)
+
+    def _stop(self, member: Member, outcome: Outcome) -> tuple[str, str]:
+        return "succeeded", f"alternative {self.index + 1} {member.name!r} succeeded: {outcome.reason}"
+
+    def _exhausted(self) -> tuple[str, str]:
+        reasons = "; ".join(f"{r['name']}: {r['reason']}" for r in self.runs)
+        return "failed", f"all {len(self.children)} alternatives failed ({reasons})"
+
+
+class RetryConfig(Section):
+    """``type = "retry"``: the child is ``[behaviour.child]``."""
+
+    attempts: int = setting(3, ge=1, le=1000, description="tries in all, each a fresh instance of the child")
+
+
+class Retry(Composite):
+    """Runs its child until it succeeds, at most ``attempts`` times; each attempt is a fresh instance."""
+
+    CHILDREN_KEY = "child"
+    ARITY = (1, 1)
+    ROLE = "retry child"
+
+    def __init__(self, name: str, config: Any) -> None:
+        super().__init__(name, config or RetryConfig())
+        self.attempt = 0
+        self._next_at = 0
+
+    def setup(self, ctx: SetupContext) -> None:
+        super().setup(ctx)
+        self._next_at = self.clock.tick
+
+    def step(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any] | None:
+        member = self.children[0]
+        if self.outcome is not None or self.clock.tick < self._next_at:
+            return None
+        if member.record.get("outcome") != "running":
+            self.attempt += 1
+            self.begin(member, t, self.attempt - 1)
+        commands = self.tick_child(member, readings, t)
+        outcome = member.behaviour.outcome
+        if outcome is None:
+            return commands
+        self.end(member, outcome, t, self.attempt - 1)
+        if outcome.status == "succeeded":
+            self.finish("succeeded", f"attempt {self.attempt} of {self.config.attempts} succeeded: {outcome.reason}")
+        elif self.attempt >= self.config.attempts:
+            self.finish(outcome.status, f"{self.attempt} attempt(s) failed; last: {outcome.reason}")
+        else:
+            self._fresh(member)
+        return commands
+
+    def _fresh(self, member: Member) -> None:
+        if self.rebuild is None:
+            raise PluginError(f"retry {self.name!r} cannot rebuild its child {member.name!r} (no builder given)")
+        try:
+            member.behaviour.close()
+        except Exception:  # noqa: BLE001, S110 - the next attempt must start
+            pass
+        self.children[0] = self.rebuild(member)
+        self._next_at = self.clock.tick + 1
+
+    def result(self) -> dict[str, Any]:
+        """Attempts made, and every attempt's record (the last with the child's own result)."""
+        runs = [dict(r) for r in self.runs] + [m.record for m in self.running()]
+        if runs:
+            runs[-1] = self._with_result(runs[-1])
+        return {"attempts": self.attempt, "children": runs}
+
+
+class TimeoutConfig(Section):
+    """``type = "timeout"``: the child is ``[behaviour.child]``."""
+
+    seconds: float = setting(ge=0.0, description="sim seconds the child may run, from its start")
+
+
+class Timeout(Composite):
+    """Runs its child; when the child has not ended ``seconds`` after it started, halts it and fails."""
+
+    CHILDREN_KEY = "child"
+    ARITY = (1, 1)
+    ROLE = "timeout child"
+
+    def step(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any] | None:
+        member = self.children[0]
+        if self.outcome is not None:
+            return None
+        if member.record.get("outcome") != "running":
+            self.begin(member, t, 0)
+        if member.behaviour.elapsed(t) > self.config.seconds + 1e-9:
+            why = f"{member.name!r} did not end within {self.config.seconds:g} s (sim time)"
+            commands = self.halt_child(member, t, why)
+            self.finish("failed", f"timed out: {why}")
+            return commands
+        commands = self.tick_child(member, readings, t)
+        outcome = member.behaviour.outcome
+        if outcome is not None:
+            self.end(member, outcome, t, 0)
+            self.finish(outcome.status, outcome.reason)
+        return commands
+
+
+class ParallelConfig(Section):
+    """``type = "parallel"``: the children are ``[[behaviour.children]]``, all stepped every tick."""
+
+    success: Literal["all", "one"] = setting("all", description="succeed when all / one of the children succeeded")
+    failure: Literal["one", "all"] = setting("one", description="fail when one / all of the children failed")
+
+
+class Parallel(Composite):
+    """Steps every child each tick; the ``success`` and ``failure`` policies decide when it ends (the children
+    still running then are halted). A child that aborts counts as failed."""
+
+    ARITY = (2, None)
+    ROLE = "parallel child"
+
+    def setup(self, ctx: SetupContext) -> None:
+        super().setup(ctx)
+        self._started = False
+
+    def step(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any] | None:
+        if self.outcome is not None:
+            return None
+        if not self._started:
+            self._started = True
+            for i, member in enumerate(self.children):
+                self.begin(member, t, i)
+        commands: dict[str, Any] = {}
+        for i, member in enumerate(self.children):
+            if member.record.get("outcome") != "running":
+                continue
+            merge(commands, self.tick_child(member, readings, t), f"parallel {self.name!r}")
+            if member.behaviour.outcome is not None:
+                self.end(member, member.behaviour.outcome, t, i)
+        decided = self._decide()
+        if decided is not None:
+            for member in self.running():
+                merge(commands, self.halt_child(member, t, f"{self.name!r} {decided[0]}"), self.name)
+            self.finish(*decided)
+        return commands or None
+
+    def _decide(self) -> tuple[str, str] | None:
+        n = len(self.children)
+        won = [r for r in self.runs if r["outcome"] == "succeeded"]
+        lost = [r for r in self.runs if r["outcome"] in ("failed", "aborted")]
+        cfg = self.config
+        if lost and (cfg.failure == "one" or len(lost) == n):
+            return "failed", "; ".join(f"{r['name']} {r['outcome']}: {r['reason']}" for r in lost)
+        if won and (cfg.success == "one" or len(won) == n):
+            return "succeeded", f"{len(won)} of {n} children succeeded"
+        if len(won) + len(lost) == n:  # everyone ended and no policy was met (success "all", failure "all")
+            return "failed", f"{len(won)} of {n} children succeeded; success policy {cfg.success!r} not met"
+        return None
+
+
+COMPOSITES: dict[str, tuple[type[Composite], type[Section]]] = {
+    "sequence": (Sequence, SequenceConfig),
+    "fallback": (Fallback, FallbackConfig),
+    "retry": (Retry, RetryConfig),
+    "timeout": (Timeout, TimeoutConfig),
+    "parallel": (Parallel, ParallelConfig),
+}
+
+
+@hookimpl
+def robokit_register_behaviours(register: Any) -> None:
+    for type_name, (cls, schema) in COMPOSITES.items():
+        register(type_name, cls, schema)
