@@ -249,6 +249,11 @@ class ComponentSpec:
     rate_hz: float | None
     params: Any
     key: str
+    action: str = "observe"
+    """Monitors only: what the monitor's ending ``failed`` or ``aborted`` does to the task: ``observe`` (nothing),
+    ``abort`` (the run ends aborted, actuators brought to a protective stop) or ``recover`` (the task is halted,
+    actuators stopped, and the ``[recoveries.NAME]`` behaviour named by ``recovery`` takes over)."""
+    recovery: str | None = None
     children: tuple["ComponentSpec", ...] = ()
     """The children of a composite behaviour (a sequence's ``[[behaviour.steps]]``, a fallback's
     ``[[behaviour.children]]``, a retry's ``[behaviour.child]``...), each a behaviour section of its own."""
@@ -273,12 +278,14 @@ class Config:
     raw: Mapping[str, Any]
     monitors: tuple[ComponentSpec, ...] = ()
     """Behaviours that run beside the task (``[monitors.NAME]``), see :mod:`robokit.core.compose`."""
+    recoveries: Mapping[str, ComponentSpec] = field(default_factory=dict)
+    """Behaviours a monitor may pre-empt the task into (``[recoveries.NAME]``, named by a monitor's ``recovery``)."""
     record: RecordConfig = field(default_factory=RecordConfig)
     gui: GuiConfig = field(default_factory=GuiConfig)
 
 
-SECTIONS = ("world", "regions", "bodies", "robots", "sensors", "actuators", "behaviour", "monitors", "report",
-            "events", "record", "gui", "env")
+SECTIONS = ("world", "regions", "bodies", "robots", "sensors", "actuators", "behaviour", "monitors", "recoveries",
+            "report", "events", "record", "gui", "env")
 """``env`` is read by :mod:`robokit.gym` (a Gymnasium environment made from the config); runs ignore it."""
 _COMPONENT_KEYS = ("type", "rate_hz")
 _REPORT_KEYS = field_names(ReportConfig)
@@ -476,7 +483,10 @@ def _build(raw: Mapping[str, Any], plugins: Any, source: str, base_dir: Path) ->
         if isinstance(data, Mapping) and _children_key(data.get("type"), plugins) is not None:
             raise ConfigError(f"a monitor cannot be a {data.get('type')} (monitors observe beside the task)",
                               key=f"monitors.{name}")
-    monitors = _components(raw, "monitors", "behaviour", plugins, physics_hz)
+    recoveries = {name: _behaviour(data, plugins, physics_hz, f"recoveries.{name}", name)
+                  for name, data in _table(raw, "recoveries").items()}
+    monitors = tuple(_monitor(name, data, plugins, physics_hz, recoveries)
+                     for name, data in _table(raw, "monitors").items())
     report_raw = _table(raw, "report")
     report = validate_model(ReportConfig, {k: v for k, v in report_raw.items() if k in _REPORT_KEYS}, "report")
     reporters = _reporters(report_raw, plugins)
@@ -495,7 +505,7 @@ def _build(raw: Mapping[str, Any], plugins: Any, source: str, base_dir: Path) ->
     record = validate_model(RecordConfig, _table(raw, "record"), "record")
     gui = validate_model(GuiConfig, _table(raw, "gui"), "gui")
     return Config(source, base_dir, world, regions, bodies, robots, sensors, actuators, behaviour, report,
-                  reporters, events, copy.deepcopy(dict(raw)), monitors, record, gui)
+                  reporters, events, copy.deepcopy(dict(raw)), monitors, recoveries, record, gui)
 
 
 def step_names(steps: Sequence[Mapping[str, Any]]) -> list[str]:
@@ -511,6 +521,38 @@ def step_names(steps: Sequence[Mapping[str, Any]]) -> list[str]:
         seen[type_name] = seen.get(type_name, 0) + 1
         names.append(type_name if unnamed.count(type_name) == 1 else f"{type_name}_{seen[type_name]}")
     return names
+
+
+MONITOR_ACTIONS = ("observe", "abort", "recover")
+
+
+def _monitor(name: str, data: Any, plugins: Any, physics_hz: float,
+             recoveries: Mapping[str, ComponentSpec]) -> ComponentSpec:
+    """A ``[monitors.NAME]`` section: a behaviour section plus ``action`` and ``recovery`` (read by the core)."""
+    key = f"monitors.{name}"
+    own = dict(data) if isinstance(data, Mapping) else data
+    action, recovery = "observe", None
+    if isinstance(own, dict):
+        action = own.pop("action", "observe")
+        recovery = own.pop("recovery", None)
+        if action not in MONITOR_ACTIONS:
+            raise ConfigError(f"expected one of {', '.join(repr(a) for a in MONITOR_ACTIONS)}, got "
+                              f"{_describe(action)}", key=f"{key}.action")
+        if recovery is not None and not isinstance(recovery, str):
+            raise ConfigError(f"expected the name of a [recoveries.NAME] section, got {_describe(recovery)}",
+                              key=f"{key}.recovery")
+        if action == "recover" and recovery is None:
+            raise ConfigError("action 'recover' needs recovery = the name of a [recoveries.NAME] section",
+                              key=f"{key}.recovery")
+        if recovery is not None and action != "recover":
+            raise ConfigError(f"recovery is used with action = 'recover' only (action is {action!r})",
+                              key=f"{key}.recovery")
+        if recovery is not None and recovery not in recoveries:
+            raise ConfigError(f"unknown recovery {recovery!r}{did_you_mean(recovery, recoveries)}; defined: "
+                              f"{', '.join(recoveries) or '(none: add a [recoveries.NAME] section)'}",
+                              key=f"{key}.recovery")
+    spec = _component("behaviour", name, own, key, plugins, physics_hz)
+    return dataclasses.replace(spec, action=action, recovery=recovery)
 
 
 def _children_key(type_name: Any, plugins: Any) -> tuple[str, tuple[int, int | None]] | None:

@@ -40,20 +40,33 @@ from robokit.core.composites import Sequence as Sequence
 from robokit.core.composites import call
 from robokit.errors import PluginError
 
-_call = call
+_call = call  # the old private name
 
 
 class Monitored:
     """The task plus its monitors, stepped as one behaviour by the scheduler (every tick; each at its own rate).
 
-    ``outcome`` is the task's: the run ends when the task ends, whatever the monitors are doing.
+    ``outcome`` is the task's: the run ends when the task ends, whatever the monitors are doing. A monitor with
+    ``action = "abort"`` or ``"recover"`` that ends ``failed`` or ``aborted`` acts in the tick it ends, before the
+    actuators run and before the physics step: the task is halted (its ``halt(t)``, if any), its commands of that
+    tick are dropped, and every actuator with a ``protective_stop(reason)`` is stopped. ``abort`` then ends the task
+    (``aborted``, the monitor's reason); ``recover`` steps the named recovery from the next tick until it ends, and
+    the task ends with ``aborted`` (the recovery succeeded) or the recovery's ``failed``/``aborted``.
     """
 
     open_ended = False
 
-    def __init__(self, task: Member | None, monitors: Seq[Member], clock: Any) -> None:
+    def __init__(self, task: Member | None, monitors: Seq[Member], clock: Any,
+                 actuators: Mapping[str, Any] | None = None, recoveries: Mapping[str, Member] | None = None,
+                 trace: Any = None) -> None:
         self.task, self.monitors, self.clock = task, list(monitors), clock
         self.open_ended = bool(getattr(task.behaviour, "open_ended", False)) if task else True
+        self.actuators = dict(actuators or {})
+        self.recoveries = dict(recoveries or {})
+        self.trace = trace or (lambda kind, **data: None)
+        self.fired: tuple[Member, Any, float] | None = None
+        """The monitor that acted, its outcome and the sim time it acted at."""
+        self.recovery: Member | None = None
 
     @property
     def outcome(self) -> Any:
@@ -61,32 +74,100 @@ class Monitored:
         return self.task.behaviour.outcome if self.task is not None else None
 
     def step(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any] | None:
-        """Step the task (if due), then each running monitor (if due); only the task's commands go out."""
+        """Step the task or its recovery (if due), then each running monitor (if due); only the task's (or the
+        recovery's) commands go out, none in the tick a monitor acts."""
         k = self.clock.tick
         commands = None
         task = self.task
-        if task is not None and k % task.period == 0:
+        if self.recovery is not None:
+            commands = self._step_recovery(readings, t)
+        elif task is not None and k % task.period == 0 and self.fired is None:
             commands = task.behaviour.step(readings, t)
         for m in self.monitors:
             if m.behaviour.outcome is None and k % m.period == 0:
-                sent = _call(m, "monitor", "step", m.behaviour.step, readings, t)
+                sent = call(m, "monitor", "step", m.behaviour.step, readings, t)
                 if sent:
                     raise PluginError(f"monitor {m.name!r} ({m.origin}) sent commands to {', '.join(sent)}: monitors "
                                       "observe; only the task ([behaviour]) commands actuators", type_name=m.type)
+                if self._acts(m):
+                    self._act(m, t)
+                    return None
         return commands
 
+    def _acts(self, m: Member) -> bool:
+        outcome = m.behaviour.outcome
+        action = getattr(m.spec, "action", "observe")
+        return (outcome is not None and outcome.status != "succeeded" and action != "observe"
+                and self.fired is None and self.task is not None and self.task.behaviour.outcome is None)
+
+    def _act(self, m: Member, t: float) -> None:
+        """A monitor acts: halt the task, stop the actuators, then abort or start the recovery (next tick)."""
+        assert self.task is not None
+        outcome, action = m.behaviour.outcome, m.spec.action
+        self.fired = (m, outcome, t)
+        halt = getattr(self.task.behaviour, "halt", None)
+        if halt is not None:
+            call(self.task, "task", "halt", halt, t)
+        why = f"monitor {m.name!r} ({m.type}): {outcome.reason}"
+        self.stop_actuators(why)
+        if action == "abort":
+            self.trace("monitor_abort", monitor=m.name, reason=outcome.reason)
+            self.task.behaviour.finish("aborted", f"aborted by {why}")
+            return
+        self.recovery = self.recoveries[m.spec.recovery]
+        self.trace("monitor_preempt", monitor=m.name, reason=outcome.reason, recovery=self.recovery.name)
+        self.recovery.behaviour.started_at = t + self.clock.time_step  # its first step is the next tick
+        self.recovery.start_tick = self.clock.tick + 1
+
+    def stop_actuators(self, reason: str) -> list[str]:
+        """Bring every actuator that can to a protective stop now; returns their names."""
+        stopped = []
+        for name, comp in self.actuators.items():
+            stop = getattr(comp, "protective_stop", None)
+            if stop is not None:
+                stop(reason)
+                stopped.append(name)
+        return stopped
+
+    def _step_recovery(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any] | None:
+        rec = self.recovery
+        assert rec is not None and self.fired is not None and self.task is not None
+        if self.clock.tick < rec.start_tick or (self.clock.tick - rec.start_tick) % rec.period:
+            return None
+        commands = call(rec, "recovery", "step", rec.behaviour.step, readings, t)
+        done = rec.behaviour.outcome
+        if done is not None:
+            m, outcome, at = self.fired
+            status = "aborted" if done.status == "succeeded" else done.status
+            self.trace("recovery_end", recovery=rec.name, outcome=done.status, reason=done.reason)
+            self.task.behaviour.finish(status, f"pre-empted at t = {at:.3f} s by monitor {m.name!r} ({m.type}): "
+                                               f"{outcome.reason}; recovery {rec.name!r} {done.status}: {done.reason}")
+        return commands  # type: ignore[no-any-return]
+
     def results(self) -> dict[str, Any]:
-        """Every monitor's outcome, reason and own result, by name."""
+        """Every monitor's outcome, reason, action and own result, by name; the one that acted says when and
+        (with a recovery) how the recovery went."""
         out: dict[str, Any] = {}
         for m in self.monitors:
             outcome = m.behaviour.outcome
-            try:
-                own = dict(m.behaviour.result())
-            except Exception as exc:  # noqa: BLE001 - the run's result must survive a faulty monitor
-                own = {"result_error": f"{type(exc).__name__}: {exc}"}
             out[m.name] = {"type": m.type, "outcome": outcome.status if outcome else "running",
-                           "reason": outcome.reason if outcome else "", **own}
+                           "reason": outcome.reason if outcome else "",
+                           "action": getattr(m.spec, "action", "observe"), **_own(m)}
+            if self.fired is not None and self.fired[0] is m:
+                out[m.name]["acted_at"] = round(self.fired[2], 6)
+                if self.recovery is not None:
+                    done = self.recovery.behaviour.outcome
+                    out[m.name]["recovery"] = {"name": self.recovery.name, "type": self.recovery.type,
+                                               "outcome": done.status if done else "running",
+                                               "reason": done.reason if done else "", "result": _own(self.recovery)}
         return out
+
+
+def _own(m: Member) -> dict[str, Any]:
+    try:
+        return dict(m.behaviour.result())
+    except Exception as exc:  # noqa: BLE001 - the run's result must survive a faulty monitor
+        return {"result_error": f"{type(exc).__name__}: {exc}"}
 
 
 # ---------------------------------------------------------------------------------------------- graph

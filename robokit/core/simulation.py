@@ -102,6 +102,7 @@ class Simulation:
             slots[spec.name].check = self._reading_check(slots[spec.name])
         sensors = {s.name: slots[s.name] for s in cfg.sensors}
         actuators = {s.name: slots[s.name] for s in cfg.actuators}
+        self.recoveries: dict[str, Member] = {}
         if cfg.behaviour is not None:
             self.behaviour = self._instantiate(cfg.behaviour)
         self.monitors = [self._member(spec) for spec in cfg.monitors]
@@ -110,7 +111,10 @@ class Simulation:
             task = self._member(cfg.behaviour, self.behaviour) if cfg.behaviour else None
             from robokit.core.compose import Monitored
 
-            self._monitored = Monitored(task, self.monitors, self.world)
+            self.recoveries = {name: self._member(spec) for name, spec in cfg.recoveries.items()}
+            self._monitored = Monitored(task, self.monitors, self.world,
+                                        {n: slot.component for n, slot in actuators.items()}, self.recoveries,
+                                        self._tracer("monitors"))
             stepped, period = self._monitored, 1
         self.scheduler = TickScheduler(self.world, sensors, actuators, stepped, period,
                                        self._origins.get("behaviour", ""))
@@ -121,6 +125,9 @@ class Simulation:
             self._setup_tree(cfg.behaviour)
         for spec in cfg.monitors:
             self._setup(spec)
+        for spec in cfg.recoveries.values():
+            if spec.name in self.recoveries:
+                self._setup_tree(spec)
         self._schedule_events()
 
     def _member(self, spec: ComponentSpec, instance: Any = None) -> Member:
@@ -151,7 +158,15 @@ class Simulation:
         def walk(spec: ComponentSpec) -> list[ComponentSpec]:
             return [s for child in spec.children for s in walk(child)] + [spec]
 
-        return [*(walk(self.config.behaviour) if self.config.behaviour else []), *self.config.monitors]
+        recoveries = [s for spec in self.config.recoveries.values() if spec.name in self.recoveries
+                      for s in walk(spec)]
+        return [*(walk(self.config.behaviour) if self.config.behaviour else []), *self.config.monitors, *recoveries]
+
+    def monitor_results(self) -> dict[str, Any]:
+        """Every monitor's outcome (``running`` while it runs), reason, ``action`` and own result, by name; the one
+        that acted also has ``acted_at`` (sim s) and its ``recovery``. Empty with no monitors. The same as a
+        finished run's ``result["monitors"]``, available at any tick."""
+        return self._monitored.results() if self.monitors else {}
 
     def _instantiate(self, spec: ComponentSpec) -> Any:
         ptype = self.plugins.get(spec.kind, spec.type)
@@ -474,7 +489,7 @@ class Simulation:
     # ----------------------------------------------------------------- lifetime
     def close(self) -> None:
         """Close every component, then the World. Safe to call twice."""
-        monitors = [m.behaviour for m in self.monitors]
+        monitors = [m.behaviour for m in [*self.monitors, *getattr(self, "recoveries", {}).values()]]
         for comp in list(self.components.values()) + ([self.behaviour] if self.behaviour else []) + monitors:
             try:
                 comp.close()
