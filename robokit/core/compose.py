@@ -192,37 +192,76 @@ def machine_lines(cls: type, prefix: str, indent: str) -> list[str]:
 
 
 def config_mermaid(cfg: Any, plugins: Any) -> str:
-    """What a config composes, as a Mermaid ``stateDiagram-v2``: the task (a sequence's steps in order, each with
-    its own machine inside) and, in a concurrent region, every monitor."""
+    """What a config composes, as a Mermaid ``stateDiagram-v2``: the task (composites drawn as nested states with
+    their children inside, each child's own machine inside it) and, in concurrent regions, every monitor (with the
+    recovery it may pre-empt the task into)."""
     lines = ["stateDiagram-v2", "  direction LR"]
     task = cfg.behaviour
     lines.append(f"  state \"run: {cfg.source}\" as run {{")
     if task is None:
         lines.append("    state \"no task: runs for max_time\" as idle")
-    elif task.children:
-        lines.append(f"    state \"task: sequence of {len(task.children)}\" as task {{")
-        previous = "[*]"
-        for i, child in enumerate(task.children):
-            sid = f"s{i + 1}"
-            cls = plugins.get("behaviour", child.type).cls
-            lines.append(f"      state \"{i + 1}. {child.name} ({child.type})\" as {sid} {{")
-            lines += machine_lines(cls, f"{sid}_", "        ")
-            lines.append("      }")
-            lines.append(f"      {previous} --> {sid}" + (": succeeded" if i else ""))
-            previous = sid
-        lines.append(f"      {previous} --> [*]: succeeded")
-        lines.append("    }")
     else:
-        cls = plugins.get("behaviour", task.type).cls
-        lines.append(f"    state \"task: {task.type}\" as task {{")
-        lines += machine_lines(cls, "t_", "      ")
-        lines.append("    }")
+        lines += _node(task, plugins, "task", "task: ", "    ")
     for spec in getattr(cfg, "monitors", ()):
-        cls = plugins.get("behaviour", spec.type).cls
         mid = f"m_{_ident(spec.name)}"
         lines.append("    --")
-        lines.append(f"    state \"monitor {spec.name} ({spec.type})\" as {mid} {{")
-        lines += machine_lines(cls, f"{mid}_", "      ")
-        lines.append("    }")
+        action = getattr(spec, "action", "observe")
+        label = f"monitor {spec.name} ({spec.type})" + ("" if action == "observe" else f", action {action}")
+        lines += _node(spec, plugins, mid, "", "    ", title=label)
+        recovery = getattr(cfg, "recoveries", {}).get(getattr(spec, "recovery", None) or "")
+        if recovery is not None:
+            rid = f"r_{_ident(recovery.name)}"
+            lines += _node(recovery, plugins, rid, "", "    ", title=f"recovery {recovery.name} ({recovery.type})")
+            lines.append(f"    {mid} --> {rid}: failed or aborted: pre-empt the task")
     lines.append("  }")
     return "\n".join(lines) + "\n"
+
+
+_EDGE = {"sequence": "succeeded", "fallback": "failed"}
+
+
+def _node(spec: Any, plugins: Any, sid: str, prefix: str, indent: str, title: str | None = None) -> list[str]:
+    """A behaviour section as a Mermaid state: a composite with its children inside, else the type's machine."""
+    cls = plugins.get("behaviour", spec.type).cls
+    if not spec.children:
+        name = title or f"{prefix}{spec.type}"
+        return [f"{indent}state \"{name}\" as {sid} {{", *machine_lines(cls, f"{sid}_", indent + "  "), f"{indent}}}"]
+    detail = _detail(spec)
+    label = title or f"{prefix}{spec.type}{detail} of {len(spec.children)}"
+    out = [f"{indent}state \"{label}\" as {sid} {{"]
+    inner = indent + "  "
+    ids = [f"{sid}_{i + 1}" for i in range(len(spec.children))]
+    for i, (child, cid) in enumerate(zip(spec.children, ids, strict=True)):
+        if spec.type == "parallel" and i:
+            out.append(f"{inner}--")
+        if child.children:
+            named = f"{child.type}" if child.name == child.type else f"{child.name}: {child.type}"
+            label_child = f"{i + 1}. {named}{_detail(child)} of {len(child.children)}"
+        else:
+            label_child = f"{i + 1}. {child.name} ({child.type})"
+        out += _node(child, plugins, cid, "", inner, title=label_child)
+    edge = _EDGE.get(spec.type)
+    if edge is not None:
+        out.append(f"{inner}[*] --> {ids[0]}")
+        for a, b in zip(ids, ids[1:], strict=False):
+            out.append(f"{inner}{a} --> {b}: {edge}")
+        out.append(f"{inner}{ids[-1]} --> [*]")
+    elif spec.type == "retry":
+        out += [f"{inner}[*] --> {ids[0]}", f"{inner}{ids[0]} --> {ids[0]}: failed (a fresh attempt)",
+                f"{inner}{ids[0]} --> [*]: succeeded"]
+    elif spec.type == "timeout":
+        out += [f"{inner}[*] --> {ids[0]}", f"{inner}{ids[0]} --> [*]: ended, or halted after{detail}"]
+    out.append(f"{indent}}}")
+    return out
+
+
+def _detail(spec: Any) -> str:
+    """A composite's options in a few words (``x3``, ``5 s``, ``success all, failure one``)."""
+    p = spec.params
+    if spec.type == "retry":
+        return f" x{p.attempts}"
+    if spec.type == "timeout":
+        return f" {p.seconds:g} s"
+    if spec.type == "parallel":
+        return f" success {p.success}, failure {p.failure}"
+    return ""

@@ -31,7 +31,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from collections.abc import Sequence as Seq
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, ClassVar, Literal
 
 from robokit import hookimpl
@@ -56,6 +56,12 @@ class Member:
     spec: Any = None
     start_tick: int = 0
     record: dict[str, Any] = field(default_factory=dict)
+
+    @classmethod
+    def of(cls, behaviour: Any, period: int = 1) -> Member:
+        """A member for a behaviour built by hand (a scripted test's tree): named after it, stepped every
+        ``period`` ticks."""
+        return cls(behaviour.name, type(behaviour).__name__, behaviour, period, "<scripted>")
 
 
 def call(member: Member, role: str, what: str, fn: Any, *args: Any) -> Any:
@@ -105,9 +111,33 @@ class Composite(Behaviour):
         self.add_children(steps)
 
     def setup(self, ctx: SetupContext) -> None:
+        """Keep the clock and the trace writer. Children not set up yet (a tree built by hand, as in a scripted
+        test) are set up here with this context, their trace records under their own names."""
         super().setup(ctx)
         self.clock = ctx.world
         self._trace = ctx.trace
+        for member in self.children:
+            self._adopt(member)
+
+    def _adopt(self, member: Member) -> None:
+        if getattr(member.behaviour, "ctx", None) is not None:
+            return
+        ctx = self.ctx
+        trace = ctx.trace
+
+        def child_trace(kind: str, **data: Any) -> None:
+            trace(kind, **{"child_source": member.name, **data})
+
+        call(member, self.ROLE, "setup", member.behaviour.setup, replace(ctx, trace=child_trace))
+
+    def fresh(self, member: Member) -> Member:
+        """A new, set-up instance of a child (what a retry runs for each attempt): built by the simulation, or,
+        in a tree built by hand, the child's class called again with its name and config."""
+        if self.rebuild is not None:
+            return self.rebuild(member)
+        new = Member(member.name, member.type, _clone(member.behaviour), member.period, member.origin, member.spec)
+        self._adopt(new)
+        return new
 
     # ------------------------------------------------------------------ children's lives
     def begin(self, member: Member, t: float, index: int) -> None:
@@ -205,6 +235,15 @@ class Composite(Behaviour):
                 member.behaviour.close()
             except Exception:  # noqa: BLE001, S110 - closing must reach every child
                 pass
+
+
+def _clone(behaviour: Any) -> Any:
+    """A new instance of a behaviour built by hand (its class, name and config), a composite's children too."""
+    new = type(behaviour)(behaviour.name, behaviour.config)
+    if isinstance(behaviour, Composite):
+        new.add_children([Member(m.name, m.type, _clone(m.behaviour), m.period, m.origin, m.spec)
+                          for m in behaviour.children])
+    return new
 
 
 class Ordered(Composite):
@@ -355,13 +394,11 @@ class Retry(Composite):
         return commands
 
     def _fresh(self, member: Member) -> None:
-        if self.rebuild is None:
-            raise PluginError(f"retry {self.name!r} cannot rebuild its child {member.name!r} (no builder given)")
         try:
             member.behaviour.close()
         except Exception:  # noqa: BLE001, S110 - the next attempt must start
             pass
-        self.children[0] = self.rebuild(member)
+        self.children[0] = self.fresh(member)
         self._next_at = self.clock.tick + 1
 
     def result(self) -> dict[str, Any]:
@@ -438,8 +475,8 @@ class Parallel(Composite):
                 self.end(member, member.behaviour.outcome, t, i)
         decided = self._decide()
         if decided is not None:
-            for member in self.running():
-                merge(commands, self.halt_child(member, t, f"{self.name!r} {decided[0]}"), self.name)
+            for member in self.running():  # a halted child's stop commands replace what it sent this tick
+                commands.update(self.halt_child(member, t, f"{self.name!r} {decided[0]}") or {})
             self.finish(*decided)
         return commands or None
 
