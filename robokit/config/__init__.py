@@ -391,10 +391,16 @@ def _component(kind: str, name: str, data: Any, key: str, plugins: Any, physics_
     if ptype.schema is None:
         if params_raw:
             extra = next(iter(params_raw))
-            raise ConfigError(f"unknown key {extra!r}; {kind} type {type_name!r} takes no options", key=key)
+            provided = getattr(ptype, "provided", None)
+            raise ConfigError(f"unknown key {extra!r}; {kind} type {type_name!r} takes no options"
+                              + (provided() if provided else ""), key=key)
         params = None
     else:
-        params = validate_model(ptype.schema, params_raw, key)
+        try:
+            params = validate_model(ptype.schema, params_raw, key)
+        except ConfigError as exc:  # name the distribution of a third-party type: a clash must never hide
+            provided = getattr(ptype, "provided", None)
+            raise ConfigError(exc.message + (provided() if provided else ""), key=exc.key, file=exc.file) from None
     return ComponentSpec(kind, name, type_name, rate, params, key)
 
 

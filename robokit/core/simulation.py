@@ -190,12 +190,13 @@ class Simulation:
                            self._tracer(spec.name), self.body_keys, run_dir=self.run_dir,
                            save_frames=self.save_frames)
         self._contexts[spec.key] = ctx
+        provided = self.plugins.get(spec.kind, spec.type).provided()  # names a third-party type's distribution
         try:
             comp.setup(ctx)
         except ConfigError as exc:
-            raise exc.within(spec.key, self.config.source) from None
+            raise ConfigError(exc.message + provided, key=exc.key).within(spec.key, self.config.source) from None
         except UserError as exc:
-            raise ConfigError(str(exc), key=spec.key, file=self.config.source) from None
+            raise ConfigError(str(exc) + provided, key=spec.key, file=self.config.source) from None
         except Interrupted:
             raise
         except BaseException as exc:  # SystemExit and KeyboardInterrupt from a plugin are plugin faults too
