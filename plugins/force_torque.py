@@ -5,8 +5,8 @@ PyBullet measures the reaction force and torque a joint transmits once its senso
 is a :class:`~robokit.msgs.sensing.Wrench` in the frame of the joint's **child link** (its name is the message's
 ``frame``): what the child receives from the parent through the joint, torque about the child link's origin (the
 REP 103 signs stated in :mod:`robokit.msgs.sensing`). On the Panda, ``panda_hand_joint`` measures at the wrist: the
-hand hanging still reads the weight of the hand and fingers along the hand's up axis; pressing on something adds
-the contact force.
+hand hanging still reads the weight of the hand and fingers along the hand's up axis; an arm pressing the hand onto
+a table reads the press, pointing down.
 
 Options: ``body``, ``joint`` (names), ``world_frame`` (express the vectors in the world frame instead; ``frame``
 is then ``"world"``) and ``noise_std`` (N; Gaussian, drawn per tick from the run's seed, also on the torque in

@@ -12,8 +12,10 @@ Signs, stated once because every author otherwise invents their own:
 - a :class:`Wrench` is what the **child link receives from its parent through the measuring joint**, in the
   ``frame`` the message names, torque about that frame's origin. A wrist sensor between a flange (parent) and a hand
   (child) hanging at rest reads ``force ≈ +m·g`` along the frame's axis that points **up** (the flange holds the
-  hand up against gravity); pressing the hand down onto a table adds the table's push, so the upward force *grows*.
-  A sensor that reports the reverse (what the child exerts on the parent) negates both vectors.
+  hand up against gravity). When the arm presses the hand down onto a table, the flange pushes the hand down: the
+  force turns to point **down**, as large as the press (the table's push on the hand is not measured by the wrist;
+  it is what the flange's push works against). A sensor that reports the reverse (what the child exerts on the
+  parent) negates both vectors.
 - an :class:`Imu`'s ``linear_acceleration`` is the **specific force** an accelerometer measures: the frame's
   acceleration minus gravity. At rest it reads ``+9.81`` m/s² along the axis that points up; in free fall, zero.
   ``angular_velocity`` is the frame's rate of turn, right-hand rule about each axis.
