@@ -406,7 +406,7 @@ class _Check:
                     "(joint force-torque sensors, engine parameters, dynamics)" if self.kind == "sensor" else "")
                     + "; a second close() is safe")
 
-    def _baseline(self) -> tuple[dict[str, int], Any]:
+    def _baseline(self) -> tuple[dict[str, Any], Any]:
         """Bodies and constraints of the scene without the component (or without any component)."""
         raw = copy.deepcopy(self.raw)
         del raw[f"{self.kind}s"][self.name]
