@@ -200,6 +200,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         print(json.dumps(out.result.to_dict(), indent=2))
     if not args.quiet:
         print(summary(out), file=sys.stderr if args.json else sys.stdout)
+        _frames_note(cfg, out, args)
     if out.error is not None:
         _report_error(args, out, cfg)
     if out.interrupted:
@@ -210,6 +211,17 @@ def cmd_run(args: argparse.Namespace) -> int:
 
         video_after_run(cfg, out.result.run_id, args.video, quiet=args.quiet)
     return out.exit_code
+
+
+def _frames_note(cfg: Any, out: Any, args: argparse.Namespace) -> None:
+    """With ``--save-frames`` (or a camera's ``save``): one line saying where the frames went."""
+    from robokit.config import results_root
+    from robokit.record.results import frames_note
+
+    folder = None if args.no_record else results_root(cfg) / out.result.run_id
+    note = frames_note(folder, args.save_frames or cfg.record.save_frames)
+    if note:
+        print(note, file=sys.stderr if args.json else sys.stdout)
 
 
 def _report_error(args: argparse.Namespace, out: Any, cfg: Any) -> None:

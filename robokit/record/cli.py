@@ -26,6 +26,8 @@ def add_record_commands(sub: Any) -> None:
     _dir(show)
     show.set_defaults(func=cmd_results_show)
     last = rsub.add_parser("last", help="the newest run, as 'show' prints it")
+    last.add_argument("--path", action="store_true", help="print only its folder, e.g. ls \"$(robokit results last "
+                      "--path)/frames\"")
     _dir(last)
     last.set_defaults(func=cmd_results_show, run="last")
 
@@ -73,9 +75,12 @@ def _parse_size(text: str) -> tuple[int, int]:
 
 
 def cmd_results_list(args: argparse.Namespace) -> int:
-    from robokit.record.results import list_runs
+    from robokit.record.results import list_runs, where_note
 
     print(list_runs(args.dir, args.n))
+    note = where_note(args.dir)
+    if note:
+        print(note, file=sys.stderr)
     return 0
 
 
@@ -83,7 +88,8 @@ def cmd_results_show(args: argparse.Namespace) -> int:
     from robokit.record.format import find_run
     from robokit.record.results import show_run
 
-    print(show_run(find_run(args.run, args.dir)))
+    rec = find_run(args.run, args.dir)
+    print(rec.folder if getattr(args, "path", False) else show_run(rec))
     return 0
 
 
