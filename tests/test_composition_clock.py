@@ -46,11 +46,8 @@ class Late(Behaviour):
         section = dict(self.config.child)
         rate = section.pop("rate_hz", None)
         self.period = max(1, round(ctx.world.physics_hz / rate)) if rate else 1
-        ptype = load_plugins().get("behaviour", section.pop("type"))
-        params = ptype.schema.validate(section) if hasattr(ptype.schema, "validate") and issubclass(
-            ptype.schema, Section) else ptype.schema.model_validate(section)
-        self.child = ptype.cls("child", params)
-        self.child.setup(ctx)
+        self.child = _build(section, "child")
+        self.child.setup(ctx)  # a composite sets its children up itself
 
     def step(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any] | None:
         ticks = round((t - self.config.delay) / self.ctx.world.time_step)
@@ -66,6 +63,24 @@ class Late(Behaviour):
 
     def check_goal(self, world: Any) -> Any:
         return self.child.check_goal(world)
+
+
+def _build(section: dict[str, Any], name: str) -> Any:
+    """A behaviour from its section, as a parent builds a sub-machine; a composite with its children."""
+    from robokit.core.composites import Member
+
+    section = dict(section)
+    ptype = load_plugins().get("behaviour", section.pop("type"))
+    key = getattr(ptype.cls, "CHILDREN_KEY", None)
+    items = section.pop(key, None) if key else None
+    section.pop("name", None)
+    schema = ptype.schema
+    params = schema.validate(section) if issubclass(schema, Section) else schema.model_validate(section)
+    behaviour = ptype.cls(name, params)
+    if items is not None:
+        items = [items] if isinstance(items, dict) else items
+        behaviour.add_children([Member.of(_build(c, c.get("name", f"{name}_{i}"))) for i, c in enumerate(items)])
+    return behaviour
 
 
 class LatePlugin:
@@ -120,8 +135,27 @@ CASES = {  # type: shipped scene
     "go_to_goal": "go_to_goal.toml",
     "patrol": "patrol.toml",
     "patrol_collect": "patrol_robot.toml",
+    "record": "contact_stop.toml",
+    "composites": "pick_place.toml",  # pick_place inside timeout(retry(fallback(...))), see _composed
 }
-SLOW = {"go_to_goal", "patrol", "patrol_collect", "drop_test", "sort"}  # sort: the seed tests below cover it
+SLOW = {"go_to_goal", "patrol", "patrol_collect", "drop_test", "sort", "composites"}  # sort: see the seed tests
+
+
+def _composed(raw: dict[str, Any]) -> dict[str, Any]:
+    """The scene's behaviour wrapped in every composite that takes one child at a time: its timeout, retries and
+    alternatives count from its own start, whenever that is."""
+    out = copy.deepcopy(raw)
+    out["behaviour"] = {"type": "timeout", "seconds": 15.0, "child": {
+        "type": "retry", "attempts": 2, "child": {
+            "type": "fallback", "children": [{**raw["behaviour"], "name": "it"}]}}}
+    return out
+
+
+def _inner(result: dict[str, Any]) -> dict[str, Any]:
+    """The innermost behaviour's own result inside ``_composed``'s tree."""
+    while "children" in result:
+        result = result["children"][-1]["result"]
+    return result
 
 
 def _run(raw: dict[str, Any], seed: int | None = None) -> tuple[Any, dict[str, Any]]:
@@ -131,6 +165,7 @@ def _run(raw: dict[str, Any], seed: int | None = None) -> tuple[Any, dict[str, A
     own = result.result
     if "steps_completed" in own:  # a sequence: the second step's own result
         own = own["steps"][1]["result"]
+    own = _inner(own)
     return result, own
 
 
@@ -150,7 +185,7 @@ def facts(case: str, run: Any, own: dict[str, Any], late: bool) -> dict[str, Any
     the tolerance in :data:`TOLERANCE`: the world the late behaviour meets has stood 1 s longer (settled contacts,
     sensors due at other ticks), so a path may differ by a few ticks and millimetres, never by what was done."""
     d = DELAY if late else 0.0
-    if case == "pick_place":
+    if case in ("pick_place", "composites"):
         return {"object": own["object"], "attempts": own["attempts"], "failures": own["failures"],
                 "sim_time": own["sim_time"], "placed_within_tolerance": own["placement_error"] < 0.02}
     if case == "pick_place (several objects)":
@@ -174,6 +209,8 @@ def facts(case: str, run: Any, own: dict[str, Any], late: bool) -> dict[str, Any
     if case == "patrol":
         return {"visits": _shift([v["t"] for v in own["visits"]]) if late else [v["t"] for v in own["visits"]],
                 "distance_travelled": own["distance_travelled"]}
+    if case == "record":
+        return {"recorded": own["recorded"], "ended_at": run.sim_time - d}
     assert case == "patrol_collect"
     return {"collected": own["objects_collected"], "found": own["objects_found"],
             "visits": [v["t"] - d for v in own["visits"]], "distance_travelled": own["distance_travelled"]}
@@ -198,6 +235,8 @@ def _same(case: str, alone: dict[str, Any], other: dict[str, Any]) -> None:
 @pytest.mark.parametrize("case", [pytest.param(c, marks=pytest.mark.slow) if c in SLOW else c for c in CASES])
 def test_every_built_in_behaviour_does_as_a_late_step_or_sub_machine_what_it_does_alone(case: str) -> None:
     raw = read_toml(CONFIGS / CASES[case])
+    if case == "composites":
+        raw = _composed(raw)
     alone, own = _run(raw)
     assert alone.outcome == "succeeded", alone.reason
     expected = facts(case, alone, own, late=False)
