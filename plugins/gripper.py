@@ -215,7 +215,7 @@ class Gripper(Actuator):
         if not (self.action == "close" and self.read().holding):
             self.action, self.target = "width", min(max(self._width(), 0.0), self.max_width)
             self._dirty = True
-            self.update()
+            self._drive()
         self.stopped = True
         self.ctx.trace("protective_stop", actuator=self.name, reason=reason)
 
@@ -226,9 +226,13 @@ class Gripper(Actuator):
         if self.config.stop_on is not None and not self.latched:
             contact = self.ctx.readings[self.config.stop_on]
             if contact.in_contact and contact.normal_force > self.config.stop_force:
+                self.latched = True
                 self.protective_stop(f"contact with {', '.join(contact.others) or 'something'} "
                                      f"({contact.normal_force:.1f} N) ({self.config.stop_on})")
-                self.latched = True
+        self._drive()
+
+    def _drive(self) -> None:
+        """Send the finger targets when they changed; watch the width while it may be moving."""
         if not (self._dirty or self._tracking):
             return
         if self._dirty:

@@ -236,3 +236,35 @@ def test_graph_draws_a_nested_tree_and_a_monitor_with_its_recovery(tmp_path: Pat
                  'state "recovery back_off (go_to_goal)" as r_back_off {',
                  "m_guard --> r_back_off: failed or aborted: pre-empt the task"):
         assert line in out, line
+
+
+def test_stop_on_stops_ik_arm_and_gripper_at_the_first_contact_with_no_monitor() -> None:
+    raw = read_toml(CONFIGS / "contact_abort.toml")
+    contact_tick, _ = _first_contact_tick(raw)
+    del raw["monitors"]
+    raw["actuators"]["arm"]["stop_on"] = "touch"
+    raw["actuators"]["gripper"]["stop_on"] = "touch"
+    with make_sim(raw, base_dir=CONFIGS) as sim:
+        result = sim.run()
+        stops = [r for r in sim.trace if r["kind"] == "protective_stop"]
+        arm = sim.readings["arm"]
+    # the arm's update() runs after the behaviour in the tick the sensor first sees the contact
+    assert {(r["actuator"], r["tick"]) for r in stops} == {("arm", contact_tick), ("gripper", contact_tick)}
+    assert arm.stopped and arm.reason.startswith("protective stop: contact with table (")
+    # latched: pick_place sees its arm failed and gives up (it cannot move the arm again)
+    assert result.outcome == "failed" and "arm failed in DESCEND: protective stop: contact with table" in result.reason
+
+
+def test_a_guard_on_a_force_torque_sensor_trips_on_the_change_from_its_first_reading() -> None:
+    from robokit.checks.scripted import ScriptedRun
+    from robokit.msgs import Wrench
+
+    run = ScriptedRun("guard", {"sensor": "wrist", "max_force": 15.0}, components={"wrist": Wrench})
+    hanging = Wrench((0.0, 0.0, 10.0), (0.0, 0.0, 0.0), "world")  # the hand's own weight: the baseline
+    for fz in (10.0, 12.0, 24.0):  # |change| 0, 2, 14 N: below the limit
+        run.step({"wrist": Wrench((0.0, 0.0, fz), (0.0, 0.0, 0.0), "world")} if fz != 10.0 else {"wrist": hanging})
+        assert run.outcome is None
+    run.step({"wrist": Wrench((0.0, 12.0, 20.0), (0.0, 0.0, 0.0), "world")})  # |(0, 12, 10)| = 15.6 N > 15
+    assert run.outcome is not None and run.outcome.status == "aborted"
+    assert run.outcome.reason == "force 15.6 N at world at t = 0.013 s (limit 15 N)"
+    assert run.result() == {"peak_force": 15.62, "tripped_at": 3 / 240}
