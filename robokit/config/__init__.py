@@ -511,6 +511,10 @@ def _build(raw: Mapping[str, Any], plugins: Any, source: str, base_dir: Path) ->
                   for name, data in _table(raw, "recoveries").items()}
     monitors = tuple(_monitor(name, data, plugins, physics_hz, recoveries)
                      for name, data in _table(raw, "monitors").items())
+    for spec in monitors:
+        if spec.action != "observe" and behaviour is None:
+            raise ConfigError(f"action {spec.action!r} acts on the task, and there is none: add a [behaviour]",
+                              key=f"{spec.key}.action")
     report_raw = _table(raw, "report")
     report = validate_model(ReportConfig, {k: v for k, v in report_raw.items() if k in _REPORT_KEYS}, "report")
     reporters = _reporters(report_raw, plugins)
