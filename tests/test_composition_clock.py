@@ -138,7 +138,8 @@ CASES = {  # type: shipped scene
     "record": "contact_stop.toml",
     "composites": "pick_place.toml",  # pick_place inside timeout(retry(fallback(...))), see _composed
 }
-SLOW = {"go_to_goal", "patrol", "patrol_collect", "drop_test", "sort", "composites"}  # sort: see the seed tests
+SLOW = {"go_to_goal", "patrol", "patrol_collect", "drop_test", "sort", "composites", "pick_place (several objects)",
+        "joint_teleop"}  # sort: see the seed tests below
 
 
 def _composed(raw: dict[str, Any]) -> dict[str, Any]:
