@@ -62,6 +62,14 @@ def add_record_commands(sub: Any) -> None:
     _dir(view)
     view.set_defaults(func=cmd_view)
 
+    exp = sub.add_parser("export", help="a run's record for Rerun (.rrd) or Foxglove (.mcap): poses, shapes, "
+                         "scans, frames, states")
+    exp.add_argument("run", help=RUN_HELP)
+    exp.add_argument("--rerun", metavar="FILE", help="write a Rerun recording (needs the 'rerun' extra)")
+    exp.add_argument("--mcap", metavar="FILE", help="write MCAP with Foxglove schemas (needs the 'rerun' extra)")
+    _dir(exp)
+    exp.set_defaults(func=cmd_export)
+
 
 def _dir(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--dir", metavar="DIR", help="the results folder (default: ./results)")
@@ -137,6 +145,22 @@ def cmd_view(args: argparse.Namespace) -> int:
     out = Path(args.output) if args.output else rec.folder / "index.html"
     write_page(rec, out, video=not args.no_video)
     print(out)
+    return 0
+
+
+def cmd_export(args: argparse.Namespace) -> int:
+    from robokit.record.export import export_mcap, export_rerun
+    from robokit.record.format import find_run
+    from robokit.record.replay import replay_of
+
+    if not args.rerun and not args.mcap:
+        raise UserError("robokit export: give --rerun FILE.rrd and/or --mcap FILE.mcap")
+    rec = find_run(args.run, args.dir)
+    replay = replay_of(rec)
+    for path, write in ((args.rerun, export_rerun), (args.mcap, export_mcap)):
+        if path:
+            counts = write(rec, Path(path), replay)
+            print(f"{path}: " + ", ".join(f"{v} {k}" for k, v in counts.items()))
     return 0
 
 
