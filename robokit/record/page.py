@@ -64,7 +64,8 @@ def _objects(result: dict[str, Any]) -> str:
             head = "".join(f"<th>{escape(c)}</th>" for c in cols)
             body = "".join("<tr>" + "".join(f"<td>{escape(_cell(i.get(c)))}</td>" for c in cols) + "</tr>"
                            for i in items)
-            return f"<h3>{escape(key)}</h3><table><tr>{head}</tr>{body}</table>"
+            named = "" if key == "objects" else f"<p class='meta'>from the result's <code>{escape(key)}</code></p>"
+            return f"{named}<table><tr>{head}</tr>{body}</table>"
     return "<p class='meta'>(this behaviour reports no object list)</p>"
 
 
