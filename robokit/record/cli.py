@@ -59,6 +59,7 @@ def add_record_commands(sub: Any) -> None:
     view.add_argument("run", help=RUN_HELP)
     view.add_argument("-o", "--output", metavar="FILE", help="HTML file (default: <run folder>/index.html)")
     view.add_argument("--no-video", action="store_true", help="leave the video out (faster; smaller page)")
+    view.add_argument("--no-replay", action="store_true", help="leave the interactive 3D replay out")
     _dir(view)
     view.set_defaults(func=cmd_view)
 
@@ -143,7 +144,7 @@ def cmd_view(args: argparse.Namespace) -> int:
 
     rec = find_run(args.run, args.dir)
     out = Path(args.output) if args.output else rec.folder / "index.html"
-    write_page(rec, out, video=not args.no_video)
+    write_page(rec, out, video=not args.no_video, replay=not args.no_replay)
     print(out)
     return 0
 

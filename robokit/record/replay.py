@@ -7,7 +7,11 @@ render cost: one forward kinematics pass per pose sample, no image is rendered h
 
 from __future__ import annotations
 
+import base64
+import importlib.util
+import json
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -123,3 +127,93 @@ def replay_of(rec: RunRecord, every: int = 1) -> Replay:
                 if base is not None and np.isnan(base[i, 0]):
                     poses[n, k] = np.nan
     return Replay(links, shapes, t[samples].astype(float), poses)
+
+
+# ----------------------------------------------------------------- the page's interactive replay
+MESH_BUDGET = 3_000_000
+"""Bytes of mesh data (float32 vertices, uint32 triangles) a page embeds at most; past that, boxes stand in."""
+
+
+def read_obj(path: Path) -> tuple[np.ndarray, np.ndarray] | None:
+    """Vertices (n, 3) float32 and triangles (m, 3) uint32 of a Wavefront OBJ file (polygons fanned), or None."""
+    verts: list[list[float]] = []
+    faces: list[list[int]] = []
+    try:
+        lines = path.read_text(encoding="utf-8", errors="replace").splitlines()
+    except OSError:
+        return None
+    for line in lines:
+        parts = line.split()
+        if not parts:
+            continue
+        if parts[0] == "v" and len(parts) >= 4:
+            verts.append([float(v) for v in parts[1:4]])
+        elif parts[0] == "f" and len(parts) >= 4:
+            idx = [int(p.split("/")[0]) for p in parts[1:]]
+            idx = [i - 1 if i > 0 else len(verts) + i for i in idx]
+            faces.extend([idx[0], idx[k], idx[k + 1]] for k in range(1, len(idx) - 1))
+    if not verts or not faces:
+        return None
+    return np.asarray(verts, np.float32), np.asarray(faces, np.uint32)
+
+
+def _b64(a: np.ndarray) -> str:
+    return base64.b64encode(np.ascontiguousarray(a).tobytes()).decode("ascii")
+
+
+def payload(rec: RunRecord, replay: Replay | None = None) -> dict[str, Any]:
+    """What the page's replay script draws: link paths, shapes (meshes as base64 float32/uint32 arrays), the
+    sample times and link poses (base64 float32, NaN = removed), and each machine's stays in its states."""
+    replay = replay or replay_of(rec)
+    meshes: dict[str, int] = {}
+    mesh_data: list[dict[str, str]] = []
+    spent = 0
+    shapes = []
+    for s in replay.shapes:
+        item: dict[str, Any] = {"frame": s.frame, "kind": s.kind, "size": s.size, "rgba": s.rgba,
+                                "position": s.position, "quaternion": s.quaternion}
+        if s.kind == "mesh":
+            if s.mesh not in meshes:
+                got = read_obj(Path(s.mesh)) if s.mesh.lower().endswith(".obj") else None
+                if got is None or spent + got[0].nbytes + got[1].nbytes > MESH_BUDGET:
+                    continue
+                spent += got[0].nbytes + got[1].nbytes
+                meshes[s.mesh] = len(mesh_data)
+                mesh_data.append({"vertices": _b64(got[0]), "triangles": _b64(got[1])})
+            item["mesh"] = meshes[s.mesh]
+        shapes.append(item)
+    spans = rec.spans()
+    return {"links": [link.path for link in replay.links], "shapes": shapes, "meshes": mesh_data,
+            "t": _b64(replay.t.astype(np.float32)), "poses": _b64(replay.poses.astype(np.float32)),
+            "duration": float(max(rec.sim_time, float(replay.t[-1]) if len(replay.t) else 0.0)),
+            "machines": [{"name": name, "spans": [[s.state, s.start, s.end] for s in stays]}
+                         for name, stays in spans.items()]}
+
+
+def viewer_script() -> str | None:
+    """MeshCat's bundled browser viewer (three.js with orbit controls), from the ``meshcat`` package's own files;
+    None when it is not installed."""
+    spec = importlib.util.find_spec("meshcat")
+    if spec is None or not spec.submodule_search_locations:
+        return None
+    path = Path(list(spec.submodule_search_locations)[0]) / "viewer" / "dist" / "main.min.js"
+    return path.read_text(encoding="utf-8") if path.is_file() else None
+
+
+def replay_html(rec: RunRecord, replay: Replay | None = None) -> str | None:
+    """The replay's HTML: a canvas, play/pause, speed, a time scrubber and the state timeline; None without
+    MeshCat (the page then says how to get it)."""
+    viewer = viewer_script()
+    if viewer is None:
+        return None
+    data = json.dumps(payload(rec, replay), separators=(",", ":")).replace("</", "<\\/")
+    script = (Path(__file__).resolve().parent.parent / "data" / "replay.js").read_text(encoding="utf-8")
+    controls = ("<div class='rk-bar'><button id='rk-play' type='button'>play</button>"
+                "<select id='rk-speed' aria-label='speed'><option value='0.25'>0.25x</option>"
+                "<option value='0.5'>0.5x</option><option value='1' selected>1x</option>"
+                "<option value='2'>2x</option><option value='4'>4x</option></select>"
+                "<input id='rk-time' type='range' min='0' max='1000' value='0' aria-label='time'>"
+                "<span id='rk-clock' class='meta'>t = 0.00 s</span></div>"
+                "<div id='rk-states'></div>")
+    return (f"<div id='rk-replay'><div id='rk-pane'></div>{controls}</div>"
+            f"<script>{viewer}</script><script>var RK_REPLAY = {data};</script><script>{script}</script>")
