@@ -88,7 +88,9 @@ def test_the_replay_draws_the_arm_the_cubes_in_their_bins_and_follows_state_clic
         def shot() -> np.ndarray:
             driver.execute_script("rkReplay.viewer.render();")
             png = driver.get_screenshot_as_png()
-            return cv2.cvtColor(cv2.imdecode(np.frombuffer(png, np.uint8), cv2.IMREAD_COLOR), cv2.COLOR_BGR2RGB)
+            decoded = cv2.imdecode(np.frombuffer(png, np.uint8), cv2.IMREAD_COLOR)
+            assert decoded is not None
+            return cv2.cvtColor(decoded, cv2.COLOR_BGR2RGB)
 
         def project(point: list[float]) -> tuple[int, int]:
             x, y = driver.execute_script("return rkReplay.project(...arguments)", *[float(v) for v in point])
@@ -132,7 +134,7 @@ def test_the_replay_draws_the_arm_the_cubes_in_their_bins_and_follows_state_clic
         changes = [json.loads(line) for line in lines if json.loads(line).get("kind") == "transition"]
         lifts = [e["t"] for e in changes if e["machine"] == "pick_place" and e["dest_state"] == "LIFT"]
         spans = driver.find_elements(By.CSS_SELECTOR, ".rk-row:nth-child(2) .rk-span")
-        lift = [s for s in spans if s.get_attribute("title").startswith("LIFT ")][1]
+        lift = [s for s in spans if str(s.get_attribute("title")).startswith("LIFT ")][1]
         driver.execute_script("arguments[0].scrollIntoView({block: 'center'});", lift)
         driver.execute_script("arguments[0].click();", lift)
         assert driver.execute_script("return rkReplay.time()") == pytest.approx(lifts[1], abs=1e-6)
