@@ -145,7 +145,7 @@ def test_mcap_reads_back_with_foxglove_channels(record: Path, tmp_path: Path) ->
         assert summary is not None and summary.statistics is not None
         schema = {c.topic: summary.schemas[c.schema_id].name for c in summary.channels.values()}
         counts = {c.topic: summary.statistics.channel_message_counts[i] for i, c in summary.channels.items()}
-        messages = {}
+        messages: dict[str, dict] = {}
         for _, channel, message in reader.iter_messages():
             messages.setdefault(channel.topic, json.loads(message.data))
     assert schema == {"/scene": "foxglove.SceneUpdate", "/tf": "foxglove.FrameTransforms",
@@ -185,4 +185,6 @@ def test_saved_camera_frames_become_images_in_both(tmp_path: Path) -> None:
     import base64
 
     first = cv2.imdecode(np.frombuffer(base64.b64decode(images[0][1]["data"]), np.uint8), cv2.IMREAD_COLOR)
-    assert images[0][1]["format"] == "png" and np.array_equal(first, cv2.imread(str(pngs[0])))
+    original = cv2.imread(str(pngs[0]))
+    assert first is not None and original is not None
+    assert images[0][1]["format"] == "png" and np.array_equal(first, original)
