@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from robokit.errors import UserError
+from robokit.extras import require
 
 RUN_HELP = "a run id, a prefix of one, 'last', or a run folder"
 
@@ -106,6 +107,8 @@ def cmd_results_show(args: argparse.Namespace) -> int:
 
 
 def cmd_video(args: argparse.Namespace) -> int:
+    if args.frame is None:
+        require("video", "robokit video", ("imageio_ffmpeg",))
     from robokit.record.format import find_run
     from robokit.record.video import render_video
 
@@ -128,6 +131,7 @@ def cmd_video(args: argparse.Namespace) -> int:
 
 
 def cmd_plot(args: argparse.Namespace) -> int:
+    require("video", "robokit plot", ("matplotlib",))
     from robokit.record.format import find_run
     from robokit.record.plots import make_plots
 
@@ -140,9 +144,12 @@ def cmd_plot(args: argparse.Namespace) -> int:
 
 def cmd_view(args: argparse.Namespace) -> int:
     from robokit.record.format import find_run
-    from robokit.record.page import write_page
+    from robokit.record.page import find_video, write_page
 
     rec = find_run(args.run, args.dir)
+    renders = not args.no_video and find_video(rec) is None and rec.has_poses
+    require("video", "robokit view" + (" --no-video" if args.no_video else ""),
+            ("matplotlib", "imageio_ffmpeg") if renders else ("matplotlib",))
     out = Path(args.output) if args.output else rec.folder / "index.html"
     write_page(rec, out, video=not args.no_video, replay=not args.no_replay)
     print(out)

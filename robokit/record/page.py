@@ -145,7 +145,7 @@ def write_page(rec: RunRecord, out: Path, *, video: bool = True, replay: bool = 
         from robokit.record.replay import replay_html
 
         scene = replay_html(rec) or ("<p class='meta'>The 3D replay needs MeshCat's viewer: pip install "
-                                     "'robokit[video]'</p>")
+                                     "meshcat</p>")
 
     clip = find_video(rec) if video else None
     if video and clip is None and rec.has_poses:
