@@ -163,6 +163,10 @@ def cmd_export(args: argparse.Namespace) -> int:
 
     if not args.rerun and not args.mcap:
         raise UserError("robokit export: give --rerun FILE.rrd and/or --mcap FILE.mcap")
+    if args.rerun:
+        require("rerun", "robokit export --rerun", ("rerun",))
+    if args.mcap:
+        require("rerun", "robokit export --mcap", ("mcap",))
     rec = find_run(args.run, args.dir)
     replay = replay_of(rec)
     for path, write in ((args.rerun, export_rerun), (args.mcap, export_mcap)):
