@@ -111,6 +111,15 @@ def test_the_replay_draws_the_arm_the_cubes_in_their_bins_and_follows_state_clic
             a, b = with_arm[row - 2:row + 3, col - 2:col + 3].astype(int), without[row - 2:row + 3, col - 2:col + 3]
             drawn += int(np.abs(a - b).sum() > 100)
         assert drawn >= len(points) - 1, f"the arm is drawn at {drawn} of its {len(points)} link frames"
+        # the pointer over the arm's third link names it
+        from selenium.webdriver.common.action_chains import ActionChains
+
+        canvas = driver.execute_script("return rkReplay.viewer.renderer.domElement")
+        rect = driver.execute_script("return arguments[0].getBoundingClientRect()", canvas)
+        col, row = project(points[3])
+        ActionChains(driver).move_to_element_with_offset(
+            canvas, int(col - rect["left"] - rect["width"] / 2), int(row - rect["top"] - rect["height"] / 2)).perform()
+        assert driver.find_element(By.ID, "rk-hover").text.startswith("panda/panda_link")
 
         # 2. the end: each colour's cubes are inside its bin's region of the picture, not at the start
         def in_bin(picture: np.ndarray, colour: str) -> int:

@@ -101,6 +101,7 @@
     }
     slider.value = String(Math.round((now / (D.duration || 1)) * 1000));
     clock.textContent = "t = " + now.toFixed(2) + " s  \u00b7  " + statesAt(now).join("  \u00b7  ");
+    seen(now);
     for (const cursor of document.querySelectorAll(".rk-cursor")) {
       cursor.style.left = (100 * now / (D.duration || 1)) + "%";
     }
@@ -126,6 +127,32 @@
     const eye = [-0.61 * r, 0.61 * r, 0.5 * r];
     viewer.set_property(["Cameras", "default", "rotated", "<object>"], "position", [eye[0], eye[2], -eye[1]]);
   }
+
+  // What the robot's camera saw (frames saved with --save-frames): the latest one at or before the time shown.
+  const seenBox = document.getElementById("rk-seen");
+  function seen(time) {
+    let latest = null;
+    for (const f of D.frames) if (f.t <= time + 1e-6) latest = f;
+    seenBox.style.display = latest ? "block" : "none";
+    if (latest && seenBox.dataset.src !== latest.png) {
+      seenBox.dataset.src = latest.png;
+      seenBox.querySelector("img").src = latest.png;
+      seenBox.querySelector("figcaption").textContent = latest.camera + " at t = " + latest.t.toFixed(2) + " s";
+    }
+  }
+
+  // A body's name (and link) under the pointer.
+  const hover = document.getElementById("rk-hover");
+  const ray = new THREE.Raycaster();
+  viewer.renderer.domElement.addEventListener("pointermove", (event) => {
+    const rect = viewer.renderer.domElement.getBoundingClientRect();
+    const at = new THREE.Vector2(((event.clientX - rect.left) / rect.width) * 2 - 1,
+      -((event.clientY - rect.top) / rect.height) * 2 + 1);
+    ray.setFromCamera(at, viewer.camera);
+    const hit = ray.intersectObjects(root.children, true).find((h) => h.object.visible && h.object.name);
+    hover.style.display = hit ? "block" : "none";
+    if (hit) hover.textContent = hit.object.name;
+  });
 
   const bars = document.getElementById("rk-states");
   const palette = ["#8ecae6", "#ffb703", "#90be6d", "#f4a261", "#cdb4db", "#e9c46a", "#a8dadc", "#f28482"];

@@ -40,6 +40,10 @@ pre { background: #f7f7f7; padding: 10px; overflow-x: auto; font-size: 12px; } v
 .rk-span { position: absolute; top: 0; height: 18px; overflow: hidden; white-space: nowrap; cursor: pointer;
            font-size: 10px; line-height: 18px; padding-left: 2px; box-sizing: border-box;
            border-right: 1px solid #fff; }
+#rk-hover { position: absolute; left: 8px; top: 8px; background: rgba(0,0,0,.6); color: #fff; font-size: 12px;
+            padding: 2px 6px; border-radius: 4px; display: none; pointer-events: none; z-index: 2; }
+#rk-seen { position: absolute; left: 8px; bottom: 8px; margin: 0; display: none; z-index: 2; background: #fff;
+           padding: 3px; font-size: 11px; } #rk-seen img { display: block; max-width: 220px; }
 .rk-cursor { position: absolute; top: -2px; width: 2px; height: 22px; background: #c62828; pointer-events: none; }
 """
 

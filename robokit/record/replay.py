@@ -184,10 +184,31 @@ def payload(rec: RunRecord, replay: Replay | None = None) -> dict[str, Any]:
         shapes.append(item)
     spans = rec.spans()
     return {"links": [link.path for link in replay.links], "shapes": shapes, "meshes": mesh_data,
+            "frames": _camera_frames(rec),
             "t": _b64(replay.t.astype(np.float32)), "poses": _b64(replay.poses.astype(np.float32)),
             "duration": float(max(rec.sim_time, float(replay.t[-1]) if len(replay.t) else 0.0)),
             "machines": [{"name": name, "spans": [[s.state, s.start, s.end] for s in stays]}
                          for name, stays in spans.items()]}
+
+
+FRAME_BUDGET = 1_000_000
+"""Bytes of saved camera frames (PNG) a page embeds at most, earliest first."""
+
+
+def _camera_frames(rec: RunRecord) -> list[dict[str, Any]]:
+    """The colour frames the cameras saved (``--save-frames``), as ``{camera, t, png}`` (a data URI), in time order."""
+    from robokit.record.export import camera_frames
+
+    out: list[dict[str, Any]] = []
+    spent = 0
+    for camera, t, png in camera_frames(rec):
+        data = png.read_bytes()
+        if spent + len(data) > FRAME_BUDGET:
+            break
+        spent += len(data)
+        out.append({"camera": camera, "t": t,
+                    "png": "data:image/png;base64," + base64.b64encode(data).decode("ascii")})
+    return out
 
 
 def viewer_script() -> str | None:
@@ -215,5 +236,6 @@ def replay_html(rec: RunRecord, replay: Replay | None = None) -> str | None:
                 "<input id='rk-time' type='range' min='0' max='1000' value='0' aria-label='time'>"
                 "<span id='rk-clock' class='meta'>t = 0.00 s</span></div>"
                 "<div id='rk-states'></div>")
-    return (f"<div id='rk-replay'><div id='rk-pane'></div>{controls}</div>"
+    return (f"<div id='rk-replay'><div id='rk-pane'><div id='rk-hover'></div><figure id='rk-seen'><img alt='camera'>"
+            f"<figcaption></figcaption></figure></div>{controls}</div>"
             f"<script>{viewer}</script><script>var RK_REPLAY = {data};</script><script>{script}</script>")
