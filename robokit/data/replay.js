@@ -136,7 +136,13 @@
     seenBox.style.display = latest ? "block" : "none";
     if (latest && seenBox.dataset.src !== latest.png) {
       seenBox.dataset.src = latest.png;
-      seenBox.querySelector("img").src = latest.png;
+      let img = seenBox.querySelector("img");
+      if (!img) { // made only when there is a frame to show: a page without frames has no empty image
+        img = document.createElement("img");
+        img.alt = "camera frame";
+        seenBox.prepend(img);
+      }
+      img.src = latest.png;
       seenBox.querySelector("figcaption").textContent = latest.camera + " at t = " + latest.t.toFixed(2) + " s";
     }
   }

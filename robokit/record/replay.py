@@ -236,6 +236,6 @@ def replay_html(rec: RunRecord, replay: Replay | None = None) -> str | None:
                 "<input id='rk-time' type='range' min='0' max='1000' value='0' aria-label='time'>"
                 "<span id='rk-clock' class='meta'>t = 0.00 s</span></div>"
                 "<div id='rk-states'></div>")
-    return (f"<div id='rk-replay'><div id='rk-pane'><div id='rk-hover'></div><figure id='rk-seen'><img alt='camera'>"
+    return (f"<div id='rk-replay'><div id='rk-pane'><div id='rk-hover'></div><figure id='rk-seen'>"
             f"<figcaption></figcaption></figure></div>{controls}</div>"
             f"<script>{viewer}</script><script>var RK_REPLAY = {data};</script><script>{script}</script>")
