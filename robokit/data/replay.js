@@ -59,6 +59,12 @@
     });
     const mesh = new THREE.Mesh(g, material);
     if (s.kind === "mesh") mesh.scale.set(s.size[0], s.size[1], s.size[2]);
+    g.computeBoundingBox();
+    const extent = new THREE.Vector3();
+    g.boundingBox.getSize(extent);
+    if (Math.max(extent.x * s.size[0], extent.y * s.size[1]) > 5 && c[0] + c[1] + c[2] > 2.9) {
+      material.color.setRGB(0.72, 0.76, 0.8); // a white ground plane (its texture is not drawn): grey, under white robots
+    }
     mesh.position.set(s.position[0], s.position[1], s.position[2]);
     mesh.quaternion.set(s.quaternion[0], s.quaternion[1], s.quaternion[2], s.quaternion[3]);
     mesh.name = D.links[s.frame];
