@@ -113,7 +113,7 @@ class PolicyBehaviour(Behaviour):
         return task
 
     def step(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any] | None:
-        tick = round(t / self.ctx.world.time_step)
+        tick = round(self.elapsed(t) / self.ctx.world.time_step)  # ticks since this behaviour started
         if tick % self.repeat:
             return None
         if self.steps > 0:
