@@ -25,8 +25,8 @@ from typing import Any
 import numpy as np
 
 from robokit.errors import UserError
-from robokit.record.format import FRAMES_DIR, RunRecord
-from robokit.record.replay import Replay, Shape, replay_of
+from robokit.record.format import RunRecord
+from robokit.record.replay import Replay, Shape, camera_frames, replay_of
 
 
 def _ns(t: float) -> int:
@@ -61,16 +61,6 @@ def lidar_scans(rec: RunRecord, every: int = 1) -> Iterator[tuple[str, float, di
                 origin, quat = client.multiplyTransforms(pos, orn, list(spec.get("offset", (0, 0, 0))), yaw)
                 angles, ranges = cast_scan(world, spec)
                 yield name, float(t[i]), {"origin": origin, "quaternion": quat, "angles": angles, "ranges": ranges}
-
-
-def camera_frames(rec: RunRecord) -> list[tuple[str, float, Path]]:
-    """Saved colour frames ``(camera, sim time, png)``, in time order (``frames/<camera>_<tick>_rgb.png``)."""
-    folder, step = rec.folder / FRAMES_DIR, float(rec.header.get("time_step") or 1 / 240)
-    out = []
-    for png in sorted(folder.glob("*_rgb.png")) if folder.is_dir() else []:
-        camera, tick, _ = png.name.rsplit("_", 2)
-        out.append((camera, int(tick) * step, png))
-    return sorted(out, key=lambda item: item[1])
 
 
 def state_changes(rec: RunRecord) -> list[tuple[float, str, str]]:

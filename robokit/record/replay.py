@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from robokit.record.format import RunRecord
+from robokit.record.format import FRAMES_DIR, RunRecord
 from robokit.record.scene import Scene, rebuild
 
 GEOMETRY = {2: "sphere", 3: "box", 4: "cylinder", 5: "mesh", 6: "plane", 7: "capsule"}
@@ -191,14 +191,22 @@ def payload(rec: RunRecord, replay: Replay | None = None) -> dict[str, Any]:
                          for name, stays in spans.items()]}
 
 
+def camera_frames(rec: RunRecord) -> list[tuple[str, float, Path]]:
+    """Saved colour frames ``(camera, sim time, png)``, in time order (``frames/<camera>_<tick>_rgb.png``)."""
+    folder, step = rec.folder / FRAMES_DIR, float(rec.header.get("time_step") or 1 / 240)
+    out = []
+    for png in sorted(folder.glob("*_rgb.png")) if folder.is_dir() else []:
+        camera, tick, _ = png.name.rsplit("_", 2)
+        out.append((camera, int(tick) * step, png))
+    return sorted(out, key=lambda item: item[1])
+
+
 FRAME_BUDGET = 1_000_000
 """Bytes of saved camera frames (PNG) a page embeds at most, earliest first."""
 
 
 def _camera_frames(rec: RunRecord) -> list[dict[str, Any]]:
     """The colour frames the cameras saved (``--save-frames``), as ``{camera, t, png}`` (a data URI), in time order."""
-    from robokit.record.export import camera_frames
-
     out: list[dict[str, Any]] = []
     spent = 0
     for camera, t, png in camera_frames(rec):
