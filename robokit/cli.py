@@ -457,7 +457,8 @@ def cmd_lint(args: argparse.Namespace) -> int:
     return EXIT_FAILED if findings else EXIT_OK
 
 
-CAPTURED_COMMANDS = frozenset({"run", "validate", "inspect", "plugins", "graph", "video", "plot", "view", "results"})
+CAPTURED_COMMANDS = frozenset({"run", "validate", "inspect", "plugins", "graph", "video", "plot", "view", "results",
+                               "export"})
 """Commands whose pybullet C output is captured and summarised (they run pybullet in this process)."""
 
 

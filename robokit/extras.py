@@ -15,6 +15,7 @@ EXTRAS: dict[str, tuple[str, ...]] = {
     "server": ("django", "dj_database_url", "waitress", "whitenoise", "lxml"),
     "ray": ("ray",),
     "gym": ("gymnasium",),
+    "rerun": ("rerun", "mcap"),
 }
 """Extra -> the modules it makes importable. matplotlib and imageio-ffmpeg are in the base install too (the README's
 first command gives video, plots and the run page); ``video`` stays as an extra for older install commands."""
