@@ -1,0 +1,137 @@
+"""Charts for the learning dashboard, drawn on the server with matplotlib (Agg) as SVG.
+
+Text is written into the SVG as outlines (``svg.fonttype = "path"``) from a Korean font (NanumGothic or Noto Sans
+CJK KR when installed), so a chart reads the same in any browser, with or without Korean fonts on the teacher's
+machine. The SVG is made here from numbers and names, never from an upload, and is served with the pages' CSP.
+"""
+
+from __future__ import annotations
+
+import io
+from collections.abc import Sequence
+from datetime import datetime
+from typing import Any
+
+KOREAN_FONTS = ["NanumGothic", "Noto Sans CJK KR", "Noto Sans KR", "Malgun Gothic", "AppleGothic", "DejaVu Sans"]
+BLUE, GREEN, RED, GREY = "#4c72b0", "#55a868", "#c44e52", "#8c8c8c"
+
+
+def _plt() -> Any:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    plt.rcParams.update({"font.family": "sans-serif", "font.sans-serif": KOREAN_FONTS, "svg.fonttype": "path",
+                         "axes.unicode_minus": False, "svg.hashsalt": "robokit"})
+    return plt
+
+
+def _svg(fig: Any) -> bytes:
+    plt = _plt()
+    buf = io.BytesIO()
+    fig.tight_layout()
+    fig.savefig(buf, format="svg", metadata={"Date": None})
+    plt.close(fig)
+    return buf.getvalue()
+
+
+def _empty(ax: Any, text: str) -> None:
+    ax.text(0.5, 0.5, text, ha="center", va="center", transform=ax.transAxes, color=GREY)
+    ax.set_xticks([])
+    ax.set_yticks([])
+
+
+def timeline(title: str, attempts: Sequence[datetime], official: Sequence[tuple[datetime, float]]) -> bytes:
+    """A student's attempts (runs posted, grey ticks) and official results (success rate, blue dots) over time."""
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(7.5, 2.8))
+    if not attempts and not official:
+        _empty(ax, "아직 기록이 없습니다 (no attempts yet)")
+    else:
+        if attempts:
+            ax.scatter(list(attempts), [0.02] * len(attempts), marker="|", s=200, color=GREY, label="시도 attempts")
+        if official:
+            ax.plot([t for t, _ in official], [100 * v for _, v in official], "o-", color=BLUE,
+                    label="공식 성공률 official success %")
+        ax.set_ylim(-5, 105)
+        ax.set_ylabel("성공률 success %")
+        ax.legend(loc="upper left", fontsize=8)
+        fig.autofmt_xdate()
+    ax.set_title(title)
+    return _svg(fig)
+
+
+def weekly(title: str, weeks: Sequence[str], rates: Sequence[float], counts: Sequence[int]) -> bytes:
+    """Success rate per week (bars), with the number of runs written on each bar."""
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(7.5, 2.8))
+    if not weeks:
+        _empty(ax, "아직 기록이 없습니다 (no runs yet)")
+    else:
+        bars = ax.bar(range(len(weeks)), [100 * r for r in rates], color=GREEN)
+        for bar, n in zip(bars, counts, strict=True):
+            ax.annotate(f"{n}회", (bar.get_x() + bar.get_width() / 2, bar.get_height()), ha="center",
+                        va="bottom", fontsize=8)
+        ax.set_xticks(range(len(weeks)), list(weeks), fontsize=8)
+        ax.set_ylim(0, 110)
+        ax.set_ylabel("주간 성공률 weekly success %")
+    ax.set_title(title)
+    return _svg(fig)
+
+
+def distribution(title: str, values: Sequence[float], xlabel: str) -> bytes:
+    """A histogram of the students' best official success rates (in %)."""
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(6.5, 2.8))
+    if not values:
+        _empty(ax, "아직 공식 결과가 없습니다 (no official results yet)")
+    else:
+        ax.hist([100 * v for v in values], bins=[0, 10, 20, 30, 40, 50, 60, 70, 80, 90, 100.001], color=BLUE,
+                edgecolor="white")
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel("학생 수 students")
+        ax.set_xlim(0, 100)
+    ax.set_title(title)
+    return _svg(fig)
+
+
+def reasons(title: str, counted: Sequence[tuple[str, int]]) -> bytes:
+    """The most common failure reasons, as horizontal bars."""
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(7.5, max(2.2, 0.45 * len(counted) + 1.2)))
+    if not counted:
+        _empty(ax, "실패가 없습니다 (no failures)")
+    else:
+        labels = [r if len(r) <= 48 else r[:47] + "…" for r, _ in counted][::-1]
+        ax.barh(range(len(counted)), [n for _, n in counted][::-1], color=RED)
+        ax.set_yticks(range(len(counted)), labels, fontsize=8)
+        ax.set_xlabel("횟수 count")
+    ax.set_title(title)
+    return _svg(fig)
+
+
+def training(title: str, runs: Sequence[tuple[str, Sequence[dict[str, float]]]]) -> bytes:
+    """Training curves: return (left) and success rate (right) over environment steps, one line per run."""
+    plt = _plt()
+    fig, (left, right) = plt.subplots(1, 2, figsize=(8.5, 2.9))
+    if not runs:
+        _empty(left, "학습 기록 없음 (no training runs)")
+        _empty(right, "")
+    for name, points in runs:
+        steps = [p["steps"] for p in points]
+        if any("return" in p for p in points):
+            left.plot([s for s, p in zip(steps, points, strict=True) if "return" in p],
+                      [p["return"] for p in points if "return" in p], label=name or "run")
+        if any("success_rate" in p for p in points):
+            right.plot([s for s, p in zip(steps, points, strict=True) if "success_rate" in p],
+                       [100 * p["success_rate"] for p in points if "success_rate" in p], label=name or "run")
+    if runs:
+        left.set_xlabel("스텝 steps")
+        left.set_ylabel("보상 return")
+        right.set_xlabel("스텝 steps")
+        right.set_ylabel("성공률 success %")
+        right.set_ylim(-5, 105)
+        left.legend(fontsize=7)
+    fig.suptitle(title)
+    return _svg(fig)
