@@ -166,13 +166,16 @@ def cmd_worker(args: argparse.Namespace) -> int:
     os.environ["ROBOKIT_WORKERS"] = str(max(1, args.workers))
     setup(args.data)
     migrate()
-    from django.core.management import call_command
+    from django_q.cluster import Cluster
 
     print(f"robokit worker: {max(1, args.workers)} evaluation process(es) on {describe_database()}", flush=True)
+    cluster = Cluster()  # handles SIGTERM / SIGINT itself: stops its processes, then the sentinel ends
+    cluster.start()
     try:
-        call_command("qcluster")
+        while cluster.sentinel is not None and cluster.sentinel.is_alive():
+            cluster.sentinel.join()
     except KeyboardInterrupt:
-        pass
+        cluster.stop()
     return 0
 
 
