@@ -105,3 +105,21 @@ def test_the_sandbox_sets_its_limits_before_anything_runs() -> None:
     limits = json.loads(proc.stdout.splitlines()[0])
     assert limits == [[42, 42], [1500 << 20, 1500 << 20], [1 << 20, 1 << 20], [0, 0]]
     assert proc.returncode != 0  # writing past the file-size limit kills it (SIGXFSZ) or fails (EFBIG)
+
+
+def test_the_sandbox_has_no_network_where_the_machine_allows_it() -> None:
+    import socket
+
+    from robokit.server.sandbox import network_isolation, sandbox_command
+
+    if not network_isolation():
+        pytest.skip("no unprivileged network namespaces here: the sandbox has the server's network (documented)")
+    with socket.socket() as listener:
+        listener.bind(("127.0.0.1", 0))
+        listener.listen()
+        port = listener.getsockname()[1]
+        probe = f"import socket; socket.create_connection(('127.0.0.1', {port}), timeout=5)"
+        outside = subprocess.run([sys.executable, "-c", probe], capture_output=True, timeout=60)
+        inside = subprocess.run([*sandbox_command()[:-2], "-c", probe], capture_output=True, timeout=60)
+    assert outside.returncode == 0  # the listener is reachable from the server's own network
+    assert inside.returncode != 0 and b"Network is unreachable" in inside.stderr

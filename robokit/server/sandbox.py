@@ -51,6 +51,13 @@ def network_isolation() -> bool:
         return False
 
 
+def sandbox_command() -> list[str]:
+    """The command that starts the child: ``python -m robokit.server.sandbox``, in a new network namespace
+    when the machine allows it."""
+    cmd = [sys.executable, "-m", "robokit.server.sandbox"]
+    return ["unshare", "--net", "--map-root-user", *cmd] if network_isolation() else cmd
+
+
 def run_sandboxed(tasks: Sequence[Any], trial_seconds: float) -> Iterator[dict[str, Any]]:
     """Yield one row per task (:class:`robokit.sweep.trial.TrialTask`), as each trial ends, from a fresh
     limited process. A trial the process did not finish (it hit a limit or died) gets an ``error`` row."""
@@ -60,9 +67,7 @@ def run_sandboxed(tasks: Sequence[Any], trial_seconds: float) -> Iterator[dict[s
     sent = [{**{f.name: getattr(t, f.name) for f in dataclasses.fields(t) if f.name not in ("before", "after")},
              "base_dir": scratch} for t in tasks]
     limits = {"cpu": int(len(tasks) * trial_seconds) + CPU_MARGIN, "memory_mb": MEMORY_MB, "file": FILE_LIMIT}
-    cmd = [sys.executable, "-m", "robokit.server.sandbox"]
-    if network_isolation():
-        cmd = ["unshare", "--net", "--map-root-user", *cmd]
+    cmd = sandbox_command()
     env = {"PATH": os.environ.get("PATH", "/usr/bin:/bin"), "HOME": scratch, "TMPDIR": scratch,
            "LANG": "C.UTF-8", "MPLBACKEND": "Agg", "PYTHONDONTWRITEBYTECODE": "1"}
     done: set[str] = set()

@@ -4,9 +4,10 @@ validation. Every refusal is one line naming the key."""
 from __future__ import annotations
 
 from collections.abc import Iterator
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from robokit.server.assignments import Assignment
+if TYPE_CHECKING:
+    from robokit.server.assignments import Assignment
 
 
 class SubmissionError(Exception):
