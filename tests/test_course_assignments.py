@@ -143,3 +143,15 @@ def test_robokit_submit_command_against_a_live_server(live_server: Any, course: 
     assert refused.returncode == 2
     assert refused.stderr.count("\n") == 1 and "bodies.box.mass" in refused.stderr, refused.stderr
     assert ALLOWED[0] in refused.stderr  # it says what may be changed
+
+
+def test_create_assignment_refuses_trials_that_could_outlast_the_queue_timeout(course: Course, tmp_path: Path,
+                                                                               settings: Any) -> None:
+    from django.core.management import CommandError, call_command
+
+    settings.QUEUE_TIMEOUT = 600
+    cfg = tmp_path / "official.toml"
+    cfg.write_text(OFFICIAL, encoding="utf-8")
+    with pytest.raises(CommandError, match="ROBOKIT_QUEUE_TIMEOUT"):  # 20 x 60 s + 120 s > 600 s
+        call_command("create_assignment", "1반", "x", "--config", str(cfg), "--seeds", "0:20")
+    call_command("create_assignment", "1반", "x", "--config", str(cfg), "--seeds", "0:20", "--trial-seconds", "20")

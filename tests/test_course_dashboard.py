@@ -114,3 +114,17 @@ def test_the_assignment_page_says_who_has_not_submitted(client: Any, course: Cou
     assert "&lt;script&gt;alert(&#x27;x&#x27;)&lt;/script&gt;" in page  # the other student's name, as text
     room_page = client.get(f"/classes/{course.room.pk}/").content.decode()
     assert f"/classes/{course.room.pk}/assignments/{a.pk}/" in room_page and "grades.csv" in room_page
+
+
+def test_a_student_sees_their_own_submissions_and_official_results(client: Any, course: Course) -> None:
+    from robokit.server.models import Submission
+
+    a = make_assignment(course.room, "낙하 실험")
+    Submission.objects.create(assignment=a, student=course.kim, config_text=OFFICIAL, status="done", trials=20,
+                              succeeded=15, success_rate=0.75, wilson_low=0.53, wilson_high=0.89, late=True)
+    Submission.objects.create(assignment=a, student=course.lee, config_text=OFFICIAL, status="done", trials=20,
+                              succeeded=3, success_rate=0.15, wilson_low=0.05, wilson_high=0.36)
+    assert client.post("/me/", {"token": course.kim_token}).status_code == 302
+    page = client.get("/me/").content.decode()
+    assert "15/20 (0.75, 95 % 0.53–0.89)" in page and "late" in page
+    assert "3/20" not in page  # another student's submission

@@ -309,7 +309,8 @@ def me(request: HttpRequest) -> HttpResponse:
         return render(request, "course/me_login.html", {"error": error}, status=401 if error else 200)
     runs = (Result.objects.filter(student=student, verified=True, official=False)
             .select_related("project"))
-    return render(request, "course/me.html", {"student": student, "runs": _history(runs)})
+    subs = student.submissions.select_related("assignment")[:100]
+    return render(request, "course/me.html", {"student": student, "runs": _history(runs), "subs": subs})
 
 
 @require_http_methods(["POST"])

@@ -6,6 +6,7 @@ import datetime as dt
 from pathlib import Path
 from typing import Any
 
+from django.conf import settings
 from django.core.management.base import BaseCommand, CommandError, CommandParser
 from django.utils import timezone
 
@@ -58,6 +59,11 @@ class Command(BaseCommand):
             raise CommandError(f"--config {path}: {exc.strerror or exc}") from None
         except (UserError, SubmissionError) as exc:
             raise CommandError(f"{path}: {exc}") from None
+        budget = len(seeds) * opts["trial_seconds"] + 120
+        if budget > settings.QUEUE_TIMEOUT:
+            raise CommandError(f"--seeds/--trial-seconds: {len(seeds)} trials of up to {opts['trial_seconds']:g} s "
+                               f"may take longer than the queue lets one evaluation run ({settings.QUEUE_TIMEOUT} s, "
+                               f"ROBOKIT_QUEUE_TIMEOUT); use fewer seeds, a shorter limit or a longer timeout")
         behaviour = parse_toml(text).get("behaviour", {})
         kind = opts["kind"] or (behaviour.get("type", "") if isinstance(behaviour, dict) else "")
         project, _ = Project.objects.get_or_create(classroom=room, name=opts["name"],
