@@ -114,3 +114,25 @@ def test_another_teacher_can_neither_see_nor_moderate(client: Any, course: Cours
     assert client.post(f"/classes/{room}/moderate/", {"submission": sub.pk, "reason": "x"}).status_code == 404
     sub.refresh_from_db()
     assert not sub.excluded
+
+
+def test_an_assignment_made_in_the_admin_gets_its_project(client: Any, course: Course) -> None:
+    from django.contrib.auth.models import Permission
+
+    from robokit.server.models import Assignment
+
+    course.teacher.user_permissions.add(*Permission.objects.filter(content_type__app_label="course"))
+    client.login(username="teacher", password=PASSWORD)
+    resp = client.post("/admin/course/assignment/add/", {
+        "classroom": course.room.pk, "name": "admin-made", "kind": "drop_test", "config_text": OFFICIAL,
+        "allowed_keys": '["behaviour.duration"]', "seeds": "[0, 1, 2]", "ranking": "-success_rate",
+        "trial_seconds": "30", "late_policy": "accept"})
+    assert resp.status_code == 302, resp.content.decode()[:3000]
+    a = Assignment.objects.get(name="admin-made")
+    assert a.project.name == "admin-made" and a.project.classroom == course.room and a.seeds == [0, 1, 2]
+    bad = client.post(f"/admin/course/assignment/{a.pk}/change/", {
+        "classroom": course.room.pk, "name": "admin-made", "config_text": OFFICIAL.replace("duration = 0.5",
+                                                                                          "duration = -2"),
+        "allowed_keys": "[]", "seeds": "[0]", "ranking": "-success_rate", "trial_seconds": "30",
+        "late_policy": "accept"})
+    assert bad.status_code == 200 and "behaviour.duration: input should be greater than 0" in bad.content.decode()

@@ -164,6 +164,11 @@ class AssignmentAdmin(OwnClassesMixin, admin.ModelAdmin):
     list_filter = (("classroom", admin.RelatedOnlyFieldListFilter),)
     readonly_fields = ("project",)
 
+    def save_model(self, request: HttpRequest, obj: Any, form: Any, change: bool) -> None:
+        if not obj.project_id:  # the assignment's runs board: the class's project of the same name
+            obj.project, _ = Project.objects.get_or_create(classroom=obj.classroom, name=obj.name)
+        super().save_model(request, obj, form, change)
+
 
 @admin.register(Submission)
 class SubmissionAdmin(OwnClassesMixin, admin.ModelAdmin):

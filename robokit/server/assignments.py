@@ -41,6 +41,20 @@ class Assignment(models.Model):
     def __str__(self) -> str:
         return self.name
 
+    def clean(self) -> None:
+        """The admin's check: the official config passes robokit's validation; seeds are whole numbers."""
+        from django.core.exceptions import ValidationError
+
+        from robokit.server.submitted import SubmissionError, validate_config
+
+        try:
+            validate_config(self.config_text, source="official config")
+        except SubmissionError as exc:
+            raise ValidationError({"config_text": str(exc)}) from None
+        if not isinstance(self.seeds, list) or not self.seeds or not all(
+                isinstance(s, int) and not isinstance(s, bool) and s >= 0 for s in self.seeds):
+            raise ValidationError({"seeds": "a list of whole numbers >= 0, e.g. [0, 1, 2]"})
+
     def may_change(self, key: str) -> bool:
         """Whether students may change the dotted ``key`` (``a.b.c``); ``a.*`` allows everything under ``a``."""
         return any(fnmatch.fnmatchcase(key, pattern) for pattern in self.allowed_keys)

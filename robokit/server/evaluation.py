@@ -110,7 +110,9 @@ def finish(sub: Submission) -> str:
 
     rows = [{"cell": CELL, "outcome": r.outcome, "figures": r.figures, "overrides": {}, "sim_time": r.sim_time,
              "wall_time": r.wall_time} for r in sub.results.all()]
-    if len(rows) < len(sub.assignment.seeds):
+    if len(rows) < len(sub.assignment.seeds):  # a row could not be stored: say so rather than wait forever
+        Submission.objects.filter(pk=sub.pk).exclude(status=Submission.DONE).update(
+            status=Submission.ERROR, error=f"{len(rows)} of {len(sub.assignment.seeds)} trials stored")
         return "incomplete"
     summary = summarise(rows, [CELL])
     cell = summary["cells"][0]
