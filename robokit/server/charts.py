@@ -8,12 +8,19 @@ machine. The SVG is made here from numbers and names, never from an upload, and 
 from __future__ import annotations
 
 import io
+import textwrap
 from collections.abc import Sequence
-from datetime import datetime
+from datetime import datetime, timedelta
 from typing import Any
 
 KOREAN_FONTS = ["NanumGothic", "Noto Sans CJK KR", "Noto Sans KR", "Malgun Gothic", "AppleGothic", "DejaVu Sans"]
 BLUE, GREEN, RED, GREY = "#4c72b0", "#55a868", "#c44e52", "#8c8c8c"
+
+
+def _integer_ticks() -> Any:
+    from matplotlib.ticker import MaxNLocator
+
+    return MaxNLocator(integer=True)
 
 
 def _plt() -> Any:
@@ -42,6 +49,19 @@ def _empty(ax: Any, text: str) -> None:
     ax.set_yticks([])
 
 
+def _time_axis(ax: Any, times: Sequence[datetime]) -> None:
+    """Dates on the x axis, at least a day wide (a single moment would otherwise span years)."""
+    import matplotlib.dates as mdates
+
+    first, last = min(times), max(times)
+    pad = max((last - first) * 0.05, timedelta(hours=12)) if last - first < timedelta(days=1) else (
+        (last - first) * 0.05)
+    ax.set_xlim(first - pad, last + pad)
+    locator = mdates.AutoDateLocator()
+    ax.xaxis.set_major_locator(locator)
+    ax.xaxis.set_major_formatter(mdates.ConciseDateFormatter(locator))
+
+
 def timeline(title: str, attempts: Sequence[datetime], official: Sequence[tuple[datetime, float]]) -> bytes:
     """A student's attempts (runs posted, grey ticks) and official results (success rate, blue dots) over time."""
     plt = _plt()
@@ -52,12 +72,12 @@ def timeline(title: str, attempts: Sequence[datetime], official: Sequence[tuple[
         if attempts:
             ax.scatter(list(attempts), [0.02] * len(attempts), marker="|", s=200, color=GREY, label="시도 attempts")
         if official:
-            ax.plot([t for t, _ in official], [100 * v for _, v in official], "o-", color=BLUE,
+            ax.plot([t for t, _ in official], [100 * v for _, v in official], "o-", color=BLUE, markersize=8,
                     label="공식 성공률 official success %")
+        _time_axis(ax, [*attempts, *(t for t, _ in official)])
         ax.set_ylim(-5, 105)
         ax.set_ylabel("성공률 success %")
         ax.legend(loc="upper left", fontsize=8)
-        fig.autofmt_xdate()
     ax.set_title(title)
     return _svg(fig)
 
@@ -91,6 +111,7 @@ def distribution(title: str, values: Sequence[float], xlabel: str) -> bytes:
                 edgecolor="white")
         ax.set_xlabel(xlabel)
         ax.set_ylabel("학생 수 students")
+        ax.yaxis.set_major_locator(_integer_ticks())
         ax.set_xlim(0, 100)
     ax.set_title(title)
     return _svg(fig)
@@ -99,13 +120,14 @@ def distribution(title: str, values: Sequence[float], xlabel: str) -> bytes:
 def reasons(title: str, counted: Sequence[tuple[str, int]]) -> bytes:
     """The most common failure reasons, as horizontal bars."""
     plt = _plt()
-    fig, ax = plt.subplots(figsize=(7.5, max(2.2, 0.45 * len(counted) + 1.2)))
+    fig, ax = plt.subplots(figsize=(7.5, max(2.4, 0.6 * len(counted) + 1.2)))
     if not counted:
         _empty(ax, "실패가 없습니다 (no failures)")
     else:
-        labels = [r if len(r) <= 48 else r[:47] + "…" for r, _ in counted][::-1]
+        labels = [textwrap.fill(r if len(r) <= 90 else r[:89] + "…", 32) for r, _ in counted][::-1]
         ax.barh(range(len(counted)), [n for _, n in counted][::-1], color=RED)
-        ax.set_yticks(range(len(counted)), labels, fontsize=8)
+        ax.set_yticks(range(len(counted)), labels, fontsize=9)
+        ax.xaxis.set_major_locator(_integer_ticks())
         ax.set_xlabel("횟수 count")
     ax.set_title(title)
     return _svg(fig)
