@@ -62,13 +62,21 @@ def _store_runs(client: Any, course: Course) -> None:
 
 
 def test_the_student_dashboard_shows_weeks_reasons_and_training(client: Any, course: Course) -> None:
+    from robokit.server.models import Submission
+
     _store_runs(client, course)
     post_training(client, course.kim_token, {"name": "ARS reach", "log": LOG})
+    a = make_assignment(course.room)
+    for rate, day in ((0.25, 4), (0.5, 5)):  # both evaluated in week 45: the best is 0.50
+        Submission.objects.create(assignment=a, student=course.kim, config_text=OFFICIAL, status="done",
+                                  trials=4, succeeded=int(4 * rate), success_rate=rate,
+                                  finished_at=dt.datetime(2026, 11, day, tzinfo=dt.timezone.utc))
     client.login(username="teacher", password=PASSWORD)
     page = client.get(f"/classes/{course.room.pk}/students/{course.kim.pk}/dashboard/").content.decode()
     # 2026-11-02 and 11-03 are in ISO week 45, 11-10 in week 46: 0 of 2, then 1 of 1.
-    assert "2026-W45</td><td class=\"num\">2</td><td class=\"num\">0</td><td class=\"num\">0.00" in page
-    assert "2026-W46</td><td class=\"num\">1</td><td class=\"num\">1</td><td class=\"num\">1.00" in page
+    cells = '<td class="num">{}</td>' * 4
+    assert "2026-W45</td>" + cells.format(2, 0, "0.00", "0.50") in page
+    assert "2026-W46</td>" + cells.format(1, 1, "1.00", "—") in page
     assert "dropped cube N at N s</td><td class=\"num\">2</td>" in page
     assert "ARS reach: 10 points" in page and 'id="chart-training"' in page
 

@@ -82,20 +82,28 @@ def timeline(title: str, attempts: Sequence[datetime], official: Sequence[tuple[
     return _svg(fig)
 
 
-def weekly(title: str, weeks: Sequence[str], rates: Sequence[float], counts: Sequence[int]) -> bytes:
-    """Success rate per week (bars), with the number of runs written on each bar."""
+def weekly(title: str, weeks: Sequence[str], rates: Sequence[float | None], counts: Sequence[int],
+           official: Sequence[float | None] = ()) -> bytes:
+    """Per week: the success rate of the student's own runs (green bars, the number of runs on each) and the
+    best official success rate evaluated that week (blue dots)."""
     plt = _plt()
     fig, ax = plt.subplots(figsize=(7.5, 2.8))
     if not weeks:
         _empty(ax, "아직 기록이 없습니다 (no runs yet)")
     else:
-        bars = ax.bar(range(len(weeks)), [100 * r for r in rates], color=GREEN)
+        x = range(len(weeks))
+        bars = ax.bar(x, [100 * (r or 0.0) for r in rates], color=GREEN, width=0.6, label="내 실행 my runs")
         for bar, n in zip(bars, counts, strict=True):
             ax.annotate(f"{n}회", (bar.get_x() + bar.get_width() / 2, bar.get_height()), ha="center",
                         va="bottom", fontsize=8)
-        ax.set_xticks(range(len(weeks)), list(weeks), fontsize=8)
-        ax.set_ylim(0, 110)
+        marks = [(i, 100 * v) for i, v in zip(x, official, strict=False) if v is not None]
+        if marks:
+            ax.plot(*zip(*marks, strict=True), "o", color=BLUE, markersize=8, label="최고 공식 best official")
+        ax.set_xticks(list(x), list(weeks), fontsize=8)
+        ax.set_xlim(-0.8, max(len(weeks), 3) - 0.2)
+        ax.set_ylim(0, 115)
         ax.set_ylabel("주간 성공률 weekly success %")
+        ax.legend(loc="upper left", fontsize=8)
     ax.set_title(title)
     return _svg(fig)
 

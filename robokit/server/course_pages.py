@@ -102,44 +102,61 @@ def _student(request: HttpRequest, pk: int, spk: int) -> Student:
     return get_object_or_404(Student.objects.select_related("classroom"), pk=spk, classroom=room)
 
 
-def weekly_rows(results: Iterable[Result]) -> list[dict[str, Any]]:
-    """Per ISO week: runs, succeeded, success rate, best official success rate of that week's trials."""
+def _week(when: Any) -> str:
+    year, week, _ = when.isocalendar()
+    return f"{year}-W{week:02d}"
+
+
+def weekly_rows(results: Iterable[Result], submissions: Iterable[Submission] = ()) -> list[dict[str, Any]]:
+    """Per ISO week: the student's own runs, how many succeeded, their success rate, and the best official
+    success rate of the submissions evaluated that week (None without one)."""
     weeks: dict[str, dict[str, Any]] = {}
+
+    def row(key: str) -> dict[str, Any]:
+        return weeks.setdefault(key, {"week": key, "runs": 0, "ok": 0, "rate": None, "official": None})
+
     for r in results:
-        year, week, _ = r.received_at.isocalendar()
-        w = weeks.setdefault(f"{year}-W{week:02d}", {"week": f"{year}-W{week:02d}", "runs": 0, "ok": 0})
+        w = row(_week(r.received_at))
         w["runs"] += 1
         w["ok"] += r.outcome == "succeeded"
+    for sub in submissions:
+        if sub.finished_at is not None and sub.success_rate is not None:
+            w = row(_week(sub.finished_at))
+            w["official"] = max(w["official"] or 0.0, sub.success_rate)
     rows = [weeks[k] for k in sorted(weeks)]
     for w in rows:
-        w["rate"] = w["ok"] / w["runs"]
+        w["rate"] = w["ok"] / w["runs"] if w["runs"] else None
     return rows
 
 
 @login_required
 def student_dashboard(request: HttpRequest, pk: int, spk: int) -> HttpResponse:
     s = _student(request, pk, spk)
-    runs = Result.objects.filter(student=s, excluded=False).order_by("received_at")
+    runs = list(Result.objects.filter(student=s, excluded=False).order_by("received_at"))
+    own = [r for r in runs if not r.official]
     subs = list(s.submissions.select_related("assignment").order_by("submitted_at"))
     return render(request, "course/dashboard.html", {
-        "room": s.classroom, "student": s, "weeks": weekly_rows(runs), "subs": subs,
+        "room": s.classroom, "student": s, "weeks": weekly_rows(own, _evaluated(s)), "subs": subs,
         "reasons": reason_counts(runs), "training": list(TrainingRun.objects.filter(student=s)),
-        "n_runs": runs.count()})
+        "n_runs": len(own)})
+
+
+def _evaluated(s: Student) -> list[Submission]:
+    return list(s.submissions.filter(status=Submission.DONE, excluded=False).order_by("finished_at"))
 
 
 @login_required
 def student_chart(request: HttpRequest, pk: int, spk: int, kind: str) -> HttpResponse:
     s = _student(request, pk, spk)
-    runs = list(Result.objects.filter(student=s, excluded=False).order_by("received_at"))
+    own = list(Result.objects.filter(student=s, excluded=False, official=False).order_by("received_at"))
     if kind == "timeline":
-        attempts = [r.received_at for r in runs if not r.official]
-        official = [(x.finished_at, x.success_rate or 0.0) for x in s.submissions.filter(
-            status=Submission.DONE, excluded=False).order_by("finished_at") if x.finished_at is not None]
-        return _svg_response(charts.timeline(f"{s.name}: 시도와 공식 결과", attempts, official))
+        official = [(x.finished_at, x.success_rate or 0.0) for x in _evaluated(s) if x.finished_at is not None]
+        return _svg_response(charts.timeline(f"{s.name}: 시도와 공식 결과", [r.received_at for r in own], official))
     if kind == "weekly":
-        rows = weekly_rows(runs)
+        rows = weekly_rows(own, _evaluated(s))
         return _svg_response(charts.weekly(f"{s.name}: 주간 성공률", [w["week"] for w in rows],
-                                           [w["rate"] for w in rows], [w["runs"] for w in rows]))
+                                           [w["rate"] for w in rows], [w["runs"] for w in rows],
+                                           [w["official"] for w in rows]))
     if kind == "training":
         train = [(t.name or t.run_id[:8], t.points) for t in TrainingRun.objects.filter(student=s)[:8]]
         return _svg_response(charts.training(f"{s.name}: 학습 곡선 training", train))
