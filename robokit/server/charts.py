@@ -49,6 +49,14 @@ def _empty(ax: Any, text: str) -> None:
     ax.set_yticks([])
 
 
+def _percent_axis(ax: Any, label: str) -> None:
+    """0-100 % with room above 100 for the legend (so it never hides a point at 100 %)."""
+    ax.set_ylim(-5, 135)
+    ax.set_yticks([0, 20, 40, 60, 80, 100])
+    ax.set_ylabel(label)
+    ax.legend(loc="upper center", fontsize=8, ncol=2, frameon=False)
+
+
 def _time_axis(ax: Any, times: Sequence[datetime]) -> None:
     """Dates on the x axis, at least a day wide (a single moment would otherwise span years)."""
     import matplotlib.dates as mdates
@@ -75,9 +83,7 @@ def timeline(title: str, attempts: Sequence[datetime], official: Sequence[tuple[
             ax.plot([t for t, _ in official], [100 * v for _, v in official], "o-", color=BLUE, markersize=8,
                     label="공식 성공률 official success %")
         _time_axis(ax, [*attempts, *(t for t, _ in official)])
-        ax.set_ylim(-5, 105)
-        ax.set_ylabel("성공률 success %")
-        ax.legend(loc="upper left", fontsize=8)
+        _percent_axis(ax, "성공률 success %")
     ax.set_title(title)
     return _svg(fig)
 
@@ -101,9 +107,7 @@ def weekly(title: str, weeks: Sequence[str], rates: Sequence[float | None], coun
             ax.plot(*zip(*marks, strict=True), "o", color=BLUE, markersize=8, label="최고 공식 best official")
         ax.set_xticks(list(x), list(weeks), fontsize=8)
         ax.set_xlim(-0.8, max(len(weeks), 3) - 0.2)
-        ax.set_ylim(0, 115)
-        ax.set_ylabel("주간 성공률 weekly success %")
-        ax.legend(loc="upper left", fontsize=8)
+        _percent_axis(ax, "주간 성공률 weekly success %")
     ax.set_title(title)
     return _svg(fig)
 
