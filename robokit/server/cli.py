@@ -48,10 +48,11 @@ def add_server_commands(sub: Any) -> None:
 
 def setup(data: str | None) -> Path:
     """Point Django at the data folder (created, with a secret key file) and set it up; returns the folder."""
-    try:
-        import django
-    except ImportError:
-        raise UserError("the course server needs Django: pip install 'robokit[server]'") from None
+    from robokit.extras import require
+
+    require("server", "the course server")  # Django, waitress, whitenoise, dj-database-url, lxml: before any work
+    import django
+
     folder = Path(data or os.environ.get(DATA_ENV) or DEFAULT_DATA_DIR).resolve()
     try:
         private_dir(folder)
