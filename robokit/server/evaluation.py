@@ -15,6 +15,8 @@ Success rate and Wilson interval are :func:`robokit.sweep.summary.summarise`'s, 
 from __future__ import annotations
 
 import logging
+import os
+from collections.abc import Iterator
 from typing import Any
 
 from django.db import IntegrityError, transaction
@@ -59,8 +61,6 @@ def trial_tasks(sub: Submission, seeds: list[int]) -> list[Any]:
 
 def evaluate_submission(submission_id: int) -> str:
     """The queue task: run the trials not stored yet, store each as it ends, then the summary. Idempotent."""
-    from robokit.server.sandbox import run_sandboxed
-
     sub = Submission.objects.select_related("assignment", "student").filter(pk=submission_id).first()
     if sub is None or sub.status in (Submission.DONE, Submission.ERROR):
         return "nothing to do"
@@ -69,7 +69,7 @@ def evaluate_submission(submission_id: int) -> str:
     stored = set(sub.results.values_list("seed", flat=True))
     todo = trial_tasks(sub, [s for s in seeds if s not in stored])
     try:
-        for row in run_sandboxed(todo, float(sub.assignment.trial_seconds)):
+        for row in run_trials(todo, float(sub.assignment.trial_seconds)):
             store_trial(sub, row)
     except Exception as exc:  # noqa: BLE001 - the submission says what went wrong; the queue task ends
         log.exception("evaluation of submission %s failed", sub.pk)
@@ -77,6 +77,19 @@ def evaluate_submission(submission_id: int) -> str:
             status=Submission.ERROR, error=f"{type(exc).__name__}: {exc}"[:2000])
         return "error"
     return finish(sub)
+
+
+def run_trials(tasks: list[Any], trial_seconds: float) -> Iterator[dict[str, Any]]:
+    """The trials' rows: on the Ray cluster at ``ROBOKIT_RAY_ADDRESS`` through ``robokit sweep``'s Ray backend
+    (a trial per Ray task, across the cluster's nodes), otherwise in a local sandbox process."""
+    address = os.environ.get("ROBOKIT_RAY_ADDRESS", "").strip()
+    if address:
+        from robokit.sweep.ray_backend import RayBackend
+
+        return RayBackend(address, trial_timeout=trial_seconds + 60).run(tasks)
+    from robokit.server.sandbox import run_sandboxed
+
+    return run_sandboxed(tasks, trial_seconds)
 
 
 def store_trial(sub: Submission, row: dict[str, Any]) -> None:
