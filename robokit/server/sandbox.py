@@ -119,10 +119,11 @@ def _why(code: int, stderr: str) -> str:
 
 
 def _limit(resource_mod: Any, which: int, value: int) -> None:
+    """Soft and hard limit ``value`` (or the existing hard limit, if that is lower: it cannot be raised)."""
     _, hard = resource_mod.getrlimit(which)
     if hard != resource_mod.RLIM_INFINITY:
         value = min(value, hard)
-    resource_mod.setrlimit(which, (value, hard if hard != resource_mod.RLIM_INFINITY and hard < value else value))
+    resource_mod.setrlimit(which, (value, value))
 
 
 def apply_limits(limits: dict[str, int]) -> None:
