@@ -4,6 +4,7 @@ and robokit's own validation, deadlines, and the `robokit submit` command agains
 from __future__ import annotations
 
 import datetime as dt
+import json
 import os
 import subprocess
 import sys
@@ -13,6 +14,8 @@ from typing import Any
 import pytest
 from course_helpers import Course, post, robokit_payload
 from course_work import ALLOWED, OFFICIAL, changed, make_assignment, submit
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 pytest_plugins = ["course_fixtures"]
 pytestmark = pytest.mark.django_db
@@ -155,3 +158,34 @@ def test_create_assignment_refuses_trials_that_could_outlast_the_queue_timeout(c
     with pytest.raises(CommandError, match="ROBOKIT_QUEUE_TIMEOUT"):  # 20 x 60 s + 120 s > 600 s
         call_command("create_assignment", "1반", "x", "--config", str(cfg), "--seeds", "0:20")
     call_command("create_assignment", "1반", "x", "--config", str(cfg), "--seeds", "0:20", "--trial-seconds", "20")
+
+
+_text = st.one_of(st.text(max_size=40), st.sampled_from([
+    OFFICIAL, OFFICIAL.replace("[behaviour]", "[behaviour]\nx = 1"), "[world\n", "world = 1", "\ud800", "a\x00b",
+    '{"steps": 1}\n{"steps": -1}', '{"steps": 1, "return": 1e999}', "[" * 50]))
+_json = st.recursive(st.one_of(st.none(), st.booleans(), st.integers(), st.floats(allow_nan=False), _text),
+                     lambda inner: st.one_of(st.lists(inner, max_size=3),
+                                             st.dictionaries(st.text(max_size=6), inner, max_size=3)), max_leaves=12)
+_course_bodies = st.one_of(_json, st.fixed_dictionaries({}, optional={
+    "config": st.one_of(_text, _json), "log": st.one_of(_text, _json), "run_id": st.one_of(_text, _json),
+    "name": st.one_of(_text, _json)}))
+
+
+@settings(max_examples=50, deadline=None, derandomize=True, database=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@given(body=_course_bodies, who=st.sampled_from([None, "kim", "teacher", "junk"]),
+       url=st.sampled_from(["/api/robotics/assignments/낙하 실험/submissions/", "/api/robotics/training/",
+                            "/api/robotics/assignments/nope/submissions/"]))
+def test_fuzz_course_endpoints_answer_json_never_a_500(client: Any, course: Course, body: Any, who: str | None,
+                                                       url: str) -> None:
+    from robokit.server.models import Assignment
+
+    if not Assignment.objects.exists():
+        make_assignment(course.room)
+    token = {"kim": course.kim_token, "teacher": course.teacher_token, "junk": "rks_junk", None: None}[who]
+    headers = {"HTTP_AUTHORIZATION": f"Bearer {token}"} if token else {}
+    resp = client.post(url, data=json.dumps(body), content_type="application/json", **headers)  # a 500 raises
+    assert resp.status_code in (200, 201, 400, 401, 403, 404, 409), resp.content
+    if resp.status_code >= 400:
+        answer = resp.json()
+        assert set(answer) == {"error", "field"} and "\n" not in answer["error"]

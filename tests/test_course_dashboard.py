@@ -136,3 +136,10 @@ def test_a_student_sees_their_own_submissions_and_official_results(client: Any, 
     page = client.get("/me/").content.decode()
     assert "15/20 (0.75, 95 % 0.53–0.89)" in page and "late" in page
     assert "3/20" not in page  # another student's submission
+
+
+def test_a_training_log_over_the_limit_is_413_not_an_error(client: Any, course: Course, settings: Any) -> None:
+    line = json.dumps({"steps": 1, "return": 0.5}) + "\n"
+    body = {"log": line * (settings.MAX_RESULT_BYTES // len(line) + 10)}
+    resp = post_training(client, course.kim_token, body)
+    assert resp.status_code == 413 and "limit" in resp.json()["error"]

@@ -17,6 +17,7 @@ import uuid
 from typing import Any
 
 from django.conf import settings
+from django.core.exceptions import RequestDataTooBig
 from django.db import IntegrityError, transaction
 from django.http import HttpRequest, JsonResponse
 from django.utils import timezone
@@ -51,9 +52,14 @@ def _student_token(request: HttpRequest) -> Token | JsonResponse:
 
 
 def _body(request: HttpRequest, limit: int) -> dict[str, Any]:
-    if len(request.body) > limit:
-        raise PayloadError("", f"the body is {len(request.body)} bytes; the limit is {limit}")
-    return parse(request.body)
+    """The JSON object posted, at most ``limit`` bytes (and at most Django's request limit, the results' one)."""
+    try:
+        body = request.body
+    except RequestDataTooBig:
+        raise PayloadError("", f"the body is over the {settings.MAX_RESULT_BYTES}-byte limit") from None
+    if len(body) > limit:
+        raise PayloadError("", f"the body is {len(body)} bytes; the limit is {limit}")
+    return parse(body)
 
 
 @csrf_exempt
@@ -99,7 +105,7 @@ def post_training(request: HttpRequest) -> JsonResponse:
     if isinstance(token, JsonResponse):
         return token
     try:
-        data = _body(request, settings.MAX_TRACE_BYTES)
+        data = _body(request, settings.MAX_RESULT_BYTES)
         run_id = data.get("run_id") or uuid.uuid4().hex
         if not isinstance(run_id, str) or not RUN_ID.match(run_id):
             raise PayloadError("run_id", "expected 1-64 letters, digits, '.', '_', ':' or '-'")
