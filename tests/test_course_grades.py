@@ -136,3 +136,15 @@ def test_an_assignment_made_in_the_admin_gets_its_project(client: Any, course: C
         "allowed_keys": "[]", "seeds": "[0]", "ranking": "-success_rate", "trial_seconds": "30",
         "late_policy": "accept"})
     assert bad.status_code == 200 and "behaviour.duration: input should be greater than 0" in bad.content.decode()
+
+
+def test_a_teacher_from_before_the_upgrade_gets_the_new_models_permissions(course: Course) -> None:
+    from django.contrib.auth.models import Permission
+    from django.core.management import call_command
+
+    old = Permission.objects.filter(content_type__app_label="course", content_type__model__in=[
+        "classroom", "student", "token", "project", "result", "artifact"])
+    course.teacher.user_permissions.set(old)  # what create_teacher gave before assignments existed
+    call_command("migrate", verbosity=0)  # robokit serve / manage migrate on every start
+    course.teacher = type(course.teacher).objects.get(pk=course.teacher.pk)  # permissions are cached per object
+    assert course.teacher.has_perm("course.change_assignment") and course.teacher.has_perm("course.view_submission")

@@ -195,7 +195,8 @@ def cmd_manage(args: argparse.Namespace) -> int:
     if not args.args or args.args[0] in ("-h", "--help"):
         print("usage: robokit manage [--data DIR] COMMAND [ARGS]\n\ncourse commands: create_teacher NAME | "
               "create_class NAME --teacher USER [--allow-unverified] | add_students CLASS NAME... [--file F] | "
-              "issue_token CLASS STUDENT | revoke_token CLASS STUDENT | teacher_token CLASS --teacher USER\n"
+              "issue_token CLASS STUDENT | revoke_token CLASS STUDENT | teacher_token CLASS --teacher USER | "
+              "create_assignment CLASS NAME --config FILE [--allow KEY ...] [--seeds A:B] [--due WHEN]\n"
               "any Django command works too (migrate, changepassword, dbshell, help ...)")
         return 0
     setup(args.data)
