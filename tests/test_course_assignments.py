@@ -155,7 +155,7 @@ def test_create_assignment_refuses_trials_that_could_outlast_the_queue_timeout(c
     settings.QUEUE_TIMEOUT = 600
     cfg = tmp_path / "official.toml"
     cfg.write_text(OFFICIAL, encoding="utf-8")
-    with pytest.raises(CommandError, match="ROBOKIT_QUEUE_TIMEOUT"):  # 20 x 60 s + 120 s > 600 s
+    with pytest.raises(CommandError, match="ROBOKIT_QUEUE_TIMEOUT"):  # 20 x 60 s + 30 s > 600 s
         call_command("create_assignment", "1반", "x", "--config", str(cfg), "--seeds", "0:20")
     call_command("create_assignment", "1반", "x", "--config", str(cfg), "--seeds", "0:20", "--trial-seconds", "20")
 

@@ -17,13 +17,13 @@ SEEDS = 4
 
 
 def test_sigkill_mid_evaluation_then_restart_evaluates_every_submission_exactly_once(tmp_path: Path) -> None:
-    env = {"ROBOKIT_QUEUE_TIMEOUT": "40", "ROBOKIT_QUEUE_RETRY": "45"}  # a taken task comes back after 45 s
+    env = {"ROBOKIT_QUEUE_TIMEOUT": "60", "ROBOKIT_QUEUE_RETRY": "65"}  # a taken task comes back after 65 s
     server = CourseServer(tmp_path / "data", workers=1, env=env)
     tokens = setup_class(server, ["김민준", "이서연", "박지호"])
     official = tmp_path / "official.toml"
     official.write_text(OFFICIAL, encoding="utf-8")
     server.manage("create_assignment", "1반", "낙하", "--config", str(official), "--allow", "behaviour.duration",
-                  "--seeds", f"0:{SEEDS}")
+                  "--seeds", f"0:{SEEDS}", "--trial-seconds", "7")  # 4 x 7 s + 30 s fits the queue's 60 s
     server.start()
     try:
         for name, token in tokens.items():

@@ -37,6 +37,13 @@ from typing import Any
 FILE_LIMIT = 64 << 20
 MEMORY_MB = int(os.environ.get("ROBOKIT_SANDBOX_MEMORY_MB", 3072))
 CPU_MARGIN = 30
+WALL_MARGIN = 30
+"""Seconds the whole process may take beyond its trials' limits (start-up, loading plugins) before it is killed."""
+
+
+def wall_limit(trials: int, trial_seconds: float) -> float:
+    """The wall-clock limit of a process that runs ``trials`` trials of at most ``trial_seconds`` each."""
+    return trials * trial_seconds + WALL_MARGIN
 
 
 @cache
@@ -74,7 +81,7 @@ def run_sandboxed(tasks: Sequence[Any], trial_seconds: float) -> Iterator[dict[s
     try:
         proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                                 cwd=scratch, env=env, text=True)
-        timer = threading.Timer(len(tasks) * trial_seconds + CPU_MARGIN * 2, proc.kill)
+        timer = threading.Timer(wall_limit(len(tasks), trial_seconds), proc.kill)
         timer.start()
         assert proc.stdin is not None and proc.stdout is not None and proc.stderr is not None
         err_reader = _Collect(proc.stderr)

@@ -46,6 +46,7 @@ class Command(BaseCommand):
 
     def handle(self, *args: Any, **opts: Any) -> None:
         from robokit.errors import UserError
+        from robokit.server.sandbox import wall_limit
         from robokit.server.submitted import SubmissionError, parse_toml, validate_config
         from robokit.sweep.spec import parse_seeds
 
@@ -59,8 +60,7 @@ class Command(BaseCommand):
             raise CommandError(f"--config {path}: {exc.strerror or exc}") from None
         except (UserError, SubmissionError) as exc:
             raise CommandError(f"{path}: {exc}") from None
-        budget = len(seeds) * opts["trial_seconds"] + 120
-        if budget > settings.QUEUE_TIMEOUT:
+        if wall_limit(len(seeds), opts["trial_seconds"]) > settings.QUEUE_TIMEOUT:
             raise CommandError(f"--seeds/--trial-seconds: {len(seeds)} trials of up to {opts['trial_seconds']:g} s "
                                f"may take longer than the queue lets one evaluation run ({settings.QUEUE_TIMEOUT} s, "
                                f"ROBOKIT_QUEUE_TIMEOUT); use fewer seeds, a shorter limit or a longer timeout")
