@@ -16,6 +16,10 @@ variable                          meaning (default)
                                   (e.g. ``https://robots.school.org``)
 ``ROBOKIT_MAX_RESULT_BYTES``      largest result body accepted (1 MiB)
 ``ROBOKIT_MAX_VIDEO_BYTES``       largest video upload (50 MiB); plots 5 MiB, traces 20 MiB
+``ROBOKIT_QUEUE_TIMEOUT``         seconds one evaluation may take before the queue stops it (3600)
+``ROBOKIT_QUEUE_RETRY``           seconds before a task whose worker died is handed out again (timeout + 60)
+``ROBOKIT_QUEUE_SYNC``            ``1``: evaluate submissions in the posting process, without workers (off)
+``ROBOKIT_WORKERS``               evaluation processes of ``robokit worker`` (set by ``--workers``)
 ================================  =========================================================================
 """
 
