@@ -172,7 +172,7 @@ class Sort(MachineBehaviour):
             raise ConfigError(str(LookupNameError("sensor", cfg.truth_sensor, ctx.components)), key="truth_sensor")
         try:
             self.pp = PickPlace.sub(name="pick_place", parent_ctx=ctx, arm=cfg.arm, gripper=cfg.gripper,
-                                    max_attempts=1, **cfg.pick_place)
+                                    max_attempts=1, api=1, key="pick_place", **cfg.pick_place)
         except ConfigError as exc:
             raise ConfigError(exc.message, key=exc.key) from None
         except (TypeError, ValueError) as exc:

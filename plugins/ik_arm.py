@@ -38,7 +38,17 @@ from robokit import hookimpl
 from robokit.components import Actuator, SetupContext
 from robokit.config import Schema
 from robokit.errors import ConfigError
-from robokit.msgs.arm import ArmState, HoldArm, MoveTo, Quat, Vec3, down_quaternion, quat_angle, quat_multiply
+from robokit.msgs.arm import (
+    ArmState,
+    ContactState,
+    HoldArm,
+    MoveTo,
+    Quat,
+    Vec3,
+    down_quaternion,
+    quat_angle,
+    quat_multiply,
+)
 
 
 class IkArmConfig(Schema):
@@ -69,6 +79,9 @@ class IkArmConfig(Schema):
     max_force: float | None = Field(None, gt=0, description="N·m per joint; default: the URDF's")
     position_gain: float = Field(0.3, gt=0, le=1)
     velocity_gain: float = Field(1.0, ge=0)
+    stop_on: str | None = Field(None, description="a contact sensor: a contact (above stop_force) stops the arm "
+                                "where it is, for the rest of the run")
+    stop_force: float = Field(0.0, ge=0, description="contact normal force that triggers stop_on, N")
 
 
 REACH_ROUNDS = 4
@@ -165,6 +178,11 @@ class IkArm(Actuator):
         self._gains = ([cfg.position_gain] * len(self.arm), [cfg.velocity_gain] * len(self.arm))
         self._zero = [0.0] * len(self.arm)
         self._holding = False  # the last target sent was a hold (zero velocity): nothing to resend
+        self.stopped, self.latched = False, False
+        if cfg.stop_on is not None and getattr(ctx.components.get(cfg.stop_on), "reading_type", None) is not \
+                ContactState:
+            raise ConfigError(f"{cfg.stop_on!r} is not a contact sensor; components: {', '.join(ctx.components)}",
+                              key="stop_on")
         self._apply(self.q_cmd, None)
 
     def _limits(self) -> None:
@@ -309,7 +327,11 @@ class IkArm(Actuator):
 
     # ------------------------------------------------------------------ commands
     def command(self, cmd: Any) -> None:
-        """Accept :class:`MoveTo` (plan a path, or fail with a reason) or :class:`HoldArm`."""
+        """Accept :class:`MoveTo` (plan a path, or fail with a reason) or :class:`HoldArm`. After a ``stop_on``
+        stop, commands are ignored (the arm stays stopped); after a protective stop, the next command moves it."""
+        if self.latched and isinstance(cmd, (HoldArm, MoveTo)):
+            return
+        self.stopped = False
         if isinstance(cmd, HoldArm):
             self.path, self.target = None, None
             self.q_cmd = self._measured_all()[self.arm_cols]
@@ -380,9 +402,29 @@ class IkArm(Actuator):
         self._tick0 = self.world.tick
 
     # ------------------------------------------------------------------ per tick
+    def protective_stop(self, reason: str) -> None:
+        """Stop now, before this tick's physics step: hold the measured joint positions with zero target
+        velocity, drop the path. The reading says ``failed`` (``stopped``) with the reason until a new command."""
+        self.path, self.target = None, None
+        self.q_cmd = self._measured_all()[self.arm_cols]
+        self.status, self.reason, self.stopped = "failed", f"protective stop: {reason}", True
+        self._apply(self.q_cmd, None)
+        self.ctx.trace("protective_stop", actuator=self.name, reason=reason)
+
+    def _check_stop_on(self) -> None:
+        contact = self.ctx.readings[self.config.stop_on]
+        if contact.in_contact and contact.normal_force > self.config.stop_force:
+            touched = ", ".join(contact.others) or "something"
+            self.protective_stop(f"contact with {touched} ({contact.normal_force:.1f} N) at t = "
+                                 f"{self.world.time:.3f} s ({self.config.stop_on})")
+            self.latched = True
+
     def update(self) -> None:
         """Send this tick's joint targets (with feed-forward velocity) to the motors; once the path is over (or
-        with no path), the hold target is sent once and nothing after it."""
+        with no path), the hold target is sent once and nothing after it. With ``stop_on``, a contact first
+        stops the arm for good."""
+        if self.config.stop_on is not None and not self.latched:
+            self._check_stop_on()
         if self.path is not None:
             row = self.world.tick - self._tick0
             if row < self._rows:
@@ -427,7 +469,7 @@ class IkArm(Actuator):
             target_position=target[0] if target else None, target_orientation=target[1] if target else None,
             position_error=ep, orientation_error=eo, command_id=self.command_id,
             joint_positions=dict(zip(self._names, [st[0] for st in states], strict=True)),
-            path_end=self.t0 + self.duration if self.path is not None else None,
+            path_end=self.t0 + self.duration if self.path is not None else None, stopped=self.stopped,
         )
 
     def _update_status(self, ep: float, eo: float) -> None:

@@ -319,7 +319,8 @@ def cmd_plugins(args: argparse.Namespace) -> int:
 
     plugins = load_plugins()
     rows = [
-        {"kind": t.kind, "type": t.name, "distribution": t.distribution, "version": t.version,
+        {"kind": t.kind, "type": t.qualified if t.name in plugins.ambiguous[t.kind] else t.name,
+         "distribution": t.distribution, "version": t.version,
          "description": t.description}
         for t in plugins.all_types()
     ]
