@@ -146,10 +146,12 @@ def _add_extra_commands(sub: Any) -> None:
         return
     add_outbox_command(sub)
     from robokit.report.artifact_upload import add_upload_command
+    from robokit.report.submit import add_submit_command
     from robokit.server.cli import add_server_commands  # no Django import until `serve` / `manage` runs
 
     add_server_commands(sub)
     add_upload_command(sub)
+    add_submit_command(sub)
     from robokit.record.cli import add_record_commands
 
     add_record_commands(sub)
