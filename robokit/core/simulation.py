@@ -24,6 +24,7 @@ from robokit.process.interrupts import StopGuard
 
 if TYPE_CHECKING:  # imported where used: a run without monitors, sensors or a wall-clock budget needs none of them
     from robokit.core.composites import Member
+    from robokit.core.randomize import Randomizer
     from robokit.core.reading_check import ReadingCheck
     from robokit.core.walltime import WallTiming
 
@@ -74,6 +75,8 @@ class Simulation:
         """Non-finite readings seen, by sensor name: ``count``, ``first_tick``, ``field`` (see :meth:`run`)."""
         self.error: BaseException | None = None
         """What ended the run with outcome ``error`` (its ``__cause__`` is the plugin's own exception)."""
+        self.randomizer: Randomizer | None = None
+        """The ``[randomize]`` draws of this run (None without the section), see :mod:`robokit.core.randomize`."""
         try:
             self._build()
         except BaseException:
@@ -87,6 +90,8 @@ class Simulation:
             spawn_bodies(self.world, cfg, self.body_keys)
         except UserError as exc:
             raise _as_config_error(exc, "bodies", cfg.source) from None
+        if cfg.randomize is not None:
+            self._randomize(cfg.randomize)
         if self.world.gui:
             from robokit.core.gui import apply_view
 
@@ -130,6 +135,16 @@ class Simulation:
                 self._setup_tree(spec)
         self._schedule_events()
 
+    def _randomize(self, spec: Any, rng: Any = None) -> None:
+        """Draw ``[randomize]`` (from its own child of the seed unless ``rng`` is given) and apply it to the world;
+        plugin settings are applied as each component is built, dropout when each sensor is."""
+        from robokit.core.randomize import Randomizer, generator
+
+        self.randomizer = Randomizer(spec, self.config)
+        drawn = self.randomizer.draw(self.world, self.body_keys, generator(self.seed) if rng is None else rng)
+        self.randomizer.apply_world(self.world)
+        self._tracer("randomize")("drawn", **drawn)
+
     def _member(self, spec: ComponentSpec, instance: Any = None) -> Member:
         """A behaviour of a composition (a composite's child or a monitor), built unless ``instance`` is given."""
         from robokit.core.composites import Member
@@ -171,8 +186,9 @@ class Simulation:
     def _instantiate(self, spec: ComponentSpec) -> Any:
         ptype = self.plugins.get(spec.kind, spec.type)
         self._origins[spec.name] = f"type {spec.type!r} from {ptype.origin}"
+        params = spec.params if self.randomizer is None else self.randomizer.params_for(spec)
         try:
-            comp = ptype.cls(spec.name, spec.params)
+            comp = ptype.cls(spec.name, params)
         except Interrupted:
             raise
         except BaseException as exc:
@@ -180,6 +196,8 @@ class Simulation:
                               f"{plugin_fault(exc)}", type_name=spec.type, distribution=ptype.origin) from exc
         if spec.kind != "behaviour":
             self.components[spec.name] = comp
+        if spec.kind == "sensor" and self.randomizer is not None:
+            self.randomizer.install_dropout(spec.name, comp, self.world, self.seed)
         self._instances.setdefault(spec.key, comp)
         return comp
 
@@ -387,6 +405,8 @@ class Simulation:
             behaviour_result["goal"] = goal
         if self.monitors:
             behaviour_result["monitors"] = self._monitored.results()
+        if self.randomizer is not None:
+            behaviour_result["randomize"] = self.randomizer.drawn
         result = RunResult(
             run_id=self.run_id,
             robokit_version=__version__,
