@@ -65,6 +65,7 @@ class Randomizer:
         """The values of the latest draw (JSON-ready): what the result and the run record keep."""
         self._nominal: dict[tuple[int, int], tuple[float, float, float]] = {}
         self.dropout: dict[str, float] = {}
+        self._held: list[list[Any]] = []
 
     # ----------------------------------------------------------------- drawing
     def draw(self, world: World, body_keys: Mapping[str, str], rng: np.random.Generator) -> dict[str, Any]:
@@ -112,7 +113,8 @@ class Randomizer:
         current = getattr(self._spec_of(section, name).params, key)
         where = f"randomize.params.{dotted}"
         if dist.choice is not None:
-            return dist.choice[int(rng.integers(len(dist.choice)))]
+            chosen = dist.choice[int(rng.integers(len(dist.choice)))]
+            return list(chosen) if isinstance(chosen, tuple) else chosen
         if dist.uniform is not None:
             value: Any = float(rng.uniform(*dist.uniform))
             return round(value) if isinstance(current, int) and not isinstance(current, bool) else value
@@ -124,7 +126,7 @@ class Randomizer:
         values = np.asarray(current, float)
         drawn = rng.uniform(bounds[0], bounds[1], values.shape)
         out = values * drawn if dist.scale is not None else values + drawn
-        return tuple(float(v) for v in out) if isinstance(current, tuple) else float(out)
+        return [float(v) for v in out] if isinstance(current, tuple) else float(out)
 
     def _spec_of(self, section: str, name: str) -> ComponentSpec:
         specs = self.config.sensors if section == "sensors" else self.config.actuators
@@ -141,14 +143,7 @@ class Randomizer:
             bid = world.body(name)
             joints = world.joints(bid)
             for link in range(-1, len(joints)):
-                mass, friction, restitution = self._nominal_of(world, bid, link)
-                kwargs: dict[str, float] = {}
-                if "mass_scale" in entry and mass > 0:
-                    kwargs["mass"] = mass * entry["mass_scale"]
-                if "friction_scale" in entry:
-                    kwargs["lateralFriction"] = friction * entry["friction_scale"]
-                kwargs["restitution"] = entry.get("restitution", restitution)
-                c.changeDynamics(bid, link, **kwargs)
+                self._apply_link(c, bid, link, entry)
             for joint, damping in entry.get("joint_damping", {}).items():
                 c.changeDynamics(bid, world.joint(bid, joint).index, jointDamping=damping)
             if "rgba" in entry:
@@ -156,10 +151,25 @@ class Randomizer:
         if "light_direction" in self.drawn:
             world.render_options["lightDirection"] = list(self.drawn["light_direction"])
         self.dropout.update(self.drawn["dropout"])
+        for held in self._held:  # a new episode starts with fresh readings
+            held.clear()
 
-    def _nominal_of(self, world: World, bid: int, link: int) -> tuple[float, float, float]:
+    def _apply_link(self, c: Any, bid: int, link: int, entry: Mapping[str, Any]) -> None:
+        """Set a link's drawn mass, friction and restitution; values already in place are not set again (setting
+        a mass, even the same one, changes how the link is solved)."""
+        mass, friction, restitution = self._nominal_of(c, bid, link)
+        wanted = {"mass": mass * entry["mass_scale"] if "mass_scale" in entry and mass > 0 else mass,
+                  "lateralFriction": friction * entry.get("friction_scale", 1.0),
+                  "restitution": entry.get("restitution", restitution)}
+        info = c.getDynamicsInfo(bid, link)
+        now = {"mass": info[0], "lateralFriction": info[1], "restitution": info[5]}
+        changed = {k: v for k, v in wanted.items() if v != now[k]}
+        if changed:
+            c.changeDynamics(bid, link, **changed)
+
+    def _nominal_of(self, c: Any, bid: int, link: int) -> tuple[float, float, float]:
         if (bid, link) not in self._nominal:
-            info = world.client.getDynamicsInfo(bid, link)
+            info = c.getDynamicsInfo(bid, link)
             self._nominal[(bid, link)] = (float(info[0]), float(info[1]), float(info[5]))
         return self._nominal[(bid, link)]
 
@@ -169,13 +179,15 @@ class Randomizer:
         update = {k[len(prefix):]: v for k, v in self.drawn.get("params", {}).items() if k.startswith(prefix)}
         if not update or spec.params is None:
             return spec.params
-        from robokit.config import field_names, validate_model
+        from robokit.config import validate_model
 
-        current = {name: getattr(spec.params, name) for name in field_names(type(spec.params))}
+        section, name = spec.key.split(".", 1)
+        given = {k: v for k, v in self.config.raw[section][name].items() if k not in ("type", "rate_hz")}
         try:
-            return validate_model(type(spec.params), {**current, **update}, spec.key)
+            return validate_model(type(spec.params), {**given, **update}, spec.key)
         except ConfigError as exc:
-            raise ConfigError(f"the drawn value is refused: {exc.message}", key=f"randomize.params.{spec.key}.",
+            keys = ", ".join(f"randomize.params.{spec.key}.{k}" for k in update)
+            raise ConfigError(f"a drawn value is refused ({exc.key}: {exc.message})", key=keys,
                               file=self.config.source) from None
 
     def install_dropout(self, name: str, component: Any, world: World, seed: int) -> None:
@@ -186,6 +198,7 @@ class Randomizer:
             return
         read: Callable[[], Any] = component.read
         last: list[Any] = []
+        self._held.append(last)
         salt = zlib.crc32(name.encode("utf-8"))
 
         def dropping_read() -> Any:

@@ -37,10 +37,13 @@ class Simulation:
         plugins: The plugin types the config was validated against.
         gui: Override ``world.gui``.
         seed: Override ``world.seed``.
+        randomize_rng: Draw ``[randomize]`` from this generator instead of the run's own randomisation stream
+            (robokit.gym's episodes).
     """
 
     def __init__(self, config: Config, plugins: Plugins, *, gui: bool | None = None, seed: int | None = None,
-                 run_id: str | None = None, run_dir: Path | None = None, save_frames: bool = False) -> None:
+                 run_id: str | None = None, run_dir: Path | None = None, save_frames: bool = False,
+                 randomize_rng: np.random.Generator | None = None) -> None:
         self.config = config
         self.run_id = run_id or str(uuid.uuid4())
         self.run_dir = run_dir
@@ -75,6 +78,7 @@ class Simulation:
         """Non-finite readings seen, by sensor name: ``count``, ``first_tick``, ``field`` (see :meth:`run`)."""
         self.error: BaseException | None = None
         """What ended the run with outcome ``error`` (its ``__cause__`` is the plugin's own exception)."""
+        self._randomize_rng = randomize_rng
         self.randomizer: Randomizer | None = None
         """The ``[randomize]`` draws of this run (None without the section), see :mod:`robokit.core.randomize`."""
         try:
@@ -91,7 +95,7 @@ class Simulation:
         except UserError as exc:
             raise _as_config_error(exc, "bodies", cfg.source) from None
         if cfg.randomize is not None:
-            self._randomize(cfg.randomize)
+            self._randomize(cfg.randomize, self._randomize_rng)
         if self.world.gui:
             from robokit.core.gui import apply_view
 
