@@ -33,10 +33,12 @@ class DistConfig(Section):
     component of a vector, e.g. a camera's ``eye``) or ``choice`` (one of the listed values).
     """
 
-    uniform: Range | None = None
-    scale: Range | None = None
-    offset: Range | None = None
-    choice: tuple[Any, ...] | None = None
+    uniform: Range | None = setting(None, description="the value, drawn in [low, high] (rounded for an integer "
+                                                       "setting)")
+    scale: Range | None = setting(None, description="the configured value times a factor in [low, high]")
+    offset: Range | None = setting(None, description="the configured value (each component of a vector) plus an "
+                                                     "offset in [low, high]")
+    choice: tuple[Any, ...] | None = setting(None, description="one of these values, equally likely")
 
     def check(self) -> None:
         """One kind of distribution; ranges ordered; a choice not empty."""
