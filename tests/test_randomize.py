@@ -116,6 +116,8 @@ def test_draws_follow_the_documented_stream_and_are_applied() -> None:
             assert info[0] == pytest.approx(0.1 * mass) and info[1] == pytest.approx(0.8 * friction)
             assert info[5] == pytest.approx(bounce)
         assert set(drawn) == {"cube_0", "cube_1", "cube_2"}
+        result = sim.run()
+        assert result.result["randomize"]["bodies"] == drawn
         assert sim.trace[0]["source"] == "randomize" and sim.trace[0]["bodies"] == drawn
     finally:
         sim.close()

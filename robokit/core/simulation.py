@@ -145,9 +145,8 @@ class Simulation:
         from robokit.core.randomize import Randomizer, generator
 
         self.randomizer = Randomizer(spec, self.config)
-        drawn = self.randomizer.draw(self.world, self.body_keys, generator(self.seed) if rng is None else rng)
+        self.randomizer.draw(self.world, self.body_keys, generator(self.seed) if rng is None else rng)
         self.randomizer.apply_world(self.world)
-        self._tracer("randomize")("drawn", **drawn)
 
     def _member(self, spec: ComponentSpec, instance: Any = None) -> Member:
         """A behaviour of a composition (a composite's child or a monitor), built unless ``instance`` is given."""
@@ -371,6 +370,8 @@ class Simulation:
                 guard.watchdog(budget, self._expire_wall, "max_wall_time")
             try:
                 self.plugins.call("robokit_run_start", simulation=self)
+                if self.randomizer is not None:  # traced here, where the run record listens already
+                    self._tracer("randomize")("drawn", **self.randomizer.drawn)
                 if pace:
                     self.scheduler.start_pacing()
                 while self.world.tick < max_ticks and self.outcome is None and not self._halt:
