@@ -352,13 +352,27 @@ class IkArm(Actuator):
 
     def _plan(self, pos: np.ndarray, orn: Quat, speed: float) -> str:
         """Solve the path's waypoints; returns a failure reason, or "" with ``self.path`` set."""
+        q_all = self._measured_all()
+        q_all[self.arm_cols] = self.q_cmd
+        qs, reason, dist, ang = self._path(q_all, pos, orn)
+        if reason:
+            return reason
+        self.path = qs
+        self.t0 = self.world.time
+        self.duration = max(1.5 * dist / speed, 1.5 * ang / self.config.angular_speed, self.config.min_duration)
+        self._profile()
+        return ""
+
+    def _path(self, q_all: np.ndarray, pos: np.ndarray, orn: Quat) -> tuple[list[np.ndarray], str, float, float]:
+        """The straight path from joint configuration ``q_all`` to the tool pose (pos, orn), solved waypoint by
+        waypoint: (the arm's joint positions per waypoint, starting with the current ones; "" or the reason it is
+        unreachable; its length in metres; its turn in radians). What a move does, and what validate checks."""
         cfg: IkArmConfig = self.config
         where = f"({pos[0]:.3f}, {pos[1]:.3f}, {pos[2]:.3f})"
         dist_base = float(np.linalg.norm(pos - self.base_pos))
         if cfg.reach is not None and dist_base > cfg.reach:
-            return f"unreachable: target {where} is {dist_base:.3f} m from the base, reach is {cfg.reach:g} m"
-        q_all = self._measured_all()
-        q_all[self.arm_cols] = self.q_cmd
+            return [], f"unreachable: target {where} is {dist_base:.3f} m from the base, reach is {cfg.reach:g} m", \
+                0.0, 0.0
         start_pos, start_orn = self.chain.fk(q_all)
         dist, ang = float(np.linalg.norm(pos - start_pos)), quat_angle(start_orn, orn)
         n = max(1, math.ceil(dist / cfg.waypoint_spacing), math.ceil(ang / cfg.waypoint_angle))
@@ -368,14 +382,33 @@ class IkArm(Actuator):
         poses = [(p_k, _slerp(start_orn, orn, float(s))) for p_k, s in zip(positions, fractions, strict=True)]
         for k, (q_k, ep, eo) in enumerate(self._solve_path(q_all, poses), start=1):
             if ep > max(cfg.ik_tolerance, 1e-3) or eo > cfg.orientation_tolerance / 2:
-                return (f"unreachable: IK residual {ep * 1000:.1f} mm / {math.degrees(eo):.1f} deg at "
-                        f"waypoint {k}/{n} towards {where} (tolerance {cfg.ik_tolerance * 1000:g} mm)")
+                return qs, (f"unreachable: IK residual {ep * 1000:.1f} mm / {math.degrees(eo):.1f} deg at "
+                            f"waypoint {k}/{n} towards {where} (tolerance {cfg.ik_tolerance * 1000:g} mm)"), dist, ang
             qs.append(q_k[self.arm_cols].copy())
-        self.path = qs
-        self.t0 = self.world.time
-        self.duration = max(1.5 * dist / speed, 1.5 * ang / cfg.angular_speed, cfg.min_duration)
-        self._profile()
-        return ""
+        return qs, "", dist, ang
+
+    def check_moves(self, moves: list[tuple[Vec3, float]], start: Any = None) -> tuple[list[str], Any]:
+        """Would these moves (tool positions in metres, world, tool pointing down with a yaw in radians), made one
+        after the other, all be planned? The same path solver, waypoints and tolerances as :meth:`command`, before
+        any tick (no joint state is written).
+
+        Args:
+            moves: The moves, in order.
+            start: Where the first starts: a configuration an earlier call returned; None = the ready pose.
+
+        Returns:
+            One reason per move ("" = it would be planned; after a move that would fail, the next starts where the
+            last good one ended, as in a run) and the configuration the last good move ends in.
+        """
+        q_all = self.ready.copy() if start is None else np.array(start, float)
+        out = []
+        for position, yaw in moves:
+            qs, reason, _, _ = self._path(q_all, np.asarray(position, float), down_quaternion(yaw))
+            out.append(reason)
+            if not reason:
+                q_all = q_all.copy()
+                q_all[self.arm_cols] = qs[-1]
+        return out, q_all
 
     def _profile(self) -> None:
         """Joint targets and feed-forward velocities for every tick of the path, computed once (numpy).

@@ -232,3 +232,20 @@ def test_pick_succeeds_under_a_scripted_grasp() -> None:
         assert terminated and info["is_success"], (seed, info)
         assert np.linalg.norm(obs[7:10] - goal) < 0.05  # by hand: the cube, not the hand, is at the goal
     env.close()
+
+
+def test_registered_ids_find_their_configs_without_a_source_tree(monkeypatch, tmp_path) -> None:
+    """A wheel install has no configs/gym next to the package: the ids read the copy installed as
+    ``robokit_configs.gym`` (the same files: pyproject maps that package to configs/gym)."""
+    import robokit.gym as rgym
+
+    monkeypatch.setattr(rgym, "CONFIG_DIR", tmp_path / "no-such-checkout" / "configs" / "gym")
+    found = rgym._config_dir()
+    assert found != rgym.CONFIG_DIR
+    assert sorted(p.name for p in found.glob("*.toml")) == sorted(rgym.SHIPPED.values())
+    env = rgym.make_shipped("Reach")
+    try:
+        obs, _ = env.reset(seed=0)
+        assert env.observation_space.contains(obs)
+    finally:
+        env.close()

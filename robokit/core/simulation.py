@@ -437,7 +437,8 @@ class Simulation:
         return result
 
     def _check_goal(self, outcome: str, reason: str) -> tuple[str, str, dict[str, Any] | None]:
-        """Evaluate the behaviour's goal on the world; an unmet goal turns ``succeeded`` into ``failed``.
+        """Evaluate the behaviour's goal on the world: for a run the behaviour ended, the world decides (met:
+        ``succeeded``, not met: ``failed``, the reason says why and what the behaviour claimed).
 
         Returns the (possibly changed) outcome and reason, and the goal's record for the result (None if the
         behaviour states no goal).
@@ -459,12 +460,16 @@ class Simulation:
             return outcome, reason, None
         record = {"met": bool(check.met), "reason": check.reason, **dict(check.details)}
         self._tracer("behaviour")("goal", met=record["met"], reason=check.reason)
-        if check.met:
-            return outcome, reason, record
-        if outcome == "succeeded":
-            claimed = f" (the behaviour reported: {reason})" if reason else ""
+        claimed = f" (the behaviour reported {outcome}: {reason})" if reason else f" (the behaviour reported {outcome})"
+        if outcome not in ("succeeded", "failed"):  # stopped by a limit or a signal: not judged, the goal recorded
+            return outcome, f"{reason}; goal not met: {check.reason}" if not check.met else reason, record
+        if check.met and outcome == "failed":  # the world's verdict (docs/outcomes.md); the claim stays on record
+            record["claimed"] = {"outcome": outcome, "reason": reason}
+            return "succeeded", f"goal met: {check.reason}{claimed}", record
+        if not check.met:
+            record["claimed"] = {"outcome": outcome, "reason": reason}
             return "failed", f"goal not met: {check.reason}{claimed}", record
-        return outcome, f"{reason}; goal not met: {check.reason}" if reason else check.reason, record
+        return outcome, reason, record
 
     def _ending(self, limit: float, budget: float | None, timing: WallTiming | None) -> tuple[str, str]:
         """Outcome and reason of a run that did not end in an error."""

@@ -25,7 +25,20 @@ from typing import Any
 
 ENV_ID = "robokit/Env-v0"
 CONFIG_DIR = Path(__file__).resolve().parents[2] / "configs" / "gym"
-"""The shipped environment configs (in the source tree: robokit is installed editable, ``pip install -e``)."""
+"""The shipped environment configs: ``configs/gym/`` of the source tree, installed with robokit as the data package
+``robokit_configs.gym`` (see :func:`_config_dir`)."""
+
+
+def _config_dir() -> Path:
+    """Where the shipped env configs are: the source tree's ``configs/gym`` when there is one (an editable install,
+    a checkout), else the copy installed with robokit."""
+    if CONFIG_DIR.is_dir():
+        return CONFIG_DIR
+    from importlib.util import find_spec
+
+    spec = find_spec("robokit_configs.gym")
+    locations = list(spec.submodule_search_locations or []) if spec is not None else []
+    return Path(locations[0]) if locations else CONFIG_DIR
 SHIPPED = {"Reach": "reach.toml", "Push": "push.toml", "Pick": "pick.toml", "GoTo": "go_to.toml"}
 """Registered name -> config in :data:`CONFIG_DIR`."""
 
@@ -53,10 +66,10 @@ def make_shipped(name: str, reward: str | None = None, render_mode: str | None =
     """The entry point of the registered ids: shipped env ``name`` (see :data:`SHIPPED`) with a reward variant."""
     from robokit.gym.env import RobokitEnv
 
-    path = CONFIG_DIR / SHIPPED[name]
+    path = _config_dir() / SHIPPED[name]
     if not path.is_file():
-        raise FileNotFoundError(f"robokit/{name}-v0 needs {path}: install robokit from its source tree "
-                                f"(pip install -e .) or make the env from a config path")
+        raise FileNotFoundError(f"robokit/{name}-v0 needs {path}, which this install of robokit lacks: "
+                                f"reinstall robokit (pip install .) or make the env from a config path")
     dotted = dict(overrides or {})
     if reward is not None:
         dotted["env.task.reward"] = reward
