@@ -260,3 +260,16 @@ def test_same_seed_same_draws_in_a_run_a_sweep_trial_and_an_env() -> None:
         env.close()
     rng = stream(5)
     assert in_run["bodies"]["cube"]["mass_scale"] == rng.uniform(0.5, 1.5)
+
+
+def test_world_draws_apply_over_what_plugins_set() -> None:
+    """The gripper sets its fingers' friction (1.2) in setup: the friction factor scales that value."""
+    raw = {"robots": {"panda": {"urdf": "franka_panda/panda.urdf", "position": [0, 0, 0], "fixed_base": True}},
+           "actuators": {"gripper": {"type": "gripper", "body": "panda"}},
+           "randomize": {"friction_scale": [0.5, 0.5]}}
+    sim = build(raw)
+    try:
+        finger = sim.world.link("panda", "panda_leftfinger")
+        assert sim.world.client.getDynamicsInfo(sim.world.body("panda"), finger)[1] == pytest.approx(0.6)
+    finally:
+        sim.close()

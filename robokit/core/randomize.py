@@ -64,7 +64,6 @@ class Randomizer:
         self.drawn: dict[str, Any] = {}
         """The values of the latest draw (JSON-ready): what the result and the run record keep."""
         self._nominal: dict[tuple[int, int], tuple[float, float, float]] = {}
-        self.dropout: dict[str, float] = {}
         self._held: list[list[Any]] = []
 
     # ----------------------------------------------------------------- drawing
@@ -150,7 +149,6 @@ class Randomizer:
                 c.changeVisualShape(bid, -1, rgbaColor=entry["rgba"])
         if "light_direction" in self.drawn:
             world.render_options["lightDirection"] = list(self.drawn["light_direction"])
-        self.dropout.update(self.drawn["dropout"])
         for held in self._held:  # a new episode starts with fresh readings
             held.clear()
 
@@ -194,7 +192,7 @@ class Randomizer:
         """Make a sensor's reading stale with the drawn probability: at a tick that drops, ``read()`` returns the
         previous reading. Whether a tick drops is drawn from that tick alone (seed, sensor, tick), never from how
         often the sensor is read."""
-        if name not in self.dropout:
+        if name not in self.drawn["dropout"]:
             return
         read: Callable[[], Any] = component.read
         last: list[Any] = []
@@ -202,7 +200,7 @@ class Randomizer:
         salt = zlib.crc32(name.encode("utf-8"))
 
         def dropping_read() -> Any:
-            if last and tick_uniform(seed, salt, world.tick) < self.dropout[name]:
+            if last and tick_uniform(seed, salt, world.tick) < self.drawn["dropout"][name]:
                 return last[0]
             value = read()
             last[:] = [value]

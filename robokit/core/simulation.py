@@ -137,16 +137,19 @@ class Simulation:
         for spec in cfg.recoveries.values():
             if spec.name in self.recoveries:
                 self._setup_tree(spec)
+        if self.randomizer is not None:
+            self.randomizer.apply_world(self.world)
         self._schedule_events()
 
     def _randomize(self, spec: Any, rng: Any = None) -> None:
-        """Draw ``[randomize]`` (from its own child of the seed unless ``rng`` is given) and apply it to the world;
-        plugin settings are applied as each component is built, dropout when each sensor is."""
+        """Draw ``[randomize]`` (from its own child of the seed unless ``rng`` is given). Plugin settings are
+        applied as each component is built, dropout when each sensor is, the world's draws once every component
+        is set up (so a plugin that sets a body's dynamics, as the gripper sets finger friction, is randomised
+        over what it set)."""
         from robokit.core.randomize import Randomizer, generator
 
         self.randomizer = Randomizer(spec, self.config)
         self.randomizer.draw(self.world, self.body_keys, generator(self.seed) if rng is None else rng)
-        self.randomizer.apply_world(self.world)
 
     def _member(self, spec: ComponentSpec, instance: Any = None) -> Member:
         """A behaviour of a composition (a composite's child or a monitor), built unless ``instance`` is given."""
