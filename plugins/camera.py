@@ -130,7 +130,7 @@ class Camera(Sensor):
         view = tuple(client.computeViewMatrix(list(eye), list(target), list(up)))
         _, _, rgba, depth_buf, seg = client.getCameraImage(
             cfg.width, cfg.height, viewMatrix=view, projectionMatrix=self.projection,
-            renderer=self.renderer, flags=self.flags, shadow=0)
+            renderer=self.renderer, flags=self.flags, shadow=0, **self.world.render_options)
         rgb = np.asarray(rgba, dtype=np.uint8).reshape(cfg.height, cfg.width, 4)[:, :, :3]
         d = np.asarray(depth_buf, dtype=np.float32).reshape(cfg.height, cfg.width)
         depth = (cfg.far * cfg.near / (cfg.far - (cfg.far - cfg.near) * d)).astype(np.float32)

@@ -286,6 +286,7 @@ def core_sections() -> list[tuple[str, type, str]]:
         ("`[report]`", config.ReportConfig, "report"),
         ("`[record]`", config.RecordConfig, ""),
         ("`[gui]`", config.GuiConfig, ""),
+        ("`[randomize]`", config.RandomizeConfig, ""),
         ("`[env]`", EnvSpec, "env"),
     ]
 

@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 from robokit.config import sections as _s
+from robokit.config.randomize import RandomizeConfig as RandomizeConfig
 from robokit.config.sections import (
     FLOAT_LIMIT as FLOAT_LIMIT,  # re-exported: every float within ±FLOAT_LIMIT by default
 )
@@ -300,10 +301,12 @@ class Config:
     """Behaviours a monitor may pre-empt the task into (``[recoveries.NAME]``, named by a monitor's ``recovery``)."""
     record: RecordConfig = field(default_factory=RecordConfig)
     gui: GuiConfig = field(default_factory=GuiConfig)
+    randomize: RandomizeConfig | None = None
+    """``[randomize]``, None without one (see :mod:`robokit.core.randomize`)."""
 
 
 SECTIONS = ("world", "regions", "bodies", "robots", "sensors", "actuators", "behaviour", "monitors", "recoveries",
-            "report", "events", "record", "gui", "env")
+            "report", "events", "record", "gui", "env", "randomize")
 """``env`` is read by :mod:`robokit.gym` (a Gymnasium environment made from the config); runs ignore it."""
 _COMPONENT_KEYS = ("type", "rate_hz")
 _REPORT_KEYS = field_names(ReportConfig)
@@ -532,8 +535,40 @@ def _build(raw: Mapping[str, Any], plugins: Any, source: str, base_dir: Path) ->
         raise ConfigError("nothing to run: the config has no [bodies], [robots] or [behaviour]")
     record = validate_model(RecordConfig, _table(raw, "record"), "record")
     gui = validate_model(GuiConfig, _table(raw, "gui"), "gui")
+    randomize = _randomize(raw, all_bodies, sensors, actuators)
     return Config(source, base_dir, world, regions, bodies, robots, sensors, actuators, behaviour, report,
-                  reporters, events, copy.deepcopy(dict(raw)), monitors, recoveries, record, gui)
+                  reporters, events, copy.deepcopy(dict(raw)), monitors, recoveries, record, gui, randomize)
+
+
+def _randomize(raw: Mapping[str, Any], bodies: set[str], sensors: tuple[ComponentSpec, ...],
+               actuators: tuple[ComponentSpec, ...]) -> RandomizeConfig | None:
+    """``[randomize]`` validated, its body, sensor and setting names checked against the config's."""
+    if "randomize" not in raw:
+        return None
+    spec: RandomizeConfig = validate_model(RandomizeConfig, _table(raw, "randomize"), "randomize")
+    for i, name in enumerate(spec.bodies):
+        if name not in bodies:
+            raise ConfigError(f"unknown body {name!r}{did_you_mean(name, bodies)}; valid: {', '.join(sorted(bodies))}",
+                              key=f"randomize.bodies[{i}]")
+    names = [s.name for s in sensors]
+    for name in spec.dropout:
+        if name not in names:
+            raise ConfigError(f"unknown sensor {name!r}{did_you_mean(name, names)}; sensors: "
+                              f"{', '.join(names) or '(none)'}", key=f"randomize.dropout.{name}")
+    components = {f"{s.kind}s.{s.name}": s for s in sensors + actuators}
+    for dotted in spec.params:
+        section, name, setting_ = dotted.split(".", 2)
+        comp = components.get(f"{section}.{name}")
+        if comp is None:
+            valid = [k for k in components if k.startswith(section)]
+            raise ConfigError(f"unknown {section[:-1]} {name!r}{did_you_mean(name, [v.split('.')[1] for v in valid])}"
+                              f"; {section}: {', '.join(v.split('.')[1] for v in valid) or '(none)'}",
+                              key=f"randomize.params.{dotted}")
+        keys = field_names(type(comp.params)) if comp.params is not None else ()
+        if setting_ not in keys:
+            raise ConfigError(f"unknown setting {setting_!r}{did_you_mean(setting_, keys)} of {comp.type} "
+                              f"{name!r}; valid: {', '.join(keys) or '(none)'}", key=f"randomize.params.{dotted}")
+    return spec
 
 
 def step_names(steps: Sequence[Mapping[str, Any]]) -> list[str]:

@@ -24,6 +24,7 @@ from robokit.process.interrupts import StopGuard
 
 if TYPE_CHECKING:  # imported where used: a run without monitors, sensors or a wall-clock budget needs none of them
     from robokit.core.composites import Member
+    from robokit.core.randomize import Randomizer
     from robokit.core.reading_check import ReadingCheck
     from robokit.core.walltime import WallTiming
 
@@ -36,10 +37,13 @@ class Simulation:
         plugins: The plugin types the config was validated against.
         gui: Override ``world.gui``.
         seed: Override ``world.seed``.
+        randomize_rng: Draw ``[randomize]`` from this generator instead of the run's own randomisation stream
+            (robokit.gym's episodes).
     """
 
     def __init__(self, config: Config, plugins: Plugins, *, gui: bool | None = None, seed: int | None = None,
-                 run_id: str | None = None, run_dir: Path | None = None, save_frames: bool = False) -> None:
+                 run_id: str | None = None, run_dir: Path | None = None, save_frames: bool = False,
+                 randomize_rng: np.random.Generator | None = None) -> None:
         self.config = config
         self.run_id = run_id or str(uuid.uuid4())
         self.run_dir = run_dir
@@ -74,6 +78,9 @@ class Simulation:
         """Non-finite readings seen, by sensor name: ``count``, ``first_tick``, ``field`` (see :meth:`run`)."""
         self.error: BaseException | None = None
         """What ended the run with outcome ``error`` (its ``__cause__`` is the plugin's own exception)."""
+        self._randomize_rng = randomize_rng
+        self.randomizer: Randomizer | None = None
+        """The ``[randomize]`` draws of this run (None without the section), see :mod:`robokit.core.randomize`."""
         try:
             self._build()
         except BaseException:
@@ -87,6 +94,8 @@ class Simulation:
             spawn_bodies(self.world, cfg, self.body_keys)
         except UserError as exc:
             raise _as_config_error(exc, "bodies", cfg.source) from None
+        if cfg.randomize is not None:
+            self._randomize(cfg.randomize, self._randomize_rng)
         if self.world.gui:
             from robokit.core.gui import apply_view
 
@@ -128,7 +137,19 @@ class Simulation:
         for spec in cfg.recoveries.values():
             if spec.name in self.recoveries:
                 self._setup_tree(spec)
+        if self.randomizer is not None:
+            self.randomizer.apply_world(self.world)
         self._schedule_events()
+
+    def _randomize(self, spec: Any, rng: Any = None) -> None:
+        """Draw ``[randomize]`` (from its own child of the seed unless ``rng`` is given). Plugin settings are
+        applied as each component is built, dropout when each sensor is, the world's draws once every component
+        is set up (so a plugin that sets a body's dynamics, as the gripper sets finger friction, is randomised
+        over what it set)."""
+        from robokit.core.randomize import Randomizer, generator
+
+        self.randomizer = Randomizer(spec, self.config)
+        self.randomizer.draw(self.world, self.body_keys, generator(self.seed) if rng is None else rng)
 
     def _member(self, spec: ComponentSpec, instance: Any = None) -> Member:
         """A behaviour of a composition (a composite's child or a monitor), built unless ``instance`` is given."""
@@ -171,8 +192,9 @@ class Simulation:
     def _instantiate(self, spec: ComponentSpec) -> Any:
         ptype = self.plugins.get(spec.kind, spec.type)
         self._origins[spec.name] = f"type {spec.type!r} from {ptype.origin}"
+        params = spec.params if self.randomizer is None else self.randomizer.params_for(spec)
         try:
-            comp = ptype.cls(spec.name, spec.params)
+            comp = ptype.cls(spec.name, params)
         except Interrupted:
             raise
         except BaseException as exc:
@@ -180,6 +202,8 @@ class Simulation:
                               f"{plugin_fault(exc)}", type_name=spec.type, distribution=ptype.origin) from exc
         if spec.kind != "behaviour":
             self.components[spec.name] = comp
+        if spec.kind == "sensor" and self.randomizer is not None:
+            self.randomizer.install_dropout(spec.name, comp, self.world, self.seed)
         self._instances.setdefault(spec.key, comp)
         return comp
 
@@ -349,6 +373,8 @@ class Simulation:
                 guard.watchdog(budget, self._expire_wall, "max_wall_time")
             try:
                 self.plugins.call("robokit_run_start", simulation=self)
+                if self.randomizer is not None:  # traced here, where the run record listens already
+                    self._tracer("randomize")("drawn", **self.randomizer.drawn)
                 if pace:
                     self.scheduler.start_pacing()
                 while self.world.tick < max_ticks and self.outcome is None and not self._halt:
@@ -387,6 +413,8 @@ class Simulation:
             behaviour_result["goal"] = goal
         if self.monitors:
             behaviour_result["monitors"] = self._monitored.results()
+        if self.randomizer is not None:
+            behaviour_result["randomize"] = self.randomizer.drawn
         result = RunResult(
             run_id=self.run_id,
             robokit_version=__version__,

@@ -154,6 +154,8 @@ class World:
         self.mesh_boxes: dict[int, tuple[float, float, float]] = {}
         """Static boxes built as triangle meshes (``mesh_collision``): body id -> half extents (m), centred on the
         base frame. PyBullet cannot give a mesh's triangles back; the lidar intersects these boxes itself."""
+        self.render_options: dict[str, Any] = {}
+        """Extra ``getCameraImage`` arguments every camera passes (``lightDirection``: set by ``[randomize]``)."""
         self.client.setAdditionalSearchPath(pybullet_data.getDataPath())
         self.client.setGravity(*gravity)
         self.client.setPhysicsEngineParameter(fixedTimeStep=self.time_step, numSolverIterations=solver_iterations)

@@ -77,6 +77,7 @@ class RobokitEnv(gym.Env):  # type: ignore[type-arg]
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 25}
     sim: Simulation | None = None
+    _episode_rng: np.random.Generator | None = None
 
     def __init__(self, config: str | Path | dict[str, Any], render_mode: str | None = None,
                  overrides: dict[str, Any] | None = None, plugins: Plugins | None = None,
@@ -116,10 +117,10 @@ class RobokitEnv(gym.Env):  # type: ignore[type-arg]
         self.closed = False
 
     # ------------------------------------------------------------------ building
-    def _build(self) -> None:
+    def _build(self, randomize_rng: np.random.Generator | None = None) -> None:
         if self.sim is not None:
             self.sim.close()
-        self.sim = Simulation(self.cfg, self.plugins)
+        self.sim = Simulation(self.cfg, self.plugins, randomize_rng=randomize_rng)
         self.world = self.sim.world
         spec = self.env_spec
         self.repeat = spec.action_repeat(self.world.physics_hz)
@@ -174,17 +175,43 @@ class RobokitEnv(gym.Env):  # type: ignore[type-arg]
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[Any, dict[str, Any]]:
         """Start an episode: the world's start state, then the task places the goal and objects from the seed."""
         super().reset(seed=seed)
-        if self.restorable:
+        rng = self._randomize_rng(seed)
+        if self.restorable and not (rng is not None and self.cfg.randomize and self.cfg.randomize.params):
             self.world.restore(self.snapshot)
+            if rng is not None and self.sim.randomizer is not None:  # type: ignore[union-attr]
+                randomizer = self.sim.randomizer  # type: ignore[union-attr]
+                randomizer.draw(self.world, self.sim.body_keys, rng)  # type: ignore[union-attr]
+                randomizer.apply_world(self.world)
             for comp in self._components():
                 comp.reset(self.np_random.spawn(1)[0])
             for slot in self.sim.scheduler.slots.values():  # type: ignore[union-attr]
                 slot.stale, slot.value, slot.stamp = True, None, -1
         else:
-            self._build()
+            self._build(rng)
         self.task.reset(self.np_random)
         self.episode_ticks = 0
-        return self._observation(), self._info()
+        info = self._info()
+        if self._sim.randomizer is not None:
+            info["randomize"] = self._sim.randomizer.drawn
+        return self._observation(), info
+
+    def _randomize_rng(self, seed: int | None) -> np.random.Generator | None:
+        """The generator this episode's ``[randomize]`` draws come from (None: keep the draws made at build).
+
+        ``reset(seed=s)`` starts the stream a run with seed ``s`` draws from, so its first episode has that run's
+        draws; later resets draw the next values of the same stream. A first reset without a seed takes a child
+        of the env's ``np_random``.
+        """
+        spec = self.cfg.randomize
+        if spec is None or not spec.per_episode:
+            return None
+        from robokit.core.randomize import generator
+
+        if seed is not None:
+            self._episode_rng = generator(seed)
+        elif self._episode_rng is None:
+            self._episode_rng = self.np_random.spawn(1)[0]
+        return self._episode_rng
 
     def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
         """Send the action's commands, run one control period, and score it."""
