@@ -33,7 +33,8 @@ def venv(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     assert _run([sys.executable, "-m", "venv", "--without-pip", tmp / "venv"], tmp).returncode == 0
     python = tmp / "venv" / ("Scripts" if os.name == "nt" else "bin") / ("python.exe" if os.name == "nt" else "python")
     site = Path(_run([python, "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"], tmp).stdout.strip())
-    paths = dict.fromkeys(sysconfig.get_paths()[key] for key in ("purelib", "platlib"))
+    paths = dict.fromkeys([*(sysconfig.get_paths()[key] for key in ("purelib", "platlib")),
+                           *(p for p in sys.path if p.endswith("site-packages"))])  # a venv over a venv too
     (site / "00_robokit_deps.pth").write_text("".join(f"{path}\n" for path in paths))
     src = tmp / "src"
     for part in ("robokit", "plugins", "behaviours", "configs/gym"):  # configs/gym: the package robokit_configs.gym
