@@ -23,6 +23,7 @@ checkout is never touched, so you can keep working while it runs.
     python benchmarks/mutation.py --changed main                   # only mutants of files changed since main
     python benchmarks/mutation.py --ids dd-turn-sign sort-retry-off-by-one
     python benchmarks/mutation.py --rev HEAD~3                     # score an older tree (e.g. before new tests)
+    python benchmarks/mutation.py --files plugins/pid.py --tests tests/test_pins_pid.py   # quick: one test file
     python benchmarks/mutation.py --check                          # each snippet still matches its file?
     python benchmarks/mutation.py --ast --files behaviours/sort.py --per-file 20 --seed 1
 
@@ -204,6 +205,8 @@ def select(corpus: list[Mutant], args: argparse.Namespace) -> list[Mutant]:
     if args.changed:
         changed = changed_files(args.changed)
         chosen = [m for m in chosen if m.file in changed]
+    if args.tests:
+        chosen = [Mutant(m.id, m.file, m.area, m.original, m.replacement, m.breaks, tuple(args.tests)) for m in chosen]
     if args.rerun:
         lines = Path(args.rerun).read_text(encoding="utf-8").splitlines()
         again = {ln.split()[2] for ln in lines if len(ln.split()) >= 3 and ln.split()[1] == "survived"}
@@ -405,6 +408,7 @@ def main() -> int:
     parser.add_argument("--timeout", type=float, default=300.0, help="seconds per mutant's test run")
     parser.add_argument("--log", help="append one line per mutant (and the table) to this file")
     parser.add_argument("--rerun", metavar="LOG", help="only the mutants a previous log says survived")
+    parser.add_argument("--tests", nargs="*", help="run these tests instead of the corpus' map (a quick check)")
     parser.add_argument("--list", action="store_true", help="list the selected mutants, run nothing")
     parser.add_argument("--check", action="store_true", help="exit 1 if a selected mutant's snippet is stale")
     parser.add_argument("--ast", action="store_true", help="sample mechanical AST mutants instead of the corpus")
