@@ -27,6 +27,9 @@ checkout is never touched, so you can keep working while it runs.
     python benchmarks/mutation.py --check                          # each snippet still matches its file?
     python benchmarks/mutation.py --ast --files behaviours/sort.py --per-file 20 --seed 1
 
+The table gives two scores per area: **before** counts kills by the older tests only, **after** by every test; the
+tests whose path contains ``test_pins_`` (the pins written for this sample) run last, so one run measures both.
+
 Statuses: ``killed`` (a test failed), ``timeout`` (the tests hung past ``--timeout``: caught, but fix the hang),
 ``survived`` (every test passed), ``stale`` (the original snippet no longer occurs exactly once: re-anchor it),
 ``no-tests`` (none of the mapped test files exist in the tree).
@@ -46,14 +49,16 @@ import sys
 import tempfile
 import threading
 import time
-import tomllib
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import tomllib
+
 ROOT = Path(__file__).resolve().parents[1]
 CORPUS = ROOT / "benchmarks" / "mutants" / "corpus.toml"
 AREAS = ("core", "config", "plugins", "behaviours", "record", "sweep", "server", "gym", "report")
+STATUSES = ("killed", "timeout", "survived", "stale", "no-tests")
 PYTEST = ["-x", "-q", "-p", "no:randomly", "-p", "no:cacheprovider", "-n", "0"]
 
 
@@ -128,21 +133,29 @@ def snapshot(dest: Path, rev: str | None) -> Path:
     return dest
 
 
-def run_tests(tree: Path, tests: tuple[str, ...], timeout: float) -> tuple[str, float, str]:
-    """Run the tests that exist in ``tree``; (status, seconds, last line of output)."""
-    present = [t for t in tests if (tree / t.split("::")[0]).exists()]
+def ordered(tests: tuple[str, ...], new: str) -> list[str]:
+    """The tests in corpus order, the ones whose path contains ``new`` last (so a kill by the older tests is seen
+    first, and a mutant only the new tests catch counts for the "after" score alone)."""
+    return [t for t in tests if new not in t] + [t for t in tests if new in t]
+
+
+def run_tests(tree: Path, tests: tuple[str, ...], timeout: float, new: str = "test_pins_") -> tuple[str, float, str]:
+    """Run the tests that exist in ``tree``; (status, seconds, the failing test or the last line of output)."""
+    present = [t for t in ordered(tests, new) if (tree / t.split("::")[0]).exists()]
     if not present:
         return "no-tests", 0.0, ""
     env = {**os.environ, "PYTHONPATH": f"{tree}{os.pathsep}{os.environ.get('PYTHONPATH', '')}".rstrip(os.pathsep),
            "PYTHONDONTWRITEBYTECODE": "1"}
-    cmd = [sys.executable, "-m", "pytest", *PYTEST, f"--timeout={int(timeout)}", *present]
+    cmd = [sys.executable, "-m", "pytest", *PYTEST, "-rfE", f"--timeout={int(timeout)}", *present]
     start = time.monotonic()
     try:
-        proc = subprocess.run(cmd, cwd=tree, capture_output=True, text=True, timeout=timeout + 30, env=env)
+        proc = subprocess.run(cmd, cwd=tree, capture_output=True, text=True, timeout=timeout + 60, env=env)
     except subprocess.TimeoutExpired:
         return "timeout", time.monotonic() - start, "no answer within the per-mutant timeout"
     took = time.monotonic() - start
-    tail = (proc.stdout.strip().splitlines() or [""])[-1]
+    lines = proc.stdout.strip().splitlines()
+    failing = [ln.split(" ", 2)[1] for ln in lines if ln.startswith(("FAILED ", "ERROR ")) and len(ln.split()) > 1]
+    tail = failing[0] if failing else (lines or [""])[-1]
     if proc.returncode == 0:
         return "survived", took, tail
     if proc.returncode == 5:
@@ -152,7 +165,7 @@ def run_tests(tree: Path, tests: tuple[str, ...], timeout: float) -> tuple[str, 
     return "killed", took, tail
 
 
-def run_mutant(tree: Path, m: Mutant, timeout: float) -> tuple[str, float, str]:
+def run_mutant(tree: Path, m: Mutant, timeout: float) -> tuple[str, float, str]:  # noqa: D103
     """Plant ``m`` in ``tree``, run its tests, restore the file."""
     path = tree / m.file
     if not path.exists():
@@ -169,22 +182,25 @@ def run_mutant(tree: Path, m: Mutant, timeout: float) -> tuple[str, float, str]:
 
 
 # ---------------------------------------------------------------------------------------------------- reporting
-def table(rows: list[tuple[Mutant, str]]) -> str:
-    """Per-area score: caught = killed + timeout, of the decided ones (stale and no-tests are left out)."""
-    lines = [f"{'area':<11} {'mutants':>7} {'killed':>6} {'timeout':>7} {'survived':>8} {'stale':>5} {'score':>6}"]
-    total = {"n": 0, "killed": 0, "timeout": 0, "survived": 0, "stale": 0}
+def table(rows: list[tuple[Mutant, str, str]], new: str = "test_pins_") -> str:
+    """Per-area score: caught = killed + timeout, of the decided ones (stale and no-tests are left out). "before"
+    counts only kills by tests whose path does not contain ``new``; "after" counts every kill."""
+    head = f"{'area':<11} {'mutants':>7} {'decided':>7} {'before':>14} {'after':>14} {'survived':>8} {'stale':>5}"
+    lines = [head]
     for area in (*AREAS, "all"):
-        mine = [s for m, s in rows if area == "all" or m.area == area]
+        mine = [(s, who) for m, s, who in rows if area == "all" or m.area == area]
         if not mine:
             continue
-        k, t, s = mine.count("killed"), mine.count("timeout"), mine.count("survived")
-        stale = len(mine) - k - t - s
-        decided = k + t + s
-        score = f"{100.0 * (k + t) / decided:5.1f}%" if decided else "   -  "
-        lines.append(f"{area:<11} {len(mine):>7} {k:>6} {t:>7} {s:>8} {stale:>5} {score:>6}")
-        if area != "all":
-            for key, v in (("n", len(mine)), ("killed", k), ("timeout", t), ("survived", s), ("stale", stale)):
-                total[key] += v
+        decided = [(s, who) for s, who in mine if s in ("killed", "timeout", "survived")]
+        after = sum(s in ("killed", "timeout") for s, _ in decided)
+        before = sum(s in ("killed", "timeout") and new not in who for s, who in decided)
+        n = len(decided)
+
+        def pct(k: int, n: int = n) -> str:
+            return f"{k:>3} ({100.0 * k / n:5.1f}%)" if n else "   -"
+
+        lines.append(f"{area:<11} {len(mine):>7} {n:>7} {pct(before):>14} {pct(after):>14} {n - after:>8} "
+                     f"{len(mine) - n:>5}")
     return "\n".join(lines)
 
 
@@ -205,6 +221,13 @@ def select(corpus: list[Mutant], args: argparse.Namespace) -> list[Mutant]:
     if args.changed:
         changed = changed_files(args.changed)
         chosen = [m for m in chosen if m.file in changed]
+    for prior in args.skip_killed or []:
+        lines = Path(prior).read_text(encoding="utf-8").splitlines()
+        killed = {ln.split()[2] for ln in lines if len(ln.split()) >= 3 and ln.split()[1] in ("killed", "timeout")}
+        chosen = [m for m in chosen if m.id not in killed]
+    if args.order:
+        rank = {a: i for i, a in enumerate(args.order)}
+        chosen = sorted(chosen, key=lambda m: rank.get(m.area, len(rank)))
     if args.tests:
         chosen = [Mutant(m.id, m.file, m.area, m.original, m.replacement, m.breaks, tuple(args.tests)) for m in chosen]
     if args.rerun:
@@ -231,7 +254,7 @@ def run_corpus(args: argparse.Namespace) -> int:
     work: queue.Queue[tuple[int, Mutant]] = queue.Queue()
     for k, m in enumerate(chosen, 1):
         work.put((k, m))
-    rows: list[tuple[Mutant, str]] = []
+    rows: list[tuple[Mutant, str, str]] = []
     lock = threading.Lock()
     base = Path(tempfile.mkdtemp(prefix="robokit-mutation-"))
 
@@ -242,13 +265,17 @@ def run_corpus(args: argparse.Namespace) -> int:
                 k, m = work.get_nowait()
             except queue.Empty:
                 return
+            if args.sync_tests:  # tests finished while the run goes on join it (copy only ones that pass unmutated)
+                for src in Path(args.sync_tests).glob("test_*.py"):
+                    shutil.copy2(src, tree / "tests" / src.name)
             status, took, tail = run_mutant(tree, m, args.timeout)
-            line = f"{k:3d}/{len(chosen)} {status:8s} {m.id} {m.area} {m.file} {took:6.1f}s -- {m.breaks}"
+            who = tail if status in ("killed", "timeout") else ""
+            line = f"{k:3d}/{len(chosen)} {status:8s} {m.id} {m.area} {m.file} {took:6.1f}s [{who}] -- {m.breaks}"
             with lock:
-                rows.append((m, status))
+                rows.append((m, status, who))
                 print(line, flush=True)
                 if log is not None:
-                    log.write(line + (f"   [{tail}]" if status == "killed" else "") + "\n")
+                    log.write(line + "\n")
                     log.flush()
 
     try:
@@ -259,6 +286,15 @@ def run_corpus(args: argparse.Namespace) -> int:
             t.join()
     finally:
         shutil.rmtree(base, ignore_errors=True)
+    done = {m.id for m, _, _ in rows}
+    for prior in args.include or []:
+        by_id = {m.id: m for m in corpus}
+        for ln in Path(prior).read_text(encoding="utf-8").splitlines():
+            parts = ln.split()
+            if len(parts) >= 3 and parts[2] in by_id and parts[2] not in done and parts[1] in STATUSES:
+                who = ln.split("[", 1)[1].split("]", 1)[0] if "[" in ln and parts[1] != "survived" else ""
+                rows.append((by_id[parts[2]], parts[1], who))
+                done.add(parts[2])
     report = table(rows)
     print(report)
     if log is not None:
@@ -407,6 +443,11 @@ def main() -> int:
     parser.add_argument("--workers", type=int, default=1, help="mutants run side by side (each its own copy)")
     parser.add_argument("--timeout", type=float, default=300.0, help="seconds per mutant's test run")
     parser.add_argument("--log", help="append one line per mutant (and the table) to this file")
+    parser.add_argument("--skip-killed", nargs="*", metavar="LOG", help="leave out mutants these logs say were caught")
+    parser.add_argument("--sync-tests", metavar="DIR", 
+                        help="before each mutant, copy DIR/test_*.py into the copy's tests/")
+    parser.add_argument("--order", nargs="*", choices=AREAS, help="run these areas first, in this order")
+    parser.add_argument("--include", nargs="*", metavar="LOG", help="count these logs' results for mutants not run now")
     parser.add_argument("--rerun", metavar="LOG", help="only the mutants a previous log says survived")
     parser.add_argument("--tests", nargs="*", help="run these tests instead of the corpus' map (a quick check)")
     parser.add_argument("--list", action="store_true", help="list the selected mutants, run nothing")

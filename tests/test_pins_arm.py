@@ -18,7 +18,8 @@ PANDA_READY = {"panda_joint2": -0.4, "panda_joint4": -2.2, "panda_joint6": 1.8, 
 # ------------------------------------------------------------------ suction
 def cup_scene(cube_mass: float, **suction: object) -> dict:
     return {"bodies": {"plane": PLANE,
-                       "cube": {"shape": "box", "size": [0.05, 0.05, 0.05], "mass": cube_mass, "position": [0, 0, 0.025]},
+                       "cube": {"shape": "box", "size": [0.05, 0.05, 0.05], "mass": cube_mass,
+                                "position": [0, 0, 0.025]},
                        "cup": {"shape": "cylinder", "radius": 0.02, "height": 0.02, "mass": 0,
                                "position": [0, 0, 0.0595]}},
             "actuators": {"cup": {"type": "suction", "body": "cup", **suction}}}
