@@ -444,7 +444,7 @@ def main() -> int:
     parser.add_argument("--timeout", type=float, default=300.0, help="seconds per mutant's test run")
     parser.add_argument("--log", help="append one line per mutant (and the table) to this file")
     parser.add_argument("--skip-killed", nargs="*", metavar="LOG", help="leave out mutants these logs say were caught")
-    parser.add_argument("--sync-tests", metavar="DIR", 
+    parser.add_argument("--sync-tests", metavar="DIR",
                         help="before each mutant, copy DIR/test_*.py into the copy's tests/")
     parser.add_argument("--order", nargs="*", choices=AREAS, help="run these areas first, in this order")
     parser.add_argument("--include", nargs="*", metavar="LOG", help="count these logs' results for mutants not run now")
