@@ -265,9 +265,11 @@ def run_corpus(args: argparse.Namespace) -> int:
                 k, m = work.get_nowait()
             except queue.Empty:
                 return
-            if args.sync_tests:  # tests finished while the run goes on join it (copy only ones that pass unmutated)
-                for src in Path(args.sync_tests).glob("test_*.py"):
-                    shutil.copy2(src, tree / "tests" / src.name)
+            if args.sync:  # files finished while the run goes on join it (copy only ones that pass unmutated)
+                for src in Path(args.sync).rglob("*.py"):
+                    dest = tree / src.relative_to(args.sync)
+                    dest.parent.mkdir(parents=True, exist_ok=True)
+                    shutil.copy2(src, dest)
             status, took, tail = run_mutant(tree, m, args.timeout)
             who = tail if status in ("killed", "timeout") else ""
             line = f"{k:3d}/{len(chosen)} {status:8s} {m.id} {m.area} {m.file} {took:6.1f}s [{who}] -- {m.breaks}"
@@ -444,8 +446,8 @@ def main() -> int:
     parser.add_argument("--timeout", type=float, default=300.0, help="seconds per mutant's test run")
     parser.add_argument("--log", help="append one line per mutant (and the table) to this file")
     parser.add_argument("--skip-killed", nargs="*", metavar="LOG", help="leave out mutants these logs say were caught")
-    parser.add_argument("--sync-tests", metavar="DIR",
-                        help="before each mutant, copy DIR/test_*.py into the copy's tests/")
+    parser.add_argument("--sync", metavar="DIR",
+                        help="before each mutant, copy DIR/**/*.py into the copy (DIR mirrors the repository)")
     parser.add_argument("--order", nargs="*", choices=AREAS, help="run these areas first, in this order")
     parser.add_argument("--include", nargs="*", metavar="LOG", help="count these logs' results for mutants not run now")
     parser.add_argument("--rerun", metavar="LOG", help="only the mutants a previous log says survived")
