@@ -70,8 +70,9 @@ def test_suction_never_holds_the_robot_it_is_mounted_on() -> None:
 
 
 # ------------------------------------------------------------------ gripper
-def panda(**gripper: object) -> dict:
-    return {"robots": {"panda": {"urdf": "franka_panda/panda.urdf", "position": [0, 0, 0], "fixed_base": True}},
+def panda(self_collision: bool = False, **gripper: object) -> dict:
+    return {"robots": {"panda": {"urdf": "franka_panda/panda.urdf", "position": [0, 0, 0], "fixed_base": True,
+                                 "self_collision": self_collision}},
             "actuators": {"gripper": {"type": "gripper", "body": "panda", **gripper}}}
 
 
@@ -85,7 +86,8 @@ def test_a_width_beyond_the_fingers_travel_is_clamped() -> None:
         assert sim.readings["gripper"].target_width == 0.0
 
 
-def test_settled_only_after_settle_time_of_stillness_and_no_self_contacts() -> None:
+@pytest.mark.parametrize("self_collision", [False, True])
+def test_settled_only_after_settle_time_of_stillness_and_no_self_contacts(self_collision: bool) -> None:
     """Closing on nothing: 'settled' comes settle_time (0.04 s) after the width stopped changing, not before; the
     fingers touching each other are not finger contacts, and nothing is held."""
     with make_sim(panda(settle_time=0.04)) as sim:
