@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 from robokit_plugins.ik_arm import _slerp
 
@@ -158,3 +159,21 @@ def test_slerp_takes_the_short_way_round() -> None:
     half = _slerp(a, (0.0, 0.0, -s, -c), 0.5)
     want = (0.0, 0.0, math.sin(math.pi / 8), math.cos(math.pi / 8))
     assert half == pytest.approx(want, abs=1e-9) or half == pytest.approx(tuple(-v for v in want), abs=1e-9)
+
+
+def test_an_object_touching_one_finger_only_is_not_held() -> None:
+    """A fixed 1 cm block 2 cm off the grasp centre towards the left finger: closing, the left finger meets it
+    (the gear stops the right one too, 2 cm short of it): one finger touches, nothing is held."""
+    with make_sim(panda()) as sim:
+        w = sim.world
+        left = np.array(w.pose("panda", w.link("panda", "panda_leftfinger"))[0])
+        right = np.array(w.pose("panda", w.link("panda", "panda_rightfinger"))[0])
+        centre = np.array(w.pose("panda", w.link("panda", "panda_grasptarget"))[0])
+        towards_left = (left - right) / np.linalg.norm(left - right)
+        w.add_primitive("block", "box", size=(0.01, 0.01, 0.01), mass=0.0,
+                        position=tuple(centre + 0.02 * towards_left))
+        sim.components["gripper"].command(GripperCommand("close"))
+        sim.step(240)
+        state = sim.readings["gripper"]
+    assert state.finger_contacts > 0  # it does touch
+    assert state.width > 0.02 and not state.holding and state.held is None
