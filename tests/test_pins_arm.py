@@ -90,8 +90,8 @@ def test_a_width_beyond_the_fingers_travel_is_clamped() -> None:
 @pytest.mark.parametrize("self_collision", [False, True])
 def test_settled_only_after_settle_time_of_stillness_and_no_self_contacts(self_collision: bool) -> None:
     """Closing on nothing: 'settled' comes settle_time (0.04 s) after the width stopped changing, not before; the
-    fingers touching each other are not finger contacts, and nothing is held."""
-    with make_sim(panda(settle_time=0.04)) as sim:
+    fingers touching each other (with self_collision they do) are not finger contacts, and nothing is held."""
+    with make_sim(panda(self_collision, settle_time=0.04)) as sim:
         g = sim.components["gripper"]
         g.command(GripperCommand("close"))
         dt = sim.world.time_step
