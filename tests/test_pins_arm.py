@@ -177,3 +177,35 @@ def test_an_object_touching_one_finger_only_is_not_held() -> None:
         state = sim.readings["gripper"]
     assert state.finger_contacts > 0  # it does touch
     assert state.width > 0.02 and not state.holding and state.held is None
+
+
+def test_reached_needs_both_tolerances_and_failure_waits_settle_timeout() -> None:
+    """position_tolerance 1e-7 m (tighter than any real tracking, orientation default 0.05 rad): the move is never
+    'reached' although its orientation is well within tolerance, and it fails only settle_timeout (0.3 s) after
+    the path ended, naming the miss."""
+    with make_sim(arm(position_tolerance=1e-7, settle_timeout=0.3)) as sim:
+        sim.components["arm"].command(MoveTo((0.5, 0.2, 0.2)))
+        seen = set()
+        for _ in range(720):
+            sim.step(1)
+            state = sim.readings["arm"]
+            seen.add(state.status)
+            if state.status != "moving":
+                break
+        assert state.status == "failed" and "reached" not in seen
+        assert state.orientation_error < 0.05 and state.position_error < 0.001  # it is there, to within 1 mm
+        assert state.path_end is not None and sim.world.time >= state.path_end + 0.3 - 1e-9
+        assert "did not reach the target" in state.reason
+
+
+def test_configured_joint_limits_are_never_exceeded() -> None:
+    """panda_joint1 limited to [-0.1, 0.1] rad: a target 37 deg to the left (atan2(0.3, 0.4)) needs more; the
+    arm either refuses it or gets there within the limit, never beyond."""
+    with make_sim(arm(limits={"panda_joint1": [-0.1, 0.1]})) as sim:
+        sim.components["arm"].command(MoveTo((0.4, 0.3, 0.3)))
+        for _ in range(480):
+            sim.step(1)
+            state = sim.readings["arm"]
+            assert state.joint_positions["panda_joint1"] <= 0.1 + 2e-3
+            if state.status != "moving":
+                break
