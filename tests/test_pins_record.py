@@ -98,6 +98,9 @@ def test_the_height_plot_draws_each_bodys_z_over_time(tmp_path: Path, monkeypatc
     plt.close(fig)
     assert np.allclose(t, rec.poses["t"]) and np.allclose(z, rec.poses["base/box"][:, 2])
     assert z[0] == pytest.approx(0.5, abs=1e-3) and z[-1] == pytest.approx(0.05, abs=0.01)  # fell onto the floor
+    ticks = rec.poses["tick"]
+    assert ticks.tolist() == list(range(0, 241, 8))  # 30 Hz at 240 Hz: every 8th tick, the final tick (240) too
+    assert np.allclose(rec.poses["t"], ticks / 240.0)
 
 
 def test_the_map_draws_the_driven_path_in_x_and_y(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
