@@ -91,3 +91,20 @@ def test_contains_grows_the_footprint_by_the_margin_on_every_side() -> None:
     b = make_bin()
     for x, y in [(-0.015, 0.1), (0.315, 0.1), (0.1, -0.015), (0.1, 0.215)]:
         assert b.contains(x, y, 0.02) and not b.contains(x, y, 0.01)
+
+
+def test_a_new_cube_near_a_given_up_one_is_a_new_object() -> None:
+    """The unpickable red cube is given up after its one attempt; a second red cube 10 cm beyond it (outside the
+    given-up zone of 5 cm, inside the 15 cm 'same object' radius) is a new object: picked and sorted on its own."""
+    with make_sim(CONFIG, overrides=stuck_red()) as sim:
+        stuck = sim.world.pose("red")[0]
+    away = (stuck[0] - LOOK[0], stuck[1] - LOOK[1])
+    norm = math.hypot(*away)
+    second = [stuck[0] + 0.1 * away[0] / norm, stuck[1] + 0.1 * away[1] / norm, 0.025]
+    overrides = {**stuck_red(max_attempts=1), "bodies.red2": {
+        "shape": "box", "size": [0.05, 0.05, 0.05], "mass": 0.1, "position": second, "rgba": [0.9, 0.1, 0.1, 1],
+        "lateral_friction": 1.0}}
+    result, _, _ = run_sort(overrides)
+    reds = [o for o in result.result["objects"] if o["colour"] == "red"]
+    assert [(o["outcome"], o["attempts"]) for o in reds] == [("failed", 1), ("sorted", 1)]
+    assert result.result["red_sorted"] == 1 and result.result["picks"] == 3
