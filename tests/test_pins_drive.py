@@ -121,3 +121,20 @@ def test_reverse_speed_is_negative_and_nothing_touches_on_an_empty_floor() -> No
     assert state.v == pytest.approx(-0.2, rel=0.1)
     assert state.pose[0] < -0.1
     assert state.contacts == ()  # the plane is ignored
+
+
+@settings(max_examples=10, deadline=None)
+@given(v=st.floats(-0.4, 0.4), omega=st.floats(-1.5, 1.5))
+def test_odometry_tracks_the_true_pose_for_any_arc(v: float, omega: float) -> None:
+    """Any (v, omega) held for 1.5 s from rest: odometry ends within 5 cm and 0.1 rad of the true pose, and the
+    true path turned the way omega says (counter-clockwise for omega > 0)."""
+    with make_sim(config()) as sim:
+        sim.components["drive"].command(Twist(v, omega))
+        sim.step(360)
+        state = sim.readings["drive"]
+    x, y, yaw = state.pose
+    ox, oy, oyaw = state.odometry
+    assert math.hypot(ox - x, oy - y) < 0.05
+    assert abs(math.remainder(oyaw - yaw, 2 * math.pi)) < 0.1
+    if abs(omega) > 0.3:
+        assert math.copysign(1.0, yaw) == math.copysign(1.0, omega)
