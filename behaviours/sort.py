@@ -408,8 +408,11 @@ class Sort(MachineBehaviour):
 
     def _summary(self) -> str:
         done = sum(o.outcome == "sorted" for o in self.objects)
-        text = f"sorted {done} object(s) in {self.picks} pick(s)"
-        return text + (f"; left {len(self.left)} of unknown colour" if self.left else "")
+        there = len(self._in_bins())  # what the goal check will count: say so when it is fewer than were placed
+        text = (f"sorted {done} object(s) in {self.picks} pick(s)" if there >= done else
+                f"placed {done} object(s) in their bins in {self.picks} pick(s), {there} still there")
+        no_bin = sorted({str(o["colour"]) for o in self.left})
+        return text + (f"; left {len(self.left)} whose colour has no bin ({', '.join(no_bin)})" if self.left else "")
 
     def result(self) -> dict[str, Any]:
         """Counts per colour, failures (failed pick attempts), sim time, and one record per object."""

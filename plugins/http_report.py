@@ -16,11 +16,13 @@ result is sent, so loading the plugin costs nothing.
 
 from __future__ import annotations
 
+import dataclasses
 import inspect
 import json
 import os
 import re
 from dataclasses import asdict, dataclass, fields
+from pathlib import Path
 from typing import Any
 
 from pydantic import Field, field_validator, model_validator
@@ -29,12 +31,15 @@ from robokit import __version__, hookimpl
 from robokit.components import Delivery, Reporter
 from robokit.config import Schema
 from robokit.errors import Interrupted
-from robokit.report.outbox import Entry, Outbox, SendResult
+from robokit.report.outbox import Entry, Outbox, SendResult, fingerprint
+from robokit.report.reporting import Refused
 
 RETRY_STATUSES = frozenset([408, 429, *range(500, 600)])
 """Answers worth retrying: request timeout, too many requests, and every server error."""
 _MAX_BODY = 4096
 _ENV_NAME = r"^[A-Za-z_][A-Za-z0-9_]*$"
+DEFAULT_TOKEN_ENV = "ROBOKIT_TOKEN"
+"""The variable a token is read from when no ``token_env`` is named (sent only when it is set)."""
 
 
 class HttpReportConfig(Schema):
@@ -125,6 +130,8 @@ class HttpOptions:
     verify: bool | str = True
     max_payload_bytes: int = 1_000_000
     token_env: str | None = None
+    upload_artifacts: bool = False
+    artifacts_dir: str = "results"
 
     @classmethod
     def from_mapping(cls, data: Any) -> HttpOptions:
@@ -163,7 +170,13 @@ def encode(payload: dict[str, Any]) -> bytes:
 
 
 class HttpSender:
-    """Sends outbox entries (a :data:`robokit.report.outbox.Sender`). ``url`` overrides each entry's URL."""
+    """Sends outbox entries (a :data:`robokit.report.outbox.Sender`). ``url`` overrides each entry's URL,
+    ``token_env`` each entry's token variable.
+
+    The token: from the variable the entry (its config) names, else from ``$ROBOKIT_TOKEN`` when that is set. A
+    named variable that is unset is a refusal (the result is not sent without the token its maker asked for).
+    After a 2xx, the run folder's files are uploaded when the entry's config asked (``upload_artifacts``).
+    """
 
     def __init__(self, url: str | None = None, token_env: str | None = None) -> None:
         self.url = url
@@ -174,30 +187,88 @@ class HttpSender:
         """Where an entry is really sent (the override URL, else the entry's own)."""
         return self.url or entry.url
 
+    def token(self, entry: Entry) -> tuple[str, str | None, bool]:
+        """(variable name, token or None, whether the name was asked for explicitly) for sending ``entry``."""
+        named = self.token_env or HttpOptions.from_mapping(entry.options).token_env
+        name = named or DEFAULT_TOKEN_ENV
+        return name, os.environ.get(name) or None, named is not None
+
+    def identity(self, entry: Entry) -> str:
+        """Who would send ``entry`` now: the token's fingerprint, or "no token"."""
+        return fingerprint(self.token(entry)[1])
+
     def __call__(self, entry: Entry) -> SendResult:
         url = self.target(entry)
         problem = url_problem(url)
         if problem:  # it can never be delivered: refuse it for good (to failed/), do not block the others
             return SendResult(False, True, None, f"malformed URL {url!r}: {problem}; not sent")
         opts = HttpOptions.from_mapping(entry.options)
-        if self.token_env is not None:
-            opts = HttpOptions.from_mapping({**opts.to_dict(), "token_env": self.token_env})
         body = encode(entry.payload)
         if len(body) > opts.max_payload_bytes:
             return SendResult(False, True, None, f"payload is {len(body)} bytes, over the "
                               f"{opts.max_payload_bytes}-byte limit (max_payload_bytes): not sent")
-        token = os.environ.get(opts.token_env) if opts.token_env else None
-        if opts.token_env and not token:
-            return SendResult(False, False, None, f"environment variable {opts.token_env} is not set: not sent")
+        name, token, named = self.token(entry)
+        if named and not token:
+            return SendResult(False, True, None, f"environment variable {name} is not set: not sent",
+                              advice=f"export {name}=... (the token your teacher gave you), then "
+                                     f"`robokit outbox retry {entry.run_id}`")
         if opts not in self._sessions:
             self._sessions[opts] = make_session(opts)
         result = post(self._sessions[opts], url, body, entry.run_id, opts, token)
+        if result.ok and opts.upload_artifacts:
+            result = _upload(result, entry, url, opts, token)
+        elif result.permanent and result.status is not None:
+            result = dataclasses.replace(result, advice=advice(result, name, token, entry.run_id))
         return _redact(result, token)
 
     def close(self) -> None:
         for session in self._sessions.values():
             session.close()
         self._sessions.clear()
+
+
+def _upload(result: SendResult, entry: Entry, url: str, opts: HttpOptions, token: str | None) -> SendResult:
+    """After the result arrived, upload its run folder's files; a failure is told, never changes the delivery."""
+    from robokit.report.artifact_upload import find_artifacts, upload_artifacts
+
+    files = find_artifacts(os.path.join(opts.artifacts_dir, entry.run_id), entry.payload.get("config"))
+    if not files:
+        return result
+    note = upload_artifacts(url, entry.run_id, files, token=token, verify=opts.verify,
+                            timeout=(opts.connect_timeout, max(opts.read_timeout, 60.0)))
+    return dataclasses.replace(result, note=note)
+
+
+def server_error(body: str) -> tuple[str, str | None]:
+    """The course server's ``{"error": ..., "field": ...}`` answer as (message, field); other bodies as text."""
+    try:
+        data = json.loads(body)
+    except ValueError:
+        data = None
+    if isinstance(data, dict) and isinstance(data.get("error"), str):
+        field = data.get("field")
+        return " ".join(data["error"].split())[:300], field if isinstance(field, str) else None
+    return " ".join(body.split())[:200], None
+
+
+def advice(result: SendResult, name: str, token: str | None, run_id: str) -> str:
+    """What to change after a refusal, in one line, ending with how to send the result again."""
+    message, field = server_error(result.body)
+    again = f"then `robokit outbox retry {run_id}`"
+    if result.status == 401 and not token:
+        return f"no token sent: export {name}=... (the token your teacher gave you), {again}"
+    if field == "student" and not token:  # a class that wants tokens, or a name left out: say both
+        return (f"{message}: no token sent: export {name}=... (the token your teacher gave you), {again} "
+                f"(in a class without tokens: `robokit outbox retry {run_id} --student NAME`)")
+    if result.status == 401:
+        return (f"the server did not accept the token in ${name} ({message}): check it or ask your teacher for "
+                f"a new one, {again}")
+    if field in ("project", "student"):
+        return (f"{field}: {message}: give --{field} NAME (or [report] {field} = \"NAME\"); this result: "
+                f"`robokit outbox retry {run_id} --{field} NAME`")
+    if field:
+        return f"{field}: {message}: change it in the config, run again (or fix the server), {again}"
+    return f"the server said: {message or 'HTTP ' + str(result.status)}; once that is fixed, {again}"
 
 
 def post(session: Any, url: str, body: bytes, run_id: str, opts: HttpOptions, token: str | None) -> SendResult:
@@ -277,10 +348,10 @@ def _causes(exc: BaseException) -> list[BaseException]:
 
 def _redact(result: SendResult, token: str | None) -> SendResult:
     """Blank the token out of anything the server echoed back (it is written to files and printed)."""
-    if not token or (token not in result.detail and token not in result.body):
+    texts = ("detail", "body", "note", "advice")
+    if not token or not any(token in getattr(result, name) for name in texts):
         return result
-    return SendResult(result.ok, result.permanent, result.status,
-                      result.detail.replace(token, "***"), result.body.replace(token, "***"))
+    return dataclasses.replace(result, **{name: getattr(result, name).replace(token, "***") for name in texts})
 
 
 class HttpReporter(Reporter):
@@ -295,12 +366,18 @@ class HttpReporter(Reporter):
         try:
             with outbox.lock(str(payload["run_id"])):
                 entry = outbox.put(payload, cfg.url, HttpOptions.from_mapping(cfg).to_dict(),
-                                   last_error="not sent: the run was interrupted (Ctrl-C / SIGTERM)")
+                                   last_error="not sent: the run was interrupted (Ctrl-C / SIGTERM)",
+                                   identity=self._identity(payload))
         except OSError as exc:
             return Delivery(False, None, f"not sent (interrupted) and the outbox {outbox.root} could not be "
                             f"written: {exc}")
         return Delivery(False, str(entry.path), f"not sent (interrupted); result kept in the outbox {entry.path} - "
                         f"`robokit outbox flush --dir {outbox.root}` sends it")
+
+    def _identity(self, payload: dict[str, Any]) -> str:
+        """Who makes this entry: the fingerprint of the token it is sent with (see :meth:`HttpSender.token`)."""
+        probe = Entry(Path("-"), {"options": HttpOptions.from_mapping(self.config).to_dict(), "payload": payload})
+        return HttpSender().identity(probe)
 
     def report(self, payload: dict[str, Any]) -> Delivery:
         cfg: HttpReportConfig = self.config
@@ -309,8 +386,6 @@ class HttpReporter(Reporter):
         sender = HttpSender()
         try:
             delivery = self._send_own(outbox, sender, payload, opts)
-            if delivery.delivered and cfg.upload_artifacts:
-                delivery = _with_artifacts(delivery, cfg, payload)
             if delivery.delivered and cfg.flush_outbox:
                 delivery = _with_flush(delivery, outbox, sender, cfg.url)
             return delivery
@@ -319,46 +394,38 @@ class HttpReporter(Reporter):
 
     def _send_own(self, outbox: Outbox, sender: HttpSender, payload: dict[str, Any], opts: HttpOptions) -> Delivery:
         url = self.config.url
+        run_id = str(payload["run_id"])
+        identity = self._identity(payload)
         try:
-            with outbox.lock(str(payload["run_id"])):
-                entry = outbox.put(payload, url, opts.to_dict())  # write-ahead: a crash from here on resends
+            with outbox.lock(run_id):
+                entry = outbox.put(payload, url, opts.to_dict(), identity=identity)  # write-ahead: a crash resends
                 outcome, entry, result = outbox.attempt(entry, sender)
-                outbox.drop_lock_file(str(payload["run_id"]))
+                outbox.drop_lock_file(run_id)
         except Interrupted as exc:  # Ctrl-C while sending: the entry was written first, so it waits in the outbox
-            path = outbox.path_for(str(payload["run_id"]))
+            path = outbox.path_for(run_id)
             kept = path if path.exists() else None
             return Delivery(False, str(kept) if kept else None,
                             f"interrupted ({exc.reason}) while sending; "
                             + (f"result kept in the outbox {kept} - `robokit outbox flush --dir {outbox.root}` "
                                "sends it" if kept else "not kept in the outbox"))
         except OSError as exc:  # the outbox cannot be written (sending never raises it): deliver without a net
-            result = sender(Entry(outbox.path_for(str(payload["run_id"])), {
-                "run_id": payload["run_id"], "url": url, "payload": payload, "options": opts.to_dict()}))
+            result = sender(Entry(outbox.path_for(run_id), {
+                "run_id": run_id, "url": url, "payload": payload, "options": opts.to_dict()}))
             if result.ok:
-                return Delivery(True, None, f"delivered to {url} ({result.detail})")
+                return Delivery(True, None, _delivered(url, result))
             return Delivery(False, None, f"not delivered ({result.detail}) and the outbox {outbox.root} "
                             f"could not be written: {exc}")
         if outcome == "delivered":
-            return Delivery(True, None, f"delivered to {url} ({result.detail})")
+            return Delivery(True, None, _delivered(url, result))
         if outcome == "failed":
-            return Delivery(False, str(entry.path), f"refused by the server ({result.detail}); kept in {entry.path}")
+            return Refused(False, str(entry.path), f"REFUSED ({result.detail}); kept in {entry.path}",
+                           why=result.detail, advice=result.advice, status=result.status)
         return Delivery(False, str(entry.path), f"not delivered ({result.detail}); result kept in the outbox "
                         f"{entry.path} - `robokit outbox flush --dir {outbox.root}` sends it later")
 
 
-def _with_artifacts(delivery: Delivery, cfg: HttpReportConfig, payload: dict[str, Any]) -> Delivery:
-    """After the result arrived, upload its run folder's files; a failure is told, never changes the delivery."""
-    from robokit.report.artifact_upload import find_artifacts, upload_artifacts
-
-    run_id = str(payload["run_id"])
-    files = find_artifacts(os.path.join(cfg.artifacts_dir, run_id), payload.get("config"))
-    if not files:
-        return delivery
-    opts = HttpOptions.from_mapping(cfg)
-    token = os.environ.get(cfg.token_env) if cfg.token_env else None
-    note = upload_artifacts(cfg.url, run_id, files, token=token, verify=opts.verify,
-                            timeout=(opts.connect_timeout, max(opts.read_timeout, 60.0)))
-    return Delivery(True, None, f"{delivery.message}; {note}")
+def _delivered(url: str, result: SendResult) -> str:
+    return f"delivered to {url} ({result.detail})" + (f"; {result.note}" if result.note else "")
 
 
 def _with_flush(delivery: Delivery, outbox: Outbox, sender: HttpSender, url: str) -> Delivery:

@@ -2,7 +2,7 @@
 
 Exit codes: 0 succeeded; 1 the behaviour failed or was aborted (e.g. ``max_time`` reached); 2 usage or config
 error; 3 a plugin (or robokit itself) raised (outcome ``error``); 4 the result could be neither delivered nor
-stored; 130 interrupted (Ctrl-C / SIGTERM).
+stored; 5 the server refused the result (kept; ``robokit outbox retry``); 130 interrupted (Ctrl-C / SIGTERM).
 
 No input gives a Python traceback: user errors are one line; anything unexpected is one line naming what raised and
 where, plus the path of a file with the full traceback. ``--debug`` (anywhere on the command line, or
@@ -77,7 +77,13 @@ _RUN_OPTIONS: tuple[tuple[str, dict[str, Any]], ...] = (
     ("--quiet", {"action": "store_true", "help": "print nothing but errors (and --json output)"}),
     ("--student", {"help": "override report.student"}),
     ("--project", {"help": "override report.project"}),
-    ("--report-url", {"metavar": "URL", "help": "post the result to this URL (the http reporter)"}),
+    ("--report-url", {"metavar": "URL", "help": "post the result to this URL (the http reporter; the token is "
+                                                "read from $ROBOKIT_TOKEN when that is set)"}),
+    ("--token-env", {"metavar": "NAME", "help": "read the bearer token from this environment variable "
+                                                "(report.http.token_env; default ROBOKIT_TOKEN when set)"}),
+    ("--set", {"dest": "sets", "action": "append", "default": [], "metavar": "KEY=VALUE",
+               "help": "override a dotted config key, as robokit sweep does (e.g. report.http.upload_artifacts=true);"
+                       " repeatable"}),
     ("--gui-hold", {"action": "store_true", "help": "with --gui: keep the window open after the run"}),
     ("--pose-hz", {"type": float, "metavar": "HZ",
                    "help": "pose log rate, sim Hz (default [record] pose_hz = 30; 0 = none)"}),
@@ -142,7 +148,8 @@ def _add_extra_commands(sub: Any) -> None:
 
 
 def _overrides(args: argparse.Namespace) -> dict[str, Any]:
-    out: dict[str, Any] = {}
+    sets = getattr(args, "sets", None)
+    out: dict[str, Any] = _set_overrides(sets) if sets else {}
     if getattr(args, "seed", None) is not None:
         out["world.seed"] = args.seed
     if getattr(args, "student", None) is not None:
@@ -153,7 +160,21 @@ def _overrides(args: argparse.Namespace) -> dict[str, Any]:
         out["report.http.url"] = args.report_url
     if getattr(args, "max_wall", None) is not None:
         out["world.max_wall_time"] = args.max_wall
+    if getattr(args, "token_env", None) is not None:
+        out["report.http.token_env"] = args.token_env
     return out
+
+
+def _set_overrides(items: list[str]) -> dict[str, Any]:
+    """``--set KEY=VALUE`` options, read by robokit sweep's parser (one value each: a run is one cell)."""
+    from robokit.sweep.spec import parse_set
+
+    grid, fixed = parse_set(items)
+    if grid:
+        key = next(iter(grid))
+        raise UserError(f"--set {key}: robokit run takes one value per key (several values make a grid: "
+                        f"robokit sweep CONFIG --set {key}=...)")
+    return fixed
 
 
 def _load(args: argparse.Namespace) -> tuple[Any, Any]:
@@ -167,6 +188,10 @@ def _load(args: argparse.Namespace) -> tuple[Any, Any]:
 
 def cmd_run(args: argparse.Namespace) -> int:
     """``robokit run``: build, run, report; print a summary (or the RunResult JSON with ``--json``)."""
+    if args.video:  # before anything is simulated: the video needs imageio-ffmpeg
+        from robokit.extras import require
+
+        require("video", "robokit run --video", ("imageio_ffmpeg",))
     plugins, cfg = _load(args)  # first: robokit.runner imports robokit.config, see _load
     from robokit.runner import run_config, summary
 
@@ -200,8 +225,10 @@ def cmd_run(args: argparse.Namespace) -> int:
         print(json.dumps(out.result.to_dict(), indent=2))
     if not args.quiet:
         print(summary(out), file=sys.stderr if args.json else sys.stdout)
+        _frames_note(cfg, out, args)
     if out.error is not None:
         _report_error(args, out, cfg)
+    refused = _refused(out)
     if out.interrupted:
         if not args.quiet:
             print("robokit: interrupted; the result was kept (see above)", file=sys.stderr)
@@ -209,7 +236,28 @@ def cmd_run(args: argparse.Namespace) -> int:
         from robokit.record.cli import video_after_run
 
         video_after_run(cfg, out.result.run_id, args.video, quiet=args.quiet)
-    return out.exit_code
+    return refused if refused is not None and out.exit_code not in (EXIT_INTERRUPTED, 4) else out.exit_code
+
+
+def _refused(out: Any) -> int | None:
+    """A report the server refused: one loud line on stderr (what to change) and the exit code to end with."""
+    from robokit.report.reporting import EXIT_REFUSED, Refused
+
+    refusals = [(name, d) for name, d in out.deliveries if isinstance(d, Refused)]
+    for name, d in refusals:
+        print(f"robokit: error: report[{name}] {d.line()}", file=sys.stderr)
+    return EXIT_REFUSED if refusals else None
+
+
+def _frames_note(cfg: Any, out: Any, args: argparse.Namespace) -> None:
+    """With ``--save-frames`` (or a camera's ``save``): one line saying where the frames went."""
+    from robokit.config import results_root
+    from robokit.record.results import frames_note
+
+    folder = None if args.no_record else results_root(cfg) / out.result.run_id
+    note = frames_note(folder, args.save_frames or cfg.record.save_frames)
+    if note:
+        print(note, file=sys.stderr if args.json else sys.stdout)
 
 
 def _report_error(args: argparse.Namespace, out: Any, cfg: Any) -> None:

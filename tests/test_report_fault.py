@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 import subprocess
 import sys
 from collections import Counter
@@ -37,10 +38,9 @@ def faulty_plan(seed: int):  # type: ignore[no-untyped-def]
     return plan
 
 
-def test_200_runs_through_a_faulty_server_then_one_flush_arrive_exactly_once(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
-    """Reporters do not flush after delivering here (tested elsewhere), so the final flush has real work."""
+def test_200_runs_through_a_faulty_server_then_one_flush_arrive_exactly_once(tmp_path: Path) -> None:
+    """Reporters do not flush after delivering here (tested elsewhere), so the final flush has real work. The
+    figures go to a log record (pytest shows it with the failure, or with ``-o log_cli=true``)."""
     server = CourseServer(plan=faulty_plan(seed=6)).start()
     box = tmp_path / "outbox"
     try:
@@ -64,10 +64,10 @@ def test_200_runs_through_a_faulty_server_then_one_flush_arrive_exactly_once(
     assert waiting_after_faults > 0  # the faults did push results into the outbox
     answers = Counter("reset" if r.answer.reset else "stall" if r.answer.stall else r.answer.status
                       for r in server.requests)
-    with capsys.disabled():
-        print(f"\n  fault test: {len(server.requests)} requests for {len(ids)} runs "
-              f"({sum(raw.values()) - len(raw)} resends, all after an unanswered or failed try), "
-              f"{waiting_after_faults} in the outbox before the flush; answers {dict(answers)}")
+    logging.getLogger(__name__).info(
+        "fault test: %d requests for %d runs (%d resends, all after an unanswered or failed try), %d in the outbox "
+        "before the flush; answers %s", len(server.requests), len(ids), sum(raw.values()) - len(raw),
+        waiting_after_faults, dict(answers))
 
 
 def test_a_run_killed_right_after_its_post_resends_with_the_same_key(tmp_path: Path) -> None:

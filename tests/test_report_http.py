@@ -148,14 +148,16 @@ def test_token_is_sent_as_a_header_and_written_nowhere(
     assert "***" in _all_text(tmp_path / "outbox" / "failed")
 
 
-def test_missing_token_variable_keeps_the_result_waiting(
+def test_a_named_token_variable_that_is_unset_is_refused_never_sent_without_it(
     server: CourseServer, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.delenv("ROBOKIT_TEST_TOKEN", raising=False)
     d = reporter(server.url, tmp_path / "outbox", token_env="ROBOKIT_TEST_TOKEN").report(make_payload(10))
     assert not d.delivered and server.requests == []
-    [entry] = Outbox(tmp_path / "outbox").entries()
+    assert Outbox(tmp_path / "outbox").entries() == []
+    [entry] = Outbox(tmp_path / "outbox").failed()
     assert "ROBOKIT_TEST_TOKEN is not set" in (entry.last_error or "")
+    assert "export ROBOKIT_TEST_TOKEN=" in entry.data["advice"] and "robokit outbox retry" in entry.data["advice"]
 
 
 @pytest.mark.parametrize(("http_table", "expected"), [

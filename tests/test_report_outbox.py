@@ -51,7 +51,8 @@ def test_list_shows_run_id_age_attempts_and_last_error(tmp_path: Path, capsys: p
     assert main(["outbox", "list", "--dir", str(box.root)]) == 0
     out = capsys.readouterr().out
     row = next(line for line in out.splitlines() if line.startswith(rid))
-    assert "Connection refused" in row and " 1 " in row and ("d" in row.split()[1])  # age: days old
+    assert "Connection refused" in row and " 1 " in row and ("d" in row.split()[3])  # age: days old
+    assert row.split()[1:3] == ["waiting", "yours"]  # made and listed without a token
     assert "1 waiting" in out and "0 refused" in out
     assert main(["outbox", "list", "--dir", str(box.root), "--json"]) == 0
     data = json.loads(capsys.readouterr().out)

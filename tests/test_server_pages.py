@@ -221,6 +221,22 @@ def test_cli_errors_are_one_line_and_help_does_not_import_django(tmp_path: Path)
     assert (tmp_path / "srv" / "db.sqlite3").is_file() and (tmp_path / "srv" / "secret_key").stat().st_mode & 0o077 == 0
 
 
+def test_robokit_manage_creates_a_private_data_folder_and_database(tmp_path: Path) -> None:
+    import os
+    import stat
+
+    old = os.umask(0o022)  # the usual umask (inherited by the command): on its own it gives 0755 and 0644
+    try:
+        proc = _robokit("manage", "--data", str(tmp_path / "srv"), "migrate", cwd=tmp_path)
+    finally:
+        os.umask(old)
+    assert proc.returncode == 0, proc.stderr
+    modes = {p.name: stat.S_IMODE(p.stat().st_mode) for p in [tmp_path / "srv", *(tmp_path / "srv").iterdir()]}
+    assert modes["srv"] == 0o700 and modes["db.sqlite3"] == 0o600 and modes["secret_key"] == 0o600
+    assert all(mode & 0o077 == 0 for mode in modes.values()), modes  # -wal / -shm too, when present
+    assert "readable by other users" not in proc.stderr  # made private: nothing to narrow, nothing said
+
+
 def test_admin_issues_tokens_shown_once_and_revokes(admin_client: Any, course: Course) -> None:
     from robokit.server.models import Token
     from robokit.server.tokens import hash_token
@@ -262,3 +278,19 @@ def test_migrations_match_the_models() -> None:
     from django.core.management import call_command
 
     call_command("makemigrations", "course", "--check", "--dry-run", verbosity=0)  # exits 1 if a change is missing
+
+
+def test_robokit_manage_narrows_a_data_folder_and_database_left_open_by_an_earlier_version(tmp_path: Path) -> None:
+    import os
+    import stat
+
+    data = tmp_path / "srv"
+    data.mkdir()
+    (data / "db.sqlite3").touch()  # an empty file is an empty SQLite database
+    os.chmod(data, 0o755)
+    os.chmod(data / "db.sqlite3", 0o644)
+    proc = _robokit("manage", "--data", str(data), "migrate", cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert stat.S_IMODE(data.stat().st_mode) == 0o700 and stat.S_IMODE((data / "db.sqlite3").stat().st_mode) == 0o600
+    assert f"robokit: {data / 'db.sqlite3'} was readable by other users: now 0600" in proc.stderr
+    assert f"robokit: data folder {data} was readable by other users: now 0700" in proc.stderr

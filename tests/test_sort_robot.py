@@ -77,7 +77,7 @@ def test_green_distractor_is_left_in_place_and_reported() -> None:
         left = [o for o in res["objects"] if o["outcome"] == "left"]
         assert len(left) == 1 and left[0]["colour"] == "green"
         assert math.dist(left[0]["detected_position"], start) < 0.01
-        assert "left 1 of unknown colour" in sim.outcome.reason
+        assert "left 1 whose colour has no bin (green)" in sim.outcome.reason
 
 
 def test_cube_knocked_off_mid_transport_is_found_again_and_sorted() -> None:

@@ -72,13 +72,14 @@ class WorldConfig(Section):
 
     gravity: tuple[_s.Gravity, _s.Gravity, _s.Gravity] = (0.0, 0.0, -9.81)
     time_step: float = setting(1.0 / 240.0, gt=0, le=0.1, description="physics step, seconds")
-    solver_iterations: int = setting(50, ge=1, le=1000)
-    seed: int = setting(0, ge=0, le=2**63 - 1)
+    solver_iterations: int = setting(50, ge=1, le=1000, description="constraint solver iterations per physics step")
+    seed: int = setting(0, ge=0, le=2**63 - 1, description="the run's random seed (scattered bodies, sensor noise); "
+                                                         "--seed overrides it")
     max_time: float = setting(60.0, gt=0, le=1e6, description="stop after this many sim seconds")
     max_wall_time: float | None = setting(None, gt=0, le=1e6,
                                           description="wall-clock budget in seconds (a watchdog: ends the run "
                                                       "aborted)")
-    gui: bool = False
+    gui: bool = setting(False, description="open the PyBullet window (as --gui does)")
     realtime: bool = setting(True, description="pace the GUI to wall-clock time (GUI only)")
 
 
@@ -88,9 +89,9 @@ class RegionConfig(Section):
     low: tuple[_s.Coord, _s.Coord] = setting()
     high: tuple[_s.Coord, _s.Coord] = setting()
     z: _s.Coord = 0.0
-    min_spacing: float = setting(0.0, ge=0, le=1e3)
-    avoid: tuple[str, ...] = ()
-    clearance: float = setting(0.0, ge=0, le=1e3)
+    min_spacing: float = setting(0.0, ge=0, le=1e3, description="metres between scattered bodies' centres")
+    avoid: tuple[str, ...] = setting((), description="bodies the scattered ones keep clear of")
+    clearance: float = setting(0.0, ge=0, le=1e3, description="metres kept clear around the avoided bodies")
 
     def check(self) -> None:
         """``low`` is below ``high`` on both axes."""
@@ -118,18 +119,20 @@ class MountConfig(Section):
     and ``rpy_deg`` place the mounted body's base frame in that link's frame.
     """
 
-    body: str = setting()
-    link: str = setting()
-    position: _s.Position = (0.0, 0.0, 0.0)
-    rpy_deg: tuple[_s.Angle, _s.Angle, _s.Angle] = (0.0, 0.0, 0.0)
+    body: str = setting(description="the body to mount on")
+    link: str = setting(description="its link, by name")
+    position: _s.Position = setting((0.0, 0.0, 0.0), description="metres, in that link's frame")
+    rpy_deg: tuple[_s.Angle, _s.Angle, _s.Angle] = setting((0.0, 0.0, 0.0), description="degrees, in that link's frame")
     max_force: float = setting(10_000.0, gt=0, le=1e9, description="N; how hard the joint holds")
 
 
 class BodyConfig(Section):
     """``[bodies.NAME]`` and ``[robots.NAME]``: a primitive (``shape``) or a URDF (``urdf``)."""
 
-    shape: Literal["box", "sphere", "cylinder"] | None = None
-    urdf: str | None = setting(None, min_length=1)
+    shape: Literal["box", "sphere", "cylinder"] | None = setting(None, description="a primitive: box (size), sphere "
+                                                                  "(radius) or cylinder (radius, height)")
+    urdf: str | None = setting(None, min_length=1, description="a URDF file (relative to the config, a bundled "
+                                                               "robot or a pybullet_data name)")
     sdf: str | None = setting(None, min_length=1, description="an SDF file (each model in it a body: NAME, NAME_1, "
                                                               "...)")
     mjcf: str | None = setting(None, min_length=1, description="a MuJoCo MJCF file, as far as pybullet's loader "
@@ -140,23 +143,25 @@ class BodyConfig(Section):
     height: _s.Length = 0.1
     mass: float = setting(1.0, ge=0, le=1e6, description="kg; 0 = static")
     position: _s.Position | None = None
-    region: str | None = None
+    region: str | None = setting(None, description="scatter in this [regions.NAME] (instead of position)")
     rpy_deg: tuple[_s.Angle, _s.Angle, _s.Angle] | None = None
     quaternion: Vec4 | None = setting(None, description="x, y, z, w (normalised on load)")
     yaw_deg_range: tuple[_s.Angle, _s.Angle] | None = None
-    fixed_base: bool = False
-    scale: float = setting(1.0, gt=0, le=1e3)
+    fixed_base: bool = setting(False, description="pin the base in place")
+    scale: float = setting(1.0, gt=0, le=1e3, description="model scale factor (urdf, sdf)")
     rgba: tuple[_s.Unit, _s.Unit, _s.Unit, _s.Unit] = setting((0.7, 0.7, 0.7, 1.0), before=check_unit_colour,
                                                               description="red, green, blue, alpha in 0-1")
     lateral_friction: float | None = setting(None, ge=0, le=100)
     rolling_friction: float | None = setting(None, ge=0, le=100)
     spinning_friction: float | None = setting(None, ge=0, le=100)
-    restitution: float | None = setting(None, ge=0, le=1)
+    restitution: float | None = setting(None, ge=0, le=1, description="bounciness: 0 = none, 1 = no energy lost")
     linear_damping: float | None = setting(None, ge=0, le=1)
     angular_damping: float | None = setting(None, ge=0, le=1)
-    joint_positions: dict[str, Annotated[float, _s.Bounds(ge=-1e3, le=1e3)]] = setting(default_factory=dict)
-    count: int = setting(1, ge=1, le=10_000)
-    self_collision: bool = False
+    joint_positions: dict[str, Annotated[float, _s.Bounds(ge=-1e3, le=1e3)]] = setting(
+        default_factory=dict, description="joint name -> start position (rad, or m for a sliding joint)")
+    count: int = setting(1, ge=1, le=10_000, description="copies: 1 is one body named NAME; N > 1 are NAME_0 .. "
+                                                         "NAME_{N-1}, scattered in region")
+    self_collision: bool = setting(False, description="the body's links collide with each other")
     collision: Literal["convex", "mesh"] = setting(
         "convex", description="'mesh': a static box's collision shape as triangles (cheaper for lidar rays)")
 
@@ -169,6 +174,7 @@ class BodyConfig(Section):
         if len(kinds) != 1:
             raise ValueError("give exactly one of 'shape' (box, sphere, cylinder), 'urdf', 'sdf' or 'mjcf'"
                              + (f", not {' and '.join(kinds)}" if kinds else ""))
+        self._key_matches_file(kinds[0])
         if self.mount is not None:
             if self.region is not None or self.count > 1:
                 raise ValueError("a mounted body takes its pose from 'mount': no 'region' or 'count'")
@@ -189,6 +195,18 @@ class BodyConfig(Section):
             raise ValueError("'count' > 1 needs a 'region' to scatter the copies in")
 
 
+    def _key_matches_file(self, key: str) -> None:
+        """``urdf = "x.sdf"``: pybullet's URDF loader cannot read it; say which key reads that kind of file."""
+        path = getattr(self, key)
+        wanted = _MODEL_KEYS.get(Path(path).suffix.lower()) if key != "shape" else None
+        if wanted is not None and wanted != key:
+            raise ValueError(f'{key} = "{path}" is {"an" if wanted in ("sdf", "mjcf") else "a"} {wanted.upper()} '
+                             f'file: the key for it is {wanted} = "{path}"')
+
+
+_MODEL_KEYS = {".urdf": "urdf", ".sdf": "sdf", ".xml": "mjcf", ".mjcf": "mjcf"}
+
+
 class EventConfig(Section):
     """``[[events]]``: something done to the world at a sim time (lesson 01's push).
 
@@ -198,9 +216,9 @@ class EventConfig(Section):
 
     at: float = setting(ge=0, le=1e6, description="sim seconds")
     type: Literal["force", "set_pose", "remove"] = setting()
-    body: str = setting()
+    body: str = setting(description="the body acted on")
     force: tuple[_s.Newtons, _s.Newtons, _s.Newtons] | None = None
-    duration: float = setting(0.0, ge=0, le=1e6)
+    duration: float = setting(0.0, ge=0, le=1e6, description="seconds the force lasts (0 = one physics step)")
     position: _s.Position | None = None
     rpy_deg: tuple[_s.Angle, _s.Angle, _s.Angle] | None = None
 
@@ -216,8 +234,8 @@ class ReportConfig(Section):
     """``[report]``: who the run is for, and one sub-table per reporter (``[report.local]``, ``[report.http]``)."""
 
     ignore_unknown = True
-    student: str | None = None
-    project: str | None = None
+    student: str | None = setting(None, description="who the run is for (sent with the result)")
+    project: str | None = setting(None, description="the course project (sent with the result)")
     keep_local: bool = setting(True, description="always add the local reporter")
 
 

@@ -9,7 +9,6 @@ everything public here.
 
 from __future__ import annotations
 
-import sys
 import typing
 from typing import Annotated, Any
 
@@ -113,14 +112,3 @@ def _nested_fields(model: type[BaseModel], exc: ValidationError) -> list[str]:
         if isinstance(ann, type) and issubclass(ann, BaseModel):
             current = ann
     return list(getattr(current, "model_fields", {}))
-
-
-def _answer_plugin_scan() -> None:
-    """Let robokit's entry-point scan answer pydantic's own, when robokit's plugin discovery ran in this process
-    (see :func:`robokit.plugin_api.plugins.answer_pydantic_plugin_scan`)."""
-    plugins = sys.modules.get("robokit.plugin_api.plugins")
-    if plugins is not None:
-        plugins.answer_pydantic_plugin_scan()
-
-
-_answer_plugin_scan()

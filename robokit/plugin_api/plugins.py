@@ -6,8 +6,6 @@ Nothing is loaded at import time and there is no module-level manager: call :fun
 from __future__ import annotations
 
 import inspect
-import os
-import sys
 import warnings
 from collections.abc import Iterable, Iterator, MutableMapping
 from dataclasses import dataclass, field
@@ -181,19 +179,18 @@ class Plugins:
 
 
 _LABELS: dict[Any, tuple[str, str]] = {}
-_PYDANTIC_PLUGINS: bool | None = None
-"""Whether a distribution declares pydantic plugins (the ``pydantic`` entry-point group); None until discovery."""
+"""``(name, version)`` by distribution object: each distribution's metadata is parsed once, not once per entry point
+(importlib.metadata hands every entry point of a distribution the same object, and the key keeps it alive)."""
 
 
 def _dist_label(dist: md.Distribution | discovery.Distribution | None) -> tuple[str, str]:
-    """``(name, version)`` of a distribution; its metadata is parsed once per process, not once per entry point."""
+    """``(name, version)`` of a distribution."""
     if dist is None:
         return ("<local>", "")
-    key = getattr(dist, "_path", None) or id(dist)
-    label = _LABELS.get(key)
+    label = _LABELS.get(dist)
     if label is None:
         meta = dist.metadata
-        label = _LABELS[key] = (_header(meta, "Name") or "<unknown>", _header(meta, "Version"))
+        label = _LABELS[dist] = (_header(meta, "Name") or "<unknown>", _header(meta, "Version"))
     return label
 
 
@@ -206,9 +203,11 @@ def _header(meta: Any, key: str) -> str:
 
 
 def _read_entry_points(groups: tuple[str, ...]) -> list[EntryPointLike]:
-    """The entry points of ``groups``: read from the distributions' folders by :mod:`robokit.plugin_api.discovery` (no
-    ``importlib.metadata`` import, ~a tenth of a trivial run's start-up), or by ``importlib.metadata`` where that
-    reader steps aside (zip or egg files on ``sys.path``, import hooks with distributions of their own)."""
+    """The entry points of ``groups``: read from the distributions' folders by :mod:`robokit.plugin_api.discovery`
+    (public APIs only: a folder listing and each ``entry_points.txt``, as the entry-point specification describes
+    them), or by ``importlib.metadata`` where that reader steps aside (zip or egg files on ``sys.path``, import hooks
+    with distributions of their own). Importing and running ``importlib.metadata`` instead costs a trivial run ~98 M
+    instructions (~30 ms here, a fifth of its start-up); tests/test_discovery.py checks both find the same."""
     from robokit.plugin_api import discovery
 
     found = discovery.entry_points(groups)
@@ -226,11 +225,7 @@ def _entry_points() -> tuple[list[EntryPointLike], dict[tuple[str, str], str] | 
     The index maps ``(kind, type name)`` to the module that registers it (entry point ``"KIND.TYPE" = "module"``).
     It is None when two entries claim one type (a full load then reports the clash).
     """
-    global _PYDANTIC_PLUGINS
-    every = _read_entry_points((ENTRY_POINT_GROUP, INDEX_GROUP, "pydantic"))
-    _PYDANTIC_PLUGINS = any(ep.group == "pydantic" for ep in every)
-    if "robokit.config.schema" in sys.modules:  # pydantic in use already: answer its scan now
-        answer_pydantic_plugin_scan()
+    every = _read_entry_points((ENTRY_POINT_GROUP, INDEX_GROUP))
     seen: dict[tuple[str, str], EntryPointLike] = {}
     for ep in every:  # a distribution can be visible twice (editable + path)
         if ep.group == ENTRY_POINT_GROUP:
@@ -242,27 +237,6 @@ def _entry_points() -> tuple[list[EntryPointLike], dict[tuple[str, str], str] | 
         if index is not None and index.setdefault((kind, name), ep.value) != ep.value:
             index = None
     return eps, index
-
-
-def answer_pydantic_plugin_scan() -> None:
-    """Spare pydantic its own scan of every distribution's entry points when robokit's already shows the answer.
-
-    On the first model it builds, pydantic looks for plugins in the ``pydantic`` entry-point group: the same read
-    of every distribution's metadata that :func:`_entry_points` did (~10 ms). When that group was empty, pydantic's
-    cache is set to what its scan would find (no plugins); when it was not, or robokit has not scanned yet, or
-    ``PYDANTIC_DISABLE_PLUGINS`` is set, or pydantic has scanned already (or no longer keeps this cache), nothing
-    is touched and pydantic loads its plugins itself. Called when pydantic is about to be used
-    (:mod:`robokit.config.schema` is imported), never during discovery: a run of core sections only imports no
-    pydantic at all.
-    """
-    if _PYDANTIC_PLUGINS is not False or os.environ.get("PYDANTIC_DISABLE_PLUGINS") is not None:
-        return
-    try:
-        from pydantic.plugin import _loader
-    except ImportError:  # pragma: no cover - pydantic is a dependency
-        return
-    if getattr(_loader, "_plugins", False) is None and not getattr(_loader, "_loading_plugins", True):
-        _loader._plugins = {}
 
 
 def _register_checked(pm: pluggy.PluginManager, plugin: object, name: str) -> str | None:

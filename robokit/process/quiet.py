@@ -110,16 +110,49 @@ class CapturedOutput:
         """Non-empty lines, without pybullet's empty start-up echo (``argv[0]=``)."""
         return [line.rstrip() for line in self.text.splitlines() if line.strip() and not _ARGV.match(line)]
 
-    def summary(self) -> str | None:
-        """One line for stderr: how many lines pybullet printed and the most frequent one (None if it printed none)."""
+    def messages(self) -> list[str]:
+        """What pybullet said, one entry per message: a ``b3Warning[file.cpp,126]:`` header (where in Bullet's C++
+        the print sits) is dropped and the text it announces kept (on the same line or the next)."""
+        out: list[str] = []
         lines = self.lines()
-        if not lines:
+        i = 0
+        while i < len(lines):
+            header = _B3_HEADER.match(lines[i])
+            if header is None:
+                out.append(lines[i].strip())
+            elif header["text"]:
+                out.append(header["text"])
+            elif i + 1 < len(lines) and not _B3_HEADER.match(lines[i + 1]):
+                i += 1
+                out.append(lines[i].strip())
+            i += 1
+        return out
+
+    def summary(self) -> str | None:
+        """One line for stderr: how many messages pybullet printed and what the most frequent kind says; messages
+        that differ only in their last word (a joint or link name) count as one kind, their last words listed."""
+        messages = self.messages()
+        if not messages:
             return None
-        counts = Counter(lines)
-        top, n = counts.most_common(1)[0]
-        top = top if len(top) <= 140 else top[:137] + "..."
-        return (f"robokit: pybullet printed {len(lines)} line(s) of its own ({len(counts)} distinct), most often "
-                f"({n}x): {top}")
+        kinds = Counter(_stem(m) for m in messages)
+        top, n = kinds.most_common(1)[0]
+        said = sorted({m for m in messages if _stem(m) == top}, key=messages.index)
+        text = said[0] if len(said) == 1 else f"{top} ... ({_names([m[len(top):].strip() for m in said])})"
+        text = text if len(text) <= 160 else text[:157] + "..."
+        return (f"robokit: pybullet printed {len(messages)} message(s) of its own ({len(kinds)} kind(s)), most often "
+                f"({n}x): {text}")
+
+
+_B3_HEADER = re.compile(r"^b3(Warning|Error|Printf|Assert)\[[^\]]*\]:\s*(?P<text>.*)$")
+
+
+def _stem(message: str) -> str:
+    """A message without its last word (``... axis chest`` and ``... axis neck`` are one kind)."""
+    return message.rsplit(" ", 1)[0] if " " in message else message
+
+
+def _names(words: list[str], shown: int = 4) -> str:
+    return ", ".join(words[:shown]) + (f", +{len(words) - shown} more" if len(words) > shown else "")
 
 
 @contextmanager

@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from robokit.errors import UserError
+from robokit.extras import require
 
 RUN_HELP = "a run id, a prefix of one, 'last', or a run folder"
 
@@ -26,6 +27,8 @@ def add_record_commands(sub: Any) -> None:
     _dir(show)
     show.set_defaults(func=cmd_results_show)
     last = rsub.add_parser("last", help="the newest run, as 'show' prints it")
+    last.add_argument("--path", action="store_true", help="print only its folder, e.g. ls \"$(robokit results last "
+                      "--path)/frames\"")
     _dir(last)
     last.set_defaults(func=cmd_results_show, run="last")
 
@@ -73,9 +76,12 @@ def _parse_size(text: str) -> tuple[int, int]:
 
 
 def cmd_results_list(args: argparse.Namespace) -> int:
-    from robokit.record.results import list_runs
+    from robokit.record.results import list_runs, where_note
 
     print(list_runs(args.dir, args.n))
+    note = where_note(args.dir)
+    if note:
+        print(note, file=sys.stderr)
     return 0
 
 
@@ -83,11 +89,14 @@ def cmd_results_show(args: argparse.Namespace) -> int:
     from robokit.record.format import find_run
     from robokit.record.results import show_run
 
-    print(show_run(find_run(args.run, args.dir)))
+    rec = find_run(args.run, args.dir)
+    print(rec.folder if getattr(args, "path", False) else show_run(rec))
     return 0
 
 
 def cmd_video(args: argparse.Namespace) -> int:
+    if args.frame is None:
+        require("video", "robokit video", ("imageio_ffmpeg",))
     from robokit.record.format import find_run
     from robokit.record.video import render_video
 
@@ -108,6 +117,7 @@ def cmd_video(args: argparse.Namespace) -> int:
 
 
 def cmd_plot(args: argparse.Namespace) -> int:
+    require("video", "robokit plot", ("matplotlib",))
     from robokit.record.format import find_run
     from robokit.record.plots import make_plots
 
@@ -120,9 +130,12 @@ def cmd_plot(args: argparse.Namespace) -> int:
 
 def cmd_view(args: argparse.Namespace) -> int:
     from robokit.record.format import find_run
-    from robokit.record.page import write_page
+    from robokit.record.page import find_video, write_page
 
     rec = find_run(args.run, args.dir)
+    renders = not args.no_video and find_video(rec) is None and rec.has_poses
+    require("video", "robokit view" + (" --no-video" if args.no_video else ""),
+            ("matplotlib", "imageio_ffmpeg") if renders else ("matplotlib",))
     out = Path(args.output) if args.output else rec.folder / "index.html"
     write_page(rec, out, video=not args.no_video)
     print(out)

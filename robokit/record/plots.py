@@ -73,7 +73,9 @@ def _title(rec: RunRecord) -> str:
 
 # ----------------------------------------------------------------- states
 def plot_states(rec: RunRecord, plt: Any) -> Any:
-    """One row per machine, one coloured bar per stay in a state, labelled with the state's name."""
+    """One row per machine, one coloured bar per stay in a state, labelled with the state's name where the name
+    fits inside its bar; a stay too short to see as a bar (a 0-second state: DONE, a LOOK decided at once) is a
+    marker on top of its row."""
     spans = {name: s for name, s in rec.spans().items() if s}
     if not spans:
         return None
@@ -81,21 +83,38 @@ def plot_states(rec: RunRecord, plt: Any) -> Any:
     cmap = plt.get_cmap("tab20")
     colour = {s: cmap(i % 20) for i, s in enumerate(states)}
     fig, ax = plt.subplots(figsize=(10, 0.8 + 0.9 * len(spans)))
+    end = max(rec.sim_time, 1e-3)
+    ax.set_xlim(0, end)
+    ax.set_ylim(len(spans) - 0.5, -0.5)  # the first machine on top
+    shortest = end / 400  # about two pixels at this figure's width
+    labels = []
     for row, stays in enumerate(spans.values()):
         for s in stays:
-            width = max(s.end - s.start, 1e-3)
+            width = s.end - s.start
+            if width < shortest:
+                ax.plot([s.start], [row - 0.4], marker="v", ms=6, color=colour[s.state], markeredgecolor="black",
+                        markeredgewidth=0.5, linestyle="none", zorder=3, clip_on=False)
+                continue
             ax.barh(row, width, left=s.start, color=colour[s.state], edgecolor="white", linewidth=0.5)
-            if width > rec.sim_time / 40:
-                ax.text(s.start + width / 2, row, s.state, ha="center", va="center", fontsize=7, clip_on=True)
+            labels.append((ax.text(s.start + width / 2, row, s.state, ha="center", va="center", fontsize=7),
+                           s.start, s.end))
+    _keep_fitting(fig, ax, labels)
     ax.set_yticks(range(len(spans)), list(spans))
-    ax.invert_yaxis()
     ax.set_xlabel("sim time (s)")
-    ax.set_xlim(0, max(rec.sim_time, 1e-3))
     handles = [plt.Rectangle((0, 0), 1, 1, color=colour[s]) for s in states]
     ax.legend(handles, states, ncol=min(6, len(states)), fontsize=7, loc="upper center",
               bbox_to_anchor=(0.5, -0.35 if len(spans) < 3 else -0.15), frameon=False)
-    ax.set_title("state timeline  " + _title(rec))
+    ax.set_title("state timeline  " + _title(rec) + "\n(\u25bc a state left in the tick it was entered)")
     return fig
+
+
+def _keep_fitting(fig: Any, ax: Any, labels: list[tuple[Any, float, float]]) -> None:
+    """Remove each bar label wider than its bar (it would be cut off or spill over its neighbours)."""
+    renderer = fig.canvas.get_renderer()
+    for text, start, stop in labels:
+        left, right = ax.transData.transform([(start, 0), (stop, 0)])[:, 0]
+        if text.get_window_extent(renderer).width > (right - left) - 2:
+            text.remove()
 
 
 # ----------------------------------------------------------------- map
@@ -173,7 +192,8 @@ def _labels(ax: Any) -> list[str]:
 
 # ----------------------------------------------------------------- heights and joints
 def plot_heights(rec: RunRecord, plt: Any) -> Any:
-    """Base height of every free body over time (the drop test's bounces)."""
+    """Base height of every free body over time (the drop test's bounces). Each body named in the config has its
+    own colour and legend entry; the copies of a ``count = N`` body share one colour and one entry."""
     behaviour = rec.header["config"].get("behaviour", {}).get("type")
     if not rec.has_poses or (behaviour != "drop_test" and (_robot_of(rec) or _sections(rec, "robots"))):
         return None
@@ -183,16 +203,22 @@ def plot_heights(rec: RunRecord, plt: Any) -> Any:
             and f"base/{n}" in poses and not (bodies.get(n) or {}).get("urdf") == "plane.urdf"]
     if not free:
         return None
-    fig, ax = plt.subplots(figsize=(10, 5))
-    cmap = plt.get_cmap("viridis")
-    for i, name in enumerate(free):
-        ax.plot(poses["t"], poses[f"base/{name}"][:, 2], lw=1, color=cmap(i / max(1, len(free) - 1)),
-                label=name if len(free) <= 12 else None)
+    groups: dict[str, list[str]] = {}
+    for name in free:
+        groups.setdefault(name if name in bodies else name.rsplit("_", 1)[0], []).append(name)
+    fig, ax = plt.subplots(figsize=(11, 5))
+    cmap = plt.get_cmap("tab20" if len(groups) > 10 else "tab10")
+    for i, (section, names) in enumerate(groups.items()):
+        many = len(names) > 1
+        for k, name in enumerate(names):
+            label = (f"{section}_0 .. {section}_{len(names) - 1} ({len(names)})" if many else name) if k == 0 else None
+            ax.plot(poses["t"], poses[f"base/{name}"][:, 2], lw=0.7 if many else 1.2, alpha=0.6 if many else 1.0,
+                    color="0.5" if many else cmap(i % cmap.N), label=label, zorder=1 if many else 2)
     ax.set_xlabel("sim time (s)")
     ax.set_ylabel("height z (m)")
     ax.grid(True, alpha=0.3)
-    if len(free) <= 12:
-        ax.legend(fontsize=7, ncol=2)
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False,
+              ncol=1 + len(groups) // 25)
     ax.set_title(f"body heights ({len(free)} bodies)  " + _title(rec))
     return fig
 

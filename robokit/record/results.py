@@ -3,9 +3,14 @@
 from __future__ import annotations
 
 import json
+import os
+import unicodedata
+from pathlib import Path
 from typing import Any
 
 from robokit.record.format import FRAMES_DIR, POSES_FILE, RunRecord, results_dir, run_folders
+
+_SKIP = {".git", ".venv", "venv", "node_modules", "__pycache__", "site-packages", ".mypy_cache", ".ruff_cache"}
 
 
 def headline(result: dict[str, Any], limit: int = 4) -> str:
@@ -41,13 +46,96 @@ def list_runs(root: str | None, n: int = 20) -> str:
         rows.append((folder.name[:8], started, _short(str(r.get("config", "?"))), str(r.get("seed", "")),
                      str(r.get("outcome", "?")), f"{sim:.2f}" if isinstance(sim, (int, float)) else "",
                      headline(r.get("result") or {})))
-    widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]) - 1)]
-    return "\n".join("  ".join(c.ljust(w) for c, w in zip(row[:-1], widths, strict=True)) + "  " + row[-1]
-                     for row in rows)
+    widths = [max(text_width(row[i]) for row in rows) for i in range(len(rows[0]) - 1)]
+    return "\n".join(("  ".join(_pad(c, w) for c, w in zip(row[:-1], widths, strict=True)) + "  " + row[-1])
+                     .rstrip() for row in rows)
+
+
+def text_width(text: str) -> int:
+    """Columns ``text`` takes in a terminal: wide and full-width characters (Korean, Chinese, Japanese) take two,
+    combining marks none."""
+    return sum(0 if unicodedata.combining(ch) else 2 if unicodedata.east_asian_width(ch) in "WF" else 1
+               for ch in text)
+
+
+def _pad(text: str, width: int) -> str:
+    return text + " " * (width - text_width(text))
 
 
 def _short(path: str, width: int = 32) -> str:
-    return path if len(path) <= width else "..." + path[-(width - 3):]
+    if text_width(path) <= width:
+        return path
+    tail = ""
+    for ch in reversed(path):
+        if text_width(ch + tail) > width - 3:
+            break
+        tail = ch + tail
+    return "..." + tail
+
+
+def checkout_root(start: Path | None = None) -> Path | None:
+    """The checkout ``start`` (default: the current folder) is in: the nearest folder upwards with ``.git`` or
+    ``pyproject.toml``; None outside any."""
+    here = (start or Path.cwd()).resolve()
+    for folder in (here, *here.parents):
+        if (folder / ".git").exists() or (folder / "pyproject.toml").is_file():
+            return folder
+    return None
+
+
+def other_results(looked_in: Path, start: Path | None = None, depth: int = 3) -> list[tuple[Path, int]]:
+    """Other ``results`` folders of this checkout holding runs (a run started from ``configs/`` keeps its record
+    in ``configs/results/``), at most ``depth`` folders below the checkout's root, with how many runs each holds.
+    Outside a checkout, only the current folder's own sub-folders are looked at."""
+    root = checkout_root(start)
+    if root is None:
+        root, depth = (start or Path.cwd()).resolve(), 1
+    skip = looked_in.resolve()
+    found = []
+    for here, dirs, _files in os.walk(root):
+        level = len(Path(here).relative_to(root).parts)
+        dirs[:] = sorted(d for d in dirs if d not in _SKIP and not d.startswith(".") and level < depth)
+        if "results" in dirs:
+            candidate = Path(here) / "results"
+            runs = len(run_folders(candidate)) if candidate.resolve() != skip else 0
+            if runs:
+                found.append((candidate, runs))
+            dirs.remove("results")
+    return found
+
+
+def where_note(root: str | None, start: Path | None = None) -> str:
+    """Which folder ``results list`` read (when it listed runs from it), and where else in this checkout runs were
+    found, each with the command that lists them."""
+    base = results_dir(root)
+    lines = [f"(runs in {_shown(base)}/)"] if run_folders(base) else []
+    for folder, count in other_results(base, start):
+        shown = _shown(folder)
+        lines.append(f"(also {count} run(s) in {shown}/: robokit results list --dir {shown})")
+    return "\n".join(lines)
+
+
+def _shown(path: Path) -> str:
+    """``path`` relative to the current folder when it is under it, else absolute."""
+    full = path.resolve()
+    try:
+        return str(full.relative_to(Path.cwd().resolve()))
+    except ValueError:
+        return str(full)
+
+
+def frames_note(folder: Path | None, asked: bool) -> str | None:
+    """The line ``robokit run`` ends with when camera frames were asked for: where they went, or why there are
+    none; None when nothing was asked and nothing saved."""
+    frames = folder / FRAMES_DIR if folder is not None else None
+    count = len(list(frames.glob("*.png"))) if frames is not None and frames.is_dir() else 0
+    if count:
+        return f"frames: {count} PNG(s) in {frames}/"
+    if not asked:
+        return None
+    if folder is None:
+        return "frames: none saved (--no-record keeps no run folder for them)"
+    return "frames: none saved (no camera rendered a frame)"
 
 
 def tree(value: Any, indent: int = 0) -> list[str]:

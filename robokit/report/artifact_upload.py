@@ -68,7 +68,8 @@ def add_upload_command(sub: Any) -> None:
     cmd.add_argument("run_id", help="the run id (its folder is <dir>/<run_id>/)")
     cmd.add_argument("--url", required=True, help="the results URL, e.g. http://host/api/robotics/result/")
     cmd.add_argument("--dir", default="results", help="folder holding run folders (default results)")
-    cmd.add_argument("--token-env", metavar="NAME", help="environment variable holding your token")
+    cmd.add_argument("--token-env", metavar="NAME", help="environment variable holding your token (default: "
+                     "ROBOKIT_TOKEN when set)")
     cmd.set_defaults(func=_cmd_upload)
 
 
@@ -81,7 +82,7 @@ def _cmd_upload(args: Any) -> int:
     files = find_artifacts(folder)
     if not files:
         raise UserError(f"{folder}: no video, plot or trace to upload (*.mp4, *.png, *.svg, *.jsonl)")
-    token = os.environ.get(args.token_env) if args.token_env else None
+    token = os.environ.get(args.token_env or "ROBOKIT_TOKEN") or None  # like robokit run: $ROBOKIT_TOKEN when set
     if args.token_env and not token:
         raise UserError(f"environment variable {args.token_env} is not set")
     note = upload_artifacts(args.url, args.run_id, files, token=token)

@@ -13,12 +13,15 @@ same entry twice: each takes the entry's lock without waiting (a busy entry is s
 under the lock (it may have been delivered meanwhile).
 
 Entries never hold secrets: the bearer token is read from the environment at send time (see
-:mod:`robokit_plugins.http_report`).
+:mod:`robokit_plugins.http_report`). An entry belongs to whoever made it: it records the *identity* it was made
+under, a fingerprint of the token (:func:`fingerprint`: the first 12 hex digits of its SHA-256, never the token) or
+``"no token"``. A flush sends an entry only under that same identity; the others wait for their owner.
 """
 
 from __future__ import annotations
 
 import datetime as dt
+import hashlib
 import json
 import re
 import time
@@ -35,6 +38,18 @@ SCHEMA = "robokit.report.outbox/1"
 IN_FLIGHT = "no answer recorded: the sender stopped while sending (it is sent again on the next flush)"
 """``last_error`` of an entry while it is being sent; it stays if the sender is killed mid-send."""
 _SAFE_ID = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,127}$")
+NO_TOKEN = "no token"
+"""The identity of an entry made (or a flush run) without a bearer token."""
+UNKNOWN = "unknown (made before robokit recorded who made an entry)"
+
+
+def fingerprint(token: str | None) -> str:
+    """Who sends: ``"sha256:"`` + the first 12 hex digits of the token's SHA-256, or :data:`NO_TOKEN`.
+
+    A token is 256 random bits, so 48 bits of its hash tell two students apart and reveal nothing usable."""
+    if not token:
+        return NO_TOKEN
+    return "sha256:" + hashlib.sha256(token.encode("utf-8")).hexdigest()[:12]
 
 
 @dataclass(frozen=True)
@@ -47,6 +62,8 @@ class SendResult:
         status: HTTP status of the last answer, or None when there was none (connection error, timeout).
         detail: One line for people: the error, or the status and the start of the server's answer.
         body: The server's answer (truncated), kept with a failed entry.
+        note: What was done after a 2xx (e.g. ``artifacts: 3/3 uploaded ...``), or "".
+        advice: For a refusal: one line saying what to change, or "".
     """
 
     ok: bool
@@ -54,6 +71,8 @@ class SendResult:
     status: int | None = None
     detail: str = ""
     body: str = ""
+    note: str = ""
+    advice: str = ""
 
 
 class OutboxError(OSError):
@@ -103,6 +122,17 @@ class Entry:
         return self.data.get("last_error")
 
     @property
+    def identity(self) -> str:
+        """Whose entry this is: a token :func:`fingerprint` or :data:`NO_TOKEN` (see the module docstring).
+
+        An entry written before robokit recorded identities is :data:`NO_TOKEN` if it was to be sent without a
+        token, else :data:`UNKNOWN` (no flush sends it; ``robokit outbox retry RUN --claim`` does)."""
+        found = self.data.get("identity")
+        if isinstance(found, str):
+            return found
+        return UNKNOWN if self.options.get("token_env") else NO_TOKEN
+
+    @property
     def age(self) -> float:
         """Seconds since the entry was created (wall clock: this is bookkeeping, not simulation)."""
         return max(0.0, time.time() - float(self.data.get("created_at", time.time())))
@@ -117,6 +147,8 @@ class FlushReport:
     waiting: list[str] = field(default_factory=list)
     busy: list[str] = field(default_factory=list)
     not_tried: list[str] = field(default_factory=list)
+    others: dict[str, list[str]] = field(default_factory=dict)
+    """Entries left waiting because another identity made them: identity -> run ids."""
     lines: list[str] = field(default_factory=list)
 
     @property
@@ -164,13 +196,15 @@ class Outbox:
             (self.locks_dir / f"{run_id}.lock").unlink(missing_ok=True)
 
     def put(self, payload: dict[str, Any], url: str, options: dict[str, Any] | None = None, *,
-            last_error: str | None = None) -> Entry:
-        """Write a new entry atomically (call with the entry's lock held). Returns it."""
+            last_error: str | None = None, identity: str = NO_TOKEN) -> Entry:
+        """Write a new entry atomically (call with the entry's lock held). Returns it.
+
+        ``identity``: whose it is, :func:`fingerprint` of the token it is to be sent with (never the token)."""
         run_id = str(payload["run_id"])
         now = time.time()
         data = {"schema": SCHEMA, "run_id": run_id, "url": url, "created_at": now, "created": _now_iso(),
-                "attempts": 0, "last_error": last_error, "last_attempt": None, "options": dict(options or {}),
-                "payload": payload}
+                "identity": identity, "attempts": 0, "last_error": last_error, "last_attempt": None,
+                "options": dict(options or {}), "payload": payload}
         entry = Entry(self.path_for(run_id), data)
         _write(entry.path, data)
         return entry
@@ -265,7 +299,7 @@ class Outbox:
         return "waiting", Entry(entry.path, data), result
 
     def _move_to_failed(self, entry: Entry, result: SendResult) -> Entry:
-        data = {**entry.data, "last_error": result.detail,
+        data = {**entry.data, "last_error": result.detail, "advice": result.advice or None,
                 "server_answer": {"status": result.status, "body": result.body, "at": _now_iso()}}
         failed = Entry(self.failed_dir / entry.path.name, data)
         _write(failed.path, data)
@@ -275,12 +309,15 @@ class Outbox:
             raise OutboxError(f"outbox {entry.path}: cannot remove the entry: {exc.strerror or exc}") from None
         return failed
 
-    def flush(self, send: Sender, *, stop_on_transient: bool = True, url: str | None = None) -> FlushReport:
+    def flush(self, send: Sender, *, stop_on_transient: bool = True, url: str | None = None,
+              only: set[str] | None = None) -> FlushReport:
         """Deliver waiting entries, oldest first, one at a time under each entry's lock.
 
         An entry that can never be delivered (refused with a 4xx, a malformed URL) moves to ``failed/`` and the
         flush goes on; entries whose file cannot be used (unreadable, not an entry, a bad run id) are skipped with
-        a warning line.
+        a warning line. When ``send`` has an ``identity(entry)`` method (who would send the entry now: a token
+        :func:`fingerprint` or :data:`NO_TOKEN`), an entry made under another identity is not sent: it waits for
+        its owner (:attr:`FlushReport.others`) and one line says whose entries were left and how to send them.
 
         Args:
             send: Delivers one entry (see :data:`Sender`); its ``target`` attribute, if any, maps an entry to where
@@ -289,41 +326,84 @@ class Outbox:
                 5xx, timeout), leave the later entries *for the same destination* for the next flush, in order;
                 entries for other servers are still tried.
             url: Only entries made for this URL (None: all).
+            only: Only these run ids (None: all).
         """
         target = getattr(send, "target", None) or (lambda e: e.url)
+        who = getattr(send, "identity", None)
         report = FlushReport()
         for path, why in self.unreadable():
             report.lines.append(f"warning: {path}: {why}")
-        pending = [e for e in self.entries() if url is None or e.url == url]
+        pending = [e for e in self.entries()
+                   if (url is None or e.url == url) and (only is None or e.run_id in only)]
         down: set[str] = set()  # destinations that just failed for a passing reason (server down, 5xx)
         for snapshot in pending:
+            if who is not None and who(snapshot) != snapshot.identity:
+                report.others.setdefault(snapshot.identity, []).append(snapshot.run_id)
+                continue
             if stop_on_transient and target(snapshot) in down:
                 report.not_tried.append(snapshot.run_id)  # same server: try again later, in order
                 continue
-            lock = self.lock(snapshot.run_id, timeout=0)
-            try:
-                lock.acquire()
-            except Timeout:
-                report.busy.append(snapshot.run_id)
-                continue
-            try:
-                entry = self.load(snapshot.run_id)  # re-read under the lock: another flush may have sent it
-                if entry is None:
-                    continue
-                outcome, entry, result = self.attempt(entry, send)
-                self.drop_lock_file(snapshot.run_id)
-            finally:
-                lock.release()
-            getattr(report, outcome).append(entry.run_id)
-            report.lines.append(_line(outcome, entry, result))
-            if outcome == "waiting":
+            settled = self._take(snapshot.run_id, send, report)
+            if settled == "waiting":
                 down.add(target(snapshot))
+        if report.others:
+            report.lines.append(others_line(report.others))
         return report
+
+    def _take(self, run_id: str, send: Sender, report: FlushReport) -> str | None:
+        """Lock, re-read and send one entry; record what happened in ``report``. Returns the outcome (or None)."""
+        lock = self.lock(run_id, timeout=0)
+        try:
+            lock.acquire()
+        except Timeout:
+            report.busy.append(run_id)
+            return None
+        try:
+            entry = self.load(run_id)  # re-read under the lock: another flush may have sent it
+            if entry is None:
+                return None
+            outcome, entry, result = self.attempt(entry, send)
+            self.drop_lock_file(run_id)
+        finally:
+            lock.release()
+        getattr(report, outcome).append(entry.run_id)
+        report.lines.append(_line(outcome, entry, result))
+        return outcome
+
+    def restore(self, entry: Entry, identity: str, payload: dict[str, Any] | None = None) -> Entry:
+        """Put a refused entry (from ``failed/``) back into the outbox, bound to ``identity`` (call with its lock
+        held); ``payload`` replaces the one it had (e.g. with a corrected project). Returns the waiting entry."""
+        data = {k: v for k, v in entry.data.items() if k not in ("server_answer", "advice")}
+        data.update(identity=identity, last_error=f"put back by robokit outbox retry (was: {entry.last_error})")
+        if payload is not None:
+            data["payload"] = payload
+        waiting = Entry(self.path_for(entry.run_id), data)
+        _write(waiting.path, data)
+        if entry.path != waiting.path:
+            try:
+                entry.path.unlink(missing_ok=True)
+            except OSError as exc:
+                raise OutboxError(f"outbox {entry.path}: cannot remove the entry: {exc.strerror or exc}") from None
+        return waiting
+
+
+def others_line(others: dict[str, list[str]]) -> str:
+    """One line: whose entries a flush left waiting, and how they are sent."""
+    parts = [f"{len(ids)} made {'without a token' if who == NO_TOKEN else 'under token ' + who}"
+             for who, ids in sorted(others.items())]
+    line = (f"left waiting, not yours: {'; '.join(parts)}. Whoever made them sends them with "
+            "`robokit outbox flush` with their own token set (`robokit outbox list` shows whose each is); "
+            "`robokit outbox retry RUN` sends one made without a token as yours")
+    if UNKNOWN in others:
+        line += "; `robokit outbox retry RUN --claim` one made before robokit recorded whose entries are"
+    return line
 
 
 def _line(outcome: str, entry: Entry, result: SendResult) -> str:
     if outcome == "delivered":
-        return f"{entry.run_id}: delivered to {entry.url} (HTTP {result.status})"
+        return f"{entry.run_id}: delivered to {entry.url} (HTTP {result.status})" + (
+            f"; {result.note}" if result.note else "")
     if outcome == "failed":
-        return f"{entry.run_id}: refused ({result.detail}); moved to {entry.path}"
+        return f"{entry.run_id}: refused ({result.detail}); moved to {entry.path}" + (
+            f"\n  what to do: {result.advice}" if result.advice else "")
     return f"{entry.run_id}: still waiting ({result.detail})"

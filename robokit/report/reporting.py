@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import os
 from collections.abc import Iterable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -18,6 +19,25 @@ from robokit.core.result import RunResult
 from robokit.errors import Interrupted, plugin_fault
 
 COURSE_FIELDS = ("red_sorted", "blue_sorted", "failures", "total_time")
+EXIT_REFUSED = 5
+"""Exit code of ``robokit run`` when the server refused the result (a 4xx, or no token where one was named): the
+result is kept (``results/<run_id>/``, ``outbox/failed/``) and ``robokit outbox retry`` sends it once fixed."""
+
+
+@dataclass(frozen=True)
+class Refused(Delivery):
+    """A delivery the server refused for good (or that could not be sent as configured, e.g. its token variable
+    is unset). ``why`` is the server's answer in one line, ``advice`` what to change."""
+
+    why: str = ""
+    advice: str = ""
+    status: int | None = None
+
+    def line(self) -> str:
+        """One line for people: the HTTP status and what to change (else the server's answer)."""
+        where = f" (HTTP {self.status})" if self.status else ""
+        return f"refused{where}: {self.advice or self.why}" + (f"; the result is kept ({self.stored})"
+                                                               if self.stored else "")
 
 
 def build_payload(

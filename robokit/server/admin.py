@@ -9,7 +9,8 @@ from __future__ import annotations
 from typing import Any
 
 from django.contrib import admin, messages
-from django.http import HttpRequest, HttpResponse
+from django.core.exceptions import ValidationError
+from django.http import Http404, HttpRequest, HttpResponse
 from django.shortcuts import render
 
 from robokit.server import tokens
@@ -17,13 +18,41 @@ from robokit.server.models import Artifact, Classroom, Project, Result, Student,
 
 
 class OwnClassesMixin:
-    """Limit a non-superuser teacher to rows of the classes they own. ``owner_path`` leads to the owner."""
+    """Limit a non-superuser teacher to rows of the classes they own. ``owner_path`` leads to the owner.
+
+    Another teacher's row is a 404 on every admin page that names it (change, delete, history), not Django's
+    redirect to the index; list filters use :class:`admin.RelatedOnlyFieldListFilter`, which offers only the
+    classes (and projects) found in the rows this teacher may see.
+    """
 
     owner_path = "classroom__owner"
 
     def get_queryset(self, request: HttpRequest) -> Any:
         qs = super().get_queryset(request)  # type: ignore[misc]
         return qs if request.user.is_superuser else qs.filter(**{self.owner_path: request.user})
+
+    def _own(self, request: HttpRequest, object_id: str | None) -> None:
+        if object_id is None:
+            return
+        try:
+            exists = self.get_queryset(request).filter(pk=object_id).exists()
+        except (ValueError, ValidationError):
+            exists = False
+        if not exists:
+            raise Http404("no such row among your classes")
+
+    def change_view(self, request: HttpRequest, object_id: str, form_url: str = "",
+                    extra_context: Any = None) -> HttpResponse:
+        self._own(request, object_id)
+        return super().change_view(request, object_id, form_url, extra_context)  # type: ignore[misc, no-any-return]
+
+    def delete_view(self, request: HttpRequest, object_id: str, extra_context: Any = None) -> HttpResponse:
+        self._own(request, object_id)
+        return super().delete_view(request, object_id, extra_context)  # type: ignore[misc, no-any-return]
+
+    def history_view(self, request: HttpRequest, object_id: str, extra_context: Any = None) -> HttpResponse:
+        self._own(request, object_id)
+        return super().history_view(request, object_id, extra_context)  # type: ignore[misc, no-any-return]
 
     def formfield_for_foreignkey(self, db_field: Any, request: HttpRequest, **kwargs: Any) -> Any:
         if db_field.name == "classroom" and not request.user.is_superuser:
@@ -49,7 +78,7 @@ class ClassroomAdmin(OwnClassesMixin, admin.ModelAdmin):
 @admin.register(Student)
 class StudentAdmin(OwnClassesMixin, admin.ModelAdmin):
     list_display = ("name", "classroom", "has_token", "created_at")
-    list_filter = ("classroom",)
+    list_filter = (("classroom", admin.RelatedOnlyFieldListFilter),)
     search_fields = ("name",)
     actions = ["issue_tokens", "revoke_tokens"]
 
@@ -73,7 +102,7 @@ class StudentAdmin(OwnClassesMixin, admin.ModelAdmin):
 @admin.register(Token)
 class TokenAdmin(OwnClassesMixin, admin.ModelAdmin):
     list_display = ("kind", "owner_name", "classroom", "created_at", "last_used_at", "revoked_at")
-    list_filter = ("kind", "classroom")
+    list_filter = ("kind", ("classroom", admin.RelatedOnlyFieldListFilter))
     readonly_fields = ("kind", "classroom", "student", "teacher", "created_at", "last_used_at")
     actions = ["revoke"]
 
@@ -89,8 +118,11 @@ class TokenAdmin(OwnClassesMixin, admin.ModelAdmin):
 
 
 @admin.register(Project)
-class ProjectAdmin(admin.ModelAdmin):
-    list_display = ("name", "ranking", "created_at")
+class ProjectAdmin(OwnClassesMixin, admin.ModelAdmin):
+    """A class's project and its ranking: a teacher sees and changes only their own classes' projects."""
+
+    list_display = ("name", "classroom", "ranking", "created_at")
+    list_filter = (("classroom", admin.RelatedOnlyFieldListFilter),)
 
 
 class ArtifactInline(admin.TabularInline):
@@ -103,7 +135,8 @@ class ArtifactInline(admin.TabularInline):
 @admin.register(Result)
 class ResultAdmin(OwnClassesMixin, admin.ModelAdmin):
     list_display = ("received_at", "student_name", "project", "classroom", "outcome", "verified", "official")
-    list_filter = ("classroom", "project", "verified", "official", "outcome")
+    list_filter = (("classroom", admin.RelatedOnlyFieldListFilter), ("project", admin.RelatedOnlyFieldListFilter),
+                   "verified", "official", "outcome")
     search_fields = ("student_name", "posted_student", "run_id")
     readonly_fields = [f.name for f in Result._meta.fields]
     inlines = [ArtifactInline]

@@ -16,6 +16,7 @@ from typing import Any
 
 from django.conf import settings
 from django.core.exceptions import RequestDataTooBig, TooManyFilesSent
+from django.core.files.uploadedfile import SimpleUploadedFile
 from django.db import IntegrityError, transaction
 from django.http import HttpRequest, JsonResponse
 from django.http.multipartparser import MultiPartParserError
@@ -25,7 +26,8 @@ from django.views.decorators.csrf import csrf_exempt
 from robokit.server import tokens
 from robokit.server.artifacts import ArtifactError, check_content, kind_for
 from robokit.server.models import Artifact, Classroom, Project, Result, Student, Token
-from robokit.server.payload import RUN_ID, PayloadError, Posted, check, default_ranking, parse
+from robokit.server.payload import RUN_ID, PayloadError, Posted, check, config_name, default_ranking, parse
+from robokit.server.private import private_dir
 
 TEXT_KINDS = ("plot", "trace", "config")
 
@@ -47,7 +49,11 @@ def _token(request: HttpRequest) -> Token | None:
 
 
 def _unauthorized(message: str) -> JsonResponse:
-    return error(401, "Authorization", message, WWW_Authenticate='Bearer realm="robokit"')
+    """401 naming ``Authorization``; the message itself says what is wrong with the token (or that none came)."""
+    response = JsonResponse({"error": message, "field": "Authorization"}, status=401,
+                            json_dumps_params={"ensure_ascii": False})
+    response["WWW-Authenticate"] = 'Bearer realm="robokit"'
+    return response
 
 
 @csrf_exempt
@@ -55,7 +61,10 @@ def post_result(request: HttpRequest) -> JsonResponse:
     """Store one result. 201 with the record; 200 with the first record for a repeated key."""
     if request.method != "POST":
         return error(405, "", "POST a result here (JSON)", Allow="POST")
-    length = int(request.META.get("CONTENT_LENGTH") or 0)
+    if request.content_type != "application/json":
+        got = request.content_type or "none"
+        return error(415, "Content-Type", f"send the result as 'Content-Type: application/json' (got {got!r})")
+    length = _content_length(request)
     if length > settings.MAX_RESULT_BYTES:
         return error(413, "", f"the body is {length} bytes; the limit is {settings.MAX_RESULT_BYTES}")
     try:
@@ -65,13 +74,16 @@ def post_result(request: HttpRequest) -> JsonResponse:
         return error(413, "", f"the body is over the {settings.MAX_RESULT_BYTES}-byte limit")
     except tokens.TokenError as exc:
         return _unauthorized(str(exc))
+    if token is None and not Classroom.objects.filter(allow_unverified=True).exists():
+        return _unauthorized(NO_TOKEN.format(where="this server takes results only with a token"))
     try:
-        posted = check(parse(body), student_required=token is None,
-                       idempotency_key=request.headers.get("Idempotency-Key"))
+        posted = check(parse(body), student_required=False, idempotency_key=request.headers.get("Idempotency-Key"))
         classroom = token.classroom if token is not None else _open_classroom(posted)
+        if token is None and posted.student is None:
+            raise PayloadError("student", "missing (a post without a token must say who it is from)")
     except PayloadError as exc:
         return error(400, exc.field, exc.message)
-    except PermissionError as exc:
+    except NoToken as exc:
         return _unauthorized(str(exc))
     if posted.run_id is not None:
         existing = Result.objects.select_related("classroom", "project", "token").filter(run_id=posted.run_id)
@@ -89,21 +101,37 @@ def post_result(request: HttpRequest) -> JsonResponse:
     return JsonResponse(record.to_dict(), status=201, json_dumps_params={"ensure_ascii": False})
 
 
+def _content_length(request: HttpRequest) -> int:
+    try:
+        return max(int(request.META.get("CONTENT_LENGTH") or 0), 0)
+    except ValueError:
+        return 0
+
+
+class NoToken(Exception):
+    """A post without a token to a class that needs one (-> 401)."""
+
+
+NO_TOKEN = ("no token sent: {where}; send 'Authorization: Bearer <token>' "
+            "(robokit: export ROBOKIT_TOKEN=<the token your teacher gave you>)")
+
+
 def _open_classroom(posted: Posted) -> Classroom:
     """The class a post without a token goes to (only classes that accept unverified posts).
 
     Raises:
-        PermissionError: no class accepts posts without a token (→ 401).
-        PayloadError: several do and the post does not say which (→ 400 naming ``classroom``).
+        NoToken: the class named, or every class, takes results only with a token (-> 401).
+        PayloadError: several classes take posts without a token and the post does not say which (-> 400 naming
+            ``classroom``).
     """
     open_classes = list(Classroom.objects.filter(allow_unverified=True))
     if posted.classroom is not None:
         for c in open_classes:
             if c.name == posted.classroom:
                 return c
-        raise PermissionError(f"class {posted.classroom!r} does not accept results without a token")
+        raise NoToken(NO_TOKEN.format(where=f"class {posted.classroom!r} takes results only with a token"))
     if not open_classes:
-        raise PermissionError("a token is required: send 'Authorization: Bearer <your token>'")
+        raise NoToken(NO_TOKEN.format(where="this server takes results only with a token"))
     if len(open_classes) == 1:
         return open_classes[0]
     named = {s.classroom_id for s in Student.objects.filter(name=posted.student, classroom__in=open_classes)}
@@ -136,7 +164,9 @@ def _repeat(record: Result, token: Token | None) -> JsonResponse:
 
 def _store(posted: Posted, run_id: str, classroom: Classroom, token: Token | None) -> Result:
     data = posted.data
-    project, _ = Project.objects.get_or_create(name=posted.project,
+    if isinstance(data.get("config"), str):
+        data["config"] = config_name(data["config"])
+    project, _ = Project.objects.get_or_create(classroom=classroom, name=posted.project,
                                                defaults={"ranking": default_ranking(posted.figures)})
     if token is not None and token.kind == Token.STUDENT:
         student: Student | None = token.student
@@ -172,7 +202,7 @@ def post_artifacts(request: HttpRequest, run_id: str) -> JsonResponse:
         return error(405, "", "POST files here (multipart/form-data)", Allow="POST")
     if not RUN_ID.match(run_id):
         return error(404, "run_id", "no such run")
-    length = int(request.META.get("CONTENT_LENGTH") or 0)
+    length = _content_length(request)
     if length > max_artifact_request():
         return error(413, "", f"the upload is {length} bytes; the limit is {max_artifact_request()}")
     record = Result.objects.select_related("classroom", "token").filter(run_id=run_id).first()
@@ -182,16 +212,22 @@ def post_artifacts(request: HttpRequest, run_id: str) -> JsonResponse:
         token = _token(request)
     except tokens.TokenError as exc:
         return _unauthorized(str(exc))
+    if token is None and not _may_upload(record, token):
+        return _unauthorized(NO_TOKEN.format(where="only the run's owner or the class's teacher may upload its files"))
     if not _may_upload(record, token):
-        return _unauthorized("only the run's owner (with their token) or the class's teacher may upload its files")
+        return error(403, "Authorization", "this token may not upload files for this run: only the run's owner "
+                     "(with their token) or the class's teacher may")
     try:
         files = [f for name in request.FILES for f in request.FILES.getlist(name)]
     except (MultiPartParserError, TooManyFilesSent, RequestDataTooBig) as exc:
         return error(400, "file", f"a multipart/form-data upload was expected ({exc})")
     if not files:
         return error(400, "file", "no file in the upload (send multipart/form-data with one or more files)")
-    if record.artifacts.count() + len(files) > settings.MAX_ARTIFACTS_PER_RUN:
-        return error(400, "file", f"a run keeps at most {settings.MAX_ARTIFACTS_PER_RUN} files")
+    stored_names = set(record.artifacts.values_list("name", flat=True))
+    names = stored_names | {os.path.basename(f.name or "") for f in files}
+    if len(names) > settings.MAX_ARTIFACTS_PER_RUN:  # files already stored count; sending one again does not
+        return error(400, "file", f"a run keeps at most {settings.MAX_ARTIFACTS_PER_RUN} files "
+                     f"({len(stored_names)} stored, {len(names) - len(stored_names)} new in this upload)")
     checked = []
     for upload in files:
         try:
@@ -230,7 +266,9 @@ def _check_upload(upload: Any) -> tuple[Any, Any, str]:
     head = upload.read(64)
     upload.seek(0)
     whole = upload.read() if kind.kind in TEXT_KINDS and not name.endswith(".png") else None
-    check_content(name, kind, head, whole)
+    replacement = check_content(name, kind, head, whole)
+    if replacement is not None:  # an SVG: what is stored (and hashed) is the rebuilt file, never the upload
+        upload = SimpleUploadedFile(name, replacement, content_type=kind.content_type)
     digest = hashlib.sha256()
     upload.seek(0)
     for chunk in upload.chunks():
@@ -254,8 +292,9 @@ def _store_artifact(record: Result, upload: Any, kind: Any, digest: str) -> tupl
 
 
 def _write_file(dest: Path, upload: Any) -> None:
-    """Write through a temporary file and rename, so a reader never sees half a file."""
-    dest.parent.mkdir(parents=True, exist_ok=True)
+    """Write through a temporary file and rename, so a reader never sees half a file. Folders are made 0700 and
+    the file is 0600 (``mkstemp``'s mode, kept by the rename)."""
+    private_dir(dest.parent)
     fd, tmp = tempfile.mkstemp(prefix=f".{dest.name}.", dir=dest.parent)
     try:
         with os.fdopen(fd, "wb") as fh:

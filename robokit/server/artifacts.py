@@ -5,8 +5,8 @@ kind        names                accepted when
 ==========  ===================  ===============================================================
 video       ``*.mp4``            an ISO base media file: ``ftyp`` box at byte 4
 plot        ``*.png``            the 8-byte PNG signature
-plot        ``*.svg``            UTF-8 XML whose root is ``<svg``, with no script, event handler,
-                                 ``javascript:`` URL or foreignObject
+plot        ``*.svg``            well-formed XML whose root is ``<svg>``; stored re-serialised with
+                                 only drawing elements and attributes (:mod:`robokit.server.svg`)
 trace       ``*.jsonl``          UTF-8, every non-empty line a JSON object (robokit's trace)
 config      ``*.toml``           UTF-8 TOML that parses
 ==========  ===================  ===============================================================
@@ -19,6 +19,8 @@ import re
 import sys
 from dataclasses import dataclass
 
+from robokit.server.svg import SvgError, clean_svg
+
 if sys.version_info >= (3, 11):
     import tomllib
 else:  # pragma: no cover
@@ -26,7 +28,6 @@ else:  # pragma: no cover
 
 NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,99}$")
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
-_SVG_DANGER = re.compile(rb"<script|javascript:|<foreignobject|\son[a-z]+\s*=|<iframe|<embed|<object", re.I)
 
 
 class ArtifactError(Exception):
@@ -63,7 +64,7 @@ def kind_for(name: str) -> Kind:
     return KINDS[ext]
 
 
-def check_content(name: str, kind: Kind, head: bytes, whole: bytes | None) -> None:
+def check_content(name: str, kind: Kind, head: bytes, whole: bytes | None) -> bytes | None:
     """Check the bytes are what the name says.
 
     Args:
@@ -72,6 +73,9 @@ def check_content(name: str, kind: Kind, head: bytes, whole: bytes | None) -> No
         head: The first bytes of the file (at least 16 when the file has them).
         whole: The whole file for text kinds (svg, jsonl, toml); None for binary kinds.
 
+    Returns:
+        The bytes to store instead of the upload (an SVG, rebuilt from its parse), or None to store it as sent.
+
     Raises:
         ArtifactError: the content does not match.
     """
@@ -79,33 +83,29 @@ def check_content(name: str, kind: Kind, head: bytes, whole: bytes | None) -> No
     if ext == "mp4":
         if len(head) < 12 or head[4:8] != b"ftyp":
             raise ArtifactError(f"{name!r} is not an MP4 file (no 'ftyp' box at its start)")
-        return
+        return None
     if ext == "png":
         if not head.startswith(PNG_SIGNATURE):
             raise ArtifactError(f"{name!r} is not a PNG file (no PNG signature)")
-        return
+        return None
     assert whole is not None
     try:
         text = whole.decode("utf-8-sig")
     except UnicodeDecodeError:
         raise ArtifactError(f"{name!r} is not UTF-8 text") from None
     if ext == "svg":
-        _check_svg(name, text, whole)
-    elif ext == "jsonl":
+        try:
+            return clean_svg(whole)
+        except SvgError as exc:
+            raise ArtifactError(f"{name!r} {exc}") from None
+    if ext == "jsonl":
         _check_jsonl(name, text)
     else:
         try:
             tomllib.loads(text)
         except tomllib.TOMLDecodeError as exc:
             raise ArtifactError(f"{name!r} is not TOML: {exc}") from None
-
-
-def _check_svg(name: str, text: str, raw: bytes) -> None:
-    start = re.sub(r"^\s*(<\?xml[^>]*\?>\s*)?(<!--.*?-->\s*)*(<!DOCTYPE[^>]*>\s*)?", "", text, flags=re.S)
-    if not start.startswith("<svg"):
-        raise ArtifactError(f"{name!r} is not an SVG image (its root element is not <svg>)")
-    if _SVG_DANGER.search(raw):
-        raise ArtifactError(f"{name!r} contains script or active content; plots must be plain SVG")
+    return None
 
 
 def _check_jsonl(name: str, text: str) -> None:

@@ -17,6 +17,7 @@ from typing import Any
 
 from robokit.errors import UserError
 from robokit.server import DATA_ENV, DEFAULT_DATA_DIR
+from robokit.server.private import DIR_MODE, narrow, private_dir, private_sqlite
 
 
 def add_server_commands(sub: Any) -> None:
@@ -40,13 +41,16 @@ def add_server_commands(sub: Any) -> None:
 
 def setup(data: str | None) -> Path:
     """Point Django at the data folder (created, with a secret key file) and set it up; returns the folder."""
-    try:
-        import django
-    except ImportError:
-        raise UserError("the course server needs Django: pip install 'robokit[server]'") from None
+    from robokit.extras import require
+
+    require("server", "the course server")  # Django, waitress, whitenoise, dj-database-url, lxml: before any work
+    import django
+
     folder = Path(data or os.environ.get(DATA_ENV) or DEFAULT_DATA_DIR).resolve()
     try:
-        folder.mkdir(parents=True, exist_ok=True)
+        private_dir(folder)
+        if narrow(folder, DIR_MODE):
+            print(f"robokit: data folder {folder} was readable by other users: now 0700", file=sys.stderr)
         key = folder / "secret_key"
         if not key.exists() and not os.environ.get("ROBOKIT_SECRET_KEY"):
             fd = os.open(key, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
@@ -59,7 +63,18 @@ def setup(data: str | None) -> Path:
     os.environ[DATA_ENV] = str(folder)
     os.environ["DJANGO_SETTINGS_MODULE"] = "robokit.server.settings"
     django.setup()
+    _private_database()
     return folder
+
+
+def _private_database() -> None:
+    from django.conf import settings
+
+    try:
+        for path in private_sqlite(settings.DATABASES["default"]):
+            print(f"robokit: {path} was readable by other users: now 0600", file=sys.stderr)
+    except OSError as exc:
+        raise UserError(f"database {settings.DATABASES['default'].get('NAME')}: {exc.strerror or exc}") from None
 
 
 def describe_database() -> str:

@@ -77,9 +77,14 @@ class Token(models.Model):
 
 
 class Project(models.Model):
-    """A project (lesson 08's A or B, or any name a payload brings), with the figures that rank its runs."""
+    """A class's project (lesson 08's A or B, or any name a payload brings), with the figures that rank its runs.
 
-    name = models.CharField(max_length=100, unique=True)
+    A project belongs to one class: two classes posting project "A" have two rows, each with its own ranking, so a
+    teacher's change reorders only their own class's leaderboard.
+    """
+
+    classroom = models.ForeignKey(Classroom, on_delete=models.CASCADE, related_name="projects")
+    name = models.CharField(max_length=100)
     ranking = models.CharField(
         max_length=300, blank=True,
         help_text="figures that rank runs, most important first, comma-separated; '-' in front = higher is better "
@@ -87,7 +92,8 @@ class Project(models.Model):
     created_at = models.DateTimeField(auto_now_add=True)
 
     class Meta:
-        ordering = ["name"]
+        ordering = ["name", "classroom__name"]
+        constraints = [models.UniqueConstraint(fields=["classroom", "name"], name="project_name_unique_in_class")]
 
     def __str__(self) -> str:
         return self.name
@@ -105,7 +111,8 @@ class Project(models.Model):
 class Result(models.Model):
     run_id = models.CharField(max_length=64, unique=True)
     classroom = models.ForeignKey(Classroom, on_delete=models.CASCADE, related_name="results")
-    project = models.ForeignKey(Project, on_delete=models.PROTECT, related_name="results")
+    # RESTRICT: a project with results cannot be deleted on its own, but deleting its class removes both.
+    project = models.ForeignKey(Project, on_delete=models.RESTRICT, related_name="results")
     student = models.ForeignKey(Student, on_delete=models.SET_NULL, null=True, blank=True, related_name="results")
     student_name = models.CharField(max_length=100, help_text="who the run counts for (the token's owner if any)")
     posted_student = models.CharField(max_length=100, blank=True, help_text="the payload's own 'student'")

@@ -24,6 +24,7 @@ from django.views.decorators.http import require_http_methods
 
 from robokit.server import tokens
 from robokit.server.models import Artifact, Classroom, Project, Result, Student, Token
+from robokit.server.payload import config_name
 from robokit.server.ranking import best_per_student, columns
 
 SESSION_TOKEN = "course_student_token"
@@ -63,7 +64,7 @@ def home(request: HttpRequest) -> HttpResponse:
 @login_required
 def classroom(request: HttpRequest, pk: int) -> HttpResponse:
     room = _teacher_class(request, pk)
-    projects = (Project.objects.filter(results__classroom=room)
+    projects = (Project.objects.filter(classroom=room)
                 .annotate(n=Count("results"), last=Max("results__received_at")).order_by("name"))
     students = room.students.annotate(n=Count("results"), last=Max("results__received_at"))
     active = set(Token.objects.filter(classroom=room, kind=Token.STUDENT, revoked_at__isnull=True)
@@ -87,7 +88,7 @@ def _figure_order(request: HttpRequest, cols: list[str], ranking: list[tuple[str
 @login_required
 def leaderboard(request: HttpRequest, pk: int, project_pk: int) -> HttpResponse:
     room = _teacher_class(request, pk)
-    project = get_object_or_404(Project, pk=project_pk)
+    project = get_object_or_404(Project, pk=project_pk, classroom=room)
     runs = list(Result.objects.filter(classroom=room, project=project).select_related("student"))
     ranking = project.ranking_keys()
     cols = columns(ranking, (r.figures for r in runs))
@@ -150,14 +151,18 @@ def run_detail(request: HttpRequest, run_id: str) -> HttpResponse:
     result = record.payload.get("result") if isinstance(record.payload.get("result"), dict) else {}
     trace = next((a for a in artifacts if a.kind == Artifact.TRACE), None)
     config = next((a for a in artifacts if a.kind == Artifact.CONFIG), None)
+    payload = dict(record.payload)
+    if isinstance(payload.get("config"), str):  # rows stored before the server kept only the file name
+        payload["config"] = config_name(payload["config"])
     return render(request, "course/run.html", {
-        "r": record, "figures": [(k, _fmt(v)) for k, v in record.figures.items()],
+        "r": record, "config_name": config_name(record.config),
+        "figures": [(k, _fmt(v)) for k, v in record.figures.items()],
         "objects": _objects_table(result.get("objects")),
         "videos": [a for a in artifacts if a.kind == Artifact.VIDEO],
         "plots": [a for a in artifacts if a.kind == Artifact.PLOT],
         "timeline": _timeline(trace, record.sim_time or record.total_time) if trace else None,
         "config_text": _read_text(config) if config else None,
-        "payload": json.dumps(record.payload, indent=2, ensure_ascii=False)[:20000],
+        "payload": json.dumps(payload, indent=2, ensure_ascii=False)[:20000],
         "teacher": request.user.is_authenticated,
     })
 
@@ -238,7 +243,7 @@ def export_csv(request: HttpRequest, pk: int) -> HttpResponse:
     for r in runs.iterator():
         row = [r.run_id, r.received_at.isoformat(), room.name, r.project.name, r.student_name, r.posted_student,
                r.verified, r.official, r.outcome, r.red_sorted, r.blue_sorted, r.failures, r.total_time,
-               r.sim_time, r.seed, r.behaviour, r.config, json.dumps(r.figures, ensure_ascii=False)]
+               r.sim_time, r.seed, r.behaviour, config_name(r.config), json.dumps(r.figures, ensure_ascii=False)]
         writer.writerow([_csv_safe(v) for v in row])
     return response
 

@@ -18,6 +18,8 @@ RUN_ID = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._:-]{0,63}$")
 OUTCOMES = ("succeeded", "failed", "aborted", "error", "interrupted")
 COURSE_INTS = ("red_sorted", "blue_sorted", "failures")
 MAX_COUNT = 2**31 - 1
+INT_MIN, INT_MAX = -(2**63), 2**63 - 1
+MAX_DEPTH = 32
 
 
 class PayloadError(Exception):
@@ -51,13 +53,19 @@ def is_number(value: Any) -> bool:
 
 
 def parse(body: bytes) -> dict[str, Any]:
-    """The body as a JSON object.
+    """The body as a JSON object whose every value Python and the database can hold.
+
+    Numbers are judged before Python converts them: an integer with more digits than a 64-bit one has, a number
+    that overflows to infinity (``1e400``), ``NaN`` and ``Infinity`` are refused naming where they are (so Python's
+    own limit on converting long digit strings is never reached); so are strings that are not valid Unicode,
+    NUL characters and nesting deeper than :data:`MAX_DEPTH`.
 
     Raises:
-        PayloadError: not UTF-8, not JSON, or not an object.
+        PayloadError: not UTF-8, not JSON, not an object, or a value as above (``field`` is its path, e.g.
+            ``result.score`` or ``result.objects[2].x``).
     """
     try:
-        data = json.loads(body.decode("utf-8"), parse_constant=_no_constant)
+        data = json.loads(body.decode("utf-8"), parse_int=_int, parse_float=_float, parse_constant=_constant)
     except UnicodeDecodeError:
         raise PayloadError("", "the body is not UTF-8 text") from None
     except json.JSONDecodeError as exc:
@@ -66,11 +74,72 @@ def parse(body: bytes) -> dict[str, Any]:
         raise PayloadError("", "malformed JSON: nested too deeply") from None
     if not isinstance(data, dict):
         raise PayloadError("", f"expected a JSON object, got {_kind(data)}")
+    _check_values(data, "", 0)
     return data
 
 
-def _no_constant(name: str) -> Any:
-    raise PayloadError("", f"malformed JSON: {name} is not a JSON number (send null)")
+@dataclass(frozen=True)
+class _Refused:
+    """A JSON number Python or the database cannot hold, kept in place until its path is known."""
+
+    message: str
+
+
+def _int(text: str) -> int | _Refused:
+    digits = text.lstrip("-")
+    if len(digits) > 19 or not INT_MIN <= int(text) <= INT_MAX:
+        shown = text if len(text) <= 24 else f"{text[:12]}... ({len(digits)} digits)"
+        return _Refused(f"{shown} does not fit in a 64-bit whole number")
+    return int(text)
+
+
+def _float(text: str) -> float | _Refused:
+    value = float(text)
+    if not math.isfinite(value):
+        shown = text if len(text) <= 24 else f"{text[:12]}..."
+        return _Refused(f"{shown} is too large for a number")
+    return value
+
+
+def _constant(name: str) -> _Refused:
+    return _Refused(f"{name} is not a JSON number (send null)")
+
+
+def _check_values(value: Any, path: str, depth: int) -> None:
+    """Refuse what :func:`parse` promises to refuse, naming the path of the first such value."""
+    if depth > MAX_DEPTH:
+        raise PayloadError(path, f"nested more than {MAX_DEPTH} levels deep")
+    if isinstance(value, _Refused):
+        raise PayloadError(path, value.message)
+    if isinstance(value, str):
+        _check_text(value, path)
+    elif isinstance(value, dict):
+        for key, item in value.items():
+            _check_text(key, path or "(a key)")
+            _check_values(item, _join(path, key), depth + 1)
+    elif isinstance(value, list):
+        for i, item in enumerate(value):
+            _check_values(item, f"{path}[{i}]", depth + 1)
+
+
+_PLAIN_KEY = re.compile(r"^[A-Za-z0-9_-]{1,40}$")
+
+
+def _join(path: str, key: str) -> str:
+    """``result.score``; a key that is not a plain name is quoted (``result["a b"]``), so a path is one line."""
+    if _PLAIN_KEY.match(key):
+        return f"{path}.{key}" if path else key
+    quoted = json.dumps(key[:40])
+    return f"{path}[{quoted}]"
+
+
+def _check_text(text: str, path: str) -> None:
+    if "\x00" in text:
+        raise PayloadError(path, "contains a NUL character")
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError:
+        raise PayloadError(path, "not valid Unicode text (a lone surrogate escape)") from None
 
 
 def _name(data: dict[str, Any], key: str, required: bool) -> str | None:
@@ -162,6 +231,13 @@ def figures(data: dict[str, Any]) -> dict[str, float | int]:
     if is_number(data.get("sim_time")) and "total_time" not in out:
         out["sim_time"] = data["sim_time"]
     return dict(list(out.items())[:40])
+
+
+def config_name(path: str) -> str:
+    """What the server keeps of a run's config path: its file name (``sort_robot.toml``), whether the student
+    sent ``configs/sort_robot.toml``, ``/home/kim/robots/sort_robot.toml`` or ``C:\\Users\\kim\\sort.toml``, so
+    a student's local folders (often named after them) are never stored or shown."""
+    return re.split(r"[/\\]", path.strip().rstrip("/\\"))[-1]
 
 
 def default_ranking(figs: dict[str, Any]) -> str:

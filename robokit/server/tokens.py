@@ -58,9 +58,9 @@ def find(token: str) -> Token:
     row = (Token.objects.select_related("classroom", "student", "teacher")
            .filter(key_hash=hash_token(token)).first())
     if row is None:
-        raise TokenError("unknown token")
+        raise TokenError("unknown token: check that the whole token was copied (your teacher can issue a new one)")
     if row.revoked_at is not None:
-        raise TokenError("this token was revoked; ask your teacher for a new one")
+        raise TokenError("revoked token: this token was revoked; ask your teacher for a new one")
     return row
 
 
@@ -74,5 +74,5 @@ def from_header(value: str | None) -> str | None:
         return None
     scheme, _, token = value.strip().partition(" ")
     if scheme.lower() != "bearer" or not token.strip():
-        raise TokenError("expected 'Authorization: Bearer <token>'")
+        raise TokenError("malformed Authorization header: expected 'Authorization: Bearer <token>'")
     return token.strip()

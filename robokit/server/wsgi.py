@@ -6,3 +6,9 @@ from django.core.wsgi import get_wsgi_application
 
 os.environ.setdefault("DJANGO_SETTINGS_MODULE", "robokit.server.settings")
 application = get_wsgi_application()
+
+from django.conf import settings  # noqa: E402 - after Django is set up
+
+from robokit.server.private import private_sqlite  # noqa: E402
+
+private_sqlite(settings.DATABASES["default"])  # a new database file is 0600, whatever gunicorn's umask
