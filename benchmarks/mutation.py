@@ -20,7 +20,7 @@ checkout is never touched, so you can keep working while it runs.
     python benchmarks/mutation.py                                  # the whole corpus, 1 worker, table per area
     python benchmarks/mutation.py --workers 2 --log /tmp/mut.log   # 2 workers, one line per mutant into a log
     python benchmarks/mutation.py --area gym --list                # list one area's mutants, run nothing
-    python benchmarks/mutation.py --changed main                   # only mutants of files changed since main
+    python benchmarks/mutation.py --changed main                   # only mutants whose file or tests changed
     python benchmarks/mutation.py --ids dd-turn-sign sort-retry-off-by-one
     python benchmarks/mutation.py --rev HEAD~3                     # score an older tree (e.g. before new tests)
     python benchmarks/mutation.py --files plugins/pid.py --tests tests/test_pins_pid.py   # quick: one test file
@@ -218,9 +218,9 @@ def select(corpus: list[Mutant], args: argparse.Namespace) -> list[Mutant]:
         chosen = [m for m in chosen if m.id in args.ids]
     if args.files:
         chosen = [m for m in chosen if m.file in args.files]
-    if args.changed:
+    if args.changed:  # the mutant's file changed, or one of the tests that judge it
         changed = changed_files(args.changed)
-        chosen = [m for m in chosen if m.file in changed]
+        chosen = [m for m in chosen if m.file in changed or any(t.split("::")[0] in changed for t in m.tests)]
     for prior in args.skip_killed or []:
         lines = Path(prior).read_text(encoding="utf-8").splitlines()
         killed = {ln.split()[2] for ln in lines if len(ln.split()) >= 3 and ln.split()[1] in ("killed", "timeout")}
@@ -440,7 +440,7 @@ def main() -> int:
     parser.add_argument("--area", nargs="*", choices=AREAS, help="only these areas")
     parser.add_argument("--ids", nargs="*", help="only these mutant ids")
     parser.add_argument("--files", nargs="*", help="only mutants of these files (with --ast: the files to sample)")
-    parser.add_argument("--changed", metavar="REV", help="only mutants of files changed since REV (e.g. main)")
+    parser.add_argument("--changed", metavar="REV", help="only mutants whose file or mapped tests changed since REV")
     parser.add_argument("--rev", help="score REV's tree instead of the working tree")
     parser.add_argument("--workers", type=int, default=1, help="mutants run side by side (each its own copy)")
     parser.add_argument("--timeout", type=float, default=300.0, help="seconds per mutant's test run")

@@ -138,5 +138,6 @@ def test_uploads_are_capped_at_the_limit_exactly_and_only_for_the_runs_owner(
     over = upload(client, payload["run_id"], {"b.mp4": video + b"\x00" * 101}, course.kim_token)
     assert over.status_code == 413
     assert upload(client, payload["run_id"], {"c.mp4": video + b"\x00" * 150}, course.kim_token).status_code == 413
+    # docs/server.md (uploads): 401 without a token, 403 with a token that is not allowed
     assert upload(client, payload["run_id"], {"d.mp4": video}).status_code == 401  # verified run: no anonymous files
-    assert upload(client, payload["run_id"], {"e.mp4": video}, course.lee_token).status_code == 401
+    assert upload(client, payload["run_id"], {"e.mp4": video}, course.lee_token).status_code == 403
