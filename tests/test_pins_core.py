@@ -187,3 +187,14 @@ def test_phase_times_add_up_to_the_time_spent_and_states_time_out_from_their_own
     assert result.result["sim_time"] > 2.0  # longer than GRASP's 1 s, LIFT's and RETREAT's 2 s from the start
     assert sum(times.values()) == pytest.approx(entered, abs=1e-6)
     assert all(0 <= v <= 3.0 for v in times.values())
+
+
+def test_state_timeouts_count_from_each_states_entry() -> None:
+    """The sort looks (LOOK: 1 s timeout) again after each pick, seconds into the run: those looks do not time out,
+    and the two-cube sort succeeds."""
+    overrides = {"bodies.red.count": 1, "bodies.blue.count": 1, "sensors.truth.bodies": ["red", "blue"]}
+    with make_sim(ROOT / "configs" / "sort_robot.toml", overrides=overrides) as sim:
+        result = sim.run()
+        looks = [r["t"] for r in sim.trace if r.get("kind") == "transition" and r.get("dest_state") == "LOOK"]
+    assert result.outcome == "succeeded", result.reason
+    assert max(looks) > 2.0  # a LOOK entered long after the run's first second
