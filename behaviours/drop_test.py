@@ -53,7 +53,7 @@ class DropTest(Behaviour):
                 peaks[name] = z
             last_vz[name] = vz
         self.final.update(states)
-        if t >= self.config.duration:
+        if self.elapsed(t) >= self.config.duration:
             self.finish("succeeded", f"watched {len(self.final)} bodies for {self.config.duration:g} s")
         return None
 

@@ -63,7 +63,7 @@ class GoToGoal(Navigating, MachineBehaviour):
         return point_problems(ctx, [("goal", self.config.goal)], known_map(ctx, ()), self.config.drive, 0.0)
 
     def step(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any] | None:
-        if t > self.config.timeout:
+        if self.elapsed(t) > self.config.timeout:
             self.finish("failed", f"goal not reached within {self.config.timeout:g} s (sim time)")
             return {self.config.drive: STOP}
         return super().step(readings, t)

@@ -160,7 +160,7 @@ class Patrol(Navigating, MachineBehaviour):
                         key=f"waypoints[{i}]")
         self.map_names = {b.name for b in self.map}
         self.leg = 0
-        self.leg_started = 0.0
+        self.leg_started: float | None = None  # sim time the current leg began (the first: the first step)
         self.reached: list[dict[str, Any]] = []
         self.missed: list[dict[str, Any]] = []
         self.touching: set[str] = set()
@@ -224,6 +224,8 @@ class Patrol(Navigating, MachineBehaviour):
     # ---------------------------------------------------------------- states
     def step(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any] | None:
         self.last = readings[self.config.drive]
+        if self.leg_started is None:
+            self.leg_started = t
         self.count_collisions(readings, t)
         return super().step(readings, t)
 
@@ -231,7 +233,7 @@ class Patrol(Navigating, MachineBehaviour):
         nav = self.move_towards(readings, self.goal, t)
         if nav.distance <= self.config.tolerance:
             return self.next_leg(t, reached=True) or {self.config.drive: nav.twist}
-        if t - self.leg_started > self.config.waypoint_timeout:
+        if t - (self.leg_started or 0.0) > self.config.waypoint_timeout:
             return self.next_leg(t, reached=False) or {self.config.drive: nav.twist}
         return {self.config.drive: nav.twist}
 

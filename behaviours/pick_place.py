@@ -53,6 +53,7 @@ from robokit.msgs.arm import (
     ArmState,
     GripperCommand,
     GripperState,
+    HoldArm,
     MoveTo,
     Vec3,
     cube_grasp_yaw,
@@ -176,7 +177,6 @@ class PickPlace(MachineBehaviour):
         super().__init__(name, config or PickPlaceConfig.model_validate({}))
         self.task: PickPlaceTask | None = None
         self.attempts = 0
-        self.started_at = 0.0
         self.finished_at: float | None = None
         self.failures: list[str] = []
         self.final_position: Vec3 | None = None
@@ -193,19 +193,50 @@ class PickPlace(MachineBehaviour):
         self._hold_check_due = -math.inf  # sim time of the next drop check while carrying
 
     # ------------------------------------------------------------------ construction
+    SUB_API: ClassVar[int] = 1
+    """Version of the sub-machine interface (:meth:`sub`, :meth:`start`, :meth:`step`, :meth:`halt`, ``outcome``,
+    :meth:`result`); a parent asks for the version it was written against, and a robokit that no longer provides
+    it refuses with a config error instead of misbehaving."""
+
     @classmethod
     def sub(cls, *, name: str = "pick_place", parent_ctx: SetupContext, arm: str = "arm",
-            gripper: str = "gripper", max_attempts: int = 1, **options: Any) -> PickPlace:
-        """Build a pick-and-place sub-machine for a parent behaviour, set up with the parent's context.
+            gripper: str = "gripper", max_attempts: int = 1, api: int = 1, key: str = "",
+            **options: Any) -> PickPlace:
+        """Build a pick-and-place sub-machine for a parent behaviour, set up with the parent's context (API 1).
 
-        Its transitions go to the run's trace under ``machine=name``. Options are :class:`PickPlaceConfig` fields.
+        Args:
+            name: The machine's name (its transitions go to the trace under ``machine=name``).
+            parent_ctx: The parent's setup context.
+            arm, gripper, max_attempts: As in :class:`PickPlaceConfig`.
+            api: The sub-machine API version the parent was written against (see :attr:`SUB_API`).
+            key: Where in the parent's config section ``options`` come from (``"pick"`` for a ``pick = {...}``
+                table), so that an error names the user's key.
+            **options: Further :class:`PickPlaceConfig` fields.
+
+        Raises:
+            ConfigError: An option is unknown or invalid, or ``api`` is not provided: one line, placed at ``key``
+                within the parent's section (the parent's ``setup`` lets it propagate: ``robokit validate`` and
+                ``run`` then exit 2).
         """
+        if api != cls.SUB_API:
+            raise ConfigError(f"pick_place sub-machine API version {api} does not exist; this robokit provides "
+                              f"version {cls.SUB_API}", key=key)
+        from robokit.config import validate_model
+
         fields = {"arm": arm, "gripper": gripper, "max_attempts": max_attempts, **options}
-        config = PickPlaceConfig.model_validate(fields)
+        config = validate_model(PickPlaceConfig, fields, key)
         machine = cls(name, config)
         machine.is_sub = True
         machine.setup(parent_ctx)
         return machine
+
+    def halt(self, t: float) -> Mapping[str, Any] | None:
+        """Stopped before it ended (a composite's timeout, a monitor): the arm holds where it is; the gripper
+        keeps what it holds. The machine is never stepped again."""
+        self.t = t
+        if self.state not in (Phase.DONE, Phase.FAILED, Phase.WAIT):
+            self.fire("give_up")
+        return {self.config.arm: HoldArm()}
 
     def setup(self, ctx: SetupContext) -> None:
         """Check the arm, gripper and (top-level) pose sensor and object exist and are what they should be."""
@@ -547,7 +578,7 @@ class PickPlace(MachineBehaviour):
             "final_position": list(self.final_position) if self.final_position else None,
             "final_yaw": self.final_yaw,
             "placement_error": self.placement_error,
-            "sim_time": round(end - self.started_at, 6),
+            "sim_time": round(end - (self.started_at if self.started_at is not None else end), 6),
             "phase_times": {k: round(v, 6) for k, v in self.phase_times.items()},
             **({"jobs": [*self.done, *([] if len(self.done) == len(self.jobs) else [self._current()])],
                 "placed": len(self.done)} if len(self.jobs) > 1 else {}),

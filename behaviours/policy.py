@@ -16,6 +16,7 @@ the steps taken, the return, and the task's figures (e.g. the final distance).
 
 from __future__ import annotations
 
+import copy
 import json
 from collections.abc import Mapping
 from pathlib import Path
@@ -57,14 +58,17 @@ class PolicyBehaviour(Behaviour):
         except ValueError as exc:
             raise ConfigError(str(exc), key="policy") from None
         env_raw = self._env_section(base)
+        if env_raw.get("goal_env") is True and isinstance(env_raw.get("task"), dict):
+            env_raw["task"].setdefault("reward", "sparse")  # as the environment does
         self.spec: EnvSpec = validate_model(EnvSpec, env_raw, "env")
-        self.observer = Observer(self.spec)
         for name in self.spec.actions:
             if name not in ctx.components:
                 raise ConfigError(f"the policy drives actuator {name!r}, which this config lacks; components: "
                                   f"{', '.join(ctx.components)}", key="policy")
         self.actions = Actions(self.spec, self._joint_limits())
         self.task = self._task(env_raw)
+        self.observer = Observer(self.spec, self.task.goal_entries)
+        self.bounded = False
         self.task.reset(ctx.rng)
         self.repeat = self.spec.action_repeat(ctx.world.physics_hz)
         self.max_steps = max(1, round(self.task.config.max_time * self.spec.control_hz))
@@ -76,11 +80,11 @@ class PolicyBehaviour(Behaviour):
             raw = read_toml(base / cfg.env_config)
             if "env" not in raw:
                 raise ConfigError(f"{cfg.env_config} has no [env] section", key="env_config")
-            return dict(raw["env"])
+            return copy.deepcopy(dict(raw["env"]))
         if getattr(self.policy, "env", None) is None:
             raise ConfigError("the policy file carries no [env] section: give env_config = a config with one",
                               key="env_config")
-        return dict(self.policy.env)  # type: ignore[arg-type]
+        return copy.deepcopy(dict(self.policy.env))  # type: ignore[arg-type]
 
     def _joint_limits(self) -> dict[tuple[str, str], tuple[float, float]]:
         from robokit.gym.spec import finite_or
@@ -109,7 +113,7 @@ class PolicyBehaviour(Behaviour):
         return task
 
     def step(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any] | None:
-        tick = round(t / self.ctx.world.time_step)
+        tick = round(self.elapsed(t) / self.ctx.world.time_step)  # ticks since this behaviour started
         if tick % self.repeat:
             return None
         if self.steps > 0:
@@ -124,7 +128,11 @@ class PolicyBehaviour(Behaviour):
             if self.steps >= self.max_steps:
                 self.finish("failed", f"task {self.spec.task.type!r} not achieved in {self.task.config.max_time:g} s")
                 return None
-        obs = self.observer.observe(readings, self.task.observe())
+        task_obs = self.task.observe()
+        if not self.bounded:  # the same bounds (and clipping) as the environment's observation space
+            self.observer.fit_bounds(readings, task_obs, {f"task.{k}": v for k, v in self.task.bounds().items()})
+            self.bounded = True
+        obs = self.observer.observe(readings, task_obs)
         flat = obs if self.spec.dict_observations else obs["observation"]
         self.steps += 1
         return self.actions.commands(self.policy.act(flat))

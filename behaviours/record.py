@@ -90,8 +90,8 @@ class Record(Behaviour):
             self.ctx.trace("reading", component=name, value=value)
             self.counts[name] += 1
             self.last[name] = value
-        if 0 < self.config.duration <= t:
-            self.finish("succeeded", f"recorded {sum(self.counts.values())} readings in {t:g} s")
+        if 0 < self.config.duration <= self.elapsed(t):
+            self.finish("succeeded", f"recorded {sum(self.counts.values())} readings in {self.elapsed(t):g} s")
         return None
 
     def result(self) -> dict[str, Any]:

@@ -37,7 +37,7 @@ from robokit.components import GoalCheck, SetupContext
 from robokit.config import Schema
 from robokit.errors import ConfigError, LookupNameError, did_you_mean
 from robokit.fsm import MachineBehaviour
-from robokit.msgs.arm import ArmState, GripperCommand, MoveTo
+from robokit.msgs.arm import ArmState, GripperCommand, MoveTo, yaw_of
 from robokit.msgs.vision import Detection, Detections
 
 Vec3 = tuple[float, float, float]
@@ -172,7 +172,7 @@ class Sort(MachineBehaviour):
             raise ConfigError(str(LookupNameError("sensor", cfg.truth_sensor, ctx.components)), key="truth_sensor")
         try:
             self.pp = PickPlace.sub(name="pick_place", parent_ctx=ctx, arm=cfg.arm, gripper=cfg.gripper,
-                                    max_attempts=1, **cfg.pick_place)
+                                    max_attempts=1, api=1, key="pick_place", **cfg.pick_place)
         except ConfigError as exc:
             raise ConfigError(exc.message, key=exc.key) from None
         except (TypeError, ValueError) as exc:
@@ -425,6 +425,8 @@ class Sort(MachineBehaviour):
         return {
             **counts,
             "failures": sum(len(o.failures) for o in self.objects),
+            "misses": {"count": sum(len(o.failures) for o in self.objects),  # the sort's own, retried or not
+                       "reasons": [f"{o.body or o.colour}: {why}" for o in self.objects for why in o.failures]},
             "total_time": round(end - start, 4),
             "looks": self.looks,
             "picks": self.picks,
@@ -439,11 +441,14 @@ class Sort(MachineBehaviour):
         cfg: SortConfig = self.config
         problems = []
         arm = ctx.components.get(cfg.arm)
-        reach = getattr(arm, "check_reach", None)
+        moves_check = getattr(arm, "check_moves", None)
+        reach = None if moves_check is not None else getattr(arm, "check_reach", None)
         pp: Any = self.pp.config
-        for bin_colour, b in self.bins.items():
+        if moves_check is not None:  # the run's own moves, planned by the arm (see sort_reach)
+            problems += self._reach_problems(ctx, moves_check)
+        for bin_colour, b in self.bins.items() if reach is not None else ():
             for x, y, z in b.slots:
-                why = reach((x, y, z + pp.grasp_offset + pp.place_clearance)) if reach else ""
+                why = reach((x, y, z + pp.grasp_offset + pp.place_clearance))  # type: ignore[misc]
                 if why:
                     problems.append(ctx.problem(f"bin {b.body!r} is out of the reach of arm {cfg.arm!r}: {why}",
                                                 f"bins.{bin_colour}"))
@@ -461,10 +466,33 @@ class Sort(MachineBehaviour):
             if camera is not None and not camera.in_view((pos[0], pos[1], pos[2] + cfg.object_size / 2.0)):
                 problems.append(ConfigError(f"{name} at {where} is outside the view of camera "
                                             f"{getattr(camera, 'name', '?')!r}: the sort would never see it", key=key))
-            why = reach((pos[0], pos[1], pos[2] + pp.grasp_offset)) if reach else ""
+            why = reach((pos[0], pos[1], pos[2] + pp.grasp_offset)) if reach is not None else ""
             if why:
                 problems.append(ConfigError(f"{name} at {where} is out of the reach of arm {cfg.arm!r}: {why}",
                                             key=key))
+        return problems
+
+    def _reach_problems(self, ctx: SetupContext, check_moves: Any) -> list[ConfigError]:
+        """One problem per object whose pick-and-place the arm would reject, naming the object or its bin."""
+        from robokit_behaviours.sort_reach import STEPS, sort_picks, unreachable
+
+        objects = [(name, colour, ctx.world.pose(name)[0], yaw_of(ctx.world.pose(name)[1]))
+                   for name, colour in self.goal_objects.items() if colour in self.bins]
+        slots = {colour: b.slots for colour, b in self.bins.items()}
+        picks = sort_picks(self.config.look_position, objects, slots, self.pp.config, self.config.max_attempts)
+        problems = []
+        for move, why in unreachable(self.config.look_position, picks, check_moves):
+            if move.step < 0:
+                problems.append(ctx.problem(f"look_position is out of the reach of arm {self.config.arm!r}: {why}",
+                                            "look_position"))
+            elif move.step >= 2:
+                b = self.bins[move.colour]
+                problems.append(ctx.problem(f"bin {b.body!r} is out of the reach of arm {self.config.arm!r} "
+                                            f"(placing {move.object}, {STEPS[move.step]}): {why}",
+                                            f"bins.{move.colour}"))
+            else:
+                problems.append(ConfigError(f"{move.object} is out of the reach of arm {self.config.arm!r} "
+                                            f"({STEPS[move.step]}): {why}", key=ctx.body_key(move.object)))
         return problems
 
     def _camera(self, ctx: SetupContext) -> Any:

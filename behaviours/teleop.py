@@ -51,7 +51,7 @@ class JointTeleop(Behaviour):
         self.limits = self._limits(ctx)
         self.selected = 0
         self.targets: dict[str, float] = {}
-        self.last_t = 0.0
+        self.last_t: float | None = None  # sim time of the previous step (None before the first)
         self.selections: list[str] = []
 
     def _limits(self, ctx: SetupContext) -> dict[str, tuple[float, float]]:
@@ -81,7 +81,7 @@ class JointTeleop(Behaviour):
             if str(i + 1) in keys.pressed:
                 self.selected = i
                 self.selections.append(cfg.joints[i])
-        dt, self.last_t = t - self.last_t, t
+        dt, self.last_t = t - (t if self.last_t is None else self.last_t), t
         active = keys.down | keys.pressed  # a tap released before this reading still moves one step
         direction = ("right" in active) - ("left" in active)
         name = cfg.joints[self.selected]

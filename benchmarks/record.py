@@ -3,10 +3,13 @@
 1. **Recording overhead**: the whole main job (``configs/sort_robot.toml``: build, run to the end, close) timed
    with the recorder's pose log at 30 Hz (plus the trace file) and without any record, alternating, ``--repeats``
    pairs. Prints each pair and the ratio of the medians (target: <= 1.03). Both runs must end identically.
-2. **Video render rate**: frames per second of ``robokit video`` for the recorded run (rebuild the scene once, then
-   set the poses and render each frame with TinyRenderer; encoding included), at ``--size``.
+2. **Video render rate**: frames per second of ``robokit video``'s renderer for the recorded run (rebuild the
+   scene, set the poses, render each frame with TinyRenderer and draw the overlay; no encoding), at ``--size``,
+   serial (one process) and parallel (``--workers``, default one per core), on the same run, side by side, with
+   wall time and CPU time (the parallel figure includes its workers' CPU and their start-up).
 
-    python benchmarks/record.py [--repeats 7] [--size 640x480] [--video-frames 60]
+    python benchmarks/record.py [--repeats 7] [--size 480x360] [--video-frames 0 (= all)] [--workers N]
+    python benchmarks/record.py --video-only     # skip the recording overhead part (one run, then the video)
 
 The machine's load (``os.getloadavg``) is printed with the figures: re-measure on an idle machine.
 """
@@ -79,39 +82,57 @@ def sample_cost(samples: int = 2000) -> float:
     return cost
 
 
-def render_rate(run: Path, size: tuple[int, int], limit: int) -> None:
-    from robokit.record.scene import choose_view, rebuild
-    from robokit.record.video import Renderer, frame_indices
+def render_rate(run: Path, size: tuple[int, int], limit: int, workers: int) -> None:
+    import resource
+
+    from robokit.record.video import frame_bytes
 
     rec = RunRecord(run)
-    with rebuild(rec) as scene:
-        renderer = Renderer(scene, choose_view(scene, None, size[0] / size[1]), size)
-        indices = frame_indices(rec.poses["t"], 30.0)[:limit]
-        start, cpu = time.perf_counter(), time.process_time()
-        for i in indices:
-            scene.set_frame(i)
-            renderer.render()
-        elapsed, cpu = time.perf_counter() - start, time.process_time() - cpu
-    print(f"video render rate at {size[0]}x{size[1]} (TinyRenderer, pose + render, no encoding): "
-          f"{len(indices) / elapsed:.1f} frames/s wall, {len(indices) / cpu:.1f} frames per CPU-second "
-          f"(what an idle core gives), over {len(indices)} frames")
+    if limit:
+        keep = limit / 30.0 - 1e-9
+        n = int((rec.poses["t"] <= keep).sum())
+        for k in list(rec.poses):
+            rec.poses[k] = rec.poses[k][:n]
+    rows = []
+    for label, w in (("serial", 1), (f"parallel x{workers}", workers)):
+        def cpu() -> float:
+            own, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+            return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
+
+        start, cpu0 = time.perf_counter(), cpu()
+        count = sum(1 for _ in frame_bytes(rec, fps=30.0, size=size, view=None, workers=w))
+        rows.append((label, count, time.perf_counter() - start, cpu() - cpu0))
+    print(f"video render rate, {size[0]}x{size[1]}, {rows[0][1]} frames (scene rebuild + pose + render + overlay, "
+          f"no encoding):")
+    for label, count, wall, spent in rows:
+        print(f"  {label:<12} {count / wall:6.1f} frames/s wall   {wall:6.2f} s wall   {spent:6.2f} s CPU")
+    print(f"  speed-up (wall): {rows[0][2] / rows[1][2]:.2f}x   load average now: "
+          f"{' '.join(f'{v:.2f}' for v in os.getloadavg())}")
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--repeats", type=int, default=7)
-    ap.add_argument("--size", default="640x480")
-    ap.add_argument("--video-frames", type=int, default=60)
+    ap.add_argument("--size", default="480x360")
+    ap.add_argument("--video-frames", type=int, default=0, help="render only the first N frames (0: all)")
+    ap.add_argument("--workers", type=int, default=0, help="parallel render processes (0: one per core)")
+    ap.add_argument("--video-only", action="store_true", help="one recorded run, then only the video figures")
     args = ap.parse_args()
+    from robokit.record.video import default_workers
+
     print(f"load average before: {' '.join(f'{v:.2f}' for v in os.getloadavg())}")
     with tempfile.TemporaryDirectory() as tmp:
-        run, plain = overhead(args.repeats, Path(tmp))
-        cost = sample_cost()
-        n = len(RunRecord(run).poses["t"])
-        print(f"pose sample cost: {cost:.1f} us per sample x {n} samples = {cost * 1e-6 * n:.4f} s = "
-              f"{100 * cost * 1e-6 * n / plain:.2f} % of the median unrecorded run ({plain:.2f} s)")
+        if args.video_only:
+            one_run(load_plugins(), True, Path(tmp))
+            run = next((Path(tmp) / "results").iterdir())
+        else:
+            run, plain = overhead(args.repeats, Path(tmp))
+            cost = sample_cost()
+            n = len(RunRecord(run).poses["t"])
+            print(f"pose sample cost: {cost:.1f} us per sample x {n} samples = {cost * 1e-6 * n:.4f} s = "
+                  f"{100 * cost * 1e-6 * n / plain:.2f} % of the median unrecorded run ({plain:.2f} s)")
         w, h = (int(v) for v in args.size.split("x"))
-        render_rate(run, (w, h), args.video_frames)
+        render_rate(run, (w, h), args.video_frames, args.workers or default_workers())
     print(f"load average after: {' '.join(f'{v:.2f}' for v in os.getloadavg())}")
 
 

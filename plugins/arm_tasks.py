@@ -22,7 +22,7 @@ import numpy as np
 from pydantic import Field
 
 from robokit import hookimpl
-from robokit.gym.task import Task, TaskConfig, TaskContext, distance, hide_from_collisions
+from robokit.gym.task import Task, TaskConfig, TaskContext, distance, goal_reward, hide_from_collisions
 
 Vec3 = tuple[float, float, float]
 
@@ -45,10 +45,14 @@ class ObjectTaskConfig(ReachConfig):
     object_high: Vec3 = (0.6, 0.15, 0.02)
     min_goal_distance: float = Field(0.05, ge=0, description="m between the object's start and the goal")
     fall_height: float = Field(-0.05, description="the object below this z (m) ends the episode as failed")
+    goal_on_table: float = Field(0.0, ge=0, le=1, description="probability that the goal's z is goal_low's "
+                                                               "(on the table; panda-gym's pick: 0.3)")
 
 
 class ReachTask(Task):
     """Reach: the end effector to a goal point drawn in a box."""
+
+    goal_entries = frozenset({"goal", "goal_delta"})
 
     def setup(self, ctx: TaskContext) -> None:
         super().setup(ctx)
@@ -62,6 +66,9 @@ class ReachTask(Task):
     def _draw_goal(self, rng: np.random.Generator) -> None:
         cfg: ReachConfig = self.config
         self.goal = rng.uniform(cfg.goal_low, cfg.goal_high)
+        on_table = getattr(cfg, "goal_on_table", 0.0)
+        if on_table > 0 and rng.random() < on_table:  # drawn only when asked: other tasks keep their streams
+            self.goal[2] = cfg.goal_low[2]
         if self.marker is not None:
             self.world.set_pose(self.marker, self.goal.tolist())
 
@@ -90,6 +97,12 @@ class ReachTask(Task):
 
     def info(self) -> dict[str, Any]:
         return {"distance": self.error()}
+
+    def bounds(self) -> dict[str, tuple[Any, Any]]:
+        return {"goal": (self.config.goal_low, self.config.goal_high), "object_orientation": (-1.0, 1.0)}
+
+    def compute_reward(self, achieved_goal: np.ndarray, desired_goal: np.ndarray, info: Any) -> np.ndarray:
+        return goal_reward(achieved_goal, desired_goal, self.config.distance_threshold, self.config.reward)
 
 
 class PushTask(ReachTask):

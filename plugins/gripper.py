@@ -31,7 +31,7 @@ from robokit import hookimpl
 from robokit.components import Actuator, SetupContext
 from robokit.config import Schema
 from robokit.errors import ConfigError
-from robokit.msgs.arm import GripperCommand, GripperState
+from robokit.msgs.arm import ContactState, GripperCommand, GripperState
 
 
 class GripperConfig(Schema):
@@ -57,6 +57,9 @@ class GripperConfig(Schema):
     empty_width: float = Field(0.004, ge=0, description="closed on nothing below this width")
     settle_time: float = Field(0.04, ge=0)
     settle_speed: float = Field(0.01, gt=0, description="width change below this (m/s) counts as still")
+    stop_on: str | None = Field(None, description="a contact sensor: a contact (above stop_force) freezes the "
+                                "fingers for the rest of the run")
+    stop_force: float = Field(0.0, ge=0, description="contact normal force that triggers stop_on, N")
     start_open: bool = True
 
     @model_validator(mode="after")
@@ -106,6 +109,11 @@ class Gripper(Actuator):
         self.followers = [(ctx.joint(cfg.body, n, key=f"mimic.{n}"), r) for n, r in cfg.mimic.items()]
         self.held_joints = [(ctx.joint(cfg.body, n, key=f"hold_joints.{n}"), q) for n, q in cfg.hold_joints.items()]
         self.links = self._finger_link_sets(ctx)
+        self.stopped = self.latched = False
+        if cfg.stop_on is not None and getattr(ctx.components.get(cfg.stop_on), "reading_type", None) is not \
+                ContactState:
+            raise ConfigError(f"{cfg.stop_on!r} is not a contact sensor; components: {', '.join(ctx.components)}",
+                              key="stop_on")
         self._side = {link: i for i, links in enumerate(self.links) for link in links}  # link -> finger
         for link in set().union(*self.links):
             w.client.changeDynamics(self.body, link, lateralFriction=cfg.lateral_friction,
@@ -180,9 +188,12 @@ class Gripper(Actuator):
         return int(gear)
 
     def command(self, cmd: Any) -> None:
-        """Accept a :class:`GripperCommand` (``open``, ``close`` or ``width``)."""
+        """Accept a :class:`GripperCommand` (``open``, ``close`` or ``width``); ignored after a ``stop_on`` stop."""
         if not isinstance(cmd, GripperCommand):
             raise ValueError(f"gripper takes GripperCommand, got {type(cmd).__name__}")
+        if self.latched:
+            return
+        self.stopped = False
         if cmd.action == "open":
             target = self.open_width
         elif cmd.action == "close":
@@ -198,9 +209,30 @@ class Gripper(Actuator):
             self._dirty = True
         self.action, self.target, self.force = cmd.action, target, force
 
+    def protective_stop(self, reason: str) -> None:
+        """Freeze the fingers now: a grasp that holds something keeps its grip (dropping it is not safe), else
+        the fingers hold their current width. The reading says ``stopped`` until a new command."""
+        if not (self.action == "close" and self.read().holding):
+            self.action, self.target = "width", min(max(self._width(), 0.0), self.max_width)
+            self._dirty = True
+            self._drive()
+        self.stopped = True
+        self.ctx.trace("protective_stop", actuator=self.name, reason=reason)
+
     def update(self) -> None:
         """Drive the fingers to the target width, within the force and speed limits, and hold the held joints
-        (sent when the command changes: the motors keep their targets); watch the width while it may be moving."""
+        (sent when the command changes: the motors keep their targets); watch the width while it may be moving.
+        With ``stop_on``, a contact first freezes the fingers for good."""
+        if self.config.stop_on is not None and not self.latched:
+            contact = self.ctx.readings[self.config.stop_on]
+            if contact.in_contact and contact.normal_force > self.config.stop_force:
+                self.latched = True
+                self.protective_stop(f"contact with {', '.join(contact.others) or 'something'} "
+                                     f"({contact.normal_force:.1f} N) ({self.config.stop_on})")
+        self._drive()
+
+    def _drive(self) -> None:
+        """Send the finger targets when they changed; watch the width while it may be moving."""
         if not (self._dirty or self._tracking):
             return
         if self._dirty:
@@ -277,7 +309,7 @@ class Gripper(Actuator):
         since = self._still_since
         settled = since is not None and self.world.time - since >= cfg.settle_time
         return GripperState(width=width, target_width=self.target, action=self.action, settled=settled,
-                            holding=holding, held=held, finger_contacts=total)
+                            holding=holding, held=held, finger_contacts=total, stopped=self.stopped)
 
     def close(self) -> None:
         while self.gears and self.world.client is not None:

@@ -38,7 +38,17 @@ from robokit import hookimpl
 from robokit.components import Actuator, SetupContext
 from robokit.config import Schema
 from robokit.errors import ConfigError
-from robokit.msgs.arm import ArmState, HoldArm, MoveTo, Quat, Vec3, down_quaternion, quat_angle, quat_multiply
+from robokit.msgs.arm import (
+    ArmState,
+    ContactState,
+    HoldArm,
+    MoveTo,
+    Quat,
+    Vec3,
+    down_quaternion,
+    quat_angle,
+    quat_multiply,
+)
 
 
 class IkArmConfig(Schema):
@@ -69,6 +79,9 @@ class IkArmConfig(Schema):
     max_force: float | None = Field(None, gt=0, description="N·m per joint; default: the URDF's")
     position_gain: float = Field(0.3, gt=0, le=1)
     velocity_gain: float = Field(1.0, ge=0)
+    stop_on: str | None = Field(None, description="a contact sensor: a contact (above stop_force) stops the arm "
+                                "where it is, for the rest of the run")
+    stop_force: float = Field(0.0, ge=0, description="contact normal force that triggers stop_on, N")
 
 
 REACH_ROUNDS = 4
@@ -165,6 +178,11 @@ class IkArm(Actuator):
         self._gains = ([cfg.position_gain] * len(self.arm), [cfg.velocity_gain] * len(self.arm))
         self._zero = [0.0] * len(self.arm)
         self._holding = False  # the last target sent was a hold (zero velocity): nothing to resend
+        self.stopped, self.latched = False, False
+        if cfg.stop_on is not None and getattr(ctx.components.get(cfg.stop_on), "reading_type", None) is not \
+                ContactState:
+            raise ConfigError(f"{cfg.stop_on!r} is not a contact sensor; components: {', '.join(ctx.components)}",
+                              key="stop_on")
         self._apply(self.q_cmd, None)
 
     def _limits(self) -> None:
@@ -309,7 +327,11 @@ class IkArm(Actuator):
 
     # ------------------------------------------------------------------ commands
     def command(self, cmd: Any) -> None:
-        """Accept :class:`MoveTo` (plan a path, or fail with a reason) or :class:`HoldArm`."""
+        """Accept :class:`MoveTo` (plan a path, or fail with a reason) or :class:`HoldArm`. After a ``stop_on``
+        stop, commands are ignored (the arm stays stopped); after a protective stop, the next command moves it."""
+        if self.latched and isinstance(cmd, (HoldArm, MoveTo)):
+            return
+        self.stopped = False
         if isinstance(cmd, HoldArm):
             self.path, self.target = None, None
             self.q_cmd = self._measured_all()[self.arm_cols]
@@ -330,13 +352,27 @@ class IkArm(Actuator):
 
     def _plan(self, pos: np.ndarray, orn: Quat, speed: float) -> str:
         """Solve the path's waypoints; returns a failure reason, or "" with ``self.path`` set."""
+        q_all = self._measured_all()
+        q_all[self.arm_cols] = self.q_cmd
+        qs, reason, dist, ang = self._path(q_all, pos, orn)
+        if reason:
+            return reason
+        self.path = qs
+        self.t0 = self.world.time
+        self.duration = max(1.5 * dist / speed, 1.5 * ang / self.config.angular_speed, self.config.min_duration)
+        self._profile()
+        return ""
+
+    def _path(self, q_all: np.ndarray, pos: np.ndarray, orn: Quat) -> tuple[list[np.ndarray], str, float, float]:
+        """The straight path from joint configuration ``q_all`` to the tool pose (pos, orn), solved waypoint by
+        waypoint: (the arm's joint positions per waypoint, starting with the current ones; "" or the reason it is
+        unreachable; its length in metres; its turn in radians). What a move does, and what validate checks."""
         cfg: IkArmConfig = self.config
         where = f"({pos[0]:.3f}, {pos[1]:.3f}, {pos[2]:.3f})"
         dist_base = float(np.linalg.norm(pos - self.base_pos))
         if cfg.reach is not None and dist_base > cfg.reach:
-            return f"unreachable: target {where} is {dist_base:.3f} m from the base, reach is {cfg.reach:g} m"
-        q_all = self._measured_all()
-        q_all[self.arm_cols] = self.q_cmd
+            return [], f"unreachable: target {where} is {dist_base:.3f} m from the base, reach is {cfg.reach:g} m", \
+                0.0, 0.0
         start_pos, start_orn = self.chain.fk(q_all)
         dist, ang = float(np.linalg.norm(pos - start_pos)), quat_angle(start_orn, orn)
         n = max(1, math.ceil(dist / cfg.waypoint_spacing), math.ceil(ang / cfg.waypoint_angle))
@@ -346,14 +382,33 @@ class IkArm(Actuator):
         poses = [(p_k, _slerp(start_orn, orn, float(s))) for p_k, s in zip(positions, fractions, strict=True)]
         for k, (q_k, ep, eo) in enumerate(self._solve_path(q_all, poses), start=1):
             if ep > max(cfg.ik_tolerance, 1e-3) or eo > cfg.orientation_tolerance / 2:
-                return (f"unreachable: IK residual {ep * 1000:.1f} mm / {math.degrees(eo):.1f} deg at "
-                        f"waypoint {k}/{n} towards {where} (tolerance {cfg.ik_tolerance * 1000:g} mm)")
+                return qs, (f"unreachable: IK residual {ep * 1000:.1f} mm / {math.degrees(eo):.1f} deg at "
+                            f"waypoint {k}/{n} towards {where} (tolerance {cfg.ik_tolerance * 1000:g} mm)"), dist, ang
             qs.append(q_k[self.arm_cols].copy())
-        self.path = qs
-        self.t0 = self.world.time
-        self.duration = max(1.5 * dist / speed, 1.5 * ang / cfg.angular_speed, cfg.min_duration)
-        self._profile()
-        return ""
+        return qs, "", dist, ang
+
+    def check_moves(self, moves: list[tuple[Vec3, float]], start: Any = None) -> tuple[list[str], Any]:
+        """Would these moves (tool positions in metres, world, tool pointing down with a yaw in radians), made one
+        after the other, all be planned? The same path solver, waypoints and tolerances as :meth:`command`, before
+        any tick (no joint state is written).
+
+        Args:
+            moves: The moves, in order.
+            start: Where the first starts: a configuration an earlier call returned; None = the ready pose.
+
+        Returns:
+            One reason per move ("" = it would be planned; after a move that would fail, the next starts where the
+            last good one ended, as in a run) and the configuration the last good move ends in.
+        """
+        q_all = self.ready.copy() if start is None else np.array(start, float)
+        out = []
+        for position, yaw in moves:
+            qs, reason, _, _ = self._path(q_all, np.asarray(position, float), down_quaternion(yaw))
+            out.append(reason)
+            if not reason:
+                q_all = q_all.copy()
+                q_all[self.arm_cols] = qs[-1]
+        return out, q_all
 
     def _profile(self) -> None:
         """Joint targets and feed-forward velocities for every tick of the path, computed once (numpy).
@@ -380,9 +435,29 @@ class IkArm(Actuator):
         self._tick0 = self.world.tick
 
     # ------------------------------------------------------------------ per tick
+    def protective_stop(self, reason: str) -> None:
+        """Stop now, before this tick's physics step: hold the measured joint positions with zero target
+        velocity, drop the path. The reading says ``failed`` (``stopped``) with the reason until a new command."""
+        self.path, self.target = None, None
+        self.q_cmd = self._measured_all()[self.arm_cols]
+        self.status, self.reason, self.stopped = "failed", f"protective stop: {reason}", True
+        self._apply(self.q_cmd, None)
+        self.ctx.trace("protective_stop", actuator=self.name, reason=reason)
+
+    def _check_stop_on(self) -> None:
+        contact = self.ctx.readings[self.config.stop_on]
+        if contact.in_contact and contact.normal_force > self.config.stop_force:
+            touched = ", ".join(contact.others) or "something"
+            self.protective_stop(f"contact with {touched} ({contact.normal_force:.1f} N) at t = "
+                                 f"{self.world.time:.3f} s ({self.config.stop_on})")
+            self.latched = True
+
     def update(self) -> None:
         """Send this tick's joint targets (with feed-forward velocity) to the motors; once the path is over (or
-        with no path), the hold target is sent once and nothing after it."""
+        with no path), the hold target is sent once and nothing after it. With ``stop_on``, a contact first
+        stops the arm for good."""
+        if self.config.stop_on is not None and not self.latched:
+            self._check_stop_on()
         if self.path is not None:
             row = self.world.tick - self._tick0
             if row < self._rows:
@@ -427,7 +502,7 @@ class IkArm(Actuator):
             target_position=target[0] if target else None, target_orientation=target[1] if target else None,
             position_error=ep, orientation_error=eo, command_id=self.command_id,
             joint_positions=dict(zip(self._names, [st[0] for st in states], strict=True)),
-            path_end=self.t0 + self.duration if self.path is not None else None,
+            path_end=self.t0 + self.duration if self.path is not None else None, stopped=self.stopped,
         )
 
     def _update_status(self, ep: float, eo: float) -> None:

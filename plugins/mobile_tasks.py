@@ -16,7 +16,7 @@ import numpy as np
 from pydantic import Field
 
 from robokit import hookimpl
-from robokit.gym.task import Task, TaskConfig, TaskContext, hide_from_collisions
+from robokit.gym.task import Task, TaskConfig, TaskContext, goal_reward, hide_from_collisions
 
 Vec2 = tuple[float, float]
 
@@ -36,6 +36,8 @@ class GoToConfig(TaskConfig):
 
 class GoToTask(Task):
     """Go to: drive a wheeled robot's base to a goal point on the floor."""
+
+    goal_entries = frozenset({"goal", "goal_in_robot_frame", "bearing", "distance"})
 
     def setup(self, ctx: TaskContext) -> None:
         super().setup(ctx)
@@ -65,7 +67,9 @@ class GoToTask(Task):
     def observe(self) -> dict[str, Any]:
         fwd, left, dist = self._relative()
         bearing = (fwd / dist, left / dist) if dist > 1e-9 else (1.0, 0.0)
-        return {"goal": self.goal, "goal_in_robot_frame": (fwd, left), "bearing": bearing, "distance": dist}
+        x, y, _ = self.ctx.readings[self.config.drive].pose
+        return {"goal": self.goal, "achieved": (x, y), "goal_in_robot_frame": (fwd, left), "bearing": bearing,
+                "distance": dist}
 
     def reward(self) -> float:
         if self.config.reward == "sparse":
@@ -83,6 +87,12 @@ class GoToTask(Task):
 
     def info(self) -> dict[str, Any]:
         return {"distance": self._relative()[2]}
+
+    def bounds(self) -> dict[str, tuple[Any, Any]]:
+        return {"goal": (self.config.goal_low, self.config.goal_high), "bearing": (-1.0, 1.0)}
+
+    def compute_reward(self, achieved_goal: np.ndarray, desired_goal: np.ndarray, info: Any) -> np.ndarray:
+        return goal_reward(achieved_goal, desired_goal, self.config.distance_threshold, self.config.reward)
 
 
 @hookimpl

@@ -60,6 +60,13 @@ class Suction(Actuator):
         self.constraint: int | None = None
         self.held: int | None = None
         self.since = self.world.time
+        self.stopped = False
+
+    def protective_stop(self, reason: str) -> None:
+        """Stop now: what the cup holds stays held (dropping it is not safe); nothing new is picked up."""
+        self.on = False
+        self.stopped = True
+        self.ctx.trace("protective_stop", actuator=self.name, reason=reason)
 
     def command(self, cmd: Any) -> None:
         """``close``: cup on (attach on contact); ``open`` or ``width``: cup off (release)."""
@@ -69,6 +76,7 @@ class Suction(Actuator):
             self.since = self.world.time
         self.action = cmd.action
         self.on = cmd.action == "close"
+        self.stopped = False
         if not self.on:
             self._release()
 
@@ -109,12 +117,12 @@ class Suction(Actuator):
     def read(self) -> GripperState:
         """``holding`` while a body is attached; width ``open_width`` when off, 0 when on; ``settled`` once
         holding, or ``settle_time`` after the cup was turned on with nothing to hold."""
-        width = 0.0 if self.on else self.config.open_width
+        width = 0.0 if self.on or self.held is not None else self.config.open_width
         held = None if self.held is None else (self.world.body_name(self.held) or f"body{self.held}")
         contacts = len(self.world.client.getContactPoints(bodyA=self.body, linkIndexA=self.link))
         settled = not self.on or self.held is not None or self.world.time - self.since >= self.config.settle_time
         return GripperState(width=width, target_width=width, action=self.action, settled=settled,
-                            holding=self.held is not None, held=held, finger_contacts=contacts)
+                            holding=self.held is not None, held=held, finger_contacts=contacts, stopped=self.stopped)
 
     def close(self) -> None:
         if self.world.client is not None:

@@ -1,8 +1,18 @@
 """The ``robokit`` command. Heavy imports (pybullet, cv2) happen only inside the commands that need them.
 
-Exit codes: 0 succeeded; 1 the behaviour failed or was aborted (e.g. ``max_time`` reached); 2 usage or config
-error; 3 a plugin (or robokit itself) raised (outcome ``error``); 4 the result could be neither delivered nor
-stored; 5 the server refused the result (kept; ``robokit outbox retry``); 130 interrupted (Ctrl-C / SIGTERM).
+Exit codes:
+
+- 0: succeeded;
+- 1: the behaviour failed or was aborted (e.g. ``max_time`` reached); a sweep with a failed or errored trial;
+- 2: usage or config error (nothing ran);
+- 3: a plugin (or robokit itself) raised (outcome ``error``);
+- 4: the result could be neither delivered nor stored;
+- 5: the server refused the result (kept; ``robokit outbox retry``);
+- 6: the run succeeded and its result was kept, but its record (trace, pose log) could not be written in full (a
+  full disk, a file-size limit): each failure is a one-line warning naming the file and the reason;
+- 130: interrupted by SIGINT (Ctrl-C), 143: by SIGTERM, at any moment from start-up to exit (one line on stderr;
+  whatever result exists is kept: a signal during start-up gives an ``aborted`` result with no ticks, one during
+  the loop stops at a tick boundary, one after the loop keeps the result as it was).
 
 No input gives a Python traceback: user errors are one line; anything unexpected is one line naming what raised and
 where, plus the path of a file with the full traceback. ``--debug`` (anywhere on the command line, or
@@ -29,6 +39,7 @@ if TYPE_CHECKING:
     import argparse
 
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_PLUGIN, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
+EXIT_RECORD_INCOMPLETE = 6
 
 
 def _finite_float(text: str) -> float:
@@ -135,10 +146,12 @@ def _add_extra_commands(sub: Any) -> None:
         return
     add_outbox_command(sub)
     from robokit.report.artifact_upload import add_upload_command
+    from robokit.report.submit import add_submit_command
     from robokit.server.cli import add_server_commands  # no Django import until `serve` / `manage` runs
 
     add_server_commands(sub)
     add_upload_command(sub)
+    add_submit_command(sub)
     from robokit.record.cli import add_record_commands
 
     add_record_commands(sub)
@@ -192,8 +205,16 @@ def cmd_run(args: argparse.Namespace) -> int:
         from robokit.extras import require
 
         require("video", "robokit run --video", ("imageio_ffmpeg",))
-    plugins, cfg = _load(args)  # first: robokit.runner imports robokit.config, see _load
-    from robokit.runner import run_config, summary
+    from robokit.process.interrupts import StopGuard
+
+    guard = StopGuard.current()
+    try:
+        plugins, cfg = _load(args)  # first: robokit.runner imports robokit.config, see _load
+    except BaseException as exc:  # a signal broke into start-up (imports, plugins): keep what can be kept
+        if isinstance(exc, KeyboardInterrupt) or (guard is not None and guard.signalled):
+            return _interrupted_before_config(args, guard.signal if guard is not None else None)
+        raise
+    from robokit.runner import run_config
 
     _end_startup_gc_pause()
     gui = bool(args.gui or cfg.world.gui)
@@ -203,12 +224,20 @@ def cmd_run(args: argparse.Namespace) -> int:
         check_display(f"robokit run {args.config} --gui")
     elif args.gui_hold:
         raise UserError("--gui-hold needs --gui (there is no window to hold)")
+    shown: list[Any] = []
+
+    def show(out: Any) -> None:  # the outcome, as soon as the result is kept (before --gui-hold holds)
+        if not shown:
+            shown.append(out)
+            _show_outcome(args, out, cfg)
+
     hold = None
     if args.gui_hold:
         from robokit.core.gui import hold as hold_window
 
-        def hold(sim: Any) -> None:
-            hold_window(sim.world)
+        def hold(sim: Any, out: Any) -> None:
+            show(out)
+            _hold_window(hold_window, sim.world)
 
     trace = _open_trace(args.trace) if args.trace else None
     try:
@@ -221,22 +250,23 @@ def cmd_run(args: argparse.Namespace) -> int:
                 trace.close()
             except OSError as exc:  # already reported by the trace writer when a record failed
                 print(f"robokit: warning: --trace {args.trace}: {exc.strerror or exc}", file=sys.stderr)
-    if args.json:
-        print(json.dumps(out.result.to_dict(), indent=2))
+    if shown:  # printed before the window was held: only what happened since
+        for failure in out.record_failures[len(shown[0].record_failures):]:
+            print(f"robokit: warning: {failure}", file=sys.stderr)
+    else:
+        show(out)
     if not args.quiet:
-        print(summary(out), file=sys.stderr if args.json else sys.stdout)
         _frames_note(cfg, out, args)
-    if out.error is not None:
-        _report_error(args, out, cfg)
     refused = _refused(out)
     if out.interrupted:
         if not args.quiet:
-            print("robokit: interrupted; the result was kept (see above)", file=sys.stderr)
+            print(f"robokit: interrupted ({out.signal or 'SIGINT'}); the result was kept (see above)",
+                  file=sys.stderr)
     elif args.video:
         from robokit.record.cli import video_after_run
 
         video_after_run(cfg, out.result.run_id, args.video, quiet=args.quiet)
-    return refused if refused is not None and out.exit_code not in (EXIT_INTERRUPTED, 4) else out.exit_code
+    return refused if refused is not None and out.exit_code not in (130, 143, 4) else out.exit_code
 
 
 def _refused(out: Any) -> int | None:
@@ -258,6 +288,46 @@ def _frames_note(cfg: Any, out: Any, args: argparse.Namespace) -> None:
     note = frames_note(folder, args.save_frames or cfg.record.save_frames)
     if note:
         print(note, file=sys.stderr if args.json else sys.stdout)
+
+
+def _interrupted_before_config(args: argparse.Namespace, signal_name: str | None) -> int:
+    """A signal ended start-up before the config was loaded: keep an ``aborted`` result.json all the same, written
+    with the standard library alone (whatever was being imported is left alone)."""
+    from robokit.core.result import early_result, write_early_result
+
+    path, payload = early_result(args.config, signal_name or "SIGINT", seed=args.seed)
+    try:
+        write_early_result(path, payload)
+        kept = f"the result was kept in {path}"
+    except OSError as err:
+        kept = f"no result kept: {path}: {err.strerror or err}"
+    if args.json:
+        print(json.dumps(payload, indent=2), flush=True)
+    return _interrupted(f"during start-up, before the config was loaded; {kept}")
+
+
+def _show_outcome(args: argparse.Namespace, out: Any, cfg: Any) -> None:
+    """Print the result (``--json``) and the summary; report an ``error`` outcome's traceback file."""
+    from robokit.runner import summary
+
+    if args.json:
+        print(json.dumps(out.result.to_dict(), indent=2), flush=True)
+    if not args.quiet:
+        print(summary(out), file=sys.stderr if args.json else sys.stdout, flush=True)
+    if out.error is not None:
+        _report_error(args, out, cfg)
+
+
+def _hold_window(hold_window: Any, world: Any) -> None:
+    """Hold the GUI window; Ctrl-C there only closes it (the run's exit code stays), SIGTERM still ends robokit."""
+    from robokit.process.interrupts import StopGuard
+
+    guard = StopGuard.current()
+    if guard is None:
+        hold_window(world)
+        return
+    with guard.absorbing(signals=("SIGINT",)):
+        hold_window(world)
 
 
 def _report_error(args: argparse.Namespace, out: Any, cfg: Any) -> None:
@@ -317,7 +387,8 @@ def cmd_plugins(args: argparse.Namespace) -> int:
 
     plugins = load_plugins()
     rows = [
-        {"kind": t.kind, "type": t.name, "distribution": t.distribution, "version": t.version,
+        {"kind": t.kind, "type": t.qualified if t.name in plugins.ambiguous[t.kind] else t.name,
+         "distribution": t.distribution, "version": t.version,
          "description": t.description}
         for t in plugins.all_types()
     ]
@@ -388,7 +459,8 @@ def cmd_lint(args: argparse.Namespace) -> int:
     return EXIT_FAILED if findings else EXIT_OK
 
 
-CAPTURED_COMMANDS = frozenset({"run", "validate", "inspect", "plugins", "graph", "video", "plot", "view", "results"})
+CAPTURED_COMMANDS = frozenset({"run", "validate", "inspect", "plugins", "graph", "video", "plot", "view", "results",
+                               "export"})
 """Commands whose pybullet C output is captured and summarised (they run pybullet in this process)."""
 
 
@@ -400,15 +472,33 @@ def main(argv: Sequence[str] | None = None) -> int:
     command and summarised in one line on stderr (nothing with ``--quiet``).
     """
     own_process = argv is None  # the console script: this process is robokit's own
-    if own_process:
+    guard = None
+    if own_process:  # first of all: a signal from here on is handled (130 / 143, one line), never a traceback
+        from robokit.process.interrupts import StopGuard
+
+        guard = StopGuard.for_process()
         _one_blas_thread()
     argv = list(sys.argv[1:] if argv is None else argv)
     if own_process and argv[:1] and argv[0] in GC_PAUSED_COMMANDS:
         _pause_gc_for_startup()
+    code = EXIT_INTERRUPTED
     try:
-        return _main(argv)
+        code = _main(argv)
+    except KeyboardInterrupt:  # a signal between the guard's phases, or before any command was chosen
+        code = _interrupted(None)
     finally:
         _end_startup_gc_pause()
+    return guard.closing(code) if guard is not None else code
+
+
+def _interrupted(detail: str | None) -> int:
+    """Say in one line that a signal ended the command; the exit code it asks for (130 / 143)."""
+    from robokit.process.interrupts import StopGuard, exit_code_for
+
+    guard = StopGuard.current()
+    name = guard.signal if guard is not None and guard.signal else "SIGINT"
+    print(f"robokit: interrupted ({name})" + (f"; {detail}" if detail else ""), file=sys.stderr, flush=True)
+    return exit_code_for(name)
 
 
 def _main(argv: list[str]) -> int:
@@ -422,8 +512,7 @@ def _main(argv: list[str]) -> int:
     try:
         args = _parser(argv[0] if argv else None).parse_args(argv)
     except KeyboardInterrupt:
-        print("robokit: interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
+        return _interrupted(None)
     args.debug = debug
     from robokit.process.interrupts import StopGuard
 
@@ -488,25 +577,38 @@ def _show_warning(message: Warning | str, category: type[Warning], *_args: Any, 
 
 def _dispatch(args: argparse.Namespace) -> int:
     """Run the chosen command; every error becomes one line and an exit code (a traceback only with --debug)."""
+    from robokit.process.interrupts import StopGuard
+
+    guard = StopGuard.current()
     try:
         code: int = args.func(args)
-    except UserError as exc:
+        if guard is not None and guard.signalled and code != guard.exit_code:  # else the command said so itself
+            return _interrupted(None)
+    except KeyboardInterrupt:
+        return _interrupted(None)
+    except BaseException as exc:
+        if guard is not None and guard.signalled:  # whatever a signal broke (a half-done import) is not a bug
+            return _interrupted(f"stopped at {describe(exc)}" if not isinstance(exc, UserError) else None)
+        return _dispatch_error(args, exc)
+    return code
+
+
+def _dispatch_error(args: argparse.Namespace, exc: BaseException) -> int:
+    """One line and an exit code for what a command raised (anything but an Exception is raised on)."""
+    if isinstance(exc, UserError):
         print(f"robokit: error: {one_line(exc, 2000)}", file=sys.stderr)
         return EXIT_USAGE
-    except KeyboardInterrupt:
-        print("robokit: interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
-    except PluginError as exc:
+    if isinstance(exc, PluginError):
         _report_crash(args, exc, f"robokit: error: {one_line(exc, 2000)}")
         return EXIT_PLUGIN
-    except BrokenPipeError:  # `robokit plugins | head`: the reader left; say nothing more
+    if isinstance(exc, BrokenPipeError):  # `robokit plugins | head`: the reader left; say nothing more
         sys.stderr.close()
         return EXIT_FAILED
-    except Exception as exc:  # noqa: BLE001 - a bug: one line and a traceback file, never a bare traceback
-        where = where_raised(exc)
-        _report_crash(args, exc, f"robokit: internal error: {describe(exc)}" + (f" (at {where})" if where else ""))
-        return EXIT_PLUGIN
-    return code
+    if not isinstance(exc, Exception):
+        raise exc
+    where = where_raised(exc)  # a bug: one line and a traceback file, never a bare traceback
+    _report_crash(args, exc, f"robokit: internal error: {describe(exc)}" + (f" (at {where})" if where else ""))
+    return EXIT_PLUGIN
 
 
 def _report_crash(args: argparse.Namespace, exc: BaseException, line: str) -> None:

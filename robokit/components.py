@@ -232,11 +232,23 @@ class Behaviour:
     kind: ClassVar[str] = "behaviour"
     open_ended: ClassVar[bool] = False
     """True for behaviours with no natural end (teleop): reaching ``max_time`` then counts as success."""
+    started_at: float | None = None
 
     def __init__(self, name: str, config: Any) -> None:
         self.name = name
         self.config = config
         self.outcome: Outcome | None = None
+        self.started_at = None
+        """Sim time (the world's clock) this behaviour started: set by the composite that starts it (a sequence
+        step, a retry), else at its first call of :meth:`elapsed`."""
+
+    def elapsed(self, t: float) -> float:
+        """Sim seconds since this behaviour started: its own stopwatch. ``t`` (what :meth:`step` receives) is
+        always the world's sim time, the same for every behaviour, step, sub-machine and monitor; use this for
+        durations counted from the behaviour's start (a ``duration``, a ``timeout``)."""
+        if self.started_at is None:
+            self.started_at = t
+        return t - self.started_at
 
     def setup(self, ctx: SetupContext) -> None:
         """Check the components it needs exist (raise ``ConfigError`` otherwise). Runs once before the first tick."""

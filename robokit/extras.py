@@ -12,9 +12,10 @@ from robokit.errors import UserError
 
 EXTRAS: dict[str, tuple[str, ...]] = {
     "video": ("matplotlib", "imageio_ffmpeg"),
-    "server": ("django", "dj_database_url", "waitress", "whitenoise", "lxml"),
+    "server": ("django", "dj_database_url", "waitress", "whitenoise", "lxml", "django_q"),
     "ray": ("ray",),
     "gym": ("gymnasium",),
+    "rerun": ("rerun", "mcap"),
 }
 """Extra -> the modules it makes importable. matplotlib and imageio-ffmpeg are in the base install too (the README's
 first command gives video, plots and the run page); ``video`` stays as an extra for older install commands."""

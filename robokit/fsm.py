@@ -62,8 +62,9 @@ class MachineBehaviour(Behaviour):
 
     Instance attributes:
         timeouts: The timeouts in force: ``TIMEOUTS`` updated with the config's ``timeouts``.
-        t: Sim time of the current step, seconds.
-        entered_at: Sim time the current state was entered.
+        t: Sim time of the current step, seconds: the world's clock, the same for every behaviour, sequence step,
+            sub-machine and monitor. Durations since the machine started: :meth:`elapsed`.
+        entered_at: Sim time the current state was entered (the initial state: the machine's first step).
         visited: Every state entered so far, in order, the initial one first.
         phase_times: Sim seconds spent per state name (states left so far).
     """
@@ -78,7 +79,8 @@ class MachineBehaviour(Behaviour):
 
     def __init__(self, name: str, config: Any) -> None:
         super().__init__(name, config)
-        self.t = 0.0
+        self._t = 0.0
+        self._clock_started = False
         self.entered_at = 0.0
         self.visited: list[str] = [self.INITIAL.name]
         self.phase_times: dict[str, float] = {}
@@ -154,6 +156,22 @@ class MachineBehaviour(Behaviour):
         except KeyError:
             found = table[state] = getattr(self, f"{prefix}_{self.state_name.lower()}", None)
             return found
+
+    @property
+    def t(self) -> float:
+        """Sim time of the current step (the world's clock, seconds)."""
+        return self._t
+
+    @t.setter
+    def t(self, value: float) -> None:
+        # The first time set is when this machine starts: its initial state is entered then, however late that is
+        # on the world's clock (a sequence's later step, a sub-machine started by its parent).
+        if not self._clock_started:
+            self._clock_started = True
+            self.entered_at = value
+            if self.started_at is None:
+                self.started_at = value
+        self._t = value
 
     @property
     def time_in_state(self) -> float:

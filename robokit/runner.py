@@ -15,24 +15,28 @@ from typing import IO, Any
 from robokit import __version__
 from robokit.components import Delivery
 from robokit.config import Config, results_root
-from robokit.core.result import OUTCOME_EXIT_CODES, RunResult
+from robokit.core.result import RunResult
 from robokit.core.simulation import Simulation
 from robokit.errors import ConfigError, Interrupted, PluginError, UserError, plugin_fault
 from robokit.plugin_api.plugins import Plugins
-from robokit.process.interrupts import StopGuard
+from robokit.process.interrupts import STARTUP_GRACE, StopGuard, exit_code_for
 from robokit.report.reporting import build_payload, deliver
 
 EXIT_NOT_STORED = 4
 """Exit code when the result could be neither delivered nor stored locally by any reporter."""
+EXIT_RECORD_INCOMPLETE = 6
+"""Exit code of a run that succeeded and kept its result, but whose record (trace, pose log) could not be written in
+full (a full disk, a file-size limit): each failure is a one-line warning naming the file and the reason."""
 
 
 @dataclass
 class RunOutput:
     """A finished run: its result, the payload delivered, what each reporter did, and the exit code.
 
-    ``interrupted`` is true when Ctrl-C / SIGTERM arrived at any point (start-up, the loop, delivery): the exit
-    code is then 130 whatever the outcome. ``error`` is what ended the run with outcome ``error`` (its traceback
-    goes to the run folder).
+    ``signal`` names the signal (``SIGINT`` / ``SIGTERM``) received at any point (start-up, the loop, delivery,
+    the record's writes): the exit code is then 130 / 143 whatever the outcome. ``error`` is what ended the run with
+    outcome ``error`` (its traceback goes to the run folder). ``record_failures`` are the parts of the run record
+    that could not be written, one line each (the result itself is kept).
     """
 
     result: RunResult
@@ -40,6 +44,8 @@ class RunOutput:
     deliveries: list[tuple[str, Delivery]] = field(default_factory=list)
     interrupted: bool = False
     error: BaseException | None = None
+    signal: str | None = None
+    record_failures: list[str] = field(default_factory=list)
 
     @property
     def stored(self) -> bool:
@@ -48,10 +54,18 @@ class RunOutput:
 
     @property
     def exit_code(self) -> int:
-        """130 if interrupted; else the run's exit code, or :data:`EXIT_NOT_STORED` when kept nowhere."""
+        """130 / 143 if interrupted; else :data:`EXIT_NOT_STORED` when the result is kept nowhere; else the run's
+        exit code, or :data:`EXIT_RECORD_INCOMPLETE` for a success whose record is incomplete."""
         if self.interrupted or self.result.interrupted:
-            return OUTCOME_EXIT_CODES["interrupted"]
-        return self.result.exit_code if self.stored else EXIT_NOT_STORED
+            return exit_code_for(self.signal or _signal_of(self.result))
+        if not self.stored:
+            return EXIT_NOT_STORED
+        code = self.result.exit_code
+        return EXIT_RECORD_INCOMPLETE if code == 0 and self.record_failures else code
+
+
+def _signal_of(result: RunResult) -> str | None:
+    return "SIGTERM" if "SIGTERM" in result.reason else None
 
 
 def make_reporters(cfg: Config, plugins: Plugins) -> list[Any]:
@@ -114,30 +128,31 @@ def run_config(
 
     With ``record`` (the default) the run keeps its record in ``<results dir>/<run_id>/`` (see
     :mod:`robokit.record`): the trace with its header, the pose log at ``pose_hz`` (default ``[record] pose_hz``),
-    camera frames when ``save_frames``; the local reporter adds ``result.json``. ``after_run(sim)`` is called
-    after the last tick, before the world closes (``--gui-hold`` uses it).
+    camera frames when ``save_frames``; the local reporter adds ``result.json``.
+    The end is ordered so the result survives what follows: the result is delivered (``result.json``, outbox
+    entries) first, then the pose log is written, then ``after_run(sim, out)`` is called (``--gui-hold`` uses it),
+    then the world closes. A record write that fails is a line in :attr:`RunOutput.record_failures` (exit code
+    :data:`EXIT_RECORD_INCOMPLETE` for an otherwise successful run).
     With ``on_problem``, the preflight checks run first and each problem found is handed to it (``robokit run``
     prints them as warnings and runs anyway: the goal check then reports what happened).
     A plugin that raises during setup or the run gives outcome ``error``; whatever result exists is still reported.
     Ctrl-C / SIGTERM at any point (see :mod:`robokit.process.interrupts`) stops promptly: during start-up the run ends
-    ``aborted`` with no ticks, during the loop at a tick boundary, during delivery at once; the result is kept
-    (reporters that send it somewhere slow keep it in their outbox instead) and :attr:`RunOutput.exit_code` is 130.
+    ``aborted`` with no ticks, during the loop at a tick boundary; after the loop the result is kept as it was
+    (reporters that send it somewhere slow keep it in their outbox instead), the pose log is finished or abandoned,
+    and :attr:`RunOutput.exit_code` is 130 (SIGINT) or 143 (SIGTERM).
     """
     run_seed = cfg.world.seed if seed is None else seed
     run_id = str(uuid.uuid4())
     run_dir = _make_run_dir(results_root(cfg) / run_id) if record else None
     error: BaseException | None = None
+    sim: Simulation | None = None
     with StopGuard.ensure() as guard:
         try:
-            sim = Simulation(cfg, plugins, gui=gui, seed=seed, run_id=run_id, run_dir=run_dir,
-                             save_frames=save_frames)
-            if on_problem is not None:
-                try:
-                    for problem in sim.preflight():
-                        on_problem(problem)
-                except BaseException:
-                    sim.close()
-                    raise
+            with guard.immediate():  # a signal stops building at once (the run ends aborted, no ticks)
+                if guard.signalled:  # it came before this run began (imports, the config): build nothing
+                    raise Interrupted(guard.signal or "SIGINT")
+                sim = _build(cfg, plugins, gui=gui, seed=seed, run_id=run_id, run_dir=run_dir,
+                             save_frames=save_frames, on_problem=on_problem)
         except UserError:
             if run_dir is not None:  # a config problem found at setup: nothing ran, keep no empty run folder
                 with contextlib.suppress(OSError):
@@ -148,41 +163,116 @@ def run_config(
             if trace is not None:  # the run never started: the trace holds the error alone
                 TraceWriter(trace)({"tick": 0, "t": 0.0, "source": "run", "kind": "error", "reason": str(exc)})
         except Interrupted as exc:
+            sim = None
             result = error_result(cfg, run_seed, f"interrupted by {exc.reason} during start-up", run_id=run_id,
                                   outcome="aborted", interrupted=True)
-        else:
-            writer = TraceWriter(trace) if trace is not None else None
+        recorder, failures = None, list[str]()
+        if sim is not None:
+            result, recorder, failures = _run(sim, cfg, run_dir, trace, guard, pose_hz=pose_hz, max_time=max_time,
+                                    max_wall=max_wall)
+            error = sim.error
+        out = _keep(cfg, plugins, result, guard, report=report, error=error)
+        out.record_failures += failures
+        if sim is not None:
+            _after(sim, recorder, out, guard, after_run)
+        out.interrupted, out.signal = guard.signalled or result.interrupted, guard.signal or _signal_of(result)
+        return out
+
+
+def _build(cfg: Config, plugins: Plugins, *, on_problem: Callable[[ConfigError], None] | None,
+           **options: Any) -> Simulation:
+    """The Simulation, with its preflight problems handed to ``on_problem`` (closed again if that raises)."""
+    sim = Simulation(cfg, plugins, **options)
+    if on_problem is not None:
+        try:
+            for problem in sim.preflight():
+                on_problem(problem)
+        except BaseException:
+            sim.close()
+            raise
+    return sim
+
+
+def _run(sim: Simulation, cfg: Config, run_dir: Path | None, trace: IO[str] | None, guard: StopGuard, *,
+         pose_hz: float | None, max_time: float | None, max_wall: float | None) -> tuple[RunResult, Any, list[str]]:
+    """Attach the trace writer and the recorder, run the loop, end the trace (the pose log is written later).
+
+    Around the loop a signal is only noted (the loop then stops at once); a forced break while the trace ends
+    abandons the rest of the trace, never the result.
+    """
+    writer = TraceWriter(trace) if trace is not None else None
+    recorder = None
+    failures: list[str] = []
+    try:
+        with guard.deferred(STARTUP_GRACE):
             if writer is not None:
                 for early in sim.trace:  # written during setup, before the file was listening
                     writer(early)
                 sim.trace_listeners.append(writer)
-            recorder = None
-            try:
-                if run_dir is not None:
-                    from robokit.record.recorder import Recorder
+            if run_dir is not None:
+                from robokit.record.recorder import Recorder
 
-                    hz = cfg.record.pose_hz if pose_hz is None else pose_hz
-                    recorder = Recorder(sim, run_dir, pose_hz=hz)
-                    sim.add_monitor(recorder)
-                result = sim.run(max_time=max_time, max_wall=max_wall)
-                error = sim.error
+                hz = cfg.record.pose_hz if pose_hz is None else pose_hz
+                recorder = Recorder(sim, run_dir, pose_hz=hz)
+                sim.add_monitor(recorder)
+            result = sim.run(max_time=max_time, max_wall=max_wall)
+        try:
+            with guard.deferred():
                 if recorder is not None:
-                    recorder.close(result)
-                if after_run is not None:
-                    after_run(sim)
-            except BaseException as exc:
-                if run_dir is not None:  # the CLI writes traceback.txt into the run's folder
-                    exc.robokit_run_dir = run_dir  # type: ignore[attr-defined]
-                raise
-            finally:
-                if recorder is not None:
-                    recorder.close()
-                sim.close()
-            if writer is not None and writer.failure:
-                result.warnings.append(writer.failure)
-        payload = build_payload(result, student=cfg.report.student, project=cfg.report.project)
-        deliveries = deliver(make_reporters(cfg, plugins), payload, stop=guard) if report else []
-        return RunOutput(result, payload, deliveries, interrupted=guard.signalled, error=error)
+                    recorder.finish(result)  # the last sample and the trace's end record: quick, before delivery
+        except Interrupted as exc:
+            recorder.abandon()  # type: ignore[union-attr]
+            failures.append(f"run record: the trace's end was abandoned ({exc.reason})")
+    except BaseException as exc:
+        if run_dir is not None:  # the CLI writes traceback.txt into the run's folder
+            exc.robokit_run_dir = run_dir  # type: ignore[attr-defined]
+        with contextlib.suppress(Exception):
+            if recorder is not None:
+                recorder.abandon()
+            sim.close()
+        raise
+    failures = _write_failures(writer, recorder) + failures
+    result.warnings += failures  # in result.json too: they happened before it is written
+    return result, recorder, failures
+
+
+def _write_failures(writer: TraceWriter | None, recorder: Any) -> list[str]:
+    """The trace files that could not be written in full during the run, one line each."""
+    return [f for f in (writer.failure if writer else None, recorder.failure if recorder else None) if f]
+
+
+def _keep(cfg: Config, plugins: Plugins, result: RunResult, guard: StopGuard, *, report: bool,
+          error: BaseException | None) -> RunOutput:
+    """Deliver the result before anything slow: local reporters inside a critical section (a signal waits for
+    ``result.json`` to be whole), then reporters that send it away (a signal there keeps it in their outbox)."""
+    payload = build_payload(result, student=cfg.report.student, project=cfg.report.project)
+    deliveries: list[tuple[str, Delivery]] = []
+    if report:
+        reporters = make_reporters(cfg, plugins)
+        local = [r for r in reporters if not getattr(r, "sends", False)]
+        with guard.deferred(), guard.critical():
+            deliveries += deliver(local, payload, stop=guard)
+        with guard.immediate():
+            deliveries += deliver([r for r in reporters if r not in local], payload, stop=guard)
+    return RunOutput(result, payload, deliveries, error=error)
+
+
+def _after(sim: Simulation, recorder: Any, out: RunOutput, guard: StopGuard, after_run: Any) -> None:
+    """The slow parts, after the result is kept: the pose log, then ``after_run`` (``--gui-hold``), then closing
+    the world. A signal here lets a write finish (or abandons it after the grace): the result stays as kept."""
+    try:
+        with guard.deferred():
+            if recorder is not None:
+                out.record_failures += recorder.write_poses()
+            if after_run is not None and not guard.signalled:
+                after_run(sim, out)
+    except Interrupted as exc:
+        if recorder is not None:
+            recorder.abandon()
+        out.record_failures.append(f"run record: the pose log was abandoned ({exc.reason}); the result is kept")
+    finally:
+        with contextlib.suppress(Interrupted):
+            sim.close()
 
 
 class TraceWriter:
@@ -231,7 +321,7 @@ def summary(out: RunOutput) -> str:
             value = json.dumps(value, default=str)
             value = value if len(value) <= 200 else value[:197] + "..."
         lines.append(f"  {key}: {value}")
-    for warning in r.warnings:
+    for warning in r.warnings + [f for f in out.record_failures if f not in r.warnings]:
         lines.append(f"warning: {warning}")
     for name, d in out.deliveries:
         lines.append(f"report[{name}]: {d.message or ('delivered' if d.delivered else 'not delivered')}")

@@ -33,8 +33,9 @@ def robokit(*args: str, cwd: Path, env: dict[str, str] | None = None, check: boo
 class Server:
     """``robokit serve --data DIR --port P`` in a subprocess; its output is collected for checks."""
 
-    def __init__(self, data: Path, port: int, env: dict[str, str] | None = None, extra: tuple[str, ...] = ()) -> None:
-        self.data, self.port, self.extra = data, port, extra
+    def __init__(self, data: Path, port: int, env: dict[str, str] | None = None, extra: tuple[str, ...] = (),
+                 workers: int = 0) -> None:
+        self.data, self.port, self.extra = data, port, ("--workers", str(workers), *extra)  # no queue unless asked
         self.url = f"http://127.0.0.1:{port}"
         self.env = {**os.environ, **(env or {})}
         self.lines: list[str] = []

@@ -79,7 +79,8 @@ def test_drop_with_no_attempts_left_fails_with_the_reason() -> None:
         sim.world.set_pose("cube", (0.55, 0.05, 0.03))
         result = sim.run(max_time=6.0)
         assert result.outcome == "failed"
-        assert result.reason.startswith("dropped during TRANSPORT (after 1 attempt); goal not met: cube is ")
+        assert result.reason.startswith("goal not met: cube is ")
+        assert result.reason.endswith("(the behaviour reported failed: dropped during TRANSPORT (after 1 attempt))")
         assert states_visited(sim, "behaviour")[-1] == "FAILED"
 
 
@@ -88,7 +89,8 @@ def test_unreachable_object_fails_at_once_with_the_arm_reason() -> None:
         sim.world.set_pose("cube", (0.95, 0.45, 0.025))  # table corner, beyond the configured reach
         result = sim.run(max_time=6.0)
         assert result.outcome == "failed"
-        assert result.reason.startswith("arm failed in APPROACH: unreachable:")
+        assert result.reason.startswith("goal not met: cube is ")  # the world's verdict first (the outcome rule)
+        assert "(the behaviour reported failed: arm failed in APPROACH: unreachable:" in result.reason
         assert result.sim_time < 0.1
 
 

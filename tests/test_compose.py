@@ -186,9 +186,9 @@ def test_graph_of_a_config_draws_the_sequence_and_the_monitors(tmp_path: Path,
     assert main(["graph", str(path)]) == 0
     out = capsys.readouterr().out
     assert out.startswith("stateDiagram-v2\n")
-    for line in ('state "task: sequence of 2" as task {', 'state "1. out (go_to_goal)" as s1 {',
-                 "s1_TURNING --> s1_DRIVING: aligned", "[*] --> s1", "s1 --> s2: succeeded", "s2 --> [*]: succeeded",
-                 "--", 'state "monitor log (record)" as m_log {'):
+    for line in ('state "task: sequence of 2" as task {', 'state "1. out (go_to_goal)" as task_1 {',
+                 "task_1_TURNING --> task_1_DRIVING: aligned", "[*] --> task_1", "task_1 --> task_2: succeeded",
+                 "task_2 --> [*]", "--", 'state "monitor log (record)" as m_log {'):
         assert line in out, line
     assert main(["graph", str(CONFIGS / "patrol_logged.toml")]) == 0
     out = capsys.readouterr().out

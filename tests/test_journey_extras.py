@@ -88,7 +88,7 @@ def test_the_video_extra_is_in_the_base_install() -> None:
     assert "video" in project["optional-dependencies"]
 
 
-SERVER_MODULES = ("django", "waitress", "whitenoise", "dj_database_url", "lxml")
+SERVER_MODULES = ("django", "waitress", "whitenoise", "dj_database_url", "lxml", "django_q")
 
 
 @pytest.mark.parametrize("module", SERVER_MODULES)

@@ -174,8 +174,9 @@ def claims_run(**params: Any) -> Any:
 def test_a_claimed_success_whose_goal_does_not_hold_ends_failed_with_the_goal_reason() -> None:
     result = claims_run(claim="succeeded", below=0.5)
     assert result.outcome == "failed" and result.exit_code == 1
-    assert result.reason == "goal not met: box at z = 1.00 m (the behaviour reported: done, it says)"
-    assert result.result["goal"] == {"met": False, "reason": "box at z = 1.00 m", "z": 1.0}
+    assert result.reason == "goal not met: box at z = 1.00 m (the behaviour reported succeeded: done, it says)"
+    assert result.result["goal"] == {"met": False, "reason": "box at z = 1.00 m", "z": 1.0,
+                                     "claimed": {"outcome": "succeeded", "reason": "done, it says"}}
 
 
 def test_a_goal_that_holds_keeps_the_outcome_and_is_recorded() -> None:
@@ -184,9 +185,10 @@ def test_a_goal_that_holds_keeps_the_outcome_and_is_recorded() -> None:
     assert result.result["goal"]["met"] is True
 
 
-def test_a_failure_keeps_failing_and_adds_the_goal_reason() -> None:
+def test_a_failure_keeps_failing_and_the_goal_reason_comes_first() -> None:
     result = claims_run(claim="failed", below=0.5)
-    assert (result.outcome, result.reason) == ("failed", "done, it says; goal not met: box at z = 1.00 m")
+    assert (result.outcome, result.reason) == ("failed", "goal not met: box at z = 1.00 m (the behaviour reported "
+                                                         "failed: done, it says)")
 
 
 def test_a_goal_check_that_raises_is_a_plugin_error_naming_the_type() -> None:

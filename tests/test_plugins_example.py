@@ -106,7 +106,8 @@ def test_the_example_config_runs_and_its_readings_are_in_the_trace(venv):
     samples = [r for r in records if r["kind"] == "reading" and r["component"] == "imu"]
     assert len(samples) == 121 and samples[1]["tick"] == 4  # 60 Hz of 240 Hz physics, for 2 s
     first = samples[1]["value"]
-    assert set(first) == {"linear_acceleration", "angular_velocity", "time"}
+    assert set(first) == {"linear_acceleration", "angular_velocity", "frame", "time", "orientation"}  # msgs.Imu
+    assert first["frame"] and first["orientation"] is None  # the frame is named in every reading
     assert len(first["linear_acceleration"]) == 3 and len(first["angular_velocity"]) == 3
     falling = samples[5]["value"]["linear_acceleration"]  # t = 0.083 s: in free fall, no specific force
     resting = samples[-1]["value"]["linear_acceleration"]  # t = 2 s: settled on the ground

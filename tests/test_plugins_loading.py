@@ -13,6 +13,7 @@ import pytest
 from plugin_dists import BAD_SIGNATURE, BROKEN_IMPORT, GOOD_SENSOR, HALF_REGISTERING, UNKNOWN_HOOK, make_dist
 
 from robokit.cli import main
+from robokit.errors import UserError
 from robokit.plugin_api.plugins import PluginLoadWarning, load_plugins
 
 
@@ -93,37 +94,38 @@ def test_a_registration_hook_that_raises_leaves_none_of_its_types(tmp_path, monk
     assert "body_pose" in plugins.types["sensor"]
 
 
-def test_two_types_with_one_name_keep_the_first_and_skip_the_later_naming_both(tmp_path, monkeypatch, capsys):
+def test_two_types_with_one_name_make_the_bare_name_ambiguous_and_both_are_listed(tmp_path, monkeypatch, capsys):
+    # load order decides nothing (tests/test_composition_names.py has the config side: dist:type runs each)
     make_dist(tmp_path, "alpha-sensors", "1.0", GOOD_SENSOR, type_name="rangefinder")
     make_dist(tmp_path, "beta-sensors", "2.0", GOOD_SENSOR, type_name="rangefinder")
     monkeypatch.syspath_prepend(str(tmp_path))
-    with pytest.warns(PluginLoadWarning) as caught:
-        plugins = load_plugins()
-    assert plugins.get("sensor", "rangefinder").origin == "alpha-sensors 1.0"
-    messages = [str(w.message) for w in caught]
-    assert any(m.startswith("robokit plugin beta-sensors 2.0 (sensor type 'rangefinder') not loaded: the name is "
-                            "taken by alpha-sensors 1.0's sensor 'rangefinder'") for m in messages), messages
+    plugins = load_plugins()
+    with pytest.raises(UserError, match="sensor type 'rangefinder' is ambiguous: it is registered by alpha-sensors "
+                                        "1.0 and beta-sensors 2.0; write 'alpha-sensors:rangefinder' or "
+                                        "'beta-sensors:rangefinder'"):
+        plugins.get("sensor", "rangefinder")
+    assert plugins.get("sensor", "beta-sensors:rangefinder").origin == "beta-sensors 2.0"
 
-    assert main(["plugins"]) == 0  # every command still works; the warning is one line
+    assert main(["plugins"]) == 0  # every command still works
     out, err = capsys.readouterr()
-    assert [line.split()[2] for line in out.splitlines() if " rangefinder " in line] == ["alpha-sensors"]
-    warning = [line for line in err.splitlines() if "rangefinder" in line]
-    assert len(warning) == 1 and "beta-sensors 2.0" in warning[0] and "alpha-sensors 1.0" in warning[0]
+    assert [line.split()[1] for line in out.splitlines() if "rangefinder" in line] == [
+        "alpha-sensors:rangefinder", "beta-sensors:rangefinder"]
+    assert "rangefinder" not in err
 
 
 def test_a_type_clashing_with_a_builtin_is_skipped_and_the_builtin_keeps_its_name(tmp_path, monkeypatch, capsys):
     # "aaa-copycat" sorts before "robokit": it is loaded first, yet the built-in keeps the name
     make_dist(tmp_path / "dists", "aaa-copycat", "0.1", GOOD_SENSOR, type_name="body_pose")
     monkeypatch.syspath_prepend(str(tmp_path / "dists"))
-    with pytest.warns(PluginLoadWarning, match=r"robokit plugin aaa-copycat 0\.1 \(sensor type 'body_pose'\) not "
-                                               r"loaded: the name is taken by robokit's built-in sensor 'body_pose'"):
+    with pytest.warns(PluginLoadWarning, match=r"robokit plugin aaa-copycat 0\.1: its sensor type 'body_pose' is "
+                                               r"reachable as 'aaa-copycat:body_pose' only: the bare name is "
+                                               r"robokit's built-in sensor"):
         plugins = load_plugins()
     assert plugins.get("sensor", "body_pose").origin.startswith("robokit ")
 
     assert main(["plugins"]) == 0
     out, err = capsys.readouterr()
     assert [line.split()[2] for line in out.splitlines() if " body_pose " in line] == ["robokit"]
-    assert "not loaded: aaa-copycat 0.1 (sensor type 'body_pose')" in out
     assert len([line for line in err.splitlines() if "aaa-copycat" in line]) == 1
     config = tmp_path / "c.toml"
     config.write_text('[world]\nmax_time = 0.05\n[bodies.ball]\nshape = "sphere"\nradius = 0.1\nmass = 1\n'

@@ -65,7 +65,9 @@ def test_sort_stops_at_max_picks() -> None:
         result = sim.run()
     assert result.outcome == "failed"
     assert result.result["picks"] == 1
-    assert result.reason.startswith("1 pick attempts used up; 3 sortable object(s) remain"), result.reason
+    assert result.reason.startswith("goal not met: 3 of 4 object(s)"), result.reason  # the world first (README)
+    assert result.reason.endswith("(the behaviour reported failed: 1 pick attempts used up; 3 sortable object(s) "
+                                  "remain)"), result.reason
     assert result.result["red_sorted"] + result.result["blue_sorted"] == 1  # counted in the world
 
 

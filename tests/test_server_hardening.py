@@ -206,7 +206,26 @@ def _page_urls(course: Course, run_id: str, artifact_pk: int) -> dict[str, str]:
         "leaderboard": f"/classes/{room}/projects/{project.pk}/", "history": f"/classes/{room}/students/"
         f"{course.kim.pk}/", "export-csv": f"/classes/{room}/results.csv", "run": f"/runs/{run_id}/",
         "artifact": f"/artifacts/{artifact_pk}/xy.png", "me": "/me/", "me-logout": "/me/logout/",
-        "api-result": API, "api-artifacts": f"{API}{run_id}/artifacts/",
+        "api-result": API, "api-artifacts": f"{API}{run_id}/artifacts/", **_course_work_urls(course),
+    }
+
+
+def _course_work_urls(course: Course) -> dict[str, str]:
+    """The course-work pages (assignments, dashboard, grades, moderation) with an assignment and a submission."""
+    from course_work import OFFICIAL, make_assignment
+
+    from robokit.server.models import Submission
+
+    a = make_assignment(course.room)
+    sub = Submission.objects.create(assignment=a, student=course.kim, config_text=OFFICIAL)
+    room, kim = course.room.pk, course.kim.pk
+    return {
+        "assignment": f"/classes/{room}/assignments/{a.pk}/", "assignment-chart":
+        f"/classes/{room}/assignments/{a.pk}/reasons.svg", "dashboard": f"/classes/{room}/students/{kim}/dashboard/",
+        "student-chart": f"/classes/{room}/students/{kim}/weekly.svg", "grades-csv": f"/classes/{room}/grades.csv",
+        "moderate": f"/classes/{room}/moderate/", "moderation": f"/classes/{room}/moderation/",
+        "submission": f"/submissions/{sub.pk}/", "api-submit": f"/api/robotics/assignments/{a.name}/submissions/",
+        "api-submission": f"/api/robotics/submissions/{sub.pk}/", "api-training": "/api/robotics/training/",
     }
 
 
@@ -224,7 +243,8 @@ def test_every_html_page_has_a_content_security_policy(client: Any, course: Cour
     named = {p.name for p in get_resolver().url_patterns if isinstance(p, URLPattern)}
     assert named == set(urls)  # every page of the app is checked below
     admin_urls = ["/admin/", "/admin/password_change/", "/admin/no-such-page/", "/no-such-page/"]
-    for model in ("classroom", "student", "token", "project", "result"):
+    for model in ("classroom", "student", "token", "project", "result", "assignment", "submission",
+                  "moderationevent", "trainingrun"):
         admin_urls += [f"/admin/course/{model}/", f"/admin/course/{model}/1/change/"]
     admin_urls += ["/admin/course/classroom/add/", "/admin/course/student/add/", "/admin/course/project/add/"]
     pages = 0

@@ -146,7 +146,7 @@ def test_resuming_into_a_folder_of_another_config_is_refused(tmp_path: Path, fau
     run_sweep(spec, SweepOptions(out=tmp_path / "out", workers=1))
     other = tmp_path / "other.toml"
     other.write_text(FAULT.read_text(encoding="utf-8").replace("max_time = 1.0", "max_time = 2.0"), encoding="utf-8")
-    with pytest.raises(UserError, match="holds a sweep with a different config_sha256"):
+    with pytest.raises(UserError, match="cannot resume this sweep: the config file's text changed"):
         run_sweep(SweepSpec(other, range(1), plugins=("sweep_faults",)), SweepOptions(out=tmp_path / "out"))
 
 

@@ -20,7 +20,15 @@ The check builds the behaviour from its ``example`` (a minimal scene, its sensor
 5. **deterministic, in sim time**: a second fresh simulation with the same seed — run while the wall clock jumps
    an hour at every read and ``time.sleep`` refuses to run — gives the same trace (every record the behaviour
    wrote, transitions included), the same outcome and the same result;
-6. **result**: ``result()`` is JSON-serialisable.
+6. **result**: ``result()`` is JSON-serialisable;
+7. **readings in, commands out**: during the example run nothing in the world changes while the behaviour's
+   ``step()`` runs (no body moved, no joint reset, no velocity set) and ``step()`` calls none of the physics
+   engine's mutating functions (forces, motor commands, constraints, dynamics, resets): the behaviour changes the
+   world only through the commands it returns.
+
+Every plugin call (the build, each tick's ``step()``, ``result()``) has a wall-clock budget (``budget``, seconds):
+a call that never returns fails the check naming the behaviour and the call, instead of hanging the test run
+(:mod:`robokit.checks.budget`).
 
 A failed check raises :class:`~robokit.checks.conformance.ConformanceError` naming the type, its distribution and
 the check.
@@ -42,6 +50,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from robokit.checks.budget import DEFAULT_BUDGET, Beat, Overrun, run_bounded
 from robokit.checks.conformance import ConformanceError, declaration_problem, first_difference, schema_kind
 from robokit.checks.lint import lint_paths
 from robokit.config import build_config
@@ -85,6 +94,7 @@ def check_behaviour(
     scene: Mapping[str, Any] | None = None,
     seed: int = 0,
     extra_plugins: Iterable[object] = (),
+    budget: float = DEFAULT_BUDGET,
 ) -> BehaviourReport:
     """Check that a registered behaviour type keeps the behaviour contract (see the module docstring).
 
@@ -94,17 +104,18 @@ def check_behaviour(
         scene: The other config sections (default: the rest of the type's ``example``).
         seed: The world seed of both simulations.
         extra_plugins: Plugin objects to register besides the installed entry points.
+        budget: Wall-clock seconds one plugin call may take (the build, one tick, ``result()``).
 
     Raises:
         ConformanceError: A check failed.
     """
-    return _BehaviourCheck(type_name, config, scene, seed, tuple(extra_plugins)).run()
+    return _BehaviourCheck(type_name, config, scene, seed, tuple(extra_plugins), budget).run()
 
 
 class _BehaviourCheck:
     def __init__(self, type_name: str, config: Mapping[str, Any] | None, scene: Mapping[str, Any] | None, seed: int,
-                 extra_plugins: tuple[object, ...]) -> None:
-        self.type_name, self.seed = type_name, seed
+                 extra_plugins: tuple[object, ...], budget: float = DEFAULT_BUDGET) -> None:
+        self.type_name, self.seed, self.budget = type_name, seed, budget
         self.plugins: Plugins = load_plugins(extra_plugins)
         try:
             self.ptype: PluginType = self.plugins.get("behaviour", type_name)
@@ -138,7 +149,7 @@ class _BehaviourCheck:
         self._check_unknown_key()
         self._check_imports()
         self._check_lint()
-        trace_a, outcome_a, result_a, sim_time = self._run("builds")
+        trace_a, outcome_a, result_a, sim_time = self._run("builds", watch=True)
         if outcome_a is None:
             raise self.fail("outcome", f"no outcome after the example's max_time ({sim_time:g} s sim time): a "
                             "behaviour must end by itself (finish(...)) or declare open_ended = True")
@@ -158,6 +169,8 @@ class _BehaviourCheck:
         except (TypeError, ValueError) as exc:
             raise self.fail("result", f"result() is not JSON-serialisable: {exc}") from None
         self.passed(f"result() is JSON-serialisable ({len(result_a)} keys)")
+        self.passed("changes the world only through its commands (nothing moved or driven during step()); every "
+                    f"call returned within its {self.budget:g} s budget")
         return self.report
 
     def _check_declarations(self) -> None:
@@ -211,21 +224,40 @@ class _BehaviourCheck:
             raise self.fail("lint", f"{len(findings)} finding(s), first: {findings[0]}")
         self.passed(f"{path.name}: no wall clock, sleep or global random generator")
 
-    def _run(self, check: str) -> tuple[list[dict[str, Any]], Any, dict[str, Any], float]:
+    def _run(self, check: str, watch: bool = False) -> tuple[list[dict[str, Any]], Any, dict[str, Any], float]:
+        """Build the example and run it to its outcome (or max_time) in a worker with a budget per call; with
+        ``watch``, also fail if the world changes while the behaviour's ``step()`` runs."""
+        try:
+            return run_bounded(lambda beat: self._simulate(check, beat, watch), self.budget)
+        except Overrun as exc:
+            raise self.fail("budget", f"{exc} (behaviour {self.type_name!r}): a call must return; wait across "
+                            "steps in sim time, never inside one") from None
+
+    def _simulate(self, check: str, beat: Beat, watch: bool) -> tuple[list[dict[str, Any]], Any, dict[str, Any],
+                                                                       float]:
+        beat("building the example (__init__, setup)")
         try:
             cfg = build_config(self.raw, self.plugins, base_dir=self.base_dir)
             sim = Simulation(cfg, self.plugins, gui=False, seed=self.seed)
         except (UserError, PluginError) as exc:
             raise self.fail(check, f"the example does not build: {exc}") from None
         with sim:
+            watcher = _Watcher(sim) if watch else None
             max_ticks = round(cfg.world.max_time / sim.world.time_step)
             try:
                 while sim.world.tick < max_ticks and sim.outcome is None:
+                    beat(f"step() at tick {sim.world.tick}")
                     sim.step(1)
+                    if watcher is not None and watcher.found:
+                        raise self.fail("readings in, commands out", watcher.found)
             except PluginError as exc:
                 raise self.fail(check, f"raised at tick {sim.world.tick}: {exc}") from None
+            finally:
+                if watcher is not None:
+                    watcher.remove()
             name = cfg.behaviour.name if cfg.behaviour is not None else "behaviour"
             own = [r for r in sim.trace if r["source"] == name]
+            beat("result()")
             return own, sim.outcome, dict(sim.behaviour.result()), round(sim.world.time, 6)
 
     def _compare(self, trace_a: list[dict[str, Any]], trace_b: list[dict[str, Any]], outcome_a: Any, outcome_b: Any,
@@ -268,3 +300,79 @@ def _module_dir(cls: type) -> Path:
         return Path(inspect.getfile(cls)).parent
     except (TypeError, OSError):
         return Path.cwd()
+
+
+_MUTATORS = ("applyExternalForce", "applyExternalTorque", "setJointMotorControl2", "setJointMotorControlArray",
+             "setJointMotorControlMultiDof", "setJointMotorControlMultiDofArray", "resetBasePositionAndOrientation",
+             "resetBaseVelocity", "resetJointState", "resetJointStateMultiDof", "changeDynamics", "createConstraint",
+             "changeConstraint", "removeConstraint", "removeBody", "loadURDF", "loadSDF", "loadMJCF",
+             "createMultiBody", "stepSimulation", "setGravity", "setPhysicsEngineParameter")
+"""The physics engine's functions that change the world: a behaviour's ``step()`` calls none of them."""
+
+
+class _Watcher:
+    """Watches the behaviour's ``step()`` in a real run: the world's state (every body's pose and velocity, every
+    joint's position and velocity) must be the same after it as before it, and it must call no mutating function
+    of the physics client. ``found`` says what it caught first ("" while nothing)."""
+
+    def __init__(self, sim: Simulation) -> None:
+        self.sim, self.found = sim, ""
+        self.behaviour = sim.behaviour
+        self.inside = False
+        self.client = sim.world.client
+        step = self.behaviour.step
+        self._wrapped: list[str] = []
+        for name in _MUTATORS:
+            original = getattr(self.client, name, None)
+            if original is not None:
+                setattr(self.client, name, self._guard(name, original))
+                self._wrapped.append(name)
+
+        def watched(readings: Any, t: float) -> Any:
+            before = self._state()
+            self.inside = True
+            try:
+                return step(readings, t)
+            finally:
+                self.inside = False
+                self._compare(before, self._state())
+
+        self.behaviour.step = watched
+
+    def _guard(self, name: str, original: Any) -> Any:
+        def call(*args: Any, **kwargs: Any) -> Any:
+            if self.inside and not self.found:
+                self.found = (f"step() at tick {self.sim.world.tick} called the physics engine's {name}(): a "
+                              "behaviour changes the world only through the commands it returns")
+            return original(*args, **kwargs)
+
+        return call
+
+    def _state(self) -> dict[str, Any]:
+        world, c = self.sim.world, self.client
+        out = {}
+        for name in world.body_names:
+            bid = world.body(name)
+            joints = c.getNumJoints(bid)
+            states = c.getJointStates(bid, list(range(joints))) if joints else []
+            out[name] = (c.getBasePositionAndOrientation(bid), c.getBaseVelocity(bid),
+                         tuple((st[0], st[1]) for st in states or ()))
+        return out
+
+    def _compare(self, before: dict[str, Any], after: dict[str, Any]) -> None:
+        if self.found:
+            return
+        for name in sorted(set(before) | set(after)):
+            if before.get(name) != after.get(name):
+                what = "appeared" if name not in before else "disappeared" if name not in after else "moved"
+                self.found = (f"body {name!r} {what} during step() at tick {self.sim.world.tick}: a behaviour "
+                              "changes the world only through the commands it returns, never through the World")
+                return
+
+    def remove(self) -> None:
+        for name in self._wrapped:
+            try:
+                delattr(self.client, name)
+            except AttributeError:
+                pass
+        vars(self.behaviour).pop("step", None)  # the class's own step again

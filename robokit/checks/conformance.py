@@ -42,6 +42,7 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel
 
+from robokit.checks.budget import DEFAULT_BUDGET, Beat, Overrun, run_bounded
 from robokit.config import Schema, build_config
 from robokit.config.sections import Section
 from robokit.core.simulation import Simulation
@@ -95,6 +96,7 @@ def check_sensor(
     ticks: int | None = None,
     rate_hz: float | None = None,
     extra_plugins: Iterable[object] = (),
+    budget: float = DEFAULT_BUDGET,
 ) -> ConformanceReport:
     """Check that a registered sensor type keeps the plugin contract (see the module docstring).
 
@@ -107,11 +109,13 @@ def check_sensor(
         ticks: Ticks per simulation (default: ``example["ticks"]`` or :data:`DEFAULT_TICKS`).
         rate_hz: The sensor's rate when its config sets none (default: the physics rate / 4).
         extra_plugins: Plugin objects to register besides the installed entry points.
+        budget: Wall-clock seconds one plugin call may take (a build, one tick with its reads, a close); a call
+            that never returns fails the check naming the type and the call.
 
     Raises:
         ConformanceError: A check failed.
     """
-    return _Check("sensor", type_name, config, scene, None, seed, ticks, rate_hz, extra_plugins).run()
+    return _Check("sensor", type_name, config, scene, None, seed, ticks, rate_hz, extra_plugins, budget).run()
 
 
 def check_actuator(
@@ -124,6 +128,7 @@ def check_actuator(
     ticks: int | None = None,
     rate_hz: float | None = None,
     extra_plugins: Iterable[object] = (),
+    budget: float = DEFAULT_BUDGET,
 ) -> ConformanceReport:
     """Check that a registered actuator type keeps the plugin contract (see the module docstring).
 
@@ -133,7 +138,7 @@ def check_actuator(
     Raises:
         ConformanceError: A check failed.
     """
-    return _Check("actuator", type_name, config, scene, commands, seed, ticks, rate_hz, extra_plugins).run()
+    return _Check("actuator", type_name, config, scene, commands, seed, ticks, rate_hz, extra_plugins, budget).run()
 
 
 class _Check:
@@ -141,8 +146,8 @@ class _Check:
 
     def __init__(self, kind: str, type_name: str, config: Mapping[str, Any] | None, scene: Mapping[str, Any] | None,
                  commands: Sequence[tuple[int, Any]] | None, seed: int, ticks: int | None, rate_hz: float | None,
-                 extra_plugins: Iterable[object]) -> None:
-        self.kind, self.type_name, self.seed = kind, type_name, seed
+                 extra_plugins: Iterable[object], budget: float = DEFAULT_BUDGET) -> None:
+        self.kind, self.type_name, self.seed, self.budget = kind, type_name, seed, budget
         self.plugins: Plugins = load_plugins(tuple(extra_plugins))
         try:
             self.ptype: PluginType = self.plugins.get(kind, type_name)
@@ -236,16 +241,31 @@ class _Check:
         raise self.fail("schema", f"an unknown key {_UNKNOWN_KEY!r} was accepted; subclass robokit.config.Schema "
                         "(unknown keys forbidden)")
 
-    def _build(self, check: str, raw: Mapping[str, Any] | None = None) -> Simulation:
+    def bounded(self, work: Any) -> Any:
+        """Run ``work(beat)`` with the wall-clock budget per call; an overrun fails the check naming the call."""
         try:
-            cfg = build_config(raw or self.raw, self.plugins, base_dir=self.base_dir)
-            return Simulation(cfg, self.plugins, gui=False, seed=self.seed)
-        except (UserError, PluginError) as exc:
-            raise self.fail(check, f"the example does not build: {exc}") from None
+            return run_bounded(work, self.budget)
+        except Overrun as exc:
+            raise self.fail("budget", f"{exc}: a plugin call must return (measure now, wait in sim time)") from None
+
+    def _build(self, check: str, raw: Mapping[str, Any] | None = None) -> Simulation:
+        def build(beat: Beat) -> Simulation:
+            beat("building the example (__init__, setup)")
+            try:
+                cfg = build_config(raw or self.raw, self.plugins, base_dir=self.base_dir)
+                return Simulation(cfg, self.plugins, gui=False, seed=self.seed)
+            except (UserError, PluginError) as exc:
+                raise self.fail(check, f"the example does not build: {exc}") from None
+
+        return self.bounded(build)  # type: ignore[no-any-return]
 
     def _drive(self, sim: Simulation, extra_reads: list[int] | None = None) -> list[Any]:
         """Step ``ticks`` ticks, sending commands and reading the component after every tick (with
-        ``extra_reads = [n]``, also calling ``read()`` directly, before the loop's read, on the first n due ticks)."""
+        ``extra_reads = [n]``, also calling ``read()`` directly, before the loop's read, on the first n due ticks);
+        each tick within the wall-clock budget."""
+        return self.bounded(lambda beat: self._drive_ticks(sim, beat, extra_reads))  # type: ignore[no-any-return]
+
+    def _drive_ticks(self, sim: Simulation, beat: Beat, extra_reads: list[int] | None) -> list[Any]:
         slot = sim.scheduler.slots[self.name]
         comp = slot.component
         self.update_ticks: list[int] = []
@@ -260,6 +280,7 @@ class _Check:
         values, self.stamps = [], []
         try:
             for k in range(self.ticks):
+                beat(f"tick {k} (command, update, read)")
                 for cmd in [cmd for tick, cmd in self.commands if tick == k]:
                     comp.command(cmd)
                 sim.step(1)
@@ -376,9 +397,16 @@ class _Check:
             if count != baseline[what]:
                 raise self.fail("close", f"{count} {what} in the world after close(), {baseline[what]} in the same "
                                 f"scene without the {self.kind}: remove what setup() created")
-        self.passed("close() releases its bodies and constraints; a second close() is safe")
+        if self.kind == "sensor":
+            sim.world.step()  # one physics step with the sensor closed: what it switched on shows now
+            left = _left_on(sim.world, baseline["state"])
+            if left:
+                raise self.fail("close", f"after close() {left}; a sensor switches off what it switched on")
+        self.passed("close() releases its bodies and constraints" + (" and switches off what it switched on "
+                    "(joint force-torque sensors, engine parameters, dynamics)" if self.kind == "sensor" else "")
+                    + "; a second close() is safe")
 
-    def _baseline(self) -> tuple[dict[str, int], Any]:
+    def _baseline(self) -> tuple[dict[str, Any], Any]:
         """Bodies and constraints of the scene without the component (or without any component)."""
         raw = copy.deepcopy(self.raw)
         del raw[f"{self.kind}s"][self.name]
@@ -393,7 +421,40 @@ class _Check:
             closing = lambda s: list(s.scheduler.slots)  # noqa: E731
         with sim:
             client = sim.world.client
-            return {"bodies": client.getNumBodies(), "constraints": client.getNumConstraints()}, closing
+            counts: dict[str, Any] = {"bodies": client.getNumBodies(), "constraints": client.getNumConstraints()}
+            sim.world.step()
+            counts["state"] = _engine_state(sim.world)
+            return counts, closing
+
+
+def _engine_state(world: Any) -> dict[str, Any]:
+    """What a sensor may switch on in the physics engine: joints whose force-torque sensor measures (non-zero
+    reaction after a step), the engine's parameters, and every link's dynamics, by body and link name."""
+    c = world.client
+    measuring, dynamics = set(), {}
+    for name in world.body_names:
+        bid = world.body(name)
+        joints = c.getNumJoints(bid)
+        for j in range(joints):
+            if any(v != 0.0 for v in c.getJointState(bid, j)[2]):
+                measuring.add(f"{name}/{c.getJointInfo(bid, j)[1].decode()}")
+        for link in range(-1, joints):
+            dynamics[(name, link)] = c.getDynamicsInfo(bid, link)
+    return {"measuring": measuring, "parameters": c.getPhysicsEngineParameters(), "dynamics": dynamics}
+
+
+def _left_on(world: Any, baseline: dict[str, Any]) -> str:
+    """What differs from the scene without the sensor ("" when nothing)."""
+    now = _engine_state(world)
+    extra = sorted(now["measuring"] - baseline["measuring"])
+    if extra:
+        return f"the force-torque sensor of joint(s) {', '.join(extra)} still measures (enableJointForceTorqueSensor)"
+    changed = sorted(k for k in now["parameters"] if now["parameters"][k] != baseline["parameters"].get(k))
+    if changed:
+        return f"physics engine parameter(s) {', '.join(changed)} differ from the scene without it"
+    links = sorted(f"{b}/{link}" for (b, link), d in now["dynamics"].items()
+                   if baseline["dynamics"].get((b, link)) != d)
+    return f"the dynamics of {', '.join(links[:5])} differ from the scene without it" if links else ""
 
 
 def _module_dir(cls: type) -> Path:

@@ -267,8 +267,14 @@ class ComponentSpec:
     rate_hz: float | None
     params: Any
     key: str
+    action: str = "observe"
+    """Monitors only: what the monitor's ending ``failed`` or ``aborted`` does to the task: ``observe`` (nothing),
+    ``abort`` (the run ends aborted, actuators brought to a protective stop) or ``recover`` (the task is halted,
+    actuators stopped, and the ``[recoveries.NAME]`` behaviour named by ``recovery`` takes over)."""
+    recovery: str | None = None
     children: tuple["ComponentSpec", ...] = ()
-    """The steps of a ``sequence`` behaviour (``[[behaviour.steps]]``), each a behaviour section of its own."""
+    """The children of a composite behaviour (a sequence's ``[[behaviour.steps]]``, a fallback's
+    ``[[behaviour.children]]``, a retry's ``[behaviour.child]``...), each a behaviour section of its own."""
 
 
 @dataclass(frozen=True)
@@ -290,12 +296,14 @@ class Config:
     raw: Mapping[str, Any]
     monitors: tuple[ComponentSpec, ...] = ()
     """Behaviours that run beside the task (``[monitors.NAME]``), see :mod:`robokit.core.compose`."""
+    recoveries: Mapping[str, ComponentSpec] = field(default_factory=dict)
+    """Behaviours a monitor may pre-empt the task into (``[recoveries.NAME]``, named by a monitor's ``recovery``)."""
     record: RecordConfig = field(default_factory=RecordConfig)
     gui: GuiConfig = field(default_factory=GuiConfig)
 
 
-SECTIONS = ("world", "regions", "bodies", "robots", "sensors", "actuators", "behaviour", "monitors", "report",
-            "events", "record", "gui", "env")
+SECTIONS = ("world", "regions", "bodies", "robots", "sensors", "actuators", "behaviour", "monitors", "recoveries",
+            "report", "events", "record", "gui", "env")
 """``env`` is read by :mod:`robokit.gym` (a Gymnasium environment made from the config); runs ignore it."""
 _COMPONENT_KEYS = ("type", "rate_hz")
 _REPORT_KEYS = field_names(ReportConfig)
@@ -401,10 +409,16 @@ def _component(kind: str, name: str, data: Any, key: str, plugins: Any, physics_
     if ptype.schema is None:
         if params_raw:
             extra = next(iter(params_raw))
-            raise ConfigError(f"unknown key {extra!r}; {kind} type {type_name!r} takes no options", key=key)
+            provided = getattr(ptype, "provided", None)
+            raise ConfigError(f"unknown key {extra!r}; {kind} type {type_name!r} takes no options"
+                              + (provided() if provided else ""), key=key)
         params = None
     else:
-        params = validate_model(ptype.schema, params_raw, key)
+        try:
+            params = validate_model(ptype.schema, params_raw, key)
+        except ConfigError as exc:  # name the distribution of a third-party type: a clash must never hide
+            provided = getattr(ptype, "provided", None)
+            raise ConfigError(exc.message + (provided() if provided else ""), key=exc.key, file=exc.file) from None
     return ComponentSpec(kind, name, type_name, rate, params, key)
 
 
@@ -490,10 +504,17 @@ def _build(raw: Mapping[str, Any], plugins: Any, source: str, base_dir: Path) ->
     if "behaviour" in raw:
         behaviour = _behaviour(raw["behaviour"], plugins, physics_hz)
     for name, data in _table(raw, "monitors").items():
-        if isinstance(data, Mapping) and data.get("type") == "sequence":
-            raise ConfigError("a monitor cannot be a sequence (monitors observe beside the task)",
+        if isinstance(data, Mapping) and _children_key(data.get("type"), plugins) is not None:
+            raise ConfigError(f"a monitor cannot be a {data.get('type')} (monitors observe beside the task)",
                               key=f"monitors.{name}")
-    monitors = _components(raw, "monitors", "behaviour", plugins, physics_hz)
+    recoveries = {name: _behaviour(data, plugins, physics_hz, f"recoveries.{name}", name)
+                  for name, data in _table(raw, "recoveries").items()}
+    monitors = tuple(_monitor(name, data, plugins, physics_hz, recoveries)
+                     for name, data in _table(raw, "monitors").items())
+    for spec in monitors:
+        if spec.action != "observe" and behaviour is None:
+            raise ConfigError(f"action {spec.action!r} acts on the task, and there is none: add a [behaviour]",
+                              key=f"{spec.key}.action")
     report_raw = _table(raw, "report")
     report = validate_model(ReportConfig, {k: v for k, v in report_raw.items() if k in _REPORT_KEYS}, "report")
     reporters = _reporters(report_raw, plugins)
@@ -512,7 +533,7 @@ def _build(raw: Mapping[str, Any], plugins: Any, source: str, base_dir: Path) ->
     record = validate_model(RecordConfig, _table(raw, "record"), "record")
     gui = validate_model(GuiConfig, _table(raw, "gui"), "gui")
     return Config(source, base_dir, world, regions, bodies, robots, sensors, actuators, behaviour, report,
-                  reporters, events, copy.deepcopy(dict(raw)), monitors, record, gui)
+                  reporters, events, copy.deepcopy(dict(raw)), monitors, recoveries, record, gui)
 
 
 def step_names(steps: Sequence[Mapping[str, Any]]) -> list[str]:
@@ -530,27 +551,77 @@ def step_names(steps: Sequence[Mapping[str, Any]]) -> list[str]:
     return names
 
 
-def _behaviour(data: Any, plugins: Any, physics_hz: float) -> ComponentSpec:
-    """The ``[behaviour]`` section; for ``type = "sequence"`` also its ``[[behaviour.steps]]``, each validated as a
-    behaviour section of its own (with an optional ``name``)."""
-    if not (isinstance(data, Mapping) and data.get("type") == "sequence"):
-        return _component("behaviour", "behaviour", data, "behaviour", plugins, physics_hz)
-    steps = data.get("steps")
-    if not isinstance(steps, list) or not steps or not all(isinstance(s, Mapping) for s in steps):
-        raise ConfigError("a sequence needs steps: one or more [[behaviour.steps]] tables, each with a type",
-                          key="behaviour.steps")
-    names = step_names(steps)
+MONITOR_ACTIONS = ("observe", "abort", "recover")
+
+
+def _monitor(name: str, data: Any, plugins: Any, physics_hz: float,
+             recoveries: Mapping[str, ComponentSpec]) -> ComponentSpec:
+    """A ``[monitors.NAME]`` section: a behaviour section plus ``action`` and ``recovery`` (read by the core)."""
+    key = f"monitors.{name}"
+    own = dict(data) if isinstance(data, Mapping) else data
+    action, recovery = "observe", None
+    if isinstance(own, dict):
+        action = own.pop("action", "observe")
+        recovery = own.pop("recovery", None)
+        if action not in MONITOR_ACTIONS:
+            raise ConfigError(f"expected one of {', '.join(repr(a) for a in MONITOR_ACTIONS)}, got "
+                              f"{_describe(action)}", key=f"{key}.action")
+        if recovery is not None and not isinstance(recovery, str):
+            raise ConfigError(f"expected the name of a [recoveries.NAME] section, got {_describe(recovery)}",
+                              key=f"{key}.recovery")
+        if action == "recover" and recovery is None:
+            raise ConfigError("action 'recover' needs recovery = the name of a [recoveries.NAME] section",
+                              key=f"{key}.recovery")
+        if recovery is not None and action != "recover":
+            raise ConfigError(f"recovery is used with action = 'recover' only (action is {action!r})",
+                              key=f"{key}.recovery")
+        if recovery is not None and recovery not in recoveries:
+            raise ConfigError(f"unknown recovery {recovery!r}{did_you_mean(recovery, recoveries)}; defined: "
+                              f"{', '.join(recoveries) or '(none: add a [recoveries.NAME] section)'}",
+                              key=f"{key}.recovery")
+    spec = _component("behaviour", name, own, key, plugins, physics_hz)
+    return dataclasses.replace(spec, action=action, recovery=recovery)
+
+
+def _children_key(type_name: Any, plugins: Any) -> tuple[str, tuple[int, int | None]] | None:
+    """The config key holding a composite type's children and how many it takes (None: not a composite)."""
+    try:
+        cls = plugins.get("behaviour", type_name).cls if isinstance(type_name, str) else None
+    except UserError:
+        return None
+    key = getattr(cls, "CHILDREN_KEY", None)
+    return (key, getattr(cls, "ARITY", (1, None))) if isinstance(key, str) else None
+
+
+def _behaviour(data: Any, plugins: Any, physics_hz: float, key: str = "behaviour",
+               name: str = "behaviour") -> ComponentSpec:
+    """A behaviour section; for a composite (``sequence``, ``fallback``, ``retry``, ``timeout``, ``parallel``)
+    also its children (``[[behaviour.steps]]``, ``[[behaviour.children]]`` or ``[behaviour.child]``), each
+    validated as a behaviour section of its own (with an optional ``name``), composites nesting."""
+    found = _children_key(data.get("type"), plugins) if isinstance(data, Mapping) else None
+    if found is None:
+        return _component("behaviour", name, data, key, plugins, physics_hz)
+    ckey, (least, most) = found
+    raw = data.get(ckey)
+    single = most == 1 and isinstance(raw, Mapping)
+    items = [raw] if single else raw
+    what = f"[{key}.{ckey}] table" if most == 1 else f"[[{key}.{ckey}]] tables"
+    if not isinstance(items, list) or not all(isinstance(s, Mapping) for s in items) or not (
+            least <= len(items) <= (most if most is not None else len(items))):
+        count = {(1, 1): "one", (1, None): "one or more"}.get((least, most), f"{least} or more")
+        noun = "steps" if ckey == "steps" else ("a child" if most == 1 else "children")
+        raise ConfigError(f"a {data.get('type')} needs {noun}: {count} {what}, each with a type",
+                          key=f"{key}.{ckey}")
+    names = step_names(items)
     children = []
-    for i, (step, name) in enumerate(zip(steps, names, strict=True)):
-        key = f"behaviour.steps[{i}]"
-        if step.get("type") == "sequence":
-            raise ConfigError("a sequence step cannot itself be a sequence", key=f"{key}.type")
-        if names.count(name) > 1:
-            raise ConfigError(f"two steps are named {name!r}; give each a distinct name", key=f"{key}.name")
+    for i, (step, child_name) in enumerate(zip(items, names, strict=True)):
+        child_key = f"{key}.{ckey}" if single else f"{key}.{ckey}[{i}]"
+        if names.count(child_name) > 1:
+            raise ConfigError(f"two steps are named {child_name!r}; give each a distinct name",
+                              key=f"{child_key}.name")
         own = {k: v for k, v in step.items() if k != "name"}
-        children.append(_component("behaviour", name, own, key, plugins, physics_hz))
-    spec = _component("behaviour", "behaviour", {k: v for k, v in data.items() if k != "steps"}, "behaviour",
-                      plugins, physics_hz)
+        children.append(_behaviour(own, plugins, physics_hz, child_key, child_name))
+    spec = _component("behaviour", name, {k: v for k, v in data.items() if k != ckey}, key, plugins, physics_hz)
     return dataclasses.replace(spec, children=tuple(children))
 
 

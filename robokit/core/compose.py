@@ -18,8 +18,10 @@ stepped, and the run goes on until the task ends. Its outcome and result go into
 
 The task itself may be a **sequence**: ``type = "sequence"`` with ``[[behaviour.steps]]`` tables, each a behaviour
 section of its own (``type``, ``rate_hz``, its options, and an optional ``name``). Each step starts when the
-previous one succeeded; the first step that fails (or is aborted) ends the sequence with its outcome. A step sees
-the sim time since *it* started (``t`` starts at 0 for every step), so its timeouts count from its own start.
+previous one succeeded; the first step that fails (or is aborted) ends the sequence with its outcome. Every step
+sees the world's sim time ``t`` (one clock for the run); its own stopwatch is ``behaviour.elapsed(t)``, so a
+``duration`` or ``timeout`` counts from the step's start. The other composites (fallback, retry, timeout, parallel)
+are in :mod:`robokit.core.composites`.
 
 :class:`Monitored` is what the scheduler steps when there are monitors (the task alone otherwise, at no cost).
 """
@@ -30,50 +32,41 @@ import enum
 import re
 from collections.abc import Mapping
 from collections.abc import Sequence as Seq
-from dataclasses import dataclass
 from typing import Any
 
-from robokit import hookimpl
-from robokit.components import Behaviour, GoalCheck, SetupContext
 from robokit.config import step_names as step_names  # re-exported: where sequences have always found it
-from robokit.config.sections import Section
+from robokit.core.composites import Member as Member
+from robokit.core.composites import Sequence as Sequence
+from robokit.core.composites import call
 from robokit.errors import PluginError
-from robokit.process.crash import describe, where_raised
 
-
-@dataclass
-class Member:
-    """A behaviour inside a composition: its name, instance, period in ticks and origin (for error messages)."""
-
-    name: str
-    type: str
-    behaviour: Any
-    period: int
-    origin: str
-
-
-def _call(member: Member, role: str, what: str, fn: Any, *args: Any) -> Any:
-    try:
-        return fn(*args)
-    except PluginError:
-        raise
-    except Exception as exc:
-        where = where_raised(exc)
-        raise PluginError(f"{role} {member.name!r} ({member.origin}) raised during {what}: {describe(exc)}"
-                          + (f" (at {where})" if where else ""), type_name=member.type) from exc
+_call = call  # the old private name
 
 
 class Monitored:
     """The task plus its monitors, stepped as one behaviour by the scheduler (every tick; each at its own rate).
 
-    ``outcome`` is the task's: the run ends when the task ends, whatever the monitors are doing.
+    ``outcome`` is the task's: the run ends when the task ends, whatever the monitors are doing. A monitor with
+    ``action = "abort"`` or ``"recover"`` that ends ``failed`` or ``aborted`` acts in the tick it ends, before the
+    actuators run and before the physics step: the task is halted (its ``halt(t)``, if any), its commands of that
+    tick are dropped, and every actuator with a ``protective_stop(reason)`` is stopped. ``abort`` then ends the task
+    (``aborted``, the monitor's reason); ``recover`` steps the named recovery from the next tick until it ends, and
+    the task ends with ``aborted`` (the recovery succeeded) or the recovery's ``failed``/``aborted``.
     """
 
     open_ended = False
 
-    def __init__(self, task: Member | None, monitors: Seq[Member], clock: Any) -> None:
+    def __init__(self, task: Member | None, monitors: Seq[Member], clock: Any,
+                 actuators: Mapping[str, Any] | None = None, recoveries: Mapping[str, Member] | None = None,
+                 trace: Any = None) -> None:
         self.task, self.monitors, self.clock = task, list(monitors), clock
         self.open_ended = bool(getattr(task.behaviour, "open_ended", False)) if task else True
+        self.actuators = dict(actuators or {})
+        self.recoveries = dict(recoveries or {})
+        self.trace = trace or (lambda kind, **data: None)
+        self.fired: tuple[Member, Any, float] | None = None
+        """The monitor that acted, its outcome and the sim time it acted at."""
+        self.recovery: Member | None = None
 
     @property
     def outcome(self) -> Any:
@@ -81,132 +74,100 @@ class Monitored:
         return self.task.behaviour.outcome if self.task is not None else None
 
     def step(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any] | None:
-        """Step the task (if due), then each running monitor (if due); only the task's commands go out."""
+        """Step the task or its recovery (if due), then each running monitor (if due); only the task's (or the
+        recovery's) commands go out, none in the tick a monitor acts."""
         k = self.clock.tick
         commands = None
         task = self.task
-        if task is not None and k % task.period == 0:
+        if self.recovery is not None:
+            commands = self._step_recovery(readings, t)
+        elif task is not None and k % task.period == 0 and self.fired is None:
             commands = task.behaviour.step(readings, t)
         for m in self.monitors:
             if m.behaviour.outcome is None and k % m.period == 0:
-                sent = _call(m, "monitor", "step", m.behaviour.step, readings, t)
+                sent = call(m, "monitor", "step", m.behaviour.step, readings, t)
                 if sent:
                     raise PluginError(f"monitor {m.name!r} ({m.origin}) sent commands to {', '.join(sent)}: monitors "
                                       "observe; only the task ([behaviour]) commands actuators", type_name=m.type)
+                if self._acts(m):
+                    self._act(m, t)
+                    return None
         return commands
 
+    def _acts(self, m: Member) -> bool:
+        outcome = m.behaviour.outcome
+        action = getattr(m.spec, "action", "observe")
+        return (outcome is not None and outcome.status != "succeeded" and action != "observe"
+                and self.fired is None and self.task is not None and self.task.behaviour.outcome is None)
+
+    def _act(self, m: Member, t: float) -> None:
+        """A monitor acts: halt the task, stop the actuators, then abort or start the recovery (next tick)."""
+        assert self.task is not None
+        outcome, action = m.behaviour.outcome, m.spec.action
+        self.fired = (m, outcome, t)
+        halt = getattr(self.task.behaviour, "halt", None)
+        if halt is not None:
+            call(self.task, "task", "halt", halt, t)
+        why = f"monitor {m.name!r} ({m.type}): {outcome.reason}"
+        self.stop_actuators(why)
+        if action == "abort":
+            self.trace("monitor_abort", monitor=m.name, reason=outcome.reason)
+            self.task.behaviour.finish("aborted", f"aborted by {why}")
+            return
+        self.recovery = self.recoveries[m.spec.recovery]
+        self.trace("monitor_preempt", monitor=m.name, reason=outcome.reason, recovery=self.recovery.name)
+        self.recovery.behaviour.started_at = t + self.clock.time_step  # its first step is the next tick
+        self.recovery.start_tick = self.clock.tick + 1
+
+    def stop_actuators(self, reason: str) -> list[str]:
+        """Bring every actuator that can to a protective stop now; returns their names."""
+        stopped = []
+        for name, comp in self.actuators.items():
+            stop = getattr(comp, "protective_stop", None)
+            if stop is not None:
+                stop(reason)
+                stopped.append(name)
+        return stopped
+
+    def _step_recovery(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any] | None:
+        rec = self.recovery
+        assert rec is not None and self.fired is not None and self.task is not None
+        if self.clock.tick < rec.start_tick or (self.clock.tick - rec.start_tick) % rec.period:
+            return None
+        commands = call(rec, "recovery", "step", rec.behaviour.step, readings, t)
+        done = rec.behaviour.outcome
+        if done is not None:
+            m, outcome, at = self.fired
+            status = "aborted" if done.status == "succeeded" else done.status
+            self.trace("recovery_end", recovery=rec.name, outcome=done.status, reason=done.reason)
+            self.task.behaviour.finish(status, f"pre-empted at t = {at:.3f} s by monitor {m.name!r} ({m.type}): "
+                                               f"{outcome.reason}; recovery {rec.name!r} {done.status}: {done.reason}")
+        return commands  # type: ignore[no-any-return]
+
     def results(self) -> dict[str, Any]:
-        """Every monitor's outcome, reason and own result, by name."""
+        """Every monitor's outcome, reason, action and own result, by name; the one that acted says when and
+        (with a recovery) how the recovery went."""
         out: dict[str, Any] = {}
         for m in self.monitors:
             outcome = m.behaviour.outcome
-            try:
-                own = dict(m.behaviour.result())
-            except Exception as exc:  # noqa: BLE001 - the run's result must survive a faulty monitor
-                own = {"result_error": f"{type(exc).__name__}: {exc}"}
             out[m.name] = {"type": m.type, "outcome": outcome.status if outcome else "running",
-                           "reason": outcome.reason if outcome else "", **own}
+                           "reason": outcome.reason if outcome else "",
+                           "action": getattr(m.spec, "action", "observe"), **_own(m)}
+            if self.fired is not None and self.fired[0] is m:
+                out[m.name]["acted_at"] = round(self.fired[2], 6)
+                if self.recovery is not None:
+                    done = self.recovery.behaviour.outcome
+                    out[m.name]["recovery"] = {"name": self.recovery.name, "type": self.recovery.type,
+                                               "outcome": done.status if done else "running",
+                                               "reason": done.reason if done else "", "result": _own(self.recovery)}
         return out
 
 
-class SequenceConfig(Section):
-    """``[behaviour]`` with ``type = "sequence"``: the steps are ``[[behaviour.steps]]`` tables (read by the core).
-
-    A light schema (no options): building the simulation, which imports this module, imports no pydantic."""
-
-
-class Sequence(Behaviour):
-    """Runs behaviours one after another: each starts when the previous one succeeded."""
-
-    def __init__(self, name: str, config: Any) -> None:
-        super().__init__(name, config)
-        self.steps: list[Member] = []
-        self.index = 0
-        self.started_at = 0.0
-        self.ended: list[dict[str, Any]] = []
-
-    def add_steps(self, steps: Seq[Member]) -> None:
-        """Give the sequence its steps (built and set up by the simulation from ``[[behaviour.steps]]``)."""
-        self.steps = list(steps)
-
-    def setup(self, ctx: SetupContext) -> None:
-        super().setup(ctx)
-        self.clock = ctx.world
-        self._trace = ctx.trace
-        if self.steps:
-            self._trace("step_start", step=self.steps[0].name, index=0, type=self.steps[0].type)
-
-    @property
-    def current(self) -> Member | None:
-        """The step running now (None when the sequence has ended)."""
-        return self.steps[self.index] if self.index < len(self.steps) and self.outcome is None else None
-
-    def step(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any] | None:
-        """Step the current step with its own time (``t`` minus its start); move on when it succeeds."""
-        member = self.current
-        if member is None:
-            return None
-        commands = None
-        local = t - self.started_at
-        if round(local / self.clock.time_step) % member.period == 0:
-            commands = _call(member, "sequence step", "step", member.behaviour.step, readings, local)
-        outcome = member.behaviour.outcome
-        if outcome is not None:
-            self._end_step(member, outcome, t)
-        return commands
-
-    def _end_step(self, member: Member, outcome: Any, t: float) -> None:
-        self.ended.append({"name": member.name, "type": member.type, "outcome": outcome.status,
-                           "reason": outcome.reason, "started_at": round(self.started_at, 6),
-                           "sim_time": round(t - self.started_at, 6)})
-        self._trace("step_end", step=member.name, index=self.index, outcome=outcome.status, reason=outcome.reason)
-        if outcome.status != "succeeded":
-            self.finish(outcome.status, f"step {self.index + 1} {member.name!r} ({member.type}) {outcome.status}: "
-                                        f"{outcome.reason}")
-            return
-        self.index += 1
-        self.started_at = t + self.clock.time_step  # the next step's first step is the next tick
-        if self.index == len(self.steps):
-            self.finish("succeeded", f"all {len(self.steps)} steps succeeded")
-        else:
-            nxt = self.steps[self.index]
-            self._trace("step_start", step=nxt.name, index=self.index, type=nxt.type)
-
-    def check_goal(self, world: Any) -> GoalCheck | None:
-        """Every step's own goal (those that state one), evaluated at the end: met only if all are."""
-        checks = []
-        for member in self.steps[: self.index + 1]:
-            hook = getattr(member.behaviour, "check_goal", None)
-            check = _call(member, "sequence step", "check_goal", hook, world) if hook else None
-            if check is not None:
-                checks.append((member.name, check))
-        if not checks:
-            return None
-        missed = [f"{name}: {c.reason}" for name, c in checks if not c.met]
-        details = {name: {"met": c.met, "reason": c.reason, **dict(c.details)} for name, c in checks}
-        reason = "; ".join(missed) if missed else "; ".join(f"{name}: {c.reason}" for name, c in checks)
-        return GoalCheck(not missed, reason, {"steps": details})
-
-    def result(self) -> dict[str, Any]:
-        """Per step: name, type, outcome, reason, start and duration (sim s) and the step's own result."""
-        out = []
-        for i, member in enumerate(self.steps):
-            record = self.ended[i] if i < len(self.ended) else {"name": member.name, "type": member.type,
-                                                                   "outcome": "running" if i == self.index
-                                                                   else "not started", "reason": ""}
-            try:
-                own = dict(member.behaviour.result()) if i <= self.index else {}
-            except Exception as exc:  # noqa: BLE001
-                own = {"result_error": f"{type(exc).__name__}: {exc}"}
-            out.append({**record, "result": own})
-        return {"steps_completed": sum(1 for r in self.ended if r["outcome"] == "succeeded"), "steps": out}
-
-    def close(self) -> None:
-        for member in self.steps:
-            try:
-                member.behaviour.close()
-            except Exception:  # noqa: BLE001, S110 - closing must reach every step
-                pass
+def _own(m: Member) -> dict[str, Any]:
+    try:
+        return dict(m.behaviour.result())
+    except Exception as exc:  # noqa: BLE001 - the run's result must survive a faulty monitor
+        return {"result_error": f"{type(exc).__name__}: {exc}"}
 
 
 # ---------------------------------------------------------------------------------------------- graph
@@ -231,42 +192,76 @@ def machine_lines(cls: type, prefix: str, indent: str) -> list[str]:
 
 
 def config_mermaid(cfg: Any, plugins: Any) -> str:
-    """What a config composes, as a Mermaid ``stateDiagram-v2``: the task (a sequence's steps in order, each with
-    its own machine inside) and, in a concurrent region, every monitor."""
+    """What a config composes, as a Mermaid ``stateDiagram-v2``: the task (composites drawn as nested states with
+    their children inside, each child's own machine inside it) and, in concurrent regions, every monitor (with the
+    recovery it may pre-empt the task into)."""
     lines = ["stateDiagram-v2", "  direction LR"]
     task = cfg.behaviour
     lines.append(f"  state \"run: {cfg.source}\" as run {{")
     if task is None:
         lines.append("    state \"no task: runs for max_time\" as idle")
-    elif task.children:
-        lines.append(f"    state \"task: sequence of {len(task.children)}\" as task {{")
-        previous = "[*]"
-        for i, child in enumerate(task.children):
-            sid = f"s{i + 1}"
-            cls = plugins.get("behaviour", child.type).cls
-            lines.append(f"      state \"{i + 1}. {child.name} ({child.type})\" as {sid} {{")
-            lines += machine_lines(cls, f"{sid}_", "        ")
-            lines.append("      }")
-            lines.append(f"      {previous} --> {sid}" + (": succeeded" if i else ""))
-            previous = sid
-        lines.append(f"      {previous} --> [*]: succeeded")
-        lines.append("    }")
     else:
-        cls = plugins.get("behaviour", task.type).cls
-        lines.append(f"    state \"task: {task.type}\" as task {{")
-        lines += machine_lines(cls, "t_", "      ")
-        lines.append("    }")
+        lines += _node(task, plugins, "task", "task: ", "    ")
     for spec in getattr(cfg, "monitors", ()):
-        cls = plugins.get("behaviour", spec.type).cls
         mid = f"m_{_ident(spec.name)}"
         lines.append("    --")
-        lines.append(f"    state \"monitor {spec.name} ({spec.type})\" as {mid} {{")
-        lines += machine_lines(cls, f"{mid}_", "      ")
-        lines.append("    }")
+        action = getattr(spec, "action", "observe")
+        label = f"monitor {spec.name} ({spec.type})" + ("" if action == "observe" else f", action {action}")
+        lines += _node(spec, plugins, mid, "", "    ", title=label)
+        recovery = getattr(cfg, "recoveries", {}).get(getattr(spec, "recovery", None) or "")
+        if recovery is not None:
+            rid = f"r_{_ident(recovery.name)}"
+            lines += _node(recovery, plugins, rid, "", "    ", title=f"recovery {recovery.name} ({recovery.type})")
+            lines.append(f"    {mid} --> {rid}: failed or aborted: pre-empt the task")
     lines.append("  }")
     return "\n".join(lines) + "\n"
 
 
-@hookimpl
-def robokit_register_behaviours(register: Any) -> None:
-    register("sequence", Sequence, SequenceConfig)
+_EDGE = {"sequence": "succeeded", "fallback": "failed"}
+
+
+def _node(spec: Any, plugins: Any, sid: str, prefix: str, indent: str, title: str | None = None) -> list[str]:
+    """A behaviour section as a Mermaid state: a composite with its children inside, else the type's machine."""
+    cls = plugins.get("behaviour", spec.type).cls
+    if not spec.children:
+        name = title or f"{prefix}{spec.type}"
+        return [f"{indent}state \"{name}\" as {sid} {{", *machine_lines(cls, f"{sid}_", indent + "  "), f"{indent}}}"]
+    detail = _detail(spec)
+    label = title or f"{prefix}{spec.type}{detail} of {len(spec.children)}"
+    out = [f"{indent}state \"{label}\" as {sid} {{"]
+    inner = indent + "  "
+    ids = [f"{sid}_{i + 1}" for i in range(len(spec.children))]
+    for i, (child, cid) in enumerate(zip(spec.children, ids, strict=True)):
+        if spec.type == "parallel" and i:
+            out.append(f"{inner}--")
+        if child.children:
+            named = f"{child.type}" if child.name == child.type else f"{child.name}: {child.type}"
+            label_child = f"{i + 1}. {named}{_detail(child)} of {len(child.children)}"
+        else:
+            label_child = f"{i + 1}. {child.name} ({child.type})"
+        out += _node(child, plugins, cid, "", inner, title=label_child)
+    edge = _EDGE.get(spec.type)
+    if edge is not None:
+        out.append(f"{inner}[*] --> {ids[0]}")
+        for a, b in zip(ids, ids[1:], strict=False):
+            out.append(f"{inner}{a} --> {b}: {edge}")
+        out.append(f"{inner}{ids[-1]} --> [*]")
+    elif spec.type == "retry":
+        out += [f"{inner}[*] --> {ids[0]}", f"{inner}{ids[0]} --> {ids[0]}: failed (a fresh attempt)",
+                f"{inner}{ids[0]} --> [*]: succeeded"]
+    elif spec.type == "timeout":
+        out += [f"{inner}[*] --> {ids[0]}", f"{inner}{ids[0]} --> [*]: ended, or halted after{detail}"]
+    out.append(f"{indent}}}")
+    return out
+
+
+def _detail(spec: Any) -> str:
+    """A composite's options in a few words (``x3``, ``5 s``, ``success all, failure one``)."""
+    p = spec.params
+    if spec.type == "retry":
+        return f" x{p.attempts}"
+    if spec.type == "timeout":
+        return f" {p.seconds:g} s"
+    if spec.type == "parallel":
+        return f" success {p.success}, failure {p.failure}"
+    return ""

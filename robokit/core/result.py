@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, field
+from pathlib import Path
 from typing import Any
 
 SCHEMA = "robokit.run/1"
@@ -63,3 +64,80 @@ def jsonable(value: Any) -> Any:
     if isinstance(value, (str, int, float, bool)) or value is None:
         return value
     return str(value)
+
+
+def early_result(config_path: str, signal_name: str, *, seed: int | None = None) -> tuple[Path, dict[str, Any]]:
+    """Where and what to keep for a run stopped by a signal before its config was loaded (imports still going).
+
+    Reads what it can of the TOML with the standard library alone (nothing half-imported is touched): the local
+    results folder (``[report.local] dir``, default ``results``), the seed, the behaviour's type, the student and
+    project. Returns ``(path of result.json, payload)``; see :func:`write_early_result`.
+    """
+    import datetime as dt
+    import uuid
+
+    raw = _raw_toml(config_path)
+    section = lambda *keys: _dig(raw, keys)  # noqa: E731 - a short local lookup
+    local = section("report", "local")
+    folder = Path(local["dir"]) if isinstance(local, dict) and isinstance(local.get("dir"), str) else Path("results")
+    world_seed = section("world", "seed")
+    behaviour = section("behaviour", "type")
+    result = RunResult(
+        run_id=str(uuid.uuid4()), robokit_version=_version(), config=config_path,
+        behaviour=behaviour if isinstance(behaviour, str) else None,
+        seed=seed if seed is not None else world_seed if isinstance(world_seed, int) else 0,
+        outcome="aborted", reason=f"interrupted by {signal_name} during start-up (before the config was loaded)",
+        ticks=0, sim_time=0.0, wall_time=0.0,
+        started_at=dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"), interrupted=True,
+    )
+    payload = result.to_dict()
+    for key in ("student", "project"):
+        value = section("report", key)
+        if isinstance(value, str):
+            payload[key] = value
+    return folder / result.run_id / "result.json", payload
+
+
+def write_early_result(path: Path, payload: dict[str, Any]) -> None:
+    """Write ``payload`` to ``path`` atomically (a temporary file beside it, fsync, rename); OSError if it cannot."""
+    import json
+    import os
+    import tempfile
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=".result-", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            json.dump(payload, fh, indent=2)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
+def _raw_toml(path: str) -> dict[str, Any]:
+    try:
+        import tomllib
+    except ImportError:  # Python 3.10: no standard TOML reader; keep the defaults
+        return {}
+    try:
+        with open(path, "rb") as fh:
+            data = tomllib.load(fh)
+    except (OSError, ValueError):
+        return {}
+    return data if isinstance(data, dict) else {}
+
+
+def _dig(raw: dict[str, Any], keys: tuple[str, ...]) -> Any:
+    value: Any = raw
+    for key in keys:
+        value = value.get(key) if isinstance(value, dict) else None
+    return value
+
+
+def _version() -> str:
+    from robokit import __version__
+
+    return __version__

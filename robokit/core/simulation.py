@@ -23,7 +23,7 @@ from robokit.plugin_api.plugins import Plugins
 from robokit.process.interrupts import StopGuard
 
 if TYPE_CHECKING:  # imported where used: a run without monitors, sensors or a wall-clock budget needs none of them
-    from robokit.core.compose import Member
+    from robokit.core.composites import Member
     from robokit.core.reading_check import ReadingCheck
     from robokit.core.walltime import WallTiming
 
@@ -102,35 +102,71 @@ class Simulation:
             slots[spec.name].check = self._reading_check(slots[spec.name])
         sensors = {s.name: slots[s.name] for s in cfg.sensors}
         actuators = {s.name: slots[s.name] for s in cfg.actuators}
+        self.recoveries: dict[str, Member] = {}
         if cfg.behaviour is not None:
             self.behaviour = self._instantiate(cfg.behaviour)
-            if cfg.behaviour.children:  # a sequence: its steps are behaviours of their own
-                self.behaviour.add_steps([self._member(c) for c in cfg.behaviour.children])
         self.monitors = [self._member(spec) for spec in cfg.monitors]
         stepped, period = self.behaviour, period_ticks(cfg.behaviour.rate_hz, hz) if cfg.behaviour else 1
         if self.monitors:  # the task and its monitors, stepped as one, each at its own rate
             task = self._member(cfg.behaviour, self.behaviour) if cfg.behaviour else None
             from robokit.core.compose import Monitored
 
-            self._monitored = Monitored(task, self.monitors, self.world)
+            self.recoveries = {name: self._member(spec) for name, spec in cfg.recoveries.items()}
+            self._monitored = Monitored(task, self.monitors, self.world,
+                                        {n: slot.component for n, slot in actuators.items()}, self.recoveries,
+                                        self._tracer("monitors"))
             stepped, period = self._monitored, 1
         self.scheduler = TickScheduler(self.world, sensors, actuators, stepped, period,
                                        self._origins.get("behaviour", ""))
         self.readings = self.scheduler.readings
-        behaviours = (*(cfg.behaviour.children if cfg.behaviour else ()), *((cfg.behaviour,) if cfg.behaviour else ()),
-                      *cfg.monitors)
-        for spec in cfg.sensors + cfg.actuators + behaviours:
+        for spec in cfg.sensors + cfg.actuators:
             self._setup(spec)
+        if cfg.behaviour is not None:
+            self._setup_tree(cfg.behaviour)
+        for spec in cfg.monitors:
+            self._setup(spec)
+        for spec in cfg.recoveries.values():
+            if spec.name in self.recoveries:
+                self._setup_tree(spec)
         self._schedule_events()
 
     def _member(self, spec: ComponentSpec, instance: Any = None) -> Member:
-        """A behaviour of a composition (a sequence step or a monitor), built unless ``instance`` is given."""
-        from robokit.core.compose import Member
+        """A behaviour of a composition (a composite's child or a monitor), built unless ``instance`` is given."""
+        from robokit.core.composites import Member
 
         comp = self._instantiate(spec) if instance is None else instance
         self._instances[spec.key] = comp
         return Member(spec.name, spec.type, comp, period_ticks(spec.rate_hz, self.world.physics_hz),
-                      self._origins[spec.name])
+                      self._origins[spec.name], spec)
+
+    def _setup_tree(self, spec: ComponentSpec) -> None:
+        """Set up a behaviour; a composite's children first (each built, set up and handed to it)."""
+        comp = self._instances[spec.key]
+        if spec.children:
+            comp.add_children([self._fresh(child) for child in spec.children])
+            comp.rebuild = lambda member: self._fresh(member.spec)
+        self._setup(spec)
+
+    def _fresh(self, spec: ComponentSpec) -> Member:
+        """A new, set-up instance of a composite's child (at build time, and for each attempt of a retry)."""
+        member = self._member(spec)
+        self._setup_tree(spec)
+        return member
+
+    def behaviour_specs(self) -> list[ComponentSpec]:
+        """Every behaviour section of the config, the task's tree depth-first (children first), then monitors."""
+        def walk(spec: ComponentSpec) -> list[ComponentSpec]:
+            return [s for child in spec.children for s in walk(child)] + [spec]
+
+        recoveries = [s for spec in self.config.recoveries.values() if spec.name in self.recoveries
+                      for s in walk(spec)]
+        return [*(walk(self.config.behaviour) if self.config.behaviour else []), *self.config.monitors, *recoveries]
+
+    def monitor_results(self) -> dict[str, Any]:
+        """Every monitor's outcome (``running`` while it runs), reason, ``action`` and own result, by name; the one
+        that acted also has ``acted_at`` (sim s) and its ``recovery``. Empty with no monitors. The same as a
+        finished run's ``result["monitors"]``, available at any tick."""
+        return self._monitored.results() if self.monitors else {}
 
     def _instantiate(self, spec: ComponentSpec) -> Any:
         ptype = self.plugins.get(spec.kind, spec.type)
@@ -154,12 +190,13 @@ class Simulation:
                            self._tracer(spec.name), self.body_keys, run_dir=self.run_dir,
                            save_frames=self.save_frames)
         self._contexts[spec.key] = ctx
+        provided = self.plugins.get(spec.kind, spec.type).provided()  # names a third-party type's distribution
         try:
             comp.setup(ctx)
         except ConfigError as exc:
-            raise exc.within(spec.key, self.config.source) from None
+            raise ConfigError(exc.message + provided, key=exc.key).within(spec.key, self.config.source) from None
         except UserError as exc:
-            raise ConfigError(str(exc), key=spec.key, file=self.config.source) from None
+            raise ConfigError(str(exc) + provided, key=spec.key, file=self.config.source) from None
         except Interrupted:
             raise
         except BaseException as exc:  # SystemExit and KeyboardInterrupt from a plugin are plugin faults too
@@ -247,10 +284,7 @@ class Simulation:
         from robokit.core.preflight import overlapping_bodies
 
         problems = overlapping_bodies(self.world, self.body_keys)
-        specs = list(self.config.sensors + self.config.actuators)
-        if self.behaviour is not None and self.config.behaviour is not None:
-            specs += [*self.config.behaviour.children, self.config.behaviour]
-        specs += self.config.monitors
+        specs = list(self.config.sensors + self.config.actuators) + self.behaviour_specs()
         for spec in specs:
             comp = self._instances[spec.key]
             hook = getattr(comp, "preflight", None)
@@ -378,7 +412,8 @@ class Simulation:
         return result
 
     def _check_goal(self, outcome: str, reason: str) -> tuple[str, str, dict[str, Any] | None]:
-        """Evaluate the behaviour's goal on the world; an unmet goal turns ``succeeded`` into ``failed``.
+        """Evaluate the behaviour's goal on the world: for a run the behaviour ended, the world decides (met:
+        ``succeeded``, not met: ``failed``, the reason says why and what the behaviour claimed).
 
         Returns the (possibly changed) outcome and reason, and the goal's record for the result (None if the
         behaviour states no goal).
@@ -400,12 +435,16 @@ class Simulation:
             return outcome, reason, None
         record = {"met": bool(check.met), "reason": check.reason, **dict(check.details)}
         self._tracer("behaviour")("goal", met=record["met"], reason=check.reason)
-        if check.met:
-            return outcome, reason, record
-        if outcome == "succeeded":
-            claimed = f" (the behaviour reported: {reason})" if reason else ""
+        claimed = f" (the behaviour reported {outcome}: {reason})" if reason else f" (the behaviour reported {outcome})"
+        if outcome not in ("succeeded", "failed"):  # stopped by a limit or a signal: not judged, the goal recorded
+            return outcome, f"{reason}; goal not met: {check.reason}" if not check.met else reason, record
+        if check.met and outcome == "failed":  # the world's verdict (docs/outcomes.md); the claim stays on record
+            record["claimed"] = {"outcome": outcome, "reason": reason}
+            return "succeeded", f"goal met: {check.reason}{claimed}", record
+        if not check.met:
+            record["claimed"] = {"outcome": outcome, "reason": reason}
             return "failed", f"goal not met: {check.reason}{claimed}", record
-        return outcome, f"{reason}; goal not met: {check.reason}" if reason else check.reason, record
+        return outcome, reason, record
 
     def _ending(self, limit: float, budget: float | None, timing: WallTiming | None) -> tuple[str, str]:
         """Outcome and reason of a run that did not end in an error."""
@@ -456,7 +495,7 @@ class Simulation:
     # ----------------------------------------------------------------- lifetime
     def close(self) -> None:
         """Close every component, then the World. Safe to call twice."""
-        monitors = [m.behaviour for m in self.monitors]
+        monitors = [m.behaviour for m in [*self.monitors, *getattr(self, "recoveries", {}).values()]]
         for comp in list(self.components.values()) + ([self.behaviour] if self.behaviour else []) + monitors:
             try:
                 comp.close()

@@ -43,6 +43,9 @@ def load_env_config(config: str | Path | dict[str, Any], overrides: dict[str, An
     raw.pop("behaviour", None)
     if "env" not in raw:
         raise ConfigError("no [env] section: say what is observed, what the actions drive and the task", file=source)
+    task_raw = raw["env"].get("task")
+    if raw["env"].get("goal_env") is True and isinstance(task_raw, dict):
+        task_raw.setdefault("reward", "sparse")  # a goal environment's reward is sparse unless the config says
     if raw.get("events"):
         raise ConfigError("timed [[events]] are not supported in an environment", key="events", file=source)
     cfg = build_config(raw, plugins, source=source, base_dir=base)
@@ -76,7 +79,11 @@ class RobokitEnv(gym.Env):  # type: ignore[type-arg]
     sim: Simulation | None = None
 
     def __init__(self, config: str | Path | dict[str, Any], render_mode: str | None = None,
-                 overrides: dict[str, Any] | None = None, plugins: Plugins | None = None) -> None:
+                 overrides: dict[str, Any] | None = None, plugins: Plugins | None = None,
+                 goal_env: bool | None = None) -> None:
+        overrides = dict(overrides or {})
+        if goal_env is not None:
+            overrides["env.goal_env"] = goal_env
         self.cfg, self.env_spec, self.plugins = load_env_config(config, overrides, plugins)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}")
@@ -84,18 +91,20 @@ class RobokitEnv(gym.Env):  # type: ignore[type-arg]
             raise ConfigError("render_mode='rgb_array' needs [env] render_camera = a camera sensor's name",
                               key="env.render_camera", file=self.cfg.source)
         self.render_mode = render_mode
-        self.observer = Observer(self.env_spec)
         self._build()
+        self.observer = Observer(self.env_spec, self.task.goal_entries)
         self.metadata = {**self.metadata, "render_fps": round(self.env_spec.control_hz)}
         self.action_space = spaces.Box(-1.0, 1.0, (self.actions.size,), dtype=np.float32)
         try:
-            obs = self._observe_raw()
+            task_obs = self.task.observe()
+            bounds = self.observer.fit_bounds(self._sim.readings, task_obs,
+                                              {f"task.{k}": v for k, v in self.task.bounds().items()})
         except ValueError as exc:
             self.close()
             raise ConfigError(str(exc).removeprefix("env.observations: "), key="env.observations",
                               file=self.cfg.source) from None
         boxes: dict[str, spaces.Space[Any]] = {
-            k: spaces.Box(-np.inf, np.inf, v.shape, dtype=np.float32) for k, v in obs.items()}
+            k: spaces.Box(lo, hi, lo.shape, dtype=lo.dtype) for k, (lo, hi) in bounds.items()}
         self.observation_space = spaces.Dict(boxes) if self.env_spec.dict_observations else boxes["observation"]
         self.restorable = self.env_spec.reset == "restore" or (
             self.env_spec.reset == "auto" and all(hasattr(c, "reset") for c in self._components()))
@@ -196,6 +205,11 @@ class RobokitEnv(gym.Env):  # type: ignore[type-arg]
         if failure is not None:
             info["failure"] = failure
         return self._observation(), reward, terminated, truncated, info
+
+    def compute_reward(self, achieved_goal: Any, desired_goal: Any, info: Any) -> np.ndarray:
+        """The reward for these goals (vectorised over leading axes), as :meth:`step` gives it: for HER's
+        relabelling. Sparse: 0 within the task's ``distance_threshold``, else -1; dense: minus the distance."""
+        return self.task.compute_reward(np.asarray(achieved_goal), np.asarray(desired_goal), info)
 
     def render(self) -> np.ndarray | None:  # type: ignore[override]
         """The render camera's RGB frame (``H x W x 3`` uint8), or None without ``render_mode``."""

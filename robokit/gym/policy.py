@@ -3,17 +3,22 @@
 A **linear policy** is an ``.npz`` file: ``action = clip(W @ ((obs - obs_mean) / obs_std) + b, -1, 1)``, plus the
 ``[env]`` section it was trained with (as JSON under ``env``) so that whoever runs it builds the same observation
 and sends the same commands. A **stable-baselines3** ``.zip`` (PPO, SAC, …) is loaded with stable-baselines3 if it
-is installed; its ``[env]`` section comes from the env config it was trained on.
+is installed; ``python -m robokit.gym.train`` stores the ``[env]`` section it was trained with in the ``.zip`` (member
+``robokit_env.json``, which stable-baselines3 ignores); for a ``.zip`` written elsewhere it comes from an env config.
 """
 
 from __future__ import annotations
 
 import json
+import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+ENV_MEMBER = "robokit_env.json"
+"""The member of a trained ``.zip`` holding ``{"env": [env] section, "meta": training facts}``."""
 
 
 @dataclass
@@ -66,24 +71,37 @@ class Sb3Policy:
         try:
             import stable_baselines3 as sb3
         except ImportError:
-            raise ValueError(f"{path}: a stable-baselines3 model needs `pip install stable-baselines3`") from None
-        data_algo = None
-        for name in ("PPO", "SAC", "TD3", "A2C", "DDPG"):
+            raise ValueError(f"{path}: a stable-baselines3 model needs `pip install -e '.[rl]'`") from None
+        self.env, meta = load_env_member(path)
+        named = str(meta.get("method", "")).split()  # "stable-baselines3 SAC + HER" from robokit.gym.train
+        names = [n for n in ("PPO", "SAC", "TD3", "A2C", "DDPG") if n in named] or ["PPO", "SAC", "TD3", "A2C", "DDPG"]
+        # acting needs no replay buffer: a HER buffer could not be made without an environment
+        no_buffer: dict[str, Any] = {"replay_buffer_class": None, "replay_buffer_kwargs": {}}
+        model, last = None, ""
+        for name in names:
             try:
-                data_algo = getattr(sb3, name).load(str(path), device="cpu")
+                model = getattr(sb3, name).load(str(path), device="cpu", custom_objects=no_buffer)
                 break
-            except Exception:  # noqa: BLE001, S112 - try the next algorithm class
-                continue
-        if data_algo is None:
-            raise ValueError(f"{path}: not a stable-baselines3 model this version can load")
-        self.model = data_algo
-        self.env: dict[str, Any] | None = None
-        self.meta: dict[str, Any] = {"kind": "sb3", "algorithm": type(data_algo).__name__}
+            except Exception as exc:  # noqa: BLE001 - try the next algorithm class
+                last = f"{type(exc).__name__}: {exc}".splitlines()[0]
+        if model is None:
+            raise ValueError(f"{path}: not a stable-baselines3 model this version can load ({last})")
+        self.model = model
+        self.meta: dict[str, Any] = {"kind": "sb3", "algorithm": type(model).__name__, **meta}
 
     def act(self, obs: Any) -> np.ndarray:
         """The model's deterministic action."""
         action, _ = self.model.predict(obs, deterministic=True)
         return np.asarray(action, dtype=np.float32)
+
+
+def load_env_member(path: str | Path) -> tuple[dict[str, Any] | None, dict[str, Any]]:
+    """The ``[env]`` section and training facts a ``.zip`` carries (``None, {}`` for one written elsewhere)."""
+    with zipfile.ZipFile(path) as archive:
+        if ENV_MEMBER not in archive.namelist():
+            return None, {}
+        data = json.loads(archive.read(ENV_MEMBER))
+    return data.get("env"), dict(data.get("meta", {}))
 
 
 def load_policy(path: str | Path) -> LinearPolicy | Sb3Policy:

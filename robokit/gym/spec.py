@@ -90,19 +90,31 @@ class EnvSpec(Schema):
     actions: dict[str, ActionSpec] = Field(min_length=1)
     task: TaskSpec
     render_camera: str | None = None
+    goal_env: bool = Field(False, description="a goal dict observation (observation, achieved_goal, desired_goal) "
+                                              "and sparse reward by default, for HER")
+    obs_limit: float = Field(10.0, gt=0, description="bound of observation entries without a natural one (m, m/s; "
+                                                     "values beyond it are clipped)")
     reset: Literal["auto", "restore", "rebuild"] = Field(
         "auto", description="restore the start state in place (fast) or rebuild the world; auto: restore when "
                             "every component can reset itself")
 
     @property
     def dict_observations(self) -> bool:
-        """True when observations are a Dict space (a table of name -> entries)."""
-        return isinstance(self.observations, dict)
+        """True when observations are a Dict space (a table of name -> entries, or a goal environment)."""
+        return isinstance(self.observations, dict) or self.goal_env
 
-    def observation_groups(self) -> dict[str, tuple[str, ...]]:
-        """Observation key -> its entries (one group named ``"observation"`` for a flat Box)."""
+    def observation_groups(self, goal_entries: frozenset[str] = frozenset()) -> dict[str, tuple[str, ...]]:
+        """Observation key -> its entries (one group named ``"observation"`` for a flat Box).
+
+        In a goal environment with a flat list, the groups are panda-gym's: ``observation`` (the list without the
+        task entries that depend on the goal, ``goal_entries``), ``achieved_goal`` (``task.achieved``) and
+        ``desired_goal`` (``task.goal``): an observation must not depend on the goal for HER to relabel it.
+        """
         if isinstance(self.observations, dict):
             return {k: (v,) if isinstance(v, str) else tuple(v) for k, v in self.observations.items()}
+        if self.goal_env:
+            kept = tuple(e for e in self.observations if not (e.startswith("task.") and e[5:] in goal_entries))
+            return {"observation": kept, "achieved_goal": ("task.achieved",), "desired_goal": ("task.goal",)}
         return {"observation": tuple(self.observations)}
 
     def action_repeat(self, physics_hz: float) -> int:
@@ -146,30 +158,101 @@ def lookup(value: Any, path: list[str], where: str) -> Any:
 class Observer:
     """Builds observations from readings and the task's observation, as the [env] section declares them."""
 
-    def __init__(self, spec: EnvSpec) -> None:
+    def __init__(self, spec: EnvSpec, goal_entries: frozenset[str] = frozenset()) -> None:
         self.spec = spec
-        self.groups = {k: [(e, e.split(".")) for e in v] for k, v in spec.observation_groups().items()}
+        self.groups = {k: [(e, e.split(".")) for e in v] for k, v in spec.observation_groups(goal_entries).items()}
+        self.clip: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+
+    @staticmethod
+    def _value(readings: Mapping[str, Any], task_obs: Mapping[str, Any], entry: str, path: list[str]) -> Any:
+        if path[0] == "task":
+            source: Any = task_obs
+        elif path[0] in readings:
+            source = readings[path[0]]
+        else:
+            names = ", ".join(["task", *readings])
+            raise ValueError(f"env.observations: {entry!r}: unknown component {path[0]!r}; known: {names}")
+        return lookup(source, path[1:], f"env.observations: {entry!r}")
 
     def observe(self, readings: Mapping[str, Any], task_obs: Mapping[str, Any]) -> dict[str, np.ndarray]:
-        """Observation arrays (float32) by group name."""
+        """Observation arrays by group name: float32 vectors, or an image (a group of one image entry)."""
         out = {}
         for key, entries in self.groups.items():
+            if len(entries) == 1:
+                value = self._value(readings, task_obs, *entries[0])
+                if isinstance(value, np.ndarray) and value.ndim >= 2:
+                    out[key] = image = as_image(value)
+                    if key in self.clip:
+                        clip_into(image, *self.clip[key])
+                    continue
             values: list[float] = []
             for entry, path in entries:
-                if path[0] == "task":
-                    source: Any = task_obs
-                elif path[0] in readings:
-                    source = readings[path[0]]
-                else:
-                    names = ", ".join(["task", *readings])
-                    raise ValueError(f"env.observations: {entry!r}: unknown component {path[0]!r}; known: {names}")
-                values.extend(flatten(lookup(source, path[1:], f"env.observations: {entry!r}")))
-            out[key] = np.asarray(values, dtype=np.float32)
+                value = self._value(readings, task_obs, entry, path)
+                if isinstance(value, np.ndarray) and value.ndim >= 2:
+                    raise ValueError(f"env.observations: {entry!r} is an image: give it a key of its own, e.g. "
+                                     f"observations = {{ image = {entry!r}, state = [...] }}")
+                values.extend(flatten(value))
+            vector = out[key] = np.asarray(values, dtype=np.float32)
+            if key in self.clip:
+                clip_into(vector, *self.clip[key])
+        return out
+
+    def fit_bounds(self, readings: Mapping[str, Any], task_obs: Mapping[str, Any],
+                   known: Mapping[str, tuple[Any, Any]]) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+        """Each group's bounds (low, high arrays of its shape), which :meth:`observe` clips to from now on.
+
+        ``known``: natural bounds by entry (``"task.goal"``: the goal box); an RGB image is 0..255, a depth image
+        0..the camera's far plane, a segmentation image -1 (background) up; every other number
+        ``±spec.obs_limit``. A bound with low = high (a goal always on the table) is widened by 1 mm above: a Box
+        with equal bounds is not a space Gymnasium accepts without a warning.
+        """
+        limit, self.clip = self.spec.obs_limit, {}
+        self.observe(readings, task_obs)  # raises on an unknown entry or an image among numbers
+        out = {}
+        for key, entries in self.groups.items():
+            value = self._value(readings, task_obs, *entries[0]) if len(entries) == 1 else None
+            if isinstance(value, np.ndarray) and value.ndim >= 2:
+                image = as_image(value)
+                far = getattr(self._value(readings, task_obs, entries[0][0], entries[0][1][:-1]), "far", limit)
+                lo, hi = {np.dtype(np.uint8): (0, 255), np.dtype(np.int32): (-1, np.iinfo(np.int32).max)}.get(
+                    image.dtype, (0.0, float(far)))
+                out[key] = (np.full(image.shape, lo, image.dtype), np.full(image.shape, hi, image.dtype))
+                if image.dtype == np.float32:
+                    self.clip[key] = out[key]
+                continue
+            lows: list[float] = []
+            highs: list[float] = []
+            for entry, path in entries:
+                n = len(flatten(self._value(readings, task_obs, entry, path)))
+                low, high = known.get(entry, (-limit, limit))
+                lows.extend(np.broadcast_to(np.asarray(low, np.float64), (n,)).tolist())
+                highs.extend(np.broadcast_to(np.asarray(high, np.float64), (n,)).tolist())
+            lo32, hi32 = np.asarray(lows, np.float32), np.asarray(highs, np.float32)
+            hi32 = np.where(hi32 > lo32, hi32, lo32 + np.float32(1e-3))  # a fixed value (a goal on the table)
+            out[key] = self.clip[key] = (lo32, hi32)
         return out
 
 
+def clip_into(a: np.ndarray, low: np.ndarray, high: np.ndarray) -> None:
+    """Clip ``a`` in place (two ufunc calls: np.clip's dispatch costs more than the work on a few numbers)."""
+    np.maximum(a, low, out=a)
+    np.minimum(a, high, out=a)
+
+
+def as_image(value: np.ndarray) -> np.ndarray:
+    """A camera image as an observation: RGB stays ``(H, W, 3)`` uint8; a one-channel image (depth, segmentation)
+    gets a channel axis, ``(H, W, 1)``, keeping its dtype (float32 metres, int32 body ids)."""
+    if value.ndim == 2:
+        value = value[:, :, None]
+    if value.dtype == np.uint8:
+        return value
+    return value.astype(np.int32 if np.issubdtype(value.dtype, np.integer) else np.float32)
+
+
 def _clip(a: Any) -> np.ndarray:
-    return np.clip(np.asarray(a, dtype=np.float64), -1.0, 1.0)
+    out = np.array(a, dtype=np.float64)  # a copy: the caller's action is not changed
+    np.maximum(out, -1.0, out=out)
+    return np.minimum(out, 1.0, out=out)  # type: ignore[no-any-return]
 
 
 class Actions:

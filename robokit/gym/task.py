@@ -77,6 +77,8 @@ class Task:
     """Base class of tasks. Subclasses implement :meth:`reset`, :meth:`observe`, :meth:`reward`, :meth:`success`."""
 
     kind: ClassVar[str] = "task"
+    goal_entries: ClassVar[frozenset[str]] = frozenset()
+    """Observation entries that depend on the goal (left out of a goal environment's ``observation``)."""
 
     def __init__(self, name: str, config: Any) -> None:
         self.name = name
@@ -111,6 +113,14 @@ class Task:
         """Extra per-step information (JSON-friendly numbers), merged into ``info``."""
         return {}
 
+    def bounds(self) -> dict[str, tuple[Any, Any]]:
+        """Natural bounds of observation entries by name (``{"goal": (low, high)}``); others get ``obs_limit``."""
+        return {}
+
+    def compute_reward(self, achieved_goal: np.ndarray, desired_goal: np.ndarray, info: Any) -> np.ndarray:
+        """The reward :meth:`reward` gives for these goals, vectorised over leading axes (goal tasks: for HER)."""
+        raise NotImplementedError(f"task {self.name!r} has no goal: it cannot compute rewards for other goals")
+
     def close(self) -> None:
         """Release what the task holds."""
 
@@ -120,6 +130,15 @@ def hide_from_collisions(world: World, body: int) -> None:
     c = world.client
     for link in range(-1, c.getNumJoints(body)):
         c.setCollisionFilterGroupMask(body, link, 0, 0)
+
+
+def goal_reward(achieved_goal: Any, desired_goal: Any, threshold: float, kind: str) -> np.ndarray:
+    """panda-gym's goal reward, vectorised over leading axes: sparse ``-1`` unless within ``threshold`` (then 0),
+    dense minus the distance. float32, shape of the goals without their last axis."""
+    d = np.linalg.norm(np.asarray(achieved_goal, np.float64) - np.asarray(desired_goal, np.float64), axis=-1)
+    if kind == "sparse":
+        return -(d >= threshold).astype(np.float32)  # type: ignore[no-any-return]
+    return -d.astype(np.float32)  # type: ignore[no-any-return]
 
 
 def distance(a: Any, b: Any) -> float:

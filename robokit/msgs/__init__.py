@@ -13,6 +13,7 @@ OpenCV; :mod:`robokit.msgs.vision` and :mod:`robokit.msgs.mobile` use numpy.
 - :mod:`robokit.msgs.keyboard` — ``KeyState`` (``keyboard``).
 - :mod:`robokit.msgs.body` — ``BodyState`` (``body_pose``: a dict of body name -> ``BodyState``).
 - :mod:`robokit.msgs.control` — ``EEDelta``/``EEState`` (``ee_delta``), ``PidState`` (``pid``).
+- :mod:`robokit.msgs.sensing` — ``Wrench`` (``force_torque``), ``Imu``: frames named in the message, REP 103 signs.
 
 Every name is also importable from here: ``from robokit.msgs import Twist, LaserScan``.
 """
@@ -54,13 +55,14 @@ from robokit.msgs.mobile import (
     WheelSpeeds,
     wrap_angle,
 )
+from robokit.msgs.sensing import Imu, Wrench
 from robokit.msgs.vision import CameraFrame, Detection, Detections, Matrix16, deproject, gl_matrix
 
 __all__ = [
     "GRIPPER_ACTIONS", "JOINT_MODES", "STOP",
     "EEDelta", "EEState", "PidState",
     "ArmState", "BodyState", "CameraFrame", "Collect", "CollectorState", "ContactState", "Detection", "Detections",
-    "DriveState",
+    "DriveState", "Imu", "Wrench",
     "GripperCommand", "GripperState", "HoldArm", "JointCommand", "JointStates", "KeyState", "LaserScan", "Matrix16",
     "MoveTo", "Pose2D", "Quat", "Twist", "Vec3", "WheelSpeeds",
     "close_gripper", "cube_grasp_yaw", "deproject", "down_quaternion", "gl_matrix", "open_gripper", "quat_angle",

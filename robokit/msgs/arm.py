@@ -130,6 +130,8 @@ class ArmState:
         path_end: Sim time (seconds) at which the current path's motion ends; None with no path, or from an arm
             that does not plan paths. Until then ``status`` stays ``moving`` unless a new command is sent, so a
             behaviour waiting for ``reached`` may skip reading the arm before this time.
+        stopped: A protective stop holds the arm (``status`` is ``failed``, ``reason`` says why): a monitor's
+            abort or pre-emption, or the arm's own ``stop_on`` contact sensor.
     """
 
     position: Vec3
@@ -143,6 +145,7 @@ class ArmState:
     command_id: int = 0
     joint_positions: Mapping[str, float] = field(default_factory=dict)
     path_end: float | None = None
+    stopped: bool = False
 
     @property
     def reached(self) -> bool:
@@ -199,6 +202,7 @@ class GripperState:
         holding: Both fingers touch the same body and the width is above the empty-closed width.
         held: Name of the held body (None when not holding).
         finger_contacts: Number of finger contact points with bodies other than the robot.
+        stopped: A protective stop froze the fingers (what they hold stays held).
     """
 
     width: float
@@ -208,6 +212,7 @@ class GripperState:
     holding: bool
     held: str | None = None
     finger_contacts: int = 0
+    stopped: bool = False
 
 
 # ----------------------------------------------------------------------------------------- contact

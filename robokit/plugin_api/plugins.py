@@ -68,6 +68,33 @@ class PluginType:
         """``"distribution version"``, for messages."""
         return f"{self.distribution} {self.version}".strip()
 
+    @property
+    def qualified(self) -> str:
+        """``"distribution:type"``: the name a config may always use, whatever else is installed."""
+        return f"{self.distribution}:{self.name}"
+
+    def provided(self) -> str:
+        """`` (sensor type 'x' from dist 1.0)`` for messages about a section of a third-party type; "" for
+        robokit's own types."""
+        if self.distribution in (BUILTIN, "<local>"):  # robokit's own, or registered in code: nothing to name
+            return ""
+        return f" ({self.kind} type {self.name!r} from {self.origin})"
+
+
+def normalized(distribution: str) -> str:
+    """A distribution name as pip compares them: lower case, runs of ``-``, ``_`` and ``.`` as one ``-``."""
+    out: list[str] = []
+    dash = False
+    for ch in distribution.lower():
+        if ch in "-_.":
+            dash = True
+            continue
+        if dash and out:
+            out.append("-")
+        dash = False
+        out.append(ch)
+    return "".join(out)
+
 
 class KindTypes(MutableMapping[str, PluginType]):
     """The registered types of one kind, by name.
@@ -121,6 +148,10 @@ class Plugins:
         self._index: dict[tuple[str, str], str] = {}  # (kind, type name) -> module that registers it
         self._origins: dict[str, tuple[str, str]] = {}
         self._collected: set[tuple[str, str]] = set()  # (kind, plugin name) whose registration hook was called
+        self.qualified: dict[str, dict[tuple[str, str], PluginType]] = {k: {} for k in KINDS}
+        """Every registered type by kind, then (normalised distribution name, type name)."""
+        self.ambiguous: dict[str, dict[str, list[PluginType]]] = {k: {} for k in KINDS}
+        """Bare type names registered by two or more third-party distributions: a config must say which."""
 
     def want(self, kind: str, name: str) -> None:
         """Make sure the type ``kind``/``name`` is loaded if any plugin provides it (imports its module only,
@@ -144,18 +175,49 @@ class Plugins:
         Raises:
             UserError: Unknown type; the message lists the valid ones and any plugin that failed to load.
         """
+        dist, sep, bare = name.rpartition(":")
+        if sep:
+            return self._qualified(kind, dist, bare, where)
         try:
             return self.types[kind][name]
         except KeyError:
+            clash = self.ambiguous[kind].get(name)
+            if clash:
+                raise UserError(self.ambiguity(kind, name)) from None
             err = LookupNameError(f"{kind} type", name, self.types[kind], where=where)
             if self.broken:
                 notes = "; ".join(f"{dist} failed to load: {why}" for dist, why in self.broken.items())
                 raise UserError(f"{err} (note: {notes})") from None
             raise err from None
 
+    def ambiguity(self, kind: str, name: str) -> str:
+        """One line: which distributions register ``name`` and how a config names each."""
+        clash = self.ambiguous[kind][name]
+        who = " and ".join(t.origin for t in clash)
+        ways = " or ".join(repr(t.qualified) for t in clash)
+        return f"{kind} type {name!r} is ambiguous: it is registered by {who}; write {ways}"
+
+    def _qualified(self, kind: str, dist: str, name: str, where: str) -> PluginType:
+        """A ``distribution:type`` name (the distribution as pip spells it, any case, ``-``/``_`` alike)."""
+        self.complete()
+        found = self.qualified[kind].get((normalized(dist), name))
+        if found is not None:
+            return found
+        providers = sorted(t.qualified for (_, n), t in self.qualified[kind].items() if n == name)
+        if providers:
+            raise UserError(f"{where + ': ' if where else ''}no {kind} type {name!r} in distribution {dist!r}; "
+                            f"{name!r} comes from: {', '.join(providers)}")
+        raise LookupNameError(f"{kind} type", name, self.types[kind], where=where)
+
     def all_types(self) -> list[PluginType]:
-        """Every registered type, sorted by kind then name."""
-        return [t for kind in KINDS for _, t in sorted(self.types[kind].items())]
+        """Every registered type, sorted by kind then name (every provider of an ambiguous name)."""
+        out: list[PluginType] = []
+        for kind in KINDS:
+            self.complete()
+            named = [(n, t.distribution, t) for n, t in self.types[kind].data.items()]
+            named += [(n, t.distribution, t) for n, clash in self.ambiguous[kind].items() for t in clash]
+            out += [t for _, _, t in sorted(named, key=lambda x: (x[0], x[1]))]
+        return out
 
     @property
     def hook(self) -> Any:
@@ -267,9 +329,10 @@ def load_plugins(extra: Iterable[object] = (), *, entry_points: bool = True, laz
     A distribution whose entry point fails to import, or whose hooks do not match their specs, is skipped with a
     :class:`PluginLoadWarning` naming it; the others still load.
 
-    Two plugins registering the same type name for the same kind: robokit's built-in keeps the name (else the
-    distribution loaded first does), and the other's type is skipped with a :class:`PluginLoadWarning` naming both;
-    everything else still loads.
+    Two distributions registering the same type name for the same kind: every type is always reachable as
+    ``distribution:type``; robokit's built-in keeps its bare name, and between two other distributions the bare
+    name becomes ambiguous (a config that uses it gets a one-line error listing both). Nothing depends on the
+    order the distributions load in; a :class:`PluginLoadWarning` names a type shadowed by a built-in.
     """
     _import_pybullet_quietly()
     pm = pluggy.PluginManager("robokit")
@@ -344,19 +407,7 @@ def _collect(plugins: Plugins, kind: str, origins: dict[str, tuple[str, str]], o
         def register(type_name: str, cls: type, schema: type | None = None, *, _p: str = impl.plugin_name,
                      _d: str = dist, _v: str = version) -> None:
             new = PluginType(kind, type_name, cls, schema, _d, _v, _p)
-            existing = types.get(type_name)
-            if existing is not None:  # a clash: the built-in keeps its name, else the one loaded first does
-                order = list(origins)
-                first = order.index(_p) < order.index(existing.plugin) if existing.plugin in order else False
-                builtin = [t.distribution == BUILTIN for t in (new, existing)]
-                keep_new = builtin[0] and not builtin[1] or builtin[0] == builtin[1] and first
-                kept, skipped = (new, existing) if keep_new else (existing, new)
-                owner = "robokit's built-in" if kept.distribution == BUILTIN else f"{kept.origin}'s"
-                _reject(plugins, f"{skipped.origin} ({kind} type {type_name!r})",
-                        f"the name is taken by {owner} {kind} {type_name!r} ({kept.plugin}); rename the type")
-                if not keep_new:
-                    return
-            types[type_name] = new
+            _add(plugins, new)
 
         before = set(types)
         try:
@@ -367,6 +418,40 @@ def _collect(plugins: Plugins, kind: str, origins: dict[str, tuple[str, str]], o
             for partial in set(types) - before:
                 del types[partial]
             _reject(plugins, f"{dist} ({impl.plugin_name})", f"{_HOOK_OF_KIND[kind]} raised {exc!r}")
+
+
+def _add(plugins: Plugins, new: PluginType) -> None:
+    """Register a type under ``distribution:type`` always, and under its bare name unless that clashes.
+
+    A clash is never settled by load order: robokit's built-in types keep their bare names (the other type is
+    reachable as ``distribution:type`` only, with a warning); between two other distributions the bare name becomes
+    ambiguous (using it is a config error listing both; ``robokit plugins`` lists both).
+    """
+    kind, name = new.kind, new.name
+    plugins.qualified[kind].setdefault((normalized(new.distribution), name), new)
+    types, clash = plugins.types[kind].data, plugins.ambiguous[kind]
+    if name in clash:
+        if all(t.distribution != new.distribution for t in clash[name]):
+            clash[name].append(new)
+        return
+    existing = types.get(name)
+    if existing is None:
+        types[name] = new
+        return
+    if existing.distribution == new.distribution:
+        _reject(plugins, f"{new.origin} ({kind} type {name!r})", f"registered twice (by {existing.plugin} and "
+                f"{new.plugin}); the first is kept")
+        return
+    builtin = [t for t in (existing, new) if t.distribution == BUILTIN]
+    if builtin:
+        other = new if builtin[0] is existing else existing
+        types[name] = builtin[0]
+        warnings.warn(f"robokit plugin {other.origin}: its {kind} type {name!r} is reachable as "
+                      f"{other.qualified!r} only: the bare name is robokit's built-in {kind}", PluginLoadWarning,
+                      stacklevel=4)
+        return
+    del types[name]  # no warning: an ambiguous name is an error only where a config uses it
+    clash[name] = sorted([existing, new], key=lambda t: normalized(t.distribution))
 
 
 def _import_pybullet_quietly() -> None:

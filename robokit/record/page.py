@@ -32,6 +32,19 @@ th { background: #f4f4f4; text-align: left; } td.num { text-align: right; font-v
 .figs td:first-child { font-weight: bold; } .plots img { max-width: 100%; border: 1px solid #eee; margin: 6px 0; }
 pre { background: #f7f7f7; padding: 10px; overflow-x: auto; font-size: 12px; } video { max-width: 100%; }
 .meta { color: #555; font-size: 13px; } .fsm { max-width: 100%; height: auto; display: block; margin: 6px 0; }
+#rk-replay { position: relative; } #rk-pane { width: 100%; height: 480px; position: relative; overflow: hidden; }
+.rk-bar { display: flex; gap: 8px; align-items: center; margin: 6px 0; } #rk-time { flex: 1; }
+.rk-row { display: flex; align-items: center; gap: 8px; font-size: 11px; margin: 2px 0; }
+.rk-name { width: 90px; text-align: right; color: #555; }
+.rk-track { position: relative; flex: 1; height: 18px; background: #f4f4f4; }
+.rk-span { position: absolute; top: 0; height: 18px; overflow: hidden; white-space: nowrap; cursor: pointer;
+           font-size: 10px; line-height: 18px; padding-left: 2px; box-sizing: border-box;
+           border-right: 1px solid #fff; }
+#rk-hover { position: absolute; left: 8px; top: 8px; background: rgba(0,0,0,.6); color: #fff; font-size: 12px;
+            padding: 2px 6px; border-radius: 4px; display: none; pointer-events: none; z-index: 2; }
+#rk-seen { position: absolute; left: 8px; bottom: 8px; margin: 0; display: none; z-index: 2; background: #fff;
+           padding: 3px; font-size: 11px; } #rk-seen img { display: block; max-width: 220px; }
+.rk-cursor { position: absolute; top: -2px; width: 2px; height: 22px; background: #c62828; pointer-events: none; }
 """
 
 
@@ -64,7 +77,8 @@ def _objects(result: dict[str, Any]) -> str:
             head = "".join(f"<th>{escape(c)}</th>" for c in cols)
             body = "".join("<tr>" + "".join(f"<td>{escape(_cell(i.get(c)))}</td>" for c in cols) + "</tr>"
                            for i in items)
-            return f"<h3>{escape(key)}</h3><table><tr>{head}</tr>{body}</table>"
+            named = "" if key == "objects" else f"<p class='meta'>from the result's <code>{escape(key)}</code></p>"
+            return f"{named}<table><tr>{head}</tr>{body}</table>"
     return "<p class='meta'>(this behaviour reports no object list)</p>"
 
 
@@ -78,7 +92,7 @@ def _section(title: str, korean: str, body: str) -> str:
     return f"<h2>{escape(title)}<span class='ko' lang='ko'>{escape(korean)}</span></h2>{body}"
 
 
-def build_page(rec: RunRecord, video: Path | None, plots: list[Path]) -> str:
+def build_page(rec: RunRecord, video: Path | None, plots: list[Path], replay: str | None = None) -> str:
     """The page's HTML text."""
     r, header = rec.result, rec.header
     result = r.get("result") or {}
@@ -95,6 +109,9 @@ def build_page(rec: RunRecord, video: Path | None, plots: list[Path]) -> str:
              f"{escape(str(header.get('robokit_version')))}</p>"]
     parts.append(_section("Headline figures", "주요 결과", f"<table class='figs'>{_figures(result)}</table>"))
     parts.append(_section("Objects", "물체", _objects(result)))
+    if replay is not None:
+        parts.append(_section("Replay", "3D 재생", replay + "<p class='meta'>drag to orbit, right-drag to pan, "
+                              "scroll to zoom; click a state to jump to it</p>"))
     if video is not None:
         parts.append(_section("Video", "영상", f"<video id='run-video' controls muted playsinline preload='auto' "
                               f"src='{_data_uri(video, 'video/mp4')}'></video>"))
@@ -123,9 +140,16 @@ def _mime(path: Path) -> str:
     return "image/svg+xml" if path.suffix == ".svg" else "image/png"
 
 
-def write_page(rec: RunRecord, out: Path, *, video: bool = True) -> Path:
-    """Write the page to ``out``, making the video (if asked and missing) and the plots it embeds."""
+def write_page(rec: RunRecord, out: Path, *, video: bool = True, replay: bool = True) -> Path:
+    """Write the page to ``out``, making the video (if asked and missing), the 3D replay and the plots it embeds."""
     from robokit.record.plots import make_plots
+
+    scene = None
+    if replay and rec.has_poses:
+        from robokit.record.replay import replay_html
+
+        scene = replay_html(rec) or ("<p class='meta'>The 3D replay needs MeshCat's viewer: pip install "
+                                     "meshcat</p>")
 
     clip = find_video(rec) if video else None
     if video and clip is None and rec.has_poses:
@@ -138,7 +162,7 @@ def write_page(rec: RunRecord, out: Path, *, video: bool = True) -> Path:
     with tempfile.TemporaryDirectory() as tmp:
         if not plots:
             plots = make_plots(rec, Path(tmp))
-        html = build_page(rec, clip, plots)
+        html = build_page(rec, clip, plots, scene)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(html, encoding="utf-8")
     return out

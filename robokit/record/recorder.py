@@ -4,8 +4,12 @@ It sits in the loop as a monitor slot (:meth:`robokit.core.simulation.Simulation
 :meth:`Recorder.sample` at the start of every ``period``-th tick, before anything else happens in that tick, so a
 sample at tick ``k`` is the scene at sim time ``k * time_step``. Trace records (state transitions, events,
 ``record``-ed readings) stream into ``trace.jsonl`` as they happen; the pose log is kept in memory (a few hundred
-kilobytes for a minute of the main job) and written to ``poses.npz`` when the recorder closes. The format is in
-``docs/records.md``.
+kilobytes for a minute of the main job) and written to ``poses.npz`` at the end. The format is in ``docs/records.md``.
+
+At the end of a run the runner calls :meth:`Recorder.finish` (last sample, the trace's ``end`` record: quick), then
+delivers the result, then :meth:`Recorder.write_poses` (the slow part): ``result.json`` exists before the pose log.
+A write that fails (a full disk, a file-size limit) never raises: it stops that file and is reported as one line
+naming the file and the reason (:attr:`Recorder.failure`, the list :meth:`write_poses` returns).
 """
 
 from __future__ import annotations
@@ -47,6 +51,8 @@ class Recorder:
         self._rows: list[list[float]] = []
         self._removals = self.world.removals
         self._present = [True] * len(self._layout)
+        self.failure: str | None = None
+        """One line naming the trace file and why writing it stopped (None while it is written in full)."""
         self._trace: IO[str] | None = open(self.folder / TRACE_FILE, "w", encoding="utf-8")  # noqa: SIM115
         self._write(self.header())
         sim.trace_listeners.append(self._on_trace)
@@ -87,8 +93,13 @@ class Recorder:
 
     # ----------------------------------------------------------------- trace
     def _write(self, record: dict[str, Any]) -> None:
-        if self._trace is not None:
+        if self._trace is None or self.failure is not None:
+            return
+        try:
             self._trace.write(json.dumps(jsonable(record)) + "\n")
+        except OSError as exc:
+            self.failure = (f"run record: writing {self.folder / TRACE_FILE} failed at tick {record.get('tick', 0)}: "
+                            f"{exc.strerror or exc}; the trace stops there")
 
     def _on_trace(self, record: dict[str, Any]) -> None:
         self._write(record)
@@ -133,8 +144,8 @@ class Recorder:
         return out
 
     # ----------------------------------------------------------------- end
-    def close(self, result: Any = None) -> None:
-        """Take a last sample of the final state, write ``poses.npz`` and an ``end`` record; safe to call twice."""
+    def finish(self, result: Any = None) -> None:
+        """Take a last sample of the final state, write the ``end`` record and close the trace; safe to call twice."""
         if self._trace is None:
             return
         if self.period and self.world.client is not None and (not self._ticks or self._ticks[-1] != self.world.tick):
@@ -142,11 +153,45 @@ class Recorder:
         if result is not None:
             self._write({"kind": "end", "tick": result.ticks, "t": result.sim_time, "outcome": result.outcome,
                          "reason": result.reason})
-        self._trace.close()
-        self._trace = None
-        if self.period:
-            tmp = self.folder / (POSES_FILE + ".tmp.npz")
-            np.savez_compressed(tmp, **self.poses())  # type: ignore[arg-type]
-            tmp.replace(self.folder / POSES_FILE)
+        self._close_trace()
+
+    def _close_trace(self) -> None:
+        trace, self._trace = self._trace, None
+        if trace is not None:
+            try:
+                trace.close()  # flushes what is buffered: a full disk may show here
+            except OSError as exc:
+                if self.failure is None:
+                    self.failure = (f"run record: writing {self.folder / TRACE_FILE} failed at its end: "
+                                    f"{exc.strerror or exc}")
         if self._on_trace in self.sim.trace_listeners:
             self.sim.trace_listeners.remove(self._on_trace)
+
+    def write_poses(self) -> list[str]:
+        """Write ``poses.npz`` (through a temporary file and a rename); the failures, one line each ([] if none).
+
+        A write that is broken into (``Interrupted``) leaves no temporary file behind and passes the interrupt on.
+        """
+        self.finish()
+        if not self.period or not self._ticks:
+            return []
+        tmp, path = self.folder / (POSES_FILE + ".tmp.npz"), self.folder / POSES_FILE
+        try:
+            np.savez_compressed(tmp, **self.poses())  # type: ignore[arg-type]
+            tmp.replace(path)
+        except OSError as exc:
+            return [f"run record: writing {path} failed: {exc.strerror or exc}; the pose log was not kept"]
+        finally:
+            tmp.unlink(missing_ok=True)
+        return []
+
+    def abandon(self) -> None:
+        """Stop recording: close the trace where it is, write no pose log, leave no temporary file."""
+        self.period = 0
+        self._close_trace()
+        (self.folder / (POSES_FILE + ".tmp.npz")).unlink(missing_ok=True)
+
+    def close(self, result: Any = None) -> list[str]:
+        """:meth:`finish`, then :meth:`write_poses` (for code that records a simulation it runs itself)."""
+        self.finish(result)
+        return self.write_poses()

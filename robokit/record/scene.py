@@ -7,7 +7,7 @@ frame then sets each body's base pose and joint positions from the pose log, whi
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -28,6 +28,8 @@ class Scene:
     world: Any
     rec: RunRecord
     joints: dict[str, list[int]]
+    lowered: dict[str, float] = field(default_factory=dict)
+    """Ground planes drawn this much lower (m) than recorded: see :func:`floor_drops`."""
 
     def set_frame(self, i: int) -> None:
         """Put every body in the pose of pose-log sample ``i``."""
@@ -41,7 +43,9 @@ class Scene:
             if np.isnan(row[0]):
                 client.resetBasePositionAndOrientation(bid, FAR_AWAY, (0, 0, 0, 1))
                 continue
-            client.resetBasePositionAndOrientation(bid, row[:3].tolist(), row[3:7].tolist())
+            position = row[:3].tolist()
+            position[2] -= self.lowered.get(name, 0.0)
+            client.resetBasePositionAndOrientation(bid, position, row[3:7].tolist())
             q = poses.get(f"joints/{name}")
             if q is not None:
                 for idx, value in zip(indices, q[i].tolist(), strict=True):
@@ -81,10 +85,25 @@ def rebuild(rec: RunRecord) -> Scene:
         joints = {}
         for name, info in header["bodies"].items():
             joints[name] = [world.joint(name, j).index for j in info["joints"]]
+        lowered = floor_drops(world)
     except Exception:
         world.close()
         raise
-    return Scene(world, rec, joints)
+    return Scene(world, rec, joints, lowered)
+
+
+def floor_drops(world: Any) -> dict[str, float]:
+    """How far to lower each ground plane (a body over 5 m across, under 0.1 m thick) so that it lies under every
+    other body: a table sunk to put its top at z = 0 has its top exactly in the floor's plane, and the renderer
+    draws the two surfaces in the same place (z-fighting: the table vanishes). Drawing only; the run is unchanged.
+    """
+    boxes = {name: world.body_aabb(name) for name in world.body_names}
+    ground = {n for n, (lo, hi) in boxes.items() if max(hi[0] - lo[0], hi[1] - lo[1]) > 5.0 and hi[2] - lo[2] < 0.1}
+    others = [lo[2] for n, (lo, _) in boxes.items() if n not in ground]
+    if not ground or not others:
+        return {}
+    lowest = min(others)
+    return {n: boxes[n][1][2] - lowest + 0.002 for n in ground if boxes[n][1][2] > lowest - 0.002}
 
 
 # ----------------------------------------------------------------- views

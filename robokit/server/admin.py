@@ -14,7 +14,18 @@ from django.http import Http404, HttpRequest, HttpResponse
 from django.shortcuts import render
 
 from robokit.server import tokens
-from robokit.server.models import Artifact, Classroom, Project, Result, Student, Token
+from robokit.server.models import (
+    Artifact,
+    Assignment,
+    Classroom,
+    ModerationEvent,
+    Project,
+    Result,
+    Student,
+    Submission,
+    Token,
+    TrainingRun,
+)
 
 
 class OwnClassesMixin:
@@ -143,3 +154,52 @@ class ResultAdmin(OwnClassesMixin, admin.ModelAdmin):
 
     def has_add_permission(self, request: HttpRequest) -> bool:
         return False
+
+
+@admin.register(Assignment)
+class AssignmentAdmin(OwnClassesMixin, admin.ModelAdmin):
+    """An assignment: its official config, the keys students may change, seeds, due time, late policy."""
+
+    list_display = ("name", "classroom", "kind", "due_at", "late_policy")
+    list_filter = (("classroom", admin.RelatedOnlyFieldListFilter),)
+    readonly_fields = ("project",)
+
+    def save_model(self, request: HttpRequest, obj: Any, form: Any, change: bool) -> None:
+        if not obj.project_id:  # the assignment's runs board: the class's project of the same name
+            obj.project, _ = Project.objects.get_or_create(classroom=obj.classroom, name=obj.name)
+        super().save_model(request, obj, form, change)
+
+
+@admin.register(Submission)
+class SubmissionAdmin(OwnClassesMixin, admin.ModelAdmin):
+    owner_path = "assignment__classroom__owner"
+    list_display = ("submitted_at", "student", "assignment", "status", "success_rate", "late", "excluded")
+    list_filter = ("status", "late", "excluded")
+    readonly_fields = [f.name for f in Submission._meta.fields if f.name != "excluded"]
+
+    def has_add_permission(self, request: HttpRequest) -> bool:
+        return False  # students submit with `robokit submit`
+
+
+@admin.register(ModerationEvent)
+class ModerationEventAdmin(OwnClassesMixin, admin.ModelAdmin):
+    """The audit log: read only."""
+
+    list_display = ("at", "teacher", "action", "what", "reason")
+    readonly_fields = ("classroom", "result", "submission", "action", "reason", "teacher", "what", "at")
+
+    def has_add_permission(self, request: HttpRequest) -> bool:
+        return False
+
+    def has_change_permission(self, request: HttpRequest, obj: Any = None) -> bool:
+        return False
+
+    def has_delete_permission(self, request: HttpRequest, obj: Any = None) -> bool:
+        return False
+
+
+@admin.register(TrainingRun)
+class TrainingRunAdmin(OwnClassesMixin, admin.ModelAdmin):
+    owner_path = "student__classroom__owner"
+    list_display = ("received_at", "student", "name", "run_id")
+    readonly_fields = ("run_id", "student", "name", "points", "received_at")

@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import os
 import signal
+import subprocess
 import sys
 from pathlib import Path
 from typing import Any
@@ -28,9 +29,15 @@ def add_server_commands(sub: Any) -> None:
     serve.add_argument("--data", metavar="DIR", help=f"data folder: SQLite database, uploads, secret key "
                        f"(default ${DATA_ENV} or ./{DEFAULT_DATA_DIR})")
     serve.add_argument("--threads", type=int, default=8, help="worker threads (default 8)")
+    serve.add_argument("--workers", type=int, default=1, metavar="N",
+                       help="evaluation workers started beside the server (default 1; 0: run `robokit worker`)")
     serve.add_argument("--create-teacher", metavar="NAME", help="create a teacher login (password from "
                        "$ROBOKIT_TEACHER_PASSWORD or a prompt) and exit")
     serve.set_defaults(func=cmd_serve)
+    worker = sub.add_parser("worker", help="run the course server's evaluation workers (the task queue)")
+    worker.add_argument("--data", metavar="DIR", help="data folder (as for serve)")
+    worker.add_argument("--workers", type=int, default=1, metavar="N", help="evaluation processes (default 1)")
+    worker.set_defaults(func=cmd_worker)
     manage = sub.add_parser("manage", help="course server management: create_class, add_students, issue_token, "
                             "revoke_token, teacher_token, create_teacher, or any Django command",
                             add_help=False)
@@ -120,6 +127,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
     host = f"[{args.host}]" if ":" in args.host else args.host
     print(f"robokit serve: http://{host}:{server.effective_port}/ (results: POST /api/robotics/result/; "
           f"waitress, {args.threads} threads; data {folder}) - Ctrl-C stops", flush=True)
+    workers = _start_workers(folder, args.workers, settings)
     signal.signal(signal.SIGTERM, _raise_interrupt)
     try:
         server.run()  # returns on Ctrl-C / SIGTERM (waitress catches the KeyboardInterrupt and closes)
@@ -127,7 +135,48 @@ def cmd_serve(args: argparse.Namespace) -> int:
         pass
     finally:
         server.close()
+        _stop_workers(workers)
     print("robokit serve: stopped", file=sys.stderr)
+    return 0
+
+
+def _start_workers(folder: Path, n: int, settings: Any) -> subprocess.Popen[bytes] | None:
+    """``robokit worker --workers N`` beside the server (its own process group of queue processes)."""
+    if n <= 0 or getattr(settings, "QUEUE_SYNC", False):
+        return None
+    proc = subprocess.Popen([sys.executable, "-m", "robokit.cli", "worker", "--data", str(folder),
+                             "--workers", str(n)])
+    print(f"robokit serve: {n} evaluation worker{'s' if n != 1 else ''} (robokit worker, pid {proc.pid})",
+          flush=True)
+    return proc
+
+
+def _stop_workers(proc: subprocess.Popen[bytes] | None) -> None:
+    if proc is None or proc.poll() is not None:
+        return
+    proc.terminate()  # the queue finishes or hands back what it holds (an unfinished task comes back later)
+    try:
+        proc.wait(timeout=30)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()
+
+
+def cmd_worker(args: argparse.Namespace) -> int:
+    """``robokit worker``: django-q2's cluster on the server's database; Ctrl-C / SIGTERM stops it."""
+    os.environ["ROBOKIT_WORKERS"] = str(max(1, args.workers))
+    setup(args.data)
+    migrate()
+    from django_q.cluster import Cluster
+
+    print(f"robokit worker: {max(1, args.workers)} evaluation process(es) on {describe_database()}", flush=True)
+    cluster = Cluster()  # handles SIGTERM / SIGINT itself: stops its processes, then the sentinel ends
+    cluster.start()
+    try:
+        while cluster.sentinel is not None and cluster.sentinel.is_alive():
+            cluster.sentinel.join()
+    except KeyboardInterrupt:
+        cluster.stop()
     return 0
 
 
@@ -146,7 +195,8 @@ def cmd_manage(args: argparse.Namespace) -> int:
     if not args.args or args.args[0] in ("-h", "--help"):
         print("usage: robokit manage [--data DIR] COMMAND [ARGS]\n\ncourse commands: create_teacher NAME | "
               "create_class NAME --teacher USER [--allow-unverified] | add_students CLASS NAME... [--file F] | "
-              "issue_token CLASS STUDENT | revoke_token CLASS STUDENT | teacher_token CLASS --teacher USER\n"
+              "issue_token CLASS STUDENT | revoke_token CLASS STUDENT | teacher_token CLASS --teacher USER | "
+              "create_assignment CLASS NAME --config FILE [--allow KEY ...] [--seeds A:B] [--due WHEN]\n"
               "any Django command works too (migrate, changepassword, dbshell, help ...)")
         return 0
     setup(args.data)

@@ -134,6 +134,9 @@ class Result(models.Model):
     figures = models.JSONField(default=dict, blank=True)
     payload = models.JSONField(default=dict)
     received_at = models.DateTimeField(auto_now_add=True, db_index=True)
+    submission = models.ForeignKey("course.Submission", on_delete=models.CASCADE, null=True, blank=True,
+                                   related_name="results", help_text="the submission this official trial evaluated")
+    excluded = models.BooleanField(default=False, help_text="left out of every board (see the moderation log)")
 
     class Meta:
         ordering = ["-received_at", "-id"]
@@ -176,3 +179,9 @@ class Artifact(models.Model):
     def to_dict(self) -> dict[str, Any]:
         return {"name": self.name, "kind": self.kind, "content_type": self.content_type, "size": self.size,
                 "sha256": self.sha256, "url": f"/artifacts/{self.pk}/{self.name}"}
+
+
+from robokit.server.assignments import Assignment, ModerationEvent, Submission, TrainingRun  # noqa: E402
+
+__all__ = ["Artifact", "Assignment", "Classroom", "ModerationEvent", "Project", "Result", "Student", "Submission",
+           "Token", "TrainingRun"]

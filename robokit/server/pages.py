@@ -71,8 +71,9 @@ def classroom(request: HttpRequest, pk: int) -> HttpResponse:
                  .values_list("student_id", flat=True))
     rows = [{"student": s, "n": s.n, "last": s.last, "token": s.pk in active} for s in students]
     api_url = request.build_absolute_uri(reverse("api-result"))
-    return render(request, "course/classroom.html",
-                  {"room": room, "projects": projects, "students": rows, "api_url": api_url})
+    assignments = room.assignments.annotate(n=Count("submissions"))
+    return render(request, "course/classroom.html", {"room": room, "projects": projects, "students": rows,
+                                                     "api_url": api_url, "assignments": assignments})
 
 
 def _figure_order(request: HttpRequest, cols: list[str], ranking: list[tuple[str, bool]]) -> tuple[str, bool]:
@@ -89,7 +90,7 @@ def _figure_order(request: HttpRequest, cols: list[str], ranking: list[tuple[str
 def leaderboard(request: HttpRequest, pk: int, project_pk: int) -> HttpResponse:
     room = _teacher_class(request, pk)
     project = get_object_or_404(Project, pk=project_pk, classroom=room)
-    runs = list(Result.objects.filter(classroom=room, project=project).select_related("student"))
+    runs = list(Result.objects.filter(classroom=room, project=project, excluded=False).select_related("student"))
     ranking = project.ranking_keys()
     cols = columns(ranking, (r.figures for r in runs))
     sort, high = _figure_order(request, cols, ranking)
@@ -308,7 +309,8 @@ def me(request: HttpRequest) -> HttpResponse:
         return render(request, "course/me_login.html", {"error": error}, status=401 if error else 200)
     runs = (Result.objects.filter(student=student, verified=True, official=False)
             .select_related("project"))
-    return render(request, "course/me.html", {"student": student, "runs": _history(runs)})
+    subs = student.submissions.select_related("assignment")[:100]
+    return render(request, "course/me.html", {"student": student, "runs": _history(runs), "subs": subs})
 
 
 @require_http_methods(["POST"])

@@ -16,6 +16,10 @@ variable                          meaning (default)
                                   (e.g. ``https://robots.school.org``)
 ``ROBOKIT_MAX_RESULT_BYTES``      largest result body accepted (1 MiB)
 ``ROBOKIT_MAX_VIDEO_BYTES``       largest video upload (50 MiB); plots 5 MiB, traces 20 MiB
+``ROBOKIT_QUEUE_TIMEOUT``         seconds one evaluation may take before the queue stops it (3600)
+``ROBOKIT_QUEUE_RETRY``           seconds before a task whose worker died is handed out again (timeout + 60)
+``ROBOKIT_QUEUE_SYNC``            ``1``: evaluate submissions in the posting process, without workers (off)
+``ROBOKIT_WORKERS``               evaluation processes of ``robokit worker`` (set by ``--workers``)
 ================================  =========================================================================
 """
 
@@ -154,3 +158,24 @@ LOGGING = {
         "django.request": {"handlers": ["stderr"], "level": "ERROR", "propagate": False},
     },
 }
+
+INSTALLED_APPS.append("django_q")
+QUEUE_TIMEOUT = int(os.environ.get("ROBOKIT_QUEUE_TIMEOUT", 3600))
+Q_CLUSTER = {
+    # django-q2 with its ORM broker: the queue is a table of this database (SQLite is enough for a class). A task
+    # taken by a worker is locked for `retry` seconds and deleted when done; a worker killed mid-task leaves it
+    # locked, and after `retry` seconds another (or the restarted) worker takes it again.
+    "name": "robokit",
+    "orm": "default",
+    "workers": int(os.environ.get("ROBOKIT_WORKERS", 1)),
+    "timeout": QUEUE_TIMEOUT,
+    "retry": int(os.environ.get("ROBOKIT_QUEUE_RETRY", QUEUE_TIMEOUT + 60)),
+    "max_attempts": 5,
+    "ack_failures": True,
+    "catch_up": False,
+    "poll": 0.5,
+    "bulk": 1,
+    "save_limit": 1000,
+    "label": "Task queue",
+}
+QUEUE_SYNC = _flag("ROBOKIT_QUEUE_SYNC")  # evaluate in the posting process (tests; a server without workers)

@@ -4,11 +4,14 @@ from django.contrib import admin
 from django.contrib.auth import views as auth_views
 from django.urls import path
 
-from robokit.server import api, pages
+from robokit.server import api, course_api, course_pages, pages
 
 urlpatterns = [
     path("api/robotics/result/", api.post_result, name="api-result"),
     path("api/robotics/result/<str:run_id>/artifacts/", api.post_artifacts, name="api-artifacts"),
+    path("api/robotics/assignments/<str:name>/submissions/", course_api.submit, name="api-submit"),
+    path("api/robotics/submissions/<int:pk>/", course_api.submission_status, name="api-submission"),
+    path("api/robotics/training/", course_api.post_training, name="api-training"),
     path("", pages.home, name="home"),
     path("accounts/login/", auth_views.LoginView.as_view(), name="login"),
     path("accounts/logout/", auth_views.LogoutView.as_view(), name="logout"),
@@ -20,5 +23,6 @@ urlpatterns = [
     path("artifacts/<int:pk>/<str:name>", pages.artifact_file, name="artifact"),
     path("me/", pages.me, name="me"),
     path("me/logout/", pages.me_logout, name="me-logout"),
+    *course_pages.urlpatterns,
     path("admin/", admin.site.urls),
 ]

@@ -2,13 +2,12 @@
 
 Exit codes: 0 every trial ran and succeeded; 1 some trial failed, aborted or errored (or ``--max-trials`` left some
 to run); 2 usage or config error (before any trial runs); 130 interrupted (finished trials are kept: re-run the
-same command to resume).
+same command to resume; 143 for SIGTERM).
 """
 
 from __future__ import annotations
 
 import argparse
-import signal
 import sys
 from pathlib import Path
 from typing import Any
@@ -43,6 +42,10 @@ def add_sweep_command(sub: Any) -> None:
     p.add_argument("--report-url", metavar="URL", help="post every trial's result (the http reporter, outbox)")
     p.add_argument("--student", help="override report.student")
     p.add_argument("--project", help="override report.project")
+    p.add_argument("--new-out", action="store_true",
+                   help="when --out holds a sweep whose inputs changed, start a new folder beside it (DIR-2 ...)")
+    p.add_argument("--keep", choices=("failed", "all", "none"), default="failed",
+                   help="keep the run record (result, trace, poses) of these trials in DIR/runs/ (default: failed)")
     p.add_argument("--quiet", action="store_true", help="no progress and no summary table")
     p.set_defaults(func=cmd_sweep)
 
@@ -63,7 +66,7 @@ def _spec(args: argparse.Namespace) -> tuple[Any, dict[str, Any]]:
     fixed = {**{k: v for k, v in spec.fixed.items() if k not in overlap}, **fixed}
     metrics = tuple(m.strip() for m in args.metrics.split(",") if m.strip()) if args.metrics else spec.metrics
     spec = SweepSpec(spec.config, parse_seeds(args.seeds) if args.seeds else spec.seeds, grid, fixed, metrics,
-                     tuple(dict.fromkeys([*spec.plugins, *args.plugins])))
+                     tuple(dict.fromkeys([*spec.plugins, *args.plugins])), spec.sweep_file)
     return spec, options
 
 
@@ -84,25 +87,24 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         trial_timeout=args.trial_timeout or file_opts.get("trial_timeout"), max_trials=args.max_trials,
         report_url=args.report_url, student=args.student, project=args.project,
         junit=Path(args.junit) if args.junit else None, plot=args.plot or file_opts.get("plot"),
-        progress=None if args.quiet else sys.stdout,
+        new_out=args.new_out, keep=args.keep, progress=None if args.quiet else sys.stdout,
     )
-    old = signal.signal(signal.SIGTERM, _sigterm)
-    try:
+    from robokit.process.interrupts import StopGuard
+
+    with StopGuard.ensure() as guard, guard.immediate():  # SIGINT / SIGTERM stop the sweep at once
         run = run_sweep(spec, opts)
-    finally:
-        signal.signal(signal.SIGTERM, old)
+    if run.out is not None and run.out != out:
+        print(f"robokit: {out} holds a sweep with other inputs: this one is in {run.out}", file=sys.stderr)
+        out = run.out
     if not args.quiet:
         print(to_markdown(run.summary), end="")
         print(f"trials: {out / 'trials.jsonl'}; summary: {out / 'summary.md'}"
               + (f"; ran {run.ran}, {run.skipped} already done" if run.skipped else ""))
     if run.interrupted:
-        print(f"robokit: interrupted: {len(run.rows)} trials kept; re-run the same command to resume",
-              file=sys.stderr)
-        return 130
+        print(f"robokit: interrupted ({guard.signal or 'SIGINT'}): {len(run.rows)} trials kept; re-run the same "
+              "command to resume", file=sys.stderr)
+        return guard.exit_code
     if run.remaining:
         print(f"robokit: {run.remaining} trials still to run; re-run the same command to continue", file=sys.stderr)
     return 0 if run.all_succeeded else 1
 
-
-def _sigterm(_signum: int, _frame: Any) -> None:
-    raise KeyboardInterrupt

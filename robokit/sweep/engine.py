@@ -2,7 +2,9 @@
 
 Files in the output folder ``DIR``:
 
-- ``sweep.json``: the sweep's id and identity (config text digest, fixed overrides); resuming checks it.
+- ``sweep.json``: the sweep's id and identity (config text digest, fixed overrides, the digest of every file the
+  config refers to, robokit's, pybullet's and the plugin distributions' versions; see
+  :mod:`robokit.sweep.identity`); resuming with any of them changed is refused, naming what changed.
 - ``trials.jsonl``: one line per finished trial, appended and flushed as each trial ends (a crash or Ctrl-C loses
   nothing); re-running the same sweep skips every key already there.
 - ``summary.json``, ``summary.md``: per cell, trials, success rate with its 95 % Wilson interval, median and p95.
@@ -24,7 +26,7 @@ from typing import IO, Any
 from robokit.errors import UserError
 from robokit.sweep.progress import Progress
 from robokit.sweep.spec import SweepSpec, Trial
-from robokit.sweep.summary import summarise, to_markdown, write_junit, write_plots
+from robokit.sweep.summary import failed_trials, summarise, to_markdown, write_junit, write_plots
 from robokit.sweep.trial import After, Before, TrialTask, build_trial_config, plugins_for, trial_run_id
 
 Backend = Callable[[Sequence[TrialTask]], Iterator[dict[str, Any]]]
@@ -42,6 +44,7 @@ class SweepRun:
         remaining: Trials still to run (non-zero after ``max_trials`` or an interrupt).
         interrupted: Ctrl-C / SIGTERM stopped it.
         files: What was written (summary, plots, JUnit).
+        out: The output folder used (``--new-out`` may have chosen a new one).
     """
 
     rows: list[dict[str, Any]]
@@ -51,6 +54,7 @@ class SweepRun:
     remaining: int = 0
     interrupted: bool = False
     files: list[Path] = field(default_factory=list)
+    out: Path | None = None
 
     @property
     def all_succeeded(self) -> bool:
@@ -74,6 +78,8 @@ class SweepOptions:
     project: str | None = None
     junit: Path | None = None
     plot: str | None = None
+    new_out: bool = False
+    keep: str = "failed"
     progress: IO[str] | None = None
     before: Before | None = None
     after: After | None = None
@@ -87,7 +93,7 @@ def run_sweep(spec: SweepSpec, options: SweepOptions | None = None) -> SweepRun:
     text, plugins = _prepare(spec)
     trials = spec.trials()
     reporting = _reporting(spec, text, plugins, opts)
-    sweep_id, done = _open_out(spec, text, opts.out)
+    sweep_id, done, opts.out = _open_out(spec, full_identity(spec, text, plugins), opts.out, opts.new_out)
     todo = [t for t in trials if t.key not in done]
     if opts.max_trials is not None:
         todo = todo[: max(0, opts.max_trials)]
@@ -115,6 +121,8 @@ def run_sweep(spec: SweepSpec, options: SweepOptions | None = None) -> SweepRun:
     run.rows = sorted((r for k, r in done.items() if k in order), key=lambda r: order[r["key"]])
     run.remaining = len(trials) - len(run.rows)
     run.summary = summarise(run.rows, [cell for cell, _ in spec.cells()], spec.metrics)
+    run.summary["failed_trials"] = failed_trials(run.rows, str(spec.config))
+    run.out = opts.out
     run.files = _write_outputs(run, opts)
     return run
 
@@ -137,7 +145,8 @@ def _prepare(spec: SweepSpec) -> tuple[str, Any]:
 def _task(spec: SweepSpec, text: str, trial: Trial, sweep_id: str, opts: SweepOptions) -> TrialTask:
     return TrialTask(trial.key, trial.cell, dict(trial.overrides), trial.seed, trial_run_id(sweep_id, trial.key),
                      text, str(spec.config), str(spec.config.resolve().parent), spec.plugins, opts.before,
-                     opts.after)
+                     opts.after, keep=opts.keep if opts.out is not None else "none",
+                     record_dir=str((opts.out / "runs").resolve()) if opts.out is not None else None)
 
 
 def _backend(spec: SweepSpec, opts: SweepOptions) -> Backend:
@@ -153,26 +162,57 @@ def _backend(spec: SweepSpec, opts: SweepOptions) -> Backend:
     raise UserError(f"--backend: expected 'local' or 'ray', got {opts.backend!r}")
 
 
-def _open_out(spec: SweepSpec, text: str, out: Path | None) -> tuple[str, dict[str, dict[str, Any]]]:
-    """Create or reopen the output folder; return the sweep id and the rows already recorded, by key."""
+def full_identity(spec: SweepSpec, text: str, plugins: Any) -> dict[str, Any]:
+    """:meth:`SweepSpec.identity` plus the digests of every file the config refers to, the sweep file's digest and
+    the versions of robokit, pybullet and the plugin distributions (see :mod:`robokit.sweep.identity`)."""
+    from robokit.config import tomllib
+    from robokit.sweep.identity import file_digests, sha256_file, versions
+
+    raw = tomllib.loads(text)
+    values = [*spec.fixed.values(), *(v for vs in spec.grid.values() for v in vs)]
+    identity = {**spec.identity(text), "files": file_digests(raw, spec.config.resolve().parent, values),
+                "versions": versions(plugins)}
+    if spec.sweep_file is not None:
+        identity["sweep_file"] = {"path": str(spec.sweep_file), "sha256": sha256_file(spec.sweep_file)}
+    return identity
+
+
+def _open_out(spec: SweepSpec, identity: dict[str, Any], out: Path | None,
+              new_out: bool = False) -> tuple[str, dict[str, dict[str, Any]], Path | None]:
+    """Create or reopen the output folder; return the sweep id, the rows already recorded (by key) and the folder.
+
+    A folder whose ``sweep.json`` differs from ``identity`` is refused in one line naming what changed; with
+    ``new_out`` a new folder beside it (``<out>-2``, ``-3`` ...) is used instead.
+    """
+    from robokit.sweep.identity import what_changed
+
     if out is None:
-        return str(uuid.uuid4()), {}
+        return str(uuid.uuid4()), {}, None
     out.mkdir(parents=True, exist_ok=True)
     meta_path = out / "sweep.json"
-    identity = spec.identity(text)
     if meta_path.exists():
         meta = json.loads(meta_path.read_text(encoding="utf-8"))
-        changed = [k for k, v in identity.items() if meta.get(k) != v]
+        changed = what_changed(meta, identity)
+        if changed and new_out:
+            return _open_out(spec, identity, _next_free(out), new_out)
         if changed:
-            raise UserError(f"{out}: holds a sweep with a different {', '.join(changed)} (config "
-                            f"{meta.get('config')}); use another --out or delete that folder")
+            raise UserError(f"{out}: cannot resume this sweep: {'; '.join(changed)} since it began (config "
+                            f"{meta.get('config')}); add --new-out to start a new folder beside it, or delete it")
         sweep_id = str(meta["sweep_id"])
     else:
         sweep_id = str(uuid.uuid4())
         meta = {"schema": "robokit.sweep/1", "sweep_id": sweep_id, "config": str(spec.config), **identity,
                 "created_at": dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds")}
         meta_path.write_text(json.dumps(meta, indent=2) + "\n", encoding="utf-8")
-    return sweep_id, read_trials(out / "trials.jsonl")
+    return sweep_id, read_trials(out / "trials.jsonl"), out
+
+
+def _next_free(out: Path) -> Path:
+    """``<out>-2``, ``-3`` ...: the first that does not exist yet."""
+    n = 2
+    while out.with_name(f"{out.name}-{n}").exists():
+        n += 1
+    return out.with_name(f"{out.name}-{n}")
 
 
 def read_trials(path: Path) -> dict[str, dict[str, Any]]:
@@ -238,16 +278,30 @@ def _deliver(reporting: tuple[Any, list[Any]], row: dict[str, Any], result: dict
     return all(d.delivered or d.stored for _, d in deliver(reporters, payload))
 
 
+class SweepWarning(UserWarning):
+    """Part of a sweep's outputs could not be made (a plot); the rest is written."""
+
+
 def _write_outputs(run: SweepRun, opts: SweepOptions) -> list[Path]:
+    """The summary (JSON, Markdown) and the JUnit file first; then the plots, whose failure is only a warning."""
     files: list[Path] = []
     if opts.out is not None:
         (opts.out / "summary.json").write_text(json.dumps(run.summary, indent=2) + "\n", encoding="utf-8")
         (opts.out / "summary.md").write_text(to_markdown(run.summary), encoding="utf-8")
         files += [opts.out / "summary.json", opts.out / "summary.md"]
-        files += write_plots(run.summary, run.rows, opts.out, opts.plot)
     if opts.junit is not None:
         write_junit(run.rows, opts.junit)
         files.append(opts.junit)
+    if opts.out is not None:
+        try:
+            files += write_plots(run.summary, run.rows, opts.out, opts.plot)
+        except Exception as exc:  # noqa: BLE001 - a plot is never worth the summary
+            import warnings
+
+            from robokit.process.crash import describe
+
+            warnings.warn(f"sweep: the plots in {opts.out} could not be drawn: {describe(exc)}; the summary, table "
+                          "and JUnit file are written", SweepWarning, stacklevel=2)
     return files
 
 

@@ -47,6 +47,7 @@ class SweepSpec:
         fixed: Dotted key -> one value applied to every trial (``--set KEY=V`` with a single value).
         metrics: Names of the behaviour's result figures to aggregate (empty: every numeric one).
         plugins: Importable modules registered as extra plugins in every worker (``--plugin``).
+        sweep_file: The sweep file this came from, if any (its digest is recorded in ``sweep.json``).
     """
 
     config: Path
@@ -55,6 +56,7 @@ class SweepSpec:
     fixed: Mapping[str, Any] = field(default_factory=dict)
     metrics: tuple[str, ...] = ()
     plugins: tuple[str, ...] = ()
+    sweep_file: Path | None = None
 
     def cells(self) -> list[tuple[str, dict[str, Any]]]:
         """Every cell of the grid as (cell key, overrides), in a stable order (keys sorted, values as given)."""
@@ -179,6 +181,7 @@ def load_sweep_file(path: str | Path) -> tuple[SweepSpec, dict[str, Any]]:
         grid=grid, fixed=fixed,
         metrics=tuple(_strings(raw.get("metrics", []), path, "metrics")),
         plugins=tuple(_strings(raw.get("plugins", []), path, "plugins")),
+        sweep_file=path,
     )
     options: dict[str, Any] = {k: raw[k] for k in ("workers", "trial_timeout", "out", "plot") if k in raw}
     if "out" in options:

@@ -16,14 +16,24 @@ Z95 = 1.959963984540054
 
 
 def wilson(successes: int, n: int, z: float = Z95) -> tuple[float, float]:
-    """The Wilson score interval of a success rate (95 % by default); (0, 1) when there are no trials."""
+    """The Wilson score interval of a success rate (95 % by default); (0, 1) when there are no trials.
+
+    Always ``0 <= low <= successes / n <= high <= 1``: computed in floating point the bounds can land a hair on
+    the wrong side (``wilson(10, 10)`` gave an upper bound of 0.9999999999999999, below the rate itself), so they
+    are clamped here, where they are made.
+    """
     if n == 0:
         return 0.0, 1.0
     p = successes / n
     denom = 1 + z * z / n
     centre = (p + z * z / (2 * n)) / denom
     half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
-    return max(0.0, centre - half), min(1.0, centre + half)
+    return min(max(0.0, centre - half), p), max(min(1.0, centre + half), p)
+
+
+def error_bars(rate: float, low: float, high: float) -> tuple[float, float]:
+    """The (below, above) error bar lengths of ``rate`` within ``[low, high]``, never negative."""
+    return max(0.0, rate - low), max(0.0, high - rate)
 
 
 def percentile(values: Sequence[float], q: float) -> float:
@@ -69,6 +79,40 @@ def summarise(rows: Sequence[Mapping[str, Any]], cells: Sequence[str], metrics: 
             "metrics": names, "cells": out_cells}
 
 
+def toml_literal(value: Any) -> str:
+    """A value as TOML writes it (what ``--set KEY=VALUE`` reads back to the same value)."""
+    import json
+
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (int, float)):
+        return repr(value)
+    if isinstance(value, str):
+        return json.dumps(value)
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(toml_literal(v) for v in value) + "]"
+    if isinstance(value, Mapping):
+        return "{" + ", ".join(f"{k} = {toml_literal(v)}" for k, v in value.items()) + "}"
+    return json.dumps(str(value))
+
+
+def reproduce_command(config: str, seed: int, overrides: Mapping[str, Any]) -> str:
+    """The ``robokit run`` command line that runs one trial alone (its config, seed and overrides), shell-quoted."""
+    import shlex
+
+    parts = ["robokit", "run", shlex.quote(config), "--seed", str(seed)]
+    for key, value in overrides.items():
+        parts += ["--set", shlex.quote(f"{key}={toml_literal(value)}")]
+    return " ".join(parts)
+
+
+def failed_trials(rows: Sequence[Mapping[str, Any]], config: str) -> list[dict[str, Any]]:
+    """Every trial that did not succeed: key, outcome, reason, the command that reproduces it, its kept record."""
+    return [{"key": r["key"], "cell": r["cell"], "seed": r["seed"], "outcome": r["outcome"], "reason": r["reason"],
+             "command": reproduce_command(config, int(r["seed"]), r.get("overrides", {})),
+             "record": r.get("record")} for r in rows if r["outcome"] != "succeeded"]
+
+
 def _fmt(value: float) -> str:
     return f"{value:.4g}"
 
@@ -90,7 +134,19 @@ def to_markdown(summary: Mapping[str, Any]) -> str:
     lines.append("")
     lines.append(f"{summary['trials']} trials, {summary['succeeded']} succeeded, {summary['errors']} errors "
                  f"(success 95 % CI {100 * lo:.1f}–{100 * hi:.1f} %).")
+    failed = summary.get("failed_trials") or []
+    if failed:
+        lines += ["", f"Trials that did not succeed ({len(failed)}):", ""]
+        for f in failed[:MAX_LISTED]:
+            lines.append(f"- `{f['key']}`: {f['outcome']}: {f['reason'] or '(no reason given)'}")
+            lines.append(f"  reproduce: `{f['command']}`" + (f"; record: {f['record']}" if f.get("record") else ""))
+        if len(failed) > MAX_LISTED:
+            lines.append(f"- ... and {len(failed) - MAX_LISTED} more (every one is in summary.json)")
     return "\n".join(lines) + "\n"
+
+
+MAX_LISTED = 50
+"""Failed trials listed in the Markdown table's footer (summary.json lists them all)."""
 
 
 def write_junit(rows: Sequence[Mapping[str, Any]], path: Path, name: str = "robokit sweep") -> None:
@@ -132,8 +188,8 @@ def write_plots(summary: Mapping[str, Any], rows: Sequence[Mapping[str, Any]], f
     written = []
     fig, ax = plt.subplots(figsize=(max(4.0, 0.9 * len(cells) + 2), 3.6))
     rates = [100 * (c["success_rate"] or 0.0) for c in cells]
-    err = [[r - 100 * c["wilson95"][0] for r, c in zip(rates, cells, strict=True)],
-           [100 * c["wilson95"][1] - r for r, c in zip(rates, cells, strict=True)]]
+    bars = [error_bars(r, 100 * c["wilson95"][0], 100 * c["wilson95"][1]) for r, c in zip(rates, cells, strict=True)]
+    err = [[b[0] for b in bars], [b[1] for b in bars]]
     ax.bar(range(len(cells)), rates, yerr=err, capsize=4, color="#4c72b0")
     ax.set_xticks(range(len(cells)), labels, rotation=30, ha="right", fontsize=7)
     ax.set_ylabel("success rate, % (95 % Wilson)")

@@ -40,6 +40,9 @@ class TrialTask:
         base_dir: The folder relative paths in the config resolve against.
         plugins: Modules imported in the worker and registered as extra plugins.
         before, after: Optional hooks (module-level functions) for benchmarks.
+        keep: Whose run record to keep in ``record_dir/<run_id>/`` (``result.json``, ``trace.jsonl``,
+            ``poses.npz``): ``"failed"`` (every trial that did not succeed), ``"all"`` or ``"none"``.
+        record_dir: Where kept records go (a folder on the machine that runs the trial).
     """
 
     key: str
@@ -53,6 +56,8 @@ class TrialTask:
     plugins: tuple[str, ...] = ()
     before: Before | None = field(default=None, compare=False)
     after: After | None = field(default=None, compare=False)
+    keep: str = "none"
+    record_dir: str | None = None
 
 
 def trial_run_id(sweep_id: str, key: str) -> str:
@@ -108,12 +113,15 @@ def run_trial(task: TrialTask) -> dict[str, Any]:
         cfg = build_trial_config(task.config_text, task.source, task.base_dir, task.overrides, plugins)
     except UserError as exc:
         return _row(task, None, extra, t0, error=f"config: {exc}")
+    run_dir = Path(task.record_dir) / task.run_id if task.keep in ("failed", "all") and task.record_dir else None
+    recorder = None
     try:
         with quiet_stdout():
-            sim = Simulation(cfg, plugins, gui=False, seed=task.seed)
+            sim = Simulation(cfg, plugins, gui=False, seed=task.seed, run_id=task.run_id, run_dir=run_dir)
     except (PluginError, UserError) as exc:
         result = error_result(cfg, task.seed, str(exc))
     else:
+        recorder = _recorder(sim, cfg, run_dir)
         try:
             t_run = time.perf_counter()
             if task.before is not None:
@@ -122,10 +130,50 @@ def run_trial(task: TrialTask) -> dict[str, Any]:
             run_wall = time.perf_counter() - t_run
             if task.after is not None:
                 extra = task.after(sim, result)
+            if recorder is not None:
+                recorder.finish(result)
         finally:
             sim.close()
     result.run_id = task.run_id
-    return _row(task, result, extra, t0, run_wall)
+    row = _row(task, result, extra, t0, run_wall)
+    if run_dir is not None:
+        kept = _keep_record(run_dir, recorder, result, task.keep)
+        if kept:
+            row["record"] = kept
+    return row
+
+
+def _recorder(sim: Any, cfg: Any, run_dir: Path | None) -> Any:
+    """A recorder on the trial's simulation when its record may be kept (None otherwise, or if it cannot start)."""
+    if run_dir is None:
+        return None
+    from robokit.record.recorder import Recorder
+
+    try:
+        recorder = Recorder(sim, run_dir, pose_hz=cfg.record.pose_hz)
+    except OSError:
+        return None
+    sim.add_monitor(recorder)
+    return recorder
+
+
+def _keep_record(run_dir: Path, recorder: Any, result: Any, keep: str) -> str | None:
+    """Write the trial's ``result.json`` and pose log into ``run_dir``, or remove the folder when ``keep`` is
+    ``"failed"`` and the trial succeeded. Returns the folder kept (None if none). A failed write keeps what it can."""
+    import json
+    import shutil
+
+    if keep == "failed" and result.outcome == "succeeded":
+        shutil.rmtree(run_dir, ignore_errors=True)
+        return None
+    try:
+        run_dir.mkdir(parents=True, exist_ok=True)
+        (run_dir / "result.json").write_text(json.dumps(result.to_dict(), indent=2) + "\n", encoding="utf-8")
+    except OSError:
+        return None
+    if recorder is not None:
+        recorder.write_poses()
+    return str(run_dir)
 
 
 def _row(task: TrialTask, result: Any, extra: Mapping[str, Any], t0: float, run_wall: float = 0.0,

@@ -92,6 +92,7 @@ class ImuSensor(Sensor):
             raise ConfigError(str(LookupNameError("body", cfg.body, self.world.body_names)), key="body")
         self.body_id = self.world.body(cfg.body)
         self.link = -1
+        self.frame = cfg.link or self.world.base_link_name(cfg.body) or cfg.body  # named in every reading
         if cfg.link is not None:
             try:
                 self.link = self.world.link(cfg.body, cfg.link)
@@ -134,7 +135,7 @@ class ImuSensor(Sensor):
             gyro = gyro + self.rng.normal(0.0, cfg.gyro_noise_std, 3)
         fx, fy, fz = (float(v) for v in specific_force)
         wx, wy, wz = (float(v) for v in gyro)
-        return ImuReading(linear_acceleration=(fx, fy, fz), angular_velocity=(wx, wy, wz),
+        return ImuReading(linear_acceleration=(fx, fy, fz), angular_velocity=(wx, wy, wz), frame=self.frame,
                           time=self.world.time)
 
     def close(self) -> None:

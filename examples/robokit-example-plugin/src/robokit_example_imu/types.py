@@ -1,24 +1,16 @@
-"""The IMU's reading, in a module without pybullet so behaviours can import it."""
+"""The IMU's reading: robokit's standard :class:`robokit.msgs.Imu` (frame named, REP 103 signs).
+
+``ImuReading`` is kept as another name for it, so code written against the first version of this example still
+imports.
+"""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from robokit.msgs import Imu
 
-Vec3 = tuple[float, float, float]
+ImuReading = Imu
+"""The reading type: ``Imu(linear_acceleration, angular_velocity, frame, time)``, vectors in ``frame`` (the
+link the IMU is mounted on). At rest ``linear_acceleration`` reads about ``+9.81`` along the link axis that
+points up; in free fall about zero."""
 
-
-@dataclass(frozen=True)
-class ImuReading:
-    """One IMU sample, in the frame of the link the IMU is mounted on (x, y, z axes of the URDF link frame).
-
-    Attributes:
-        linear_acceleration: Specific force in m/s², as an accelerometer measures it: the link's acceleration
-            minus gravity. At rest on the ground it reads about ``+9.81`` along the link axis that points up;
-            in free fall it reads about zero.
-        angular_velocity: Angular velocity in rad/s, link frame (a gyroscope).
-        time: Sim time of the sample, seconds.
-    """
-
-    linear_acceleration: Vec3
-    angular_velocity: Vec3
-    time: float
+__all__ = ["Imu", "ImuReading"]

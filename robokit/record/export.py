@@ -1,0 +1,263 @@
+"""``robokit export``: a run's record for the viewers robotics people use — Rerun (``.rrd``) and Foxglove (``.mcap``).
+
+Both carry the same content, on sim time: every link's world transform at each pose sample, the bodies' visual
+shapes fixed to their links (boxes, spheres, cylinders, capsules, meshes by file path), a laser scan per lidar
+re-cast on the recorded poses, the saved camera frames, and each state change as a log message.
+
+- Rerun: entity ``world/<body>[/<link>]`` with a ``Transform3D`` per sample and its shapes (``Boxes3D``,
+  ``Ellipsoids3D``, ``Cylinders3D``, ``Asset3D``) logged once; ``world/lidar/<name>`` points; ``camera/<name>``
+  encoded images; ``states/<machine>`` text logs. Needs the ``rerun`` extra (``rerun-sdk``), imported only here.
+- MCAP (the ``mcap`` package; JSON messages with the Foxglove schemas' names and fields): ``/tf``
+  (``foxglove.FrameTransforms``), ``/scene`` (``foxglove.SceneUpdate``, frame-locked entities), ``/lidar/<name>``
+  (``foxglove.LaserScan``), ``/camera/<name>`` (``foxglove.CompressedImage``), ``/states``
+  (``foxglove.Log``).
+"""
+
+from __future__ import annotations
+
+import base64
+import json
+import math
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from robokit.errors import UserError
+from robokit.record.format import RunRecord
+from robokit.record.replay import Replay, Shape, camera_frames, replay_of
+
+
+def _ns(t: float) -> int:
+    return int(round(t * 1e9))
+
+
+def _stamp(t: float) -> dict[str, int]:
+    ns = _ns(t)
+    return {"sec": ns // 1_000_000_000, "nsec": ns % 1_000_000_000}
+
+
+def lidar_scans(rec: RunRecord, every: int = 1) -> Iterator[tuple[str, float, dict[str, Any]]]:
+    """``(lidar name, sim time, scan)`` for every lidar sensor at every ``every``-th pose sample, re-cast on the
+    recorded poses without noise; a scan: ``origin`` (m, world), ``quaternion`` (x, y, z, w, world), ``angles``
+    (rad, counter-clockwise from the sensor's +x) and ``ranges`` (m, +inf = no return)."""
+    from robokit.record.plots import cast_scan
+    from robokit.record.scene import rebuild
+
+    lidars = {n: s for n, s in rec.header["config"].get("sensors", {}).items()
+              if isinstance(s, dict) and s.get("type") == "lidar"}
+    if not lidars:
+        return
+    t = rec.poses["t"]
+    with rebuild(rec) as scene:
+        world, client = scene.world, scene.world.client
+        for i in range(0, len(t), max(1, every)):
+            scene.set_frame(i)
+            for name, spec in lidars.items():
+                robot, link = str(spec.get("robot", "robot")), str(spec.get("link", "lidar_link"))
+                pos, orn = world.pose(robot, world.link(robot, link))
+                yaw = client.getQuaternionFromEuler([0, 0, math.radians(float(spec.get("yaw_offset_deg", 0.0)))])
+                origin, quat = client.multiplyTransforms(pos, orn, list(spec.get("offset", (0, 0, 0))), yaw)
+                angles, ranges = cast_scan(world, spec)
+                yield name, float(t[i]), {"origin": origin, "quaternion": quat, "angles": angles, "ranges": ranges}
+
+
+def state_changes(rec: RunRecord) -> list[tuple[float, str, str]]:
+    """``(sim time, machine, message)`` for each machine's initial state and every transition."""
+    out = [(0.0, m["name"], f"{m['name']}: start in {m['initial']}") for m in rec.header.get("machines", [])]
+    for e in rec.events:
+        if e.get("kind") == "transition":
+            out.append((float(e["t"]), str(e["machine"]), f"{e['machine']}: {e['source_state']} -> "
+                        f"{e['dest_state']} ({e['trigger']})"))
+    return out
+
+
+# ----------------------------------------------------------------- Rerun
+def _rerun_shape(rr: Any, shape: Shape) -> Any:
+    colour = [int(round(255 * c)) for c in shape.rgba]
+    centre, quat = [list(shape.position)], [rr.Quaternion(xyzw=list(shape.quaternion))]
+    if shape.kind == "box":
+        return rr.Boxes3D(half_sizes=[[s / 2 for s in shape.size[:3]]], centers=centre, quaternions=quat,
+                          colors=[colour], fill_mode="solid")
+    if shape.kind == "sphere":
+        return rr.Ellipsoids3D(half_sizes=[[shape.size[0]] * 3], centers=centre, quaternions=quat, colors=[colour],
+                               fill_mode="solid")
+    if shape.kind in ("cylinder", "capsule"):
+        return rr.Cylinders3D(lengths=[shape.size[0]], radii=[shape.size[1]], centers=centre, quaternions=quat,
+                              colors=[colour], fill_mode="solid")
+    if shape.kind == "mesh" and Path(shape.mesh).is_file():
+        return rr.Asset3D(path=shape.mesh, albedo_factor=colour)
+    return None
+
+
+def export_rerun(rec: RunRecord, out: Path, replay: Replay | None = None) -> dict[str, int]:
+    """Write the record as a Rerun recording (``.rrd``). Returns counts: shapes, transforms, scans, images, logs.
+
+    Raises:
+        UserError: rerun-sdk is not installed.
+    """
+    try:
+        import rerun as rr
+    except ImportError:
+        raise UserError("robokit export --rerun needs rerun-sdk: pip install 'robokit[rerun]'") from None
+    replay = replay or replay_of(rec)
+    stream = rr.RecordingStream("robokit", recording_id=rec.run_id)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    stream.save(str(out))
+    counts = {"shapes": 0, "transforms": 0, "scans": 0, "images": 0, "logs": 0}
+    stream.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
+    for k, link in enumerate(replay.links):
+        for n, shape in enumerate(s for s in replay.shapes if s.frame == k):
+            drawn = _rerun_shape(rr, shape)
+            if drawn is not None:
+                stream.log(f"world/{link.path}/shape_{n}", drawn, static=True)
+                counts["shapes"] += 1
+    for n, t in enumerate(replay.t):
+        stream.set_time("sim", duration=float(t))
+        for k, link in enumerate(replay.links):
+            row = replay.poses[n, k]
+            if not np.isnan(row[0]):
+                stream.log(f"world/{link.path}", rr.Transform3D(translation=row[:3], quaternion=rr.Quaternion(
+                    xyzw=row[3:])))
+                counts["transforms"] += 1
+    for name, t, scan in lidar_scans(rec):
+        stream.set_time("sim", duration=t)
+        hit = np.isfinite(scan["ranges"])
+        rot = np.asarray(rr_matrix(scan["quaternion"]))
+        local = np.stack([np.cos(scan["angles"]), np.sin(scan["angles"]), np.zeros_like(scan["angles"])]).T
+        points = np.asarray(scan["origin"]) + (local[hit] * scan["ranges"][hit, None]) @ rot.T
+        stream.log(f"world/lidar/{name}", rr.Points3D(points, radii=0.01, colors=[[230, 40, 40]]))
+        counts["scans"] += 1
+    for camera, t, png in camera_frames(rec):
+        stream.set_time("sim", duration=t)
+        stream.log(f"camera/{camera}", rr.EncodedImage(contents=png.read_bytes(), media_type="image/png"))
+        counts["images"] += 1
+    for t, machine, message in state_changes(rec):
+        stream.set_time("sim", duration=t)
+        stream.log(f"states/{machine}", rr.TextLog(message, level="INFO"))
+        counts["logs"] += 1
+    stream.flush()
+    stream.disconnect()
+    return counts
+
+
+def rr_matrix(q: Any) -> list[list[float]]:
+    """3x3 rotation matrix of a quaternion (x, y, z, w)."""
+    x, y, z, w = (float(v) for v in q)
+    return [[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]]
+
+
+# ----------------------------------------------------------------- MCAP (Foxglove schemas, JSON encoding)
+_VEC3 = {"type": "object", "properties": {k: {"type": "number"} for k in "xyz"}}
+_QUAT = {"type": "object", "properties": {k: {"type": "number"} for k in "xyzw"}}
+_TIME = {"type": "object", "properties": {"sec": {"type": "integer"}, "nsec": {"type": "integer"}}}
+_POSE = {"type": "object", "properties": {"position": _VEC3, "orientation": _QUAT}}
+_COLOR = {"type": "object", "properties": {k: {"type": "number"} for k in "rgba"}}
+_PRIM = {"type": "array", "items": {"type": "object", "properties": {"pose": _POSE, "size": _VEC3, "color": _COLOR}}}
+_MODEL = {"type": "array", "items": {"type": "object", "properties": {
+    "pose": _POSE, "scale": _VEC3, "color": _COLOR, "override_color": {"type": "boolean"}, "url": {"type": "string"},
+    "media_type": {"type": "string"}, "data": {"type": "string", "contentEncoding": "base64"}}}}
+SCHEMAS: dict[str, dict[str, Any]] = {
+    "foxglove.FrameTransforms": {"transforms": {"type": "array", "items": {"type": "object", "properties": {
+        "timestamp": _TIME, "parent_frame_id": {"type": "string"}, "child_frame_id": {"type": "string"},
+        "translation": _VEC3, "rotation": _QUAT}}}},
+    "foxglove.SceneUpdate": {"deletions": {"type": "array"}, "entities": {"type": "array", "items": {
+        "type": "object", "properties": {
+            "timestamp": _TIME, "frame_id": {"type": "string"}, "id": {"type": "string"}, "lifetime": _TIME,
+            "frame_locked": {"type": "boolean"}, "cubes": _PRIM, "spheres": _PRIM, "cylinders": _PRIM,
+            "models": _MODEL}}}},
+    "foxglove.LaserScan": {"timestamp": _TIME, "frame_id": {"type": "string"}, "pose": _POSE,
+                           "start_angle": {"type": "number"}, "end_angle": {"type": "number"},
+                           "ranges": {"type": "array", "items": {"type": "number"}},
+                           "intensities": {"type": "array", "items": {"type": "number"}}},
+    "foxglove.CompressedImage": {"timestamp": _TIME, "frame_id": {"type": "string"},
+                                 "data": {"type": "string", "contentEncoding": "base64"}, "format": {"type": "string"}},
+    "foxglove.Log": {"timestamp": _TIME, "level": {"type": "integer"}, "message": {"type": "string"},
+                     "name": {"type": "string"}, "file": {"type": "string"}, "line": {"type": "integer"}},
+}
+"""JSON schemas for the Foxglove message types written, with Foxglove's names and field names (the fields used)."""
+LOG_INFO = 2
+"""``foxglove.Log`` level INFO."""
+
+
+def _pose(position: Any, quaternion: Any) -> dict[str, Any]:
+    return {"position": dict(zip("xyz", map(float, position), strict=True)),
+            "orientation": dict(zip("xyzw", map(float, quaternion), strict=True))}
+
+
+def _entity(replay: Replay, k: int) -> dict[str, Any]:
+    """One link's shapes as a frame-locked scene entity in the link's frame."""
+    prims: dict[str, list[dict[str, Any]]] = {"cubes": [], "spheres": [], "cylinders": [], "models": []}
+    for s in (s for s in replay.shapes if s.frame == k):
+        colour = dict(zip("rgba", s.rgba, strict=True))
+        pose = _pose(s.position, s.quaternion)
+        if s.kind == "box":
+            prims["cubes"].append({"pose": pose, "size": dict(zip("xyz", s.size[:3], strict=True)), "color": colour})
+        elif s.kind == "sphere":
+            prims["spheres"].append({"pose": pose, "size": dict.fromkeys("xyz", 2 * s.size[0]), "color": colour})
+        elif s.kind in ("cylinder", "capsule"):
+            d = 2 * s.size[1]
+            prims["cylinders"].append({"pose": pose, "size": {"x": d, "y": d, "z": s.size[0]}, "color": colour,
+                                       "bottom_scale": 1.0, "top_scale": 1.0})
+        elif s.kind == "mesh":
+            prims["models"].append({"pose": pose, "scale": dict(zip("xyz", s.size[:3], strict=True)),
+                                    "color": colour, "override_color": False, "url": Path(s.mesh).resolve().as_uri(),
+                                    "media_type": "", "data": ""})
+    return {"timestamp": _stamp(0.0), "frame_id": replay.links[k].path, "id": replay.links[k].path,
+            "lifetime": _stamp(0.0), "frame_locked": True, "metadata": [], "arrows": [], "lines": [],
+            "triangles": [], "texts": [], **prims}
+
+
+def export_mcap(rec: RunRecord, out: Path, replay: Replay | None = None) -> dict[str, int]:
+    """Write the record as MCAP with Foxglove's message schemas (JSON). Returns messages per topic.
+
+    Raises:
+        UserError: the mcap package is not installed.
+    """
+    try:
+        from mcap.writer import Writer
+    except ImportError:
+        raise UserError("robokit export --mcap needs mcap: pip install 'robokit[rerun]'") from None
+    replay = replay or replay_of(rec)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    counts: dict[str, int] = {}
+    with out.open("wb") as stream:
+        writer = Writer(stream)
+        writer.start(profile="", library="robokit")
+        schema_ids = {name: writer.register_schema(name=name, encoding="jsonschema", data=json.dumps(
+            {"title": name, "type": "object", "properties": props}).encode()) for name, props in SCHEMAS.items()}
+        channels: dict[str, int] = {}
+
+        def send(topic: str, schema: str, t: float, message: dict[str, Any]) -> None:
+            if topic not in channels:
+                channels[topic] = writer.register_channel(topic=topic, message_encoding="json",
+                                                          schema_id=schema_ids[schema])
+            writer.add_message(channels[topic], log_time=_ns(t), publish_time=_ns(t),
+                               data=json.dumps(message, allow_nan=False).encode())
+            counts[topic] = counts.get(topic, 0) + 1
+
+        send("/scene", "foxglove.SceneUpdate", 0.0,
+             {"deletions": [], "entities": [_entity(replay, k) for k in range(len(replay.links))]})
+        for n, t in enumerate(replay.t):
+            tfs = [{"timestamp": _stamp(float(t)), "parent_frame_id": "world", "child_frame_id": link.path,
+                    **dict(zip(("translation", "rotation"), _pose(row[:3], row[3:]).values(), strict=True))}
+                   for link, row in zip(replay.links, replay.poses[n], strict=True) if not np.isnan(row[0])]
+            send("/tf", "foxglove.FrameTransforms", float(t), {"transforms": tfs})
+        for name, t, scan in lidar_scans(rec):
+            angles, ranges = scan["angles"], scan["ranges"]
+            send(f"/lidar/{name}", "foxglove.LaserScan", t, {
+                "timestamp": _stamp(t), "frame_id": "world", "pose": _pose(scan["origin"], scan["quaternion"]),
+                "start_angle": float(angles[0]), "end_angle": float(angles[-1]),
+                "ranges": [float(r) if np.isfinite(r) else 0.0 for r in ranges], "intensities": []})
+        for camera, t, png in camera_frames(rec):
+            send(f"/camera/{camera}", "foxglove.CompressedImage", t, {
+                "timestamp": _stamp(t), "frame_id": camera, "format": "png",
+                "data": base64.b64encode(png.read_bytes()).decode("ascii")})
+        for t, machine, message in state_changes(rec):
+            send("/states", "foxglove.Log", t, {"timestamp": _stamp(t), "level": LOG_INFO, "message": message,
+                                                "name": machine, "file": "", "line": 0})
+        writer.finish()
+    return counts

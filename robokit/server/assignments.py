@@ -1,0 +1,136 @@
+"""Assignments, students' submissions, moderation and training runs (imported by :mod:`robokit.server.models`).
+
+An assignment belongs to a class: an official config, the keys students may change, the official seeds, a
+ranking, opens/due times and a late policy. A submission is a student's config for it; the queue evaluates it on
+the official seeds and stores one official :class:`~robokit.server.models.Result` per seed (its ``run_id`` is
+derived from the submission and the seed, so a trial can never be stored twice).
+"""
+
+from __future__ import annotations
+
+import fnmatch
+import uuid
+from typing import Any
+
+from django.conf import settings
+from django.db import models
+
+
+class Assignment(models.Model):
+    ACCEPT, REFUSE = "accept", "refuse"
+    classroom = models.ForeignKey("course.Classroom", on_delete=models.CASCADE, related_name="assignments")
+    name = models.CharField(max_length=100)
+    kind = models.CharField(max_length=50, blank=True, help_text="project kind, e.g. sort, go_to_goal, drop_test")
+    config_text = models.TextField(help_text="the official config (TOML)")
+    allowed_keys = models.JSONField(default=list, blank=True,
+                                    help_text="dotted keys students may change; '*' matches one or more levels")
+    seeds = models.JSONField(default=list, help_text="official seeds, each submission is run on every one")
+    ranking = models.CharField(max_length=300, blank=True, default="-success_rate,-wilson_low")
+    trial_seconds = models.FloatField(default=60.0, help_text="wall-clock limit of one trial")
+    opens_at = models.DateTimeField(null=True, blank=True)
+    due_at = models.DateTimeField(null=True, blank=True)
+    late_policy = models.CharField(max_length=10, default=ACCEPT,
+                                   choices=[(ACCEPT, "accept and mark late"), (REFUSE, "refuse")])
+    project = models.OneToOneField("course.Project", on_delete=models.PROTECT, related_name="assignment")
+    created_at = models.DateTimeField(auto_now_add=True)
+
+    class Meta:
+        ordering = ["due_at", "name"]
+        constraints = [models.UniqueConstraint(fields=["classroom", "name"], name="assignment_name_unique_in_class")]
+
+    def __str__(self) -> str:
+        return self.name
+
+    def clean(self) -> None:
+        """The admin's check: the official config passes robokit's validation; seeds are whole numbers."""
+        from django.core.exceptions import ValidationError
+
+        from robokit.server.submitted import SubmissionError, validate_config
+
+        try:
+            validate_config(self.config_text, source="official config")
+        except SubmissionError as exc:
+            raise ValidationError({"config_text": str(exc)}) from None
+        if not isinstance(self.seeds, list) or not self.seeds or not all(
+                isinstance(s, int) and not isinstance(s, bool) and s >= 0 for s in self.seeds):
+            raise ValidationError({"seeds": "a list of whole numbers >= 0, e.g. [0, 1, 2]"})
+
+    def may_change(self, key: str) -> bool:
+        """Whether students may change the dotted ``key`` (``a.b.c``); ``a.*`` allows everything under ``a``."""
+        return any(fnmatch.fnmatchcase(key, pattern) for pattern in self.allowed_keys)
+
+
+class Submission(models.Model):
+    QUEUED, RUNNING, DONE, ERROR = "queued", "running", "done", "error"
+    uuid = models.UUIDField(default=uuid.uuid4, unique=True, editable=False)
+    assignment = models.ForeignKey(Assignment, on_delete=models.CASCADE, related_name="submissions")
+    student = models.ForeignKey("course.Student", on_delete=models.CASCADE, related_name="submissions")
+    config_text = models.TextField()
+    submitted_at = models.DateTimeField(auto_now_add=True, db_index=True)
+    late = models.BooleanField(default=False)
+    status = models.CharField(max_length=10, default=QUEUED,
+                              choices=[(s, s) for s in (QUEUED, RUNNING, DONE, ERROR)])
+    error = models.TextField(blank=True)
+    attempts = models.IntegerField(default=0, help_text="times a worker started (or resumed) the evaluation")
+    trials = models.IntegerField(default=0)
+    succeeded = models.IntegerField(default=0)
+    success_rate = models.FloatField(null=True, blank=True)
+    wilson_low = models.FloatField(null=True, blank=True)
+    wilson_high = models.FloatField(null=True, blank=True)
+    summary = models.JSONField(default=dict, blank=True)
+    finished_at = models.DateTimeField(null=True, blank=True)
+    excluded = models.BooleanField(default=False, help_text="left out of the boards and grades (moderation log)")
+
+    class Meta:
+        ordering = ["-submitted_at", "-id"]
+
+    def __str__(self) -> str:
+        return f"{self.student.name} / {self.assignment.name} / {self.submitted_at:%Y-%m-%d %H:%M}"
+
+    @property
+    def figures(self) -> dict[str, Any]:
+        """What the board ranks: the success rate, its Wilson bounds, and the medians of the trials' figures."""
+        out: dict[str, Any] = {"success_rate": self.success_rate, "wilson_low": self.wilson_low,
+                               "wilson_high": self.wilson_high}
+        cells = self.summary.get("cells") or [{}]
+        for name, stats in (cells[0].get("figures") or {}).items():
+            out.setdefault(name, stats.get("median"))
+        return out
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"id": self.pk, "uuid": str(self.uuid), "assignment": self.assignment.name,
+                "student": self.student.name, "submitted_at": self.submitted_at.isoformat(), "late": self.late,
+                "status": self.status, "seeds": len(self.assignment.seeds), "success_rate": self.success_rate,
+                "wilson95": [self.wilson_low, self.wilson_high], "url": f"/submissions/{self.pk}/"}
+
+
+class ModerationEvent(models.Model):
+    """The audit log: a teacher excluded a run or a submission from the boards (or put it back), with the reason."""
+
+    EXCLUDE, INCLUDE = "exclude", "include"
+    classroom = models.ForeignKey("course.Classroom", on_delete=models.CASCADE, related_name="moderation")
+    result = models.ForeignKey("course.Result", on_delete=models.SET_NULL, null=True, blank=True,
+                               related_name="moderation")
+    submission = models.ForeignKey(Submission, on_delete=models.SET_NULL, null=True, blank=True,
+                                   related_name="moderation")
+    what = models.CharField(max_length=200, help_text="the run or submission, as text (kept if it is deleted)")
+    action = models.CharField(max_length=10, choices=[(EXCLUDE, EXCLUDE), (INCLUDE, INCLUDE)])
+    reason = models.TextField()
+    teacher = models.ForeignKey(settings.AUTH_USER_MODEL, on_delete=models.PROTECT, related_name="moderation")
+    at = models.DateTimeField(auto_now_add=True)
+
+    class Meta:
+        ordering = ["-at", "-id"]
+
+
+class TrainingRun(models.Model):
+    """A training log from ``robokit.gym`` (JSON lines: steps, episodes, return, success) posted by a student."""
+
+    run_id = models.CharField(max_length=64, unique=True)
+    student = models.ForeignKey("course.Student", on_delete=models.CASCADE, related_name="training_runs")
+    name = models.CharField(max_length=100, blank=True)
+    points = models.JSONField(default=list, help_text="[{steps, episodes, return, success_rate}, ...]")
+    received_at = models.DateTimeField(auto_now_add=True)
+
+    class Meta:
+        ordering = ["-received_at"]

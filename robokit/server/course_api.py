@@ -1,0 +1,182 @@
+"""The course API: a student submits a config for an assignment, and posts a training log.
+
+``POST /api/robotics/assignments/<name>/submissions/`` ``{"config": "<TOML text>"}`` with the student's token:
+201 with the submission (queued for official evaluation); 400 naming the key a config may not change or that
+robokit's validation refuses; 403 before the assignment opens or after it is due when late work is refused.
+
+``POST /api/robotics/training/`` ``{"name": "...", "run_id": "...", "log": "<JSON lines>"}`` with the token: a
+training run (``robokit.gym``'s log: one object per line with ``steps`` and any of ``episodes``, ``return``,
+``success_rate``), plotted on the student's page. 201, or 200 for a ``run_id`` already stored.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import uuid
+from typing import Any
+
+from django.conf import settings
+from django.core.exceptions import RequestDataTooBig
+from django.db import IntegrityError, transaction
+from django.http import HttpRequest, JsonResponse
+from django.utils import timezone
+from django.views.decorators.csrf import csrf_exempt
+
+from robokit.server import tokens
+from robokit.server.api import NO_TOKEN, _token, _unauthorized, error
+from robokit.server.assignments import Assignment, Submission, TrainingRun
+from robokit.server.models import Token
+from robokit.server.payload import RUN_ID, PayloadError, parse
+from robokit.server.submitted import SubmissionError, check_submission
+
+MAX_TRAINING_POINTS = 20_000
+
+
+def _student_token(request: HttpRequest) -> Token | JsonResponse:
+    """The request's student token, or the answer refusing it."""
+    if request.method != "POST":
+        return error(405, "", "POST JSON here", Allow="POST")
+    if request.content_type != "application/json":
+        return error(415, "Content-Type", f"send JSON with 'Content-Type: application/json' "
+                     f"(got {request.content_type or 'none'!r})")
+    try:
+        token = _token(request)
+    except tokens.TokenError as exc:
+        return _unauthorized(str(exc))
+    if token is None:
+        return _unauthorized(NO_TOKEN.format(where="submissions and training logs need a student's token"))
+    if token.kind != Token.STUDENT or token.student is None:
+        return error(403, "Authorization", "only a student's token may submit (this is a teacher's token)")
+    return token
+
+
+def _body(request: HttpRequest, limit: int) -> dict[str, Any]:
+    """The JSON object posted, at most ``limit`` bytes (and at most Django's request limit, the results' one)."""
+    try:
+        body = request.body
+    except RequestDataTooBig:
+        raise PayloadError("", f"the body is over the {settings.MAX_RESULT_BYTES}-byte limit") from None
+    if len(body) > limit:
+        raise PayloadError("", f"the body is {len(body)} bytes; the limit is {limit}")
+    return parse(body)
+
+
+@csrf_exempt
+def submit(request: HttpRequest, name: str) -> JsonResponse:
+    """A student's config for an assignment of their class."""
+    token = _student_token(request)
+    if isinstance(token, JsonResponse):
+        return token
+    assignment = Assignment.objects.select_related("classroom", "project").filter(
+        classroom=token.classroom, name=name).first()
+    if assignment is None:
+        known = ", ".join(repr(a.name) for a in token.classroom.assignments.all()[:20]) or "none yet"
+        return error(404, "assignment", f"no assignment {name!r} in class {token.classroom.name!r} "
+                     f"(assignments: {known})")
+    try:
+        text = _body(request, settings.MAX_CONFIG_BYTES + 4096).get("config")
+        if not isinstance(text, str) or not text.strip():
+            raise PayloadError("config", "expected the config file's text (a string)")
+    except PayloadError as exc:
+        return error(413 if "limit" in exc.message else 400, exc.field, exc.message)
+    now = timezone.now()
+    if assignment.opens_at is not None and now < assignment.opens_at:
+        return error(403, "opens_at", f"{assignment.name!r} opens at {assignment.opens_at.isoformat()}")
+    late = assignment.due_at is not None and now > assignment.due_at
+    if late and assignment.late_policy == Assignment.REFUSE:
+        return error(403, "due_at", f"{assignment.name!r} was due at {assignment.due_at.isoformat()}; "
+                     f"late submissions are refused")
+    try:
+        check_submission(assignment, text)
+    except SubmissionError as exc:
+        return error(400, exc.field, exc.message)
+    from robokit.server.evaluation import create_submission
+
+    Token.objects.filter(pk=token.pk).update(last_used_at=now)
+    sub = create_submission(assignment=assignment, student=token.student, config_text=text, late=late)
+    return JsonResponse(sub.to_dict(), status=201, json_dumps_params={"ensure_ascii": False})
+
+
+@csrf_exempt
+def post_training(request: HttpRequest) -> JsonResponse:
+    """A training log (JSON lines) of the token's student."""
+    token = _student_token(request)
+    if isinstance(token, JsonResponse):
+        return token
+    try:
+        data = _body(request, settings.MAX_RESULT_BYTES)
+        run_id = data.get("run_id") or uuid.uuid4().hex
+        if not isinstance(run_id, str) or not RUN_ID.match(run_id):
+            raise PayloadError("run_id", "expected 1-64 letters, digits, '.', '_', ':' or '-'")
+        name = data.get("name") or ""
+        if not isinstance(name, str) or len(name) > 100:
+            raise PayloadError("name", "expected a string of at most 100 characters")
+        points = training_points(data.get("log"))
+    except PayloadError as exc:
+        return error(413 if "limit" in exc.message else 400, exc.field, exc.message)
+    try:
+        with transaction.atomic():
+            run = TrainingRun.objects.create(run_id=run_id, student=token.student, name=name, points=points)
+        status = 201
+    except IntegrityError:
+        run = TrainingRun.objects.get(run_id=run_id)
+        if run.student_id != token.student_id:
+            return error(409, "run_id", "this run id was already posted by someone else")
+        status = 200
+    return JsonResponse({"run_id": run.run_id, "name": run.name, "points": len(run.points),
+                         "student": token.student.name}, status=status, json_dumps_params={"ensure_ascii": False})
+
+
+def training_points(log: Any) -> list[dict[str, float]]:
+    """The points of a JSON-lines training log; each line an object with whole ``steps`` and optional numbers.
+
+    Raises:
+        PayloadError: naming the line and key (``log[3].steps``).
+    """
+    if not isinstance(log, str) or not log.strip():
+        raise PayloadError("log", "expected the training log's text (JSON lines)")
+    points = []
+    for i, line in enumerate(log.splitlines(), 1):
+        if not line.strip():
+            continue
+        try:
+            rec = json.loads(line)
+        except ValueError:
+            raise PayloadError(f"log[{i}]", "not a JSON object") from None
+        if not isinstance(rec, dict):
+            raise PayloadError(f"log[{i}]", "not a JSON object")
+        steps = rec.get("steps")
+        if not isinstance(steps, int) or isinstance(steps, bool) or steps < 0:
+            raise PayloadError(f"log[{i}].steps", "expected a whole number >= 0")
+        point: dict[str, float] = {"steps": steps}
+        for key in ("episodes", "return", "success_rate"):
+            value = rec.get(key)
+            if value is None:
+                continue
+            if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
+                raise PayloadError(f"log[{i}].{key}", "expected a finite number")
+            if key == "success_rate" and not 0 <= value <= 1:
+                raise PayloadError(f"log[{i}].{key}", "expected a number from 0 to 1")
+            point[key] = value
+        points.append(point)
+        if len(points) > MAX_TRAINING_POINTS:
+            raise PayloadError("log", f"more than {MAX_TRAINING_POINTS} lines")
+    if not points:
+        raise PayloadError("log", "no lines")
+    return points
+
+
+def submission_status(request: HttpRequest, pk: int) -> JsonResponse:
+    """``GET /api/robotics/submissions/<id>/``: a submission's state, for its student (token) or a teacher."""
+    sub = Submission.objects.select_related("assignment__classroom", "student").filter(pk=pk).first()
+    try:
+        token = _token(request)
+    except tokens.TokenError as exc:
+        return _unauthorized(str(exc))
+    allowed = (token is not None and sub is not None
+               and (token.student_id == sub.student_id or (token.kind == Token.TEACHER
+                                                            and token.classroom_id == sub.assignment.classroom_id)))
+    if not allowed or sub is None:
+        return error(404, "submission", "no such submission for this token")
+    return JsonResponse(sub.to_dict(), json_dumps_params={"ensure_ascii": False})

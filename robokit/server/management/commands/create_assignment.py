@@ -1,0 +1,80 @@
+"""``robokit manage create_assignment CLASS NAME --config FILE [--allow KEY ...] [--seeds A:B] [--due ...]``."""
+
+from __future__ import annotations
+
+import datetime as dt
+from pathlib import Path
+from typing import Any
+
+from django.conf import settings
+from django.core.management.base import BaseCommand, CommandError, CommandParser
+from django.utils import timezone
+
+from robokit.server.management.commands._common import classroom
+from robokit.server.models import Assignment, Project
+
+
+def when(text: str | None, option: str) -> dt.datetime | None:
+    """An ISO 8601 date-time (``2026-12-04T18:00``, ``2026-12-04 18:00+09:00``); no zone = the server's (UTC)."""
+    if not text:
+        return None
+    try:
+        value = dt.datetime.fromisoformat(text)
+    except ValueError:
+        raise CommandError(f"{option}: expected a date and time like 2026-12-04T18:00+09:00, got {text!r}") from None
+    return value if value.tzinfo is not None else timezone.make_aware(value, dt.timezone.utc)
+
+
+class Command(BaseCommand):
+    help = "Create (or update) an assignment: official config, keys students may change, seeds, due time."
+
+    def add_arguments(self, parser: CommandParser) -> None:
+        parser.add_argument("classroom")
+        parser.add_argument("name")
+        parser.add_argument("--config", required=True, help="the official config (TOML file)")
+        parser.add_argument("--allow", action="append", default=[], metavar="KEY",
+                            help="a dotted key students may change (repeat; '*' matches, e.g. 'behaviour.*')")
+        parser.add_argument("--seeds", default="0:20", help="official seeds A:B (A..B-1), default 0:20")
+        parser.add_argument("--kind", default="", help="project kind (default: the config's behaviour type)")
+        parser.add_argument("--ranking", default="-success_rate,-wilson_low",
+                            help="figures that rank submissions ('-' = higher is better)")
+        parser.add_argument("--opens", help="opens at (ISO 8601); default now")
+        parser.add_argument("--due", help="due at (ISO 8601); default never")
+        parser.add_argument("--late", choices=[Assignment.ACCEPT, Assignment.REFUSE], default=Assignment.ACCEPT,
+                            help="after the due time: accept and mark late (default) or refuse")
+        parser.add_argument("--trial-seconds", type=float, default=60.0, help="wall-clock limit of one trial")
+
+    def handle(self, *args: Any, **opts: Any) -> None:
+        from robokit.errors import UserError
+        from robokit.server.sandbox import wall_limit
+        from robokit.server.submitted import SubmissionError, parse_toml, validate_config
+        from robokit.sweep.spec import parse_seeds
+
+        room = classroom(opts["classroom"])
+        path = Path(opts["config"])
+        try:
+            text = path.read_text(encoding="utf-8")
+            seeds = list(parse_seeds(opts["seeds"]))
+            validate_config(text, source=str(path))
+        except OSError as exc:
+            raise CommandError(f"--config {path}: {exc.strerror or exc}") from None
+        except (UserError, SubmissionError) as exc:
+            raise CommandError(f"{path}: {exc}") from None
+        if wall_limit(len(seeds), opts["trial_seconds"]) > settings.QUEUE_TIMEOUT:
+            raise CommandError(f"--seeds/--trial-seconds: {len(seeds)} trials of up to {opts['trial_seconds']:g} s "
+                               f"may take longer than the queue lets one evaluation run ({settings.QUEUE_TIMEOUT} s, "
+                               f"ROBOKIT_QUEUE_TIMEOUT); use fewer seeds, a shorter limit or a longer timeout")
+        behaviour = parse_toml(text).get("behaviour", {})
+        kind = opts["kind"] or (behaviour.get("type", "") if isinstance(behaviour, dict) else "")
+        project, _ = Project.objects.get_or_create(classroom=room, name=opts["name"],
+                                                   defaults={"ranking": "-success,total_time"})
+        fields = {"kind": kind, "config_text": text, "allowed_keys": opts["allow"], "seeds": seeds,
+                  "ranking": opts["ranking"], "trial_seconds": opts["trial_seconds"],
+                  "opens_at": when(opts["opens"], "--opens"), "due_at": when(opts["due"], "--due"),
+                  "late_policy": opts["late"], "project": project}
+        assignment, created = Assignment.objects.update_or_create(classroom=room, name=opts["name"], defaults=fields)
+        due = assignment.due_at.isoformat() if assignment.due_at else "no due time"
+        self.stdout.write(f"assignment {assignment.name!r} {'created' if created else 'updated'} in class "
+                          f"{room.name!r} (id {assignment.pk}): {len(seeds)} official seeds, {due}, late work "
+                          f"{'refused' if assignment.late_policy == Assignment.REFUSE else 'accepted and marked'}; "
+                          f"students may change: {', '.join(assignment.allowed_keys) or 'nothing'}")

@@ -1,0 +1,164 @@
+"""Running a submission's official trials in a separate, limited process.
+
+The parent (a queue worker) starts ``python -m robokit.server.sandbox`` with the trials on stdin; the child sets
+its resource limits before it imports robokit, runs each trial with :func:`robokit.sweep.trial.run_trial_safely`
+(the sweep's code: config text + seed -> one row) and writes one JSON row per finished trial to stdout.
+
+What isolation there is (said plainly in docs/server.md):
+
+- a separate process, started fresh for each submission, in a new empty scratch folder (its working directory,
+  ``HOME`` and ``TMPDIR``), deleted afterwards; an environment with nothing of the server's (no secret key, no
+  database URL);
+- ``setrlimit``: CPU seconds (the trials' time limits plus a margin; the kernel kills the process past it), address
+  space (``ROBOKIT_SANDBOX_MEMORY_MB``, default 3072), size of any file it writes (64 MiB), no core files;
+- a wall-clock limit per trial (robokit's own ``world.max_wall_time``: the trial ends ``aborted``), and one for the
+  whole process (the parent kills it);
+- no network when the machine lets an unprivileged user make a network namespace (``unshare --net
+  --map-root-user``: only a loopback device, down); otherwise the process has the server's network.
+
+It is not a security boundary against hostile code: the process runs as the server's user and can read what that
+user can read. Students submit configs, not code, so what runs is robokit and its installed plugins.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import threading
+from collections.abc import Iterator, Sequence
+from functools import cache
+from typing import Any
+
+FILE_LIMIT = 64 << 20
+MEMORY_MB = int(os.environ.get("ROBOKIT_SANDBOX_MEMORY_MB", 3072))
+CPU_MARGIN = 30
+WALL_MARGIN = 30
+"""Seconds the whole process may take beyond its trials' limits (start-up, loading plugins) before it is killed."""
+
+
+def wall_limit(trials: int, trial_seconds: float) -> float:
+    """The wall-clock limit of a process that runs ``trials`` trials of at most ``trial_seconds`` each."""
+    return trials * trial_seconds + WALL_MARGIN
+
+
+@cache
+def network_isolation() -> bool:
+    """Whether ``unshare --net --map-root-user`` works here (an unprivileged network namespace)."""
+    if sys.platform != "linux" or shutil.which("unshare") is None:
+        return False
+    try:
+        return subprocess.run(["unshare", "--net", "--map-root-user", "true"], capture_output=True,
+                              timeout=10).returncode == 0
+    except (OSError, subprocess.SubprocessError):
+        return False
+
+
+def sandbox_command() -> list[str]:
+    """The command that starts the child: ``python -m robokit.server.sandbox``, in a new network namespace
+    when the machine allows it."""
+    cmd = [sys.executable, "-m", "robokit.server.sandbox"]
+    return ["unshare", "--net", "--map-root-user", *cmd] if network_isolation() else cmd
+
+
+def run_sandboxed(tasks: Sequence[Any], trial_seconds: float) -> Iterator[dict[str, Any]]:
+    """Yield one row per task (:class:`robokit.sweep.trial.TrialTask`), as each trial ends, from a fresh
+    limited process. A trial the process did not finish (it hit a limit or died) gets an ``error`` row."""
+    from robokit.sweep.trial import error_row
+
+    scratch = tempfile.mkdtemp(prefix="robokit-eval-")
+    sent = [{**{f.name: getattr(t, f.name) for f in dataclasses.fields(t) if f.name not in ("before", "after")},
+             "base_dir": scratch} for t in tasks]
+    limits = {"cpu": int(len(tasks) * trial_seconds) + CPU_MARGIN, "memory_mb": MEMORY_MB, "file": FILE_LIMIT}
+    cmd = sandbox_command()
+    env = {"PATH": os.environ.get("PATH", "/usr/bin:/bin"), "HOME": scratch, "TMPDIR": scratch,
+           "LANG": "C.UTF-8", "MPLBACKEND": "Agg", "PYTHONDONTWRITEBYTECODE": "1"}
+    done: set[str] = set()
+    try:
+        proc = subprocess.Popen(cmd, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                cwd=scratch, env=env, text=True)
+        timer = threading.Timer(wall_limit(len(tasks), trial_seconds), proc.kill)
+        timer.start()
+        assert proc.stdin is not None and proc.stdout is not None and proc.stderr is not None
+        err_reader = _Collect(proc.stderr)
+        proc.stdin.write(json.dumps({"tasks": sent, "limits": limits}))
+        proc.stdin.close()
+        for line in proc.stdout:
+            if line.strip():
+                row = json.loads(line)
+                done.add(row["key"])
+                yield row
+        code = proc.wait()
+        timer.cancel()
+        err_reader.join()
+        why = _why(code, err_reader.text)
+        for t in tasks:
+            if t.key not in done:
+                yield error_row(t, f"the evaluation process ended before this trial finished ({why})")
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)
+
+
+class _Collect(threading.Thread):
+    """Reads a pipe to the end (the child's stderr), keeping the last few kilobytes."""
+
+    def __init__(self, pipe: Any) -> None:
+        super().__init__(daemon=True)
+        self.pipe, self.text = pipe, ""
+        self.start()
+
+    def run(self) -> None:
+        for line in self.pipe:
+            self.text = (self.text + line)[-4000:]
+
+
+def _why(code: int, stderr: str) -> str:
+    if code == -9:
+        return "killed: CPU or wall-clock limit reached"
+    if code in (-24, 152):
+        return "CPU time limit reached"
+    last = stderr.strip().splitlines()[-1] if stderr.strip() else ""
+    return f"exit code {code}{': ' + last[:300] if last else ''}"
+
+
+def _limit(resource_mod: Any, which: int, value: int) -> None:
+    """Soft and hard limit ``value`` (or the existing hard limit, if that is lower: it cannot be raised)."""
+    _, hard = resource_mod.getrlimit(which)
+    if hard != resource_mod.RLIM_INFINITY:
+        value = min(value, hard)
+    resource_mod.setrlimit(which, (value, value))
+
+
+def apply_limits(limits: dict[str, int]) -> None:
+    """Set this process's resource limits (soft = hard, so it cannot raise them again)."""
+    import resource
+
+    _limit(resource, resource.RLIMIT_CPU, limits["cpu"])
+    _limit(resource, resource.RLIMIT_AS, limits["memory_mb"] << 20)
+    _limit(resource, resource.RLIMIT_FSIZE, limits["file"])
+    _limit(resource, resource.RLIMIT_CORE, 0)
+
+
+def main() -> int:
+    """The child: limits first, then the trials, one JSON row per line on the original stdout."""
+    request = json.loads(sys.stdin.read())
+    apply_limits(request["limits"])
+    out = os.fdopen(os.dup(1), "w", encoding="utf-8")
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, 1)  # pybullet prints its banner at C level: keep the rows' stream clean
+    from robokit.sweep.trial import TrialTask, run_trial_safely
+
+    for fields in request["tasks"]:
+        fields["plugins"] = tuple(fields.get("plugins") or ())
+        row = run_trial_safely(TrialTask(**fields))
+        out.write(json.dumps(row, separators=(",", ":")) + "\n")
+        out.flush()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,102 @@
+"""A course server with its queue workers as real processes, for the slow course-work tests: set-up through
+``robokit manage``, submissions over HTTP, the server's SQLite database read with the standard library."""
+
+from __future__ import annotations
+
+import os
+import re
+import signal
+import sqlite3
+import subprocess
+import threading
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from server_proc import ROBOKIT, free_port, robokit
+
+PASSWORD = "correct-horse-battery"
+
+
+class CourseServer:
+    """``robokit serve --workers N`` in its own process group (so the whole server, workers and sandboxes
+    included, can be SIGKILLed at once, as a power cut would)."""
+
+    def __init__(self, data: Path, workers: int = 1, env: dict[str, str] | None = None) -> None:
+        self.data, self.workers, self.port = data, workers, free_port()
+        self.url = f"http://127.0.0.1:{self.port}"
+        self.env = {**os.environ, "ROBOKIT_TEACHER_PASSWORD": PASSWORD, **(env or {})}
+        self.lines: list[str] = []
+        self.proc: subprocess.Popen[str] | None = None
+
+    def manage(self, *args: str) -> str:
+        return robokit("manage", "--data", str(self.data), *args, cwd=self.data.parent, env=self.env).stdout
+
+    def start(self) -> CourseServer:
+        self.proc = subprocess.Popen([*ROBOKIT, "serve", "--data", str(self.data), "--port", str(self.port),
+                                      "--workers", str(self.workers)], stdout=subprocess.PIPE,
+                                     stderr=subprocess.STDOUT, text=True, env=self.env, start_new_session=True)
+        assert self.proc.stdout is not None
+        for line in self.proc.stdout:
+            self.lines.append(line)
+            if "Cluster" in line and "running" in line:  # the queue's workers are up
+                break
+        else:
+            raise AssertionError("robokit serve exited before its workers ran:\n" + self.log)
+        threading.Thread(target=self._drain, daemon=True).start()
+        return self
+
+    def _drain(self) -> None:
+        assert self.proc is not None and self.proc.stdout is not None
+        for line in self.proc.stdout:
+            self.lines.append(line)
+
+    @property
+    def log(self) -> str:
+        return "".join(self.lines)
+
+    def kill(self) -> None:
+        """SIGKILL the server's whole process group: server, queue processes, sandboxes."""
+        assert self.proc is not None
+        os.killpg(self.proc.pid, signal.SIGKILL)
+        self.proc.wait(timeout=60)
+
+    def stop(self) -> None:
+        assert self.proc is not None
+        if self.proc.poll() is None:
+            self.proc.terminate()
+            self.proc.wait(timeout=120)
+        try:
+            os.killpg(self.proc.pid, 0)
+        except ProcessLookupError:
+            return
+        os.killpg(self.proc.pid, signal.SIGKILL)  # nothing of ours may outlive the test
+
+    def query(self, sql: str, *params: Any) -> list[tuple[Any, ...]]:
+        with sqlite3.connect(self.data / "db.sqlite3", timeout=30) as db:
+            return db.execute(sql, params).fetchall()
+
+    def wait_for(self, what: str, predicate: Callable[[], bool], seconds: float) -> float:
+        """Check ``predicate`` until it holds (between checks, wait on the server process: a dead server ends
+        the wait at once). Returns the seconds it took."""
+        assert self.proc is not None
+        start = time.monotonic()
+        while not predicate():
+            if time.monotonic() - start > seconds:
+                raise AssertionError(f"after {seconds:g} s: not yet {what}\n" + self.log[-3000:])
+            try:
+                code = self.proc.wait(timeout=0.25)
+            except subprocess.TimeoutExpired:
+                continue
+            raise AssertionError(f"robokit serve exited ({code}) while waiting for {what}:\n{self.log[-3000:]}")
+        return time.monotonic() - start
+
+
+def setup_class(server: CourseServer, students: list[str]) -> dict[str, str]:
+    """A teacher, class 1반 and its students; returns each student's token."""
+    robokit("serve", "--data", str(server.data), "--create-teacher", "teacher", cwd=server.data.parent,
+            env=server.env)
+    server.manage("create_class", "1반", "--teacher", "teacher")
+    out = server.manage("add_students", "1반", *students)
+    return dict(re.findall(r"^(\S+)\t(rks_\S+)$", out, flags=re.M))
