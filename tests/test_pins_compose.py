@@ -1,5 +1,6 @@
-"""Composition's promises with behaviours that only count: a sequence's next step starts on the next tick with its
-own clock at 0, an aborted step ends the sequence, a finished monitor is stepped no more."""
+"""Composition's promises with behaviours that only count: one clock (every step reads the world's sim time), a
+sequence's next step starts on the next tick and its start is recorded, a step that does not succeed ends the
+sequence, a finished monitor is stepped no more."""
 
 from __future__ import annotations
 
@@ -50,14 +51,15 @@ def scene(behaviour: dict, **monitors: dict) -> dict:
     return cfg
 
 
-def test_the_next_step_starts_on_the_next_tick_with_its_clock_at_zero() -> None:
+def test_the_next_step_starts_on_the_next_tick_reading_the_one_clock() -> None:
     seq = {"type": "sequence", "steps": [{"type": "counter", "n": 3}, {"type": "counter", "n": 2}]}
     with make_sim(scene(seq), extra_plugins=[Plugin()]) as sim:
         result = sim.run()
         first, second = (m.behaviour for m in sim.behaviour.steps)
     assert result.outcome == "succeeded"
-    assert first.times == pytest.approx([0.0, DT, 2 * DT])
-    assert second.times == pytest.approx([0.0, DT])  # tick 3 is its t = 0
+    assert first.times == pytest.approx([0.0, DT, 2 * DT])  # ends at tick 2
+    assert second.times == pytest.approx([3 * DT, 4 * DT])  # starts at tick 3, on the world's clock
+    assert first.started_at == 0.0 and second.started_at == pytest.approx(3 * DT)
     assert result.ticks == 5
 
 
