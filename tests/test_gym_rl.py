@@ -12,8 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-pytest.importorskip("gymnasium")
-pytest.importorskip("stable_baselines3")
+pytestmark = pytest.mark.slow  # every test here trains; the extra is installed by .ci/run's slow tier only
 
 ROOT = Path(__file__).resolve().parents[1]
 REACH = ROOT / "configs" / "gym" / "reach.toml"

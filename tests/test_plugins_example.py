@@ -65,7 +65,7 @@ def venv(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
                            *(p for p in sys.path if p.endswith("site-packages"))])  # a venv over a venv too
     (site / "00_robokit_deps.pth").write_text("".join(f"{path}\n" for path in paths))
     src = tmp / "src"
-    for part in ("robokit", "plugins", "behaviours"):
+    for part in ("robokit", "plugins", "behaviours", "configs/gym"):  # configs/gym: the package robokit_configs.gym
         shutil.copytree(ROOT / part, src / "robokit" / part, ignore=IGNORE)
     for part in ("pyproject.toml", "README.md", "LICENSE"):
         if (ROOT / part).exists():
