@@ -351,11 +351,11 @@ class PickPlace(MachineBehaviour):
 
     def _retry(self, reason: str) -> None:
         cfg: PickPlaceConfig = self.config
-        self.failures.append(reason)
         if self.attempts >= cfg.max_attempts:
             tries = f"after {self.attempts} attempt{'s' if self.attempts > 1 else ''}"
-            self._fail(f"{reason} ({tries})")
+            self._fail(f"{reason} ({tries})")  # records the failure (once: one entry per failed attempt)
         else:
+            self.failures.append(reason)
             self._go("retry")
 
     def on_timeout(self, state: str) -> None:

@@ -14,6 +14,7 @@ import signal
 import subprocess
 import sys
 import threading
+import types
 from pathlib import Path
 
 import pytest
@@ -287,12 +288,38 @@ def test_a_reading_that_cannot_be_serialised_is_refused_naming_the_plugin(site: 
     assert result["ticks"] == 8  # refused at the read of tick 8, which never finished
 
 
-def test_max_wall_ends_a_run_stuck_in_a_plugin_naming_it(site: Path, capsys) -> None:
+@pytest.fixture
+def budget_after_the_hang(monkeypatch: pytest.MonkeyPatch) -> threading.Event:
+    """Set the returned event when the plugin says it is stuck: only then does the wall-clock budget's timer start
+    counting (it is still real wall time). A loaded machine therefore cannot spend the budget before the run
+    reaches the hang, and the tick the run stops at does not depend on the machine's speed."""
+    from robokit.process import interrupts
+
+    stuck = threading.Event()
+
+    class AfterTheHang(threading.Timer):
+        def run(self) -> None:
+            stuck.wait(600)  # a hang guard only: the plugin says so as soon as it gets there
+            super().run()
+
+    module = types.SimpleNamespace(**{k: getattr(threading, k) for k in dir(threading) if not k.startswith("__")})
+    module.Timer = AfterTheHang
+    monkeypatch.setattr(interrupts, "threading", module)
+    return stuck
+
+
+def drain_then(fifo: Path, stuck: threading.Event) -> None:
+    """Read what the plugin writes before it hangs, then say it is stuck."""
+    fifo.read_text()
+    stuck.set()
+
+
+def test_max_wall_ends_a_run_stuck_in_a_plugin_naming_it(site: Path, capsys, budget_after_the_hang) -> None:
     """A plugin that never returns: the wall-clock budget ends the run (aborted, exit 1), result kept, and the
     summary names the component the time went to."""
     fifo = site / "stuck.fifo"
     os.mkfifo(fifo)
-    drain = threading.Thread(target=fifo.read_text, daemon=True)
+    drain = threading.Thread(target=drain_then, args=(fifo, budget_after_the_hang), daemon=True)
     drain.start()
     cfg = config(site, what="hang", at_read=3, fifo=str(fifo))
     assert main(["run", str(cfg), "--json", "--max-wall", "1"]) == 1
@@ -305,10 +332,10 @@ def test_max_wall_ends_a_run_stuck_in_a_plugin_naming_it(site: Path, capsys) -> 
     assert stored(site)[0]["outcome"] == "aborted"
 
 
-def test_world_max_wall_time_from_the_config(site: Path, capsys) -> None:
+def test_world_max_wall_time_from_the_config(site: Path, capsys, budget_after_the_hang) -> None:
     fifo = site / "stuck.fifo"
     os.mkfifo(fifo)
-    threading.Thread(target=fifo.read_text, daemon=True).start()
+    threading.Thread(target=drain_then, args=(fifo, budget_after_the_hang), daemon=True).start()
     cfg = config(site, what="hang", at_read=2, fifo=str(fifo))
     cfg.write_text(cfg.read_text().replace("max_time = 2.0", "max_time = 2.0\nmax_wall_time = 0.5"))
     assert main(["run", str(cfg), "--json"]) == 1
