@@ -87,7 +87,8 @@ def test_a_trial_over_its_time_limit_ends_aborted(client: Any, course: Course) -
     a = make_assignment(course.room, seeds=(0,), trial_seconds=0.5)
     # An hour of sim time: no machine steps 33 bodies 7,200x faster than real time, so the 0.5 s wall limit ends it
     # on any machine (at 9 s of sim time an idle machine finished first).
-    assert submit(client, a.name, changed(OFFICIAL, duration="3600.0", max_time="3700.0"), course.kim_token).status_code == 201
+    hour = changed(OFFICIAL, duration="3600.0", max_time="3700.0")
+    assert submit(client, a.name, hour, course.kim_token).status_code == 201
     sub = Submission.objects.get()
     row = Result.objects.get(submission=sub)
     assert row.outcome == "aborted" and "max_wall_time" in row.reason, row.reason
