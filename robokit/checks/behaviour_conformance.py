@@ -51,7 +51,13 @@ from pathlib import Path
 from typing import Any
 
 from robokit.checks.budget import DEFAULT_BUDGET, Beat, Overrun, run_bounded
-from robokit.checks.conformance import ConformanceError, declaration_problem, first_difference, schema_kind
+from robokit.checks.conformance import (
+    ConformanceError,
+    PassedChecks,
+    declaration_problem,
+    first_difference,
+    schema_kind,
+)
 from robokit.checks.lint import lint_paths
 from robokit.config import build_config
 from robokit.core.simulation import Simulation
@@ -63,7 +69,7 @@ _CLOCKS = ("time", "monotonic", "perf_counter", "process_time", "time_ns", "mono
 
 
 @dataclass
-class BehaviourReport:
+class BehaviourReport(PassedChecks):
     """What a passed :func:`check_behaviour` verified.
 
     Attributes:
@@ -73,6 +79,7 @@ class BehaviourReport:
         sim_time: Sim seconds the example run took.
         transitions: State transitions in the example run.
         checks: One line per check passed.
+        kind: Always ``"behaviour"`` (the head line of the report's text).
     """
 
     type_name: str
@@ -81,10 +88,7 @@ class BehaviourReport:
     sim_time: float = 0.0
     transitions: int = 0
     checks: list[str] = field(default_factory=list)
-
-    def __str__(self) -> str:
-        head = f"behaviour {self.type_name!r} ({self.origin}) conforms:"
-        return "\n".join([head, *(f"  ok  {line}" for line in self.checks)])
+    kind: str = "behaviour"
 
 
 def check_behaviour(

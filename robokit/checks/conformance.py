@@ -60,8 +60,22 @@ class ConformanceError(AssertionError):
     """A plugin type broke the plugin contract; the message names the type, its origin and the check."""
 
 
+class PassedChecks:
+    """The text every conformance report prints: a head line naming the type and its origin, then one ``ok`` line
+    per check passed (shared by :class:`ConformanceReport` and ``BehaviourReport``)."""
+
+    kind: str
+    type_name: str
+    origin: str
+    checks: list[str]
+
+    def __str__(self) -> str:
+        head = f"{self.kind} {self.type_name!r} ({self.origin}) conforms:"
+        return "\n".join([head, *(f"  ok  {line}" for line in self.checks)])
+
+
 @dataclass
-class ConformanceReport:
+class ConformanceReport(PassedChecks):
     """What a passed check verified.
 
     Attributes:
@@ -81,10 +95,6 @@ class ConformanceReport:
     ticks: int = DEFAULT_TICKS
     computed: int = 0
     checks: list[str] = field(default_factory=list)
-
-    def __str__(self) -> str:
-        head = f"{self.kind} {self.type_name!r} ({self.origin}) conforms:"
-        return "\n".join([head, *(f"  ok  {line}" for line in self.checks)])
 
 
 def check_sensor(
