@@ -27,7 +27,8 @@ class Distribution:
     """An installed distribution's folder; ``metadata`` holds its ``Name`` and ``Version`` (read on first use)."""
 
     def __init__(self, path: str) -> None:
-        self._path = path
+        self.path = path
+        """The ``.dist-info`` (or ``.egg-info``) folder."""
         self._meta: dict[str, str] | None = None
 
     @property
@@ -37,7 +38,7 @@ class Distribution:
             meta: dict[str, str] = {}
             for file in ("METADATA", "PKG-INFO"):
                 try:
-                    with open(os.path.join(self._path, file), encoding="utf-8") as fh:
+                    with open(os.path.join(self.path, file), encoding="utf-8") as fh:
                         for line in fh:
                             if not line.strip():
                                 break  # the header ends at the first blank line

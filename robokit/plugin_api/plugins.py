@@ -240,19 +240,23 @@ class Plugins:
                                   type_name=hook_name, distribution=impl.plugin_name) from exc
 
 
-_LABELS: dict[Any, tuple[str, str]] = {}
-"""``(name, version)`` by distribution object: each distribution's metadata is parsed once, not once per entry point
-(importlib.metadata hands every entry point of a distribution the same object, and the key keeps it alive)."""
+_LABELS: dict[str, tuple[str, str]] = {}
+"""``(name, version)`` by distribution folder: a distribution's metadata is read once per process, not once per
+entry point or per plugin load (a sweep worker loads plugins for every trial)."""
 
 
 def _dist_label(dist: md.Distribution | discovery.Distribution | None) -> tuple[str, str]:
-    """``(name, version)`` of a distribution."""
+    """``(name, version)`` of a distribution. Only robokit's own reader names a distribution's folder; one from
+    ``importlib.metadata`` (the reader's rare fallback) is read each time it is asked."""
     if dist is None:
         return ("<local>", "")
-    label = _LABELS.get(dist)
+    folder = getattr(dist, "path", None)
+    label = _LABELS.get(folder) if isinstance(folder, str) else None
     if label is None:
         meta = dist.metadata
-        label = _LABELS[dist] = (_header(meta, "Name") or "<unknown>", _header(meta, "Version"))
+        label = (_header(meta, "Name") or "<unknown>", _header(meta, "Version"))
+        if isinstance(folder, str):
+            _LABELS[folder] = label
     return label
 
 
