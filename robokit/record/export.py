@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from robokit.errors import UserError
+from robokit.extras import require
 from robokit.record.format import RunRecord
 from robokit.record.replay import Replay, Shape, camera_frames, replay_of
 
@@ -97,10 +97,9 @@ def export_rerun(rec: RunRecord, out: Path, replay: Replay | None = None) -> dic
     Raises:
         UserError: rerun-sdk is not installed.
     """
-    try:
-        import rerun as rr
-    except ImportError:
-        raise UserError("robokit export --rerun needs rerun-sdk: pip install 'robokit[rerun]'") from None
+    require("rerun", "robokit export --rerun", ("rerun",))
+    import rerun as rr
+
     replay = replay or replay_of(rec)
     stream = rr.RecordingStream("robokit", recording_id=rec.run_id)
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -217,10 +216,9 @@ def export_mcap(rec: RunRecord, out: Path, replay: Replay | None = None) -> dict
     Raises:
         UserError: the mcap package is not installed.
     """
-    try:
-        from mcap.writer import Writer
-    except ImportError:
-        raise UserError("robokit export --mcap needs mcap: pip install 'robokit[rerun]'") from None
+    require("rerun", "robokit export --mcap", ("mcap",))
+    from mcap.writer import Writer
+
     replay = replay or replay_of(rec)
     out.parent.mkdir(parents=True, exist_ok=True)
     counts: dict[str, int] = {}

@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from robokit.errors import UserError
+from robokit.extras import require
 from robokit.record.format import RunRecord
 from robokit.record.scene import Scene, View, choose_view, rebuild
 
@@ -200,10 +201,8 @@ def render_video(rec: RunRecord, out: Path, *, fps: float | None = None, size: t
     Raises:
         UserError: imageio-ffmpeg is not installed, the record has no pose log, or a bad ``fps``/``view``.
     """
-    try:
-        import imageio_ffmpeg
-    except ImportError:
-        raise UserError("robokit video needs imageio-ffmpeg: pip install 'robokit[video]'") from None
+    require("video", "robokit video", ("imageio_ffmpeg",))
+    import imageio_ffmpeg
     from tqdm import tqdm
 
     rate = fps or float(rec.header.get("pose_hz") or 30.0)
