@@ -9,6 +9,8 @@ the machine in a way CI cannot change (running as root, say) carries ``@pytest.m
 from __future__ import annotations
 
 import os
+import shutil
+import subprocess
 from collections.abc import Iterator
 from typing import Any
 
@@ -51,3 +53,28 @@ def pytest_make_collect_report(collector: pytest.Collector) -> Iterator[None]:
         report.outcome = "failed"
         report.longrepr = (f"{NO_SKIP}=1: {collector.nodeid or 'a module'} skipped at collection "
                            f"({_reason(report.longrepr)}); in CI a skip is a failure")
+
+
+@pytest.fixture
+def virtual_display() -> Iterator[dict[str, str]]:
+    """A virtual X display of the test's own: an environment whose ``DISPLAY`` names a fresh Xvfb server.
+
+    Xvfb picks a free display number itself (``-displayfd``) and is stopped when the test ends. Tests start the GUI
+    program directly in this environment, not under ``xvfb-run``: a signal sent to robokit then reaches robokit alone,
+    and the exit code is robokit's (``xvfb-run`` answers 5 when its own clean-up races the program's exit)."""
+    xvfb = shutil.which("Xvfb")
+    if xvfb is None:
+        pytest.skip("no virtual display: install xvfb (apt-get install xvfb)")
+    read_end, write_end = os.pipe()
+    server = subprocess.Popen([xvfb, "-displayfd", str(write_end), "-screen", "0", "640x480x24", "-nolisten", "tcp"],
+                              pass_fds=(write_end,), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    os.close(write_end)
+    with os.fdopen(read_end) as announced:
+        number = announced.readline().strip()  # "" if Xvfb died before choosing a display
+    try:
+        if not number.isdigit():
+            pytest.fail(f"Xvfb did not start (exit code {server.poll()})")
+        yield {**os.environ, "DISPLAY": f":{number}"}
+    finally:
+        server.terminate()
+        server.wait(timeout=30)

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
 import signal
 import subprocess
 import sys
@@ -14,7 +13,6 @@ from pathlib import Path
 
 import pytest
 
-XVFB_RUN = shutil.which("xvfb-run")
 SCENE = """
 [world]
 max_time = 0.25
@@ -29,19 +27,16 @@ radius = 0.05
 position = [0, 0, 0.5]
 """
 
-pytestmark = [pytest.mark.slow,
-              pytest.mark.skipif(XVFB_RUN is None, reason="no virtual display: install xvfb (apt-get install xvfb)")]
+pytestmark = pytest.mark.slow
 
 
-def held_run(folder: Path, sig: signal.Signals) -> tuple[int, list[str], str, str]:
+def held_run(folder: Path, sig: signal.Signals, display: dict[str, str]) -> tuple[int, list[str], str, str]:
     """Start a held GUI run; once robokit says the window is held, send ``sig`` to it. Returns the exit code, the
     stdout lines printed before the signal, all stdout and stderr."""
     scene = folder / "scene.toml"
     scene.write_text(SCENE)
-    pid_file = folder / "pid"
-    inner = f"echo $$ > {pid_file}; exec {sys.executable} -m robokit.cli run {scene} --gui --gui-hold"
-    proc = subprocess.Popen([XVFB_RUN or "", "-a", "-s", "-screen 0 640x480x24", "sh", "-c", inner], cwd=folder,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen([sys.executable, "-m", "robokit.cli", "run", str(scene), "--gui", "--gui-hold"],
+                            cwd=folder, env=display, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     assert proc.stdout is not None and proc.stderr is not None
     out_lines: list[str] = []
     outcome_seen = threading.Event()
@@ -65,16 +60,16 @@ def held_run(folder: Path, sig: signal.Signals) -> tuple[int, list[str], str, st
     outcome_seen.wait(60)  # already printed (flushed) before the hold message: this only lets the reader catch up
     assert proc.poll() is None  # still holding the window
     before = list(out_lines)
-    robokit_pid = int(pid_file.read_text())
-    os.kill(robokit_pid, sig)
+    os.kill(proc.pid, sig)  # robokit itself (no xvfb-run between), as Ctrl-C or `kill` would
     rest = proc.stderr.read()
     proc.wait(timeout=120)
     reader.join(60)
     return proc.returncode, before, "".join(out_lines), "".join(err_lines) + rest
 
 
-def test_ctrl_c_in_the_held_window_keeps_the_runs_exit_code_and_the_outcome_came_first(tmp_path: Path) -> None:
-    code, before, out, err = held_run(tmp_path, signal.SIGINT)
+def test_ctrl_c_in_the_held_window_keeps_the_runs_exit_code_and_the_outcome_came_first(
+        tmp_path: Path, virtual_display: dict[str, str]) -> None:
+    code, before, out, err = held_run(tmp_path, signal.SIGINT, virtual_display)
     assert code == 0, err[-2000:]
     assert any(line.startswith("outcome: succeeded") for line in before), before  # printed before holding
     assert "interrupted" not in err and "Traceback" not in err
@@ -82,8 +77,8 @@ def test_ctrl_c_in_the_held_window_keeps_the_runs_exit_code_and_the_outcome_came
     assert json.loads((run / "result.json").read_text())["outcome"] == "succeeded"
 
 
-def test_sigterm_in_the_held_window_ends_robokit_with_143(tmp_path: Path) -> None:
-    code, before, _out, err = held_run(tmp_path, signal.SIGTERM)
+def test_sigterm_in_the_held_window_ends_robokit_with_143(tmp_path: Path, virtual_display: dict[str, str]) -> None:
+    code, before, _out, err = held_run(tmp_path, signal.SIGTERM, virtual_display)
     assert code == 143, err[-2000:]
     assert any(line.startswith("outcome: succeeded") for line in before)
     assert "robokit: interrupted (SIGTERM)" in err
