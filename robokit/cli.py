@@ -80,6 +80,7 @@ def _parser(command: str | None = None) -> argparse.ArgumentParser:
 _RUN_OPTIONS: tuple[tuple[str, dict[str, Any]], ...] = (
     ("--gui", {"action": "store_true", "help": "open the PyBullet GUI (paced to real time)"}),
     ("--seed", {"type": int, "help": "override world.seed"}),
+    ("--engine", {"choices": ("pybullet", "mujoco"), "help": "override world.engine (mujoco: robokit[mujoco])"}),
     ("--max-time", {"type": _finite_float, "metavar": "S", "help": "override world.max_time (sim seconds)"}),
     ("--max-wall", {"type": _finite_float, "metavar": "S",
                     "help": "override world.max_wall_time: end the run (aborted) after S wall-clock seconds"}),
@@ -165,6 +166,8 @@ def _overrides(args: argparse.Namespace) -> dict[str, Any]:
     out: dict[str, Any] = _set_overrides(sets) if sets else {}
     if getattr(args, "seed", None) is not None:
         out["world.seed"] = args.seed
+    if getattr(args, "engine", None) is not None:
+        out["world.engine"] = args.engine
     if getattr(args, "student", None) is not None:
         out["report.student"] = args.student
     if getattr(args, "project", None) is not None:

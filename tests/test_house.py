@@ -16,7 +16,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("robokit", "robokit.errors", "robokit.process"),
     ("robokit.config",),
     ("robokit.plugin_api", "robokit.msgs", "robokit.components"),
-    ("robokit.core", "robokit.fsm"),
+    ("robokit.core", "robokit.engines", "robokit.fsm"),
     ("robokit.report", "robokit.record"),
     ("robokit.runner", "robokit.sweep", "robokit.gym", "robokit.checks", "robokit.server"),
     ("robokit.testing", "robokit.checks.pytest_plugin", "robokit.cli"),

@@ -1,0 +1,184 @@
+"""Building a MuJoCo scene from robokit bodies with :class:`mujoco.MjSpec`: primitives, URDFs, contact parameters.
+
+Units are SI; quaternions handed in are robokit's ``(x, y, z, w)`` and turned into MuJoCo's ``(w, x, y, z)`` here.
+
+How PyBullet's contact parameters are mapped (MuJoCo's own contact model decides the rest):
+
+* ``lateral_friction``, ``spinning_friction``, ``rolling_friction`` are a geom's ``friction`` (slide, torsional,
+  rolling). MuJoCo combines two geoms' friction by the **maximum**; PyBullet multiplies them. Spinning and rolling
+  friction switch the geom's contact to ``condim`` 4 / 6 (MuJoCo ignores them at the default 3).
+* ``restitution``: MuJoCo has no coefficient of restitution. A pair of geoms whose restitutions multiply (PyBullet's
+  rule) to ``e > 0`` gets an explicit contact pair whose reference dynamics are a spring-damper with MuJoCo's default
+  contact stiffness (``timeconst`` 0.02 s) and the damping ratio of a linear oscillator that keeps ``e`` of its
+  speed, ``zeta = -ln(e) / sqrt(pi^2 + ln(e)^2)``. Pairs with ``e = 0`` keep MuJoCo's default (critically damped)
+  contact. The bounce this gives is measured in docs/engines.md, not promised exact.
+* ``linear_damping`` / ``angular_damping`` (per second, as PyBullet's) become the free joint's per-dof damping:
+  ``mass * rate`` on the translations and ``inertia * rate`` on the rotations.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import mujoco
+
+from robokit.errors import UserError
+
+DEFAULT_TIMECONST = 0.02
+"""MuJoCo's default contact ``solref`` time constant (s): the stiffness restitution pairs keep."""
+
+
+def mj_quat(q: Sequence[float]) -> list[float]:
+    """robokit ``(x, y, z, w)`` -> MuJoCo ``(w, x, y, z)``."""
+    return [float(q[3]), float(q[0]), float(q[1]), float(q[2])]
+
+
+def damping_ratio(restitution: float) -> float:
+    """Damping ratio of a linear spring-damper that rebounds with ``restitution`` of its impact speed (1 at 0)."""
+    if restitution <= 0.0:
+        return 1.0
+    log_e = math.log(min(restitution, 0.999))
+    return -log_e / math.sqrt(math.pi**2 + log_e**2)
+
+
+@dataclass
+class GeomContact:
+    """Contact parameters robokit set on one geom (None: not set, MuJoCo's default)."""
+
+    restitution: float = 0.0
+    static: bool = False
+
+
+@dataclass
+class Scene:
+    """The spec being built, and what MuJoCo needs from robokit beyond it (restitution, damping rates)."""
+
+    spec: mujoco.MjSpec
+    contacts: dict[str, GeomContact] = field(default_factory=dict)
+    """Geom name -> its robokit contact parameters."""
+    damping: dict[str, tuple[float | None, float | None]] = field(default_factory=dict)
+    """Free body name -> (linear, angular) damping rates, 1/s."""
+
+    @classmethod
+    def new(cls, time_step: float, gravity: Sequence[float], iterations: int) -> Scene:
+        spec = mujoco.MjSpec()
+        spec.compiler.fusestatic = False  # every URDF link stays a body: links are looked up by name
+        spec.compiler.degree = False
+        spec.option.timestep = time_step
+        spec.option.gravity = list(gravity)
+        spec.option.iterations = iterations
+        spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+        return cls(spec)
+
+    def geoms_of(self, body: mujoco.MjsBody) -> list[mujoco.MjsGeom]:
+        """Every geom of a body and of the bodies below it."""
+        return list(body.find_all(mujoco.mjtObj.mjOBJ_GEOM))
+
+    def set_contact(self, body: mujoco.MjsBody, params: dict[str, float | None]) -> None:
+        """Apply robokit contact parameters (``lateral_friction`` …, ``restitution``) to a body's own geoms."""
+        for geom in body.geoms:
+            friction = list(geom.friction)
+            for slot, key in enumerate(("lateral_friction", "spinning_friction", "rolling_friction")):
+                value = params.get(key)
+                if value is not None:
+                    friction[slot] = float(value)
+                    geom.condim = max(geom.condim, (3, 4, 6)[slot])
+            geom.friction = friction
+            if params.get("restitution") is not None:
+                self.contacts.setdefault(geom.name, GeomContact()).restitution = float(params["restitution"] or 0.0)
+
+    def add_restitution_pairs(self, static_bodies: set[str]) -> None:
+        """One explicit pair for each two geoms (of different bodies, not both static) whose restitutions multiply to
+        more than zero."""
+        bouncy = [(name, c.restitution) for name, c in self.contacts.items() if c.restitution > 0.0]
+        timeconst = max(DEFAULT_TIMECONST, 2.0 * self.spec.option.timestep)
+        dmax = 0.95  # MuJoCo's default solimp[1]
+        w0 = 1.0 / (dmax * timeconst)
+        for i, (g1, e1) in enumerate(bouncy):
+            geom1 = self.spec.geom(g1)
+            for g2, e2 in bouncy[i + 1:]:
+                geom2 = self.spec.geom(g2)
+                b1, b2 = _root_name(geom1), _root_name(geom2)
+                if b1 == b2 or (b1 in static_bodies and b2 in static_bodies):
+                    continue
+                pair = self.spec.add_pair(geomname1=g1, geomname2=g2)
+                pair.condim = max(geom1.condim, geom2.condim)
+                slide, spin, roll = (max(a, b) for a, b in zip(geom1.friction, geom2.friction, strict=True))
+                pair.friction = [slide, slide, spin, roll, roll]
+                pair.solref = [-(w0**2), -2.0 * damping_ratio(e1 * e2) * w0]
+
+
+def _root_name(geom: mujoco.MjsGeom) -> str:
+    body = geom.parent
+    while body.parent is not None and body.parent.name != "world":
+        body = body.parent
+    return str(body.name)
+
+
+def add_primitive(scene: Scene, name: str, shape: str, *, size: Sequence[float], radius: float, height: float,
+                  mass: float, position: Sequence[float], orientation: Sequence[float],
+                  rgba: Sequence[float]) -> mujoco.MjsBody:
+    """A body holding one box / sphere / cylinder geom (named ``name``); free unless ``mass`` is 0 (static)."""
+    body = scene.spec.worldbody.add_body(name=name, pos=list(position), quat=mj_quat(orientation))
+    kinds = {"box": mujoco.mjtGeom.mjGEOM_BOX, "sphere": mujoco.mjtGeom.mjGEOM_SPHERE,
+             "cylinder": mujoco.mjtGeom.mjGEOM_CYLINDER}
+    sizes = {"box": [s / 2.0 for s in size], "sphere": [radius, 0.0, 0.0], "cylinder": [radius, height / 2.0, 0.0]}
+    geom = body.add_geom(name=name, type=kinds[shape], size=sizes[shape], rgba=list(rgba))
+    if mass > 0:
+        geom.mass = mass
+        body.add_freejoint(name=f"{name}/free")
+    return body
+
+
+def _absolute_meshes(urdf_path: Path) -> str:
+    """The URDF's text with every mesh ``filename`` made absolute (``package://x`` is ``x`` beside the URDF, as
+    PyBullet reads it)."""
+    folder = urdf_path.parent
+
+    def fix(match: re.Match[str]) -> str:
+        name = match.group(2)
+        if name.startswith("package://"):
+            name = name[len("package://"):]
+        return f"{match.group(1)}{(folder / name).resolve() if not Path(name).is_absolute() else name}\""
+
+    return re.sub(r'(filename\s*=\s*")([^"]*)"', fix, urdf_path.read_text(encoding="utf-8"))
+
+
+def load_urdf(scene: Scene, name: str, path: Path, *, position: Sequence[float], orientation: Sequence[float],
+              fixed_base: bool, self_collision: bool) -> mujoco.MjsBody:
+    """Attach a URDF's links as bodies named ``NAME/LINK`` (geoms ``NAME/gI``); returns the root body.
+
+    The base is free unless ``fixed_base`` or it has no mass (as PyBullet makes a massless base static). Without
+    ``self_collision`` no two links of the robot collide (PyBullet's default); MuJoCo already skips parent and child.
+
+    Raises:
+        UserError: MuJoCo's URDF reader or compiler refuses the file.
+    """
+    try:
+        child = mujoco.MjSpec.from_string(_absolute_meshes(path))
+    except Exception as exc:  # noqa: BLE001 - MuJoCo raises plain exceptions with its parser's message
+        raise UserError(f"URDF {path.name!r} could not be loaded by MuJoCo: {_first_line(exc)}") from None
+    for i, geom in enumerate(child.geoms):
+        geom.name = f"g{i}"
+    frame = scene.spec.worldbody.add_frame(pos=list(position), quat=mj_quat(orientation))
+    scene.spec.attach(child, prefix=f"{name}/", frame=frame)
+    root = next(b for b in scene.spec.bodies if b.name.startswith(f"{name}/"))
+    links = list(root.find_all(mujoco.mjtObj.mjOBJ_BODY))
+    total_mass = root.mass + sum(b.mass for b in links)
+    if not fixed_base and total_mass > 0:
+        root.add_freejoint(name=f"{name}/free")
+    if not self_collision:
+        group = [root, *links]
+        for i, b1 in enumerate(group):
+            for b2 in group[i + 1:]:
+                scene.spec.add_exclude(bodyname1=b1.name, bodyname2=b2.name)
+    return root
+
+
+def _first_line(exc: BaseException) -> str:
+    lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
+    return "; ".join(lines[:2]) or type(exc).__name__

@@ -1,0 +1,123 @@
+"""What the mujoco engine honours of a config, checked before anything is built: a refusal is one line naming the
+key and the engine (a :class:`ConfigError`, exit code 2), never a failure halfway through a run.
+
+Third-party plugin types are let through: they are written against the World and run on both engines. robokit's
+own types that still reach past the World into PyBullet, or need a World feature the mujoco engine lacks, are
+listed in :data:`NOT_YET` with the reason.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from robokit.errors import ConfigError
+
+if TYPE_CHECKING:  # read by attribute only: the engines sit below robokit.config in the house
+    from robokit.config import BodyConfig, ComponentSpec, Config
+    from robokit.engines.mujoco_engine import MujocoWorld
+
+ENGINE = "the mujoco engine"
+
+NOT_YET: dict[str, str] = {
+    "camera": "no renderer behind the World on mujoco yet",
+    "colour_detector": "it reads a camera, which has no renderer on mujoco yet",
+    "contact": "contact queries are not behind the World on mujoco yet",
+    "lidar": "ray casts are not behind the World on mujoco yet",
+    "force_torque": "joint reaction forces are not behind the World on mujoco yet",
+    "keyboard": "it reads PyBullet's GUI keyboard events",
+    "diff_drive": "joint motors are not behind the World on mujoco yet",
+    "joint_control": "joint motors are not behind the World on mujoco yet",
+    "pid": "joint motors are not behind the World on mujoco yet",
+    "ik_arm": "mujoco has no inverse kinematics call (differential IK is not built yet)",
+    "ee_delta": "mujoco has no inverse kinematics call (differential IK is not built yet)",
+    "gripper": "joint motors and finger contacts are not behind the World on mujoco yet",
+    "suction": "attachments are not behind the World on mujoco yet",
+    "collector": "attachments are not behind the World on mujoco yet",
+    "reach": "its arm needs inverse kinematics, not built on mujoco yet",
+    "push": "its arm needs inverse kinematics, not built on mujoco yet",
+    "pick": "its arm needs inverse kinematics, not built on mujoco yet",
+    "go_to": "its robot drives with joint motors, not behind the World on mujoco yet",
+    "sort": "it drives an arm with inverse kinematics, not built on mujoco yet",
+    "pick_place": "it drives an arm with inverse kinematics, not built on mujoco yet",
+    "patrol": "it reaches into PyBullet for the robot's pose and rays",
+    "patrol_collect": "it reaches into PyBullet for the robot's pose and rays",
+    "policy": "it reaches into PyBullet for the robot's state",
+}
+"""robokit's own plugin types that do not run on mujoco yet -> why."""
+
+
+def check_config(cfg: Config) -> None:
+    """Refuse, before the run, the first thing in ``cfg`` the mujoco engine cannot honour.
+
+    Raises:
+        ConfigError: One line: the file, the key, what is refused on mujoco and why.
+    """
+    problem = _world(cfg) or _bodies(cfg) or _components(cfg)
+    if problem is not None:
+        key, why = problem
+        raise ConfigError(f"not supported on {ENGINE}: {why} (--engine pybullet runs it)", key=key, file=cfg.source)
+
+
+def _world(cfg: Config) -> tuple[str, str] | None:
+    if cfg.world.gui:
+        return "world.gui", "no GUI window"
+    if cfg.randomize is not None:
+        return "randomize", "domain randomisation is not built"
+    return None
+
+
+def _bodies(cfg: Config) -> tuple[str, str] | None:
+    for section, bodies in (("bodies", cfg.bodies), ("robots", cfg.robots)):
+        for name, body in bodies.items():
+            problem = _body(body)
+            if problem is not None:
+                return f"{section}.{name}.{problem[0]}", problem[1]
+    return None
+
+
+def _body(body: BodyConfig) -> tuple[str, str] | None:
+    if body.sdf is not None:
+        return "sdf", "SDF files are not loaded (URDF and primitives are)"
+    if body.mjcf is not None:
+        return "mjcf", "MJCF bodies are not loaded through robokit yet"
+    if body.mount is not None:
+        return "mount", "mounting a body on another's link is not built"
+    if body.joint_positions:
+        return "joint_positions", "joints are not behind the World yet"
+    if body.urdf is not None and body.scale != 1.0:
+        return "scale", f"URDFs load at scale 1 only, not {body.scale:g}"
+    return None
+
+
+def _components(cfg: Config) -> tuple[str, str] | None:
+    specs: list[ComponentSpec] = [*cfg.sensors, *cfg.actuators, *cfg.monitors, *cfg.recoveries.values()]
+    stack = [cfg.behaviour] if cfg.behaviour is not None else []
+    while stack:
+        spec = stack.pop()
+        specs.append(spec)
+        stack.extend(spec.children)
+    for spec in specs:
+        if spec.type in NOT_YET:
+            return f"{spec.key}.type", f"{spec.kind} type {spec.type!r}, {NOT_YET[spec.type]}"
+    return None
+
+
+def open_world(config: Config, *, gui: bool, seed: int) -> MujocoWorld:
+    """A MuJoCo World for ``config`` (its ``[world]`` settings; ``seed`` and ``gui`` as the run overrides them).
+
+    Raises:
+        UserError: MuJoCo is not installed (one line naming the extra).
+        ConfigError: The config asks for something the mujoco engine cannot honour (one line naming the key).
+    """
+    from robokit.extras import require
+
+    require("mujoco", 'world.engine = "mujoco"')
+    check_config(config)
+    if gui:
+        raise ConfigError(f"--gui: no GUI window on {ENGINE} (--engine pybullet has one)", key="world.gui",
+                          file=config.source)
+    from robokit.engines.mujoco_engine import MujocoWorld
+
+    wc = config.world
+    return MujocoWorld(time_step=wc.time_step, gravity=wc.gravity, solver_iterations=wc.solver_iterations,
+                       seed=seed, base_dir=config.base_dir)
