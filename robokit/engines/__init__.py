@@ -24,3 +24,15 @@ def _pybullet() -> type[World]:
 
 
 World.engines["pybullet"] = _pybullet
+
+
+def _mujoco() -> type[World]:
+    from robokit.extras import require
+
+    require("mujoco", 'world.engine = "mujoco"')
+    from robokit.engines.mujoco_engine import MujocoWorld
+
+    return MujocoWorld
+
+
+World.engines["mujoco"] = _mujoco

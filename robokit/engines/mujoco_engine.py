@@ -1,12 +1,14 @@
-"""The World on MuJoCo: bodies built with :class:`mujoco.MjSpec`, compiled when first stepped or looked at.
+"""The mujoco engine: :class:`MujocoWorld`, the World on one MuJoCo model built with :class:`mujoco.MjSpec`.
 
-Units are SI; positions are world frame ``(x, y, z)``; quaternions are robokit's ``(x, y, z, w)`` (MuJoCo's own
-``(w, x, y, z)`` never leaves this package). A body's id is robokit's, given in creation order and stable for the
-run; MuJoCo's body ids change when the scene is recompiled (a body added or removed) and stay in here.
+Bodies are added to the spec and compiled when the world is first stepped or looked at (again after a body is
+added or removed: the others keep their state). A body id is robokit's, handed out in creation order and stable for
+the run; MuJoCo's own ids change at each compile and stay inside this module.
 
-The state after :meth:`MujocoWorld.step` is consistent: MuJoCo's ``mj_step2`` integrates, then ``mj_step1``
-computes positions and velocities of the new state, so poses read between two steps are those of the current
-state and forces applied then act in the next step.
+The state after :meth:`MujocoWorld.step` is consistent: ``mj_step2`` integrates, then ``mj_step1`` computes the
+positions and velocities of the new state, so poses read between two steps are those of the current state, and
+forces and motor commands set then act during the next step.
+
+Units are SI; quaternions are robokit's ``(x, y, z, w)`` (MuJoCo's ``(w, x, y, z)`` stays in here).
 """
 
 from __future__ import annotations
@@ -18,12 +20,11 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from robokit.core.world import World as _PyBulletWorld
+from robokit.engines.interface import Contact, JointInfo, JointState, MotorMode, Pose, Quat, Vec3, World
+from robokit.engines.mujoco_links import critical_damping, joint_table, motor_gains, urdf_joints
+from robokit.engines.mujoco_more import MujocoExtras
 from robokit.engines.mujoco_scene import Scene, add_primitive, load_urdf, mj_quat
-from robokit.errors import LookupNameError, UserError
-
-Vec3 = tuple[float, float, float]
-Quat = tuple[float, float, float, float]
+from robokit.errors import UserError
 
 
 def _xyzw(q: Any) -> Quat:
@@ -34,64 +35,37 @@ def _vec(v: Any) -> Vec3:
     return (float(v[0]), float(v[1]), float(v[2]))
 
 
-class MujocoWorld:
+class MujocoWorld(MujocoExtras, World):
     """One MuJoCo model and data, the named bodies in them, the sim clock and the run's random generator.
 
-    Args mirror the PyBullet World's: ``time_step`` (s), ``gravity`` (m/s²), ``solver_iterations``, ``seed``,
-    ``base_dir`` (where relative URDF paths are looked up). ``gui`` is refused: MuJoCo runs headless here.
+    Takes the World's keyword arguments; ``gui`` is refused (robokit runs MuJoCo headless).
     """
 
     engine = "mujoco"
 
     def __init__(self, *, gui: bool = False, time_step: float = 1.0 / 240.0,
                  gravity: Sequence[float] = (0.0, 0.0, -9.81), solver_iterations: int = 50, seed: int = 0,
-                 base_dir: str | Path = ".") -> None:
+                 base_dir: str | Path = ".", engine: str | None = None) -> None:
         if gui:
-            raise UserError("world.gui: the mujoco engine runs headless in robokit (use --engine pybullet for a GUI)")
-        self.gui = False
-        self.time_step = float(time_step)
-        self.seed = int(seed)
-        self.base_dir = Path(base_dir)
-        self.tick = 0
-        self._rng: np.random.Generator | None = None
+            raise UserError("world.gui: the mujoco engine runs headless in robokit (--engine pybullet has a GUI)")
+        super().__init__(gui=False, time_step=time_step, gravity=gravity, solver_iterations=solver_iterations,
+                         seed=seed, base_dir=base_dir, engine=engine)
         self.scene = Scene.new(self.time_step, gravity, solver_iterations)
+        self.client: Any = self.scene
         self.model: Any = None
         self.data: Any = None
         self._dirty = True
-        self._bodies: dict[str, int] = {}
-        self._names: dict[int, str] = {}
-        self._mj_name: dict[int, str] = {}  # robokit id -> MuJoCo root body name
+        self._added = 0
+        self._root: dict[int, str] = {}  # robokit id -> MuJoCo root body name
+        self._links: dict[int, list[str]] = {}  # robokit id -> link names (index order), URDF names
+        self._tables: dict[int, list[JointInfo]] = {}
+        self._base_names: dict[int, str] = {}
         self._static: set[str] = set()
-        self._mj_id: dict[int, int] = {}  # robokit id -> MuJoCo body id (rebuilt at each compile)
+        self._bid: dict[int, list[int]] = {}  # robokit id -> MuJoCo body ids of base, link 0, link 1 ...
+        self._owner: dict[int, tuple[int, int]] = {}  # MuJoCo body id -> (robokit id, link)
         self._forces: list[tuple[int, np.ndarray, np.ndarray]] = []
-        self.mounts: dict[int, int] = {}
-        self.removals = 0
-        self.render_options: dict[str, Any] = {}
 
-    sample_positions = _PyBulletWorld.sample_positions  # engine-neutral: draws from self.rng only
-
-    # ----------------------------------------------------------------- clock and randomness
-    @property
-    def rng(self) -> np.random.Generator:
-        """The run's generator, seeded with :attr:`seed`: the only source of randomness."""
-        if self._rng is None:
-            self._rng = np.random.default_rng(self.seed)
-        return self._rng
-
-    @rng.setter
-    def rng(self, generator: np.random.Generator) -> None:
-        self._rng = generator
-
-    @property
-    def time(self) -> float:
-        """Simulated seconds since the start of the run."""
-        return self.tick * self.time_step
-
-    @property
-    def physics_hz(self) -> float:
-        """Physics steps per simulated second."""
-        return 1.0 / self.time_step
-
+    # ----------------------------------------------------------------- stepping and compiling
     def step(self) -> None:
         """Advance physics by one step (forces applied since the last step act during it)."""
         m, d = self.compiled()
@@ -104,9 +78,8 @@ class MujocoWorld:
         mujoco.mj_step1(m, d)
         self.tick += 1
 
-    # ----------------------------------------------------------------- compiling
     def compiled(self) -> tuple[Any, Any]:
-        """The MuJoCo model and data, compiled now if bodies were added or removed since the last look."""
+        """The MuJoCo model and data, compiled first if bodies were added or removed since the last look."""
         if self._dirty:
             self._compile()
         return self.model, self.data
@@ -125,178 +98,189 @@ class MujocoWorld:
         except Exception as exc:  # noqa: BLE001 - MuJoCo's compiler raises plain exceptions
             raise UserError(f"MuJoCo could not compile the scene: {str(exc).strip().splitlines()[0]}") from None
         self._dirty = False
-        self._mj_id = {rid: self.model.body(name).id for rid, name in self._mj_name.items()}
-        self._apply_damping()
-        mujoco.mj_step1(self.model, self.data)
-
-    def _apply_damping(self) -> None:
         m = self.model
-        for name, (linear, angular) in self.scene.damping.items():
-            body = m.body(name)
-            dof = m.jnt_dofadr[body.jntadr[0]]
-            if linear is not None:
-                m.dof_damping[dof:dof + 3] = float(body.mass[0]) * linear
-            if angular is not None:
-                m.dof_damping[dof + 3:dof + 6] = np.asarray(body.inertia) * angular
+        self._bid = {rid: [m.body(root).id] + [m.body(f"{self._name(rid)}/{link}").id for link in self._links[rid]]
+                     for rid, root in self._root.items()}
+        self._owner = {bid: (rid, i - 1) for rid, ids in self._bid.items() for i, bid in enumerate(ids)}
+        self.scene.apply_damping(m)
+        mujoco.mj_step1(m, self.data)
 
-    # ----------------------------------------------------------------- bodies
-    def _register(self, name: str, mj_name: str, static: bool) -> int:
-        if name in self._bodies:
-            raise UserError(f"a body named {name!r} already exists")
-        rid = len(self._mj_name) + self.removals
-        self._bodies[name], self._names[rid], self._mj_name[rid] = rid, name, mj_name
+    def _name(self, rid: int) -> str:
+        return self._names[rid]
+
+    def _mj(self, body: str | int, link: int = -1) -> int:
+        rid = self._bodies.get(body) if isinstance(body, str) else None
+        if rid is None:
+            rid = self.body(body)
+        if self._dirty:
+            self._compile()
+        ids = self._bid[rid]
+        if not -1 <= link < len(ids) - 1:
+            raise UserError(f"body {self._label(body)!r} has no link {link} (links -1 .. {len(ids) - 2})")
+        return ids[link + 1]
+
+    # ----------------------------------------------------------------- building the scene
+    def _add(self, name: str, root: str, links: list[str], static: bool) -> int:
+        rid = self._register(name, self._added)
+        self._added += 1
+        self._root[rid], self._links[rid] = root, links
         if static:
-            self._static.add(mj_name)
+            self._static.add(root)
         self._dirty = True
         return rid
 
     def add_primitive(self, name: str, shape: str, *, size: Sequence[float] = (0.1, 0.1, 0.1), radius: float = 0.05,
                       height: float = 0.1, mass: float = 1.0, position: Sequence[float] = (0.0, 0.0, 0.0),
                       orientation: Sequence[float] = (0.0, 0.0, 0.0, 1.0),
-                      rgba: Sequence[float] = (0.7, 0.7, 0.7, 1.0), mesh_collision: bool = False,
-                      **contact: float | None) -> int:
-        """A box (``size`` = full edges), sphere or cylinder; ``mass`` 0 makes it static. ``mesh_collision`` is a
-        PyBullet speed choice (triangles for its ray casts); MuJoCo keeps the box, which its rays hit exactly."""
+                      rgba: Sequence[float] = (0.7, 0.7, 0.7, 1.0), lateral_friction: float | None = None,
+                      rolling_friction: float | None = None, spinning_friction: float | None = None,
+                      restitution: float | None = None, linear_damping: float | None = None,
+                      angular_damping: float | None = None, mesh_collision: bool = False) -> int:
+        """A box / sphere / cylinder (see the World). ``mesh_collision`` is a PyBullet speed choice (triangles for
+        its ray casts): MuJoCo keeps the box, which its rays hit exactly."""
         if shape not in ("box", "sphere", "cylinder"):
             raise UserError(f"unknown shape {shape!r}; valid: box, cylinder, sphere")
         if mesh_collision and mass != 0:
             raise UserError("a triangle-mesh collision shape needs mass = 0 (static bodies only)")
+        if name in self._bodies:
+            raise UserError(f"a body named {name!r} already exists")
         add_primitive(self.scene, name, shape, size=size, radius=radius, height=height, mass=mass,
                       position=position, orientation=orientation, rgba=rgba)
-        rid = self._register(name, name, static=mass <= 0)
-        self.set_dynamics(rid, -1, **contact)
+        rid = self._add(name, name, [], static=mass <= 0)
+        self.set_dynamics(rid, -1, lateral_friction=lateral_friction, rolling_friction=rolling_friction,
+                          spinning_friction=spinning_friction, restitution=restitution,
+                          linear_damping=linear_damping, angular_damping=angular_damping)
         return rid
-
-    def resolve_urdf(self, urdf: str) -> str:
-        """A model file relative to the config folder, robokit's bundled data or ``pybullet_data``."""
-        import pybullet_data
-
-        from robokit.core.world import DATA_DIR
-
-        candidates = [self.base_dir / urdf, DATA_DIR / urdf, Path(pybullet_data.getDataPath()) / urdf]
-        if Path(urdf).is_absolute():
-            candidates = [Path(urdf)]
-        for cand in candidates:
-            if cand.is_file():
-                return str(cand.resolve())
-        raise UserError(f"URDF {urdf!r} not found (looked in {', '.join(str(c.parent) for c in candidates)})")
 
     def load_urdf(self, name: str, urdf: str, *, position: Sequence[float] = (0.0, 0.0, 0.0),
                   orientation: Sequence[float] = (0.0, 0.0, 0.0, 1.0), fixed_base: bool = False, scale: float = 1.0,
                   self_collision: bool = False) -> int:
-        """Load a URDF (links become bodies ``NAME/LINK``) and register it under ``name``."""
+        """Load a URDF: its links become bodies ``NAME/LINK``; joints keep the URDF's names and limits."""
         if scale != 1.0:
             raise UserError(f"scale = {scale:g}: the mujoco engine loads URDFs at scale 1 only")
-        root = load_urdf(self.scene, name, Path(self.resolve_urdf(urdf)), position=position,
-                         orientation=orientation, fixed_base=fixed_base, self_collision=self_collision)
-        return self._register(name, root.name, static=not root.joints)
+        if name in self._bodies:
+            raise UserError(f"a body named {name!r} already exists")
+        path = Path(self.resolve_urdf(urdf))
+        root, links = load_urdf(self.scene, name, path, position=position, orientation=orientation,
+                                fixed_base=fixed_base, self_collision=self_collision)
+        rid = self._add(name, root.name, links, static=not root.joints)
+        self._tables[rid] = joint_table(links, urdf_joints(path))
+        self._base_names[rid] = root.name[len(name) + 1:]
+        return rid
 
     def set_dynamics(self, body: int | str, link: int = -1, **params: float | None) -> None:
-        """Contact and damping parameters of a body's base (``link`` -1), PyBullet's names in snake_case."""
-        if link != -1:
-            raise UserError("the mujoco engine sets dynamics on a body's base only")
-        params = {k: v for k, v in params.items() if v is not None}
-        if not params:
+        """Contact and damping parameters of a body's base or link (see :mod:`robokit.engines.mujoco_scene`)."""
+        values = {k: float(v) for k, v in params.items() if v is not None}
+        if not values:
             return
-        mj_name = self._mj_name[self.body(body)]
-        if "mass" in params:
-            raise UserError("the mujoco engine cannot change a body's mass after it is built")
-        linear, angular = params.pop("linear_damping", None), params.pop("angular_damping", None)
-        if linear is not None or angular is not None:
-            if mj_name in self._static:
-                return
-            old = self.scene.damping.get(mj_name, (None, None))
-            self.scene.damping[mj_name] = (linear if linear is not None else old[0],
-                                           angular if angular is not None else old[1])
-        self.scene.set_contact(self.scene.spec.body(mj_name), params)
+        rid = self.body(body)
+        if "mass" in values:
+            raise UserError("the mujoco engine cannot change a mass after the body is built")
+        target = self._root[rid] if link == -1 else f"{self._name(rid)}/{self._links[rid][link]}"
+        linear, angular = values.pop("linear_damping", None), values.pop("angular_damping", None)
+        if (linear is not None or angular is not None) and link == -1 and self._root[rid] not in self._static:
+            self.scene.set_damping(target, linear, angular)
+        self.scene.set_contact(self.scene.spec.body(target), values)
         self._dirty = True
 
     def remove_body(self, name: str) -> None:
-        """Remove a body from the scene and the registry (the scene is recompiled, the others keep their state)."""
+        """Remove a body (the scene is recompiled; the other bodies keep their state)."""
         rid = self.body(name)
         self.compiled()
-        mj_name = self._mj_name.pop(rid)
-        for geom in self.scene.geoms_of(self.scene.spec.body(mj_name)):
+        root = self._root.pop(rid)
+        body = self.scene.spec.body(root)
+        for geom in self.scene.geoms_of(body):
             self.scene.contacts.pop(geom.name, None)
-        self.scene.spec.delete(self.scene.spec.body(mj_name))
-        del self._bodies[name], self._names[rid]
-        self._static.discard(mj_name)
-        self.scene.damping.pop(mj_name, None)
-        self.removals += 1
+        for actuator in list(self.scene.spec.actuators):
+            if actuator.name.startswith(f"{name}/"):
+                self.scene.spec.delete(actuator)
+        self.scene.spec.delete(body)
+        self._static.discard(root)
+        self.scene.damping.pop(root, None)
+        self._links.pop(rid)
+        self._tables.pop(rid, None)
+        self._unregister(name)
         self._dirty = True
 
-    @property
-    def body_names(self) -> list[str]:
-        """Names of every registered body, in creation order."""
-        return list(self._bodies)
+    # ----------------------------------------------------------------- bodies, links, joints (read)
+    def joints(self, body: str | int) -> list[JointInfo]:
+        """Every joint of a body in index order (a primitive has none)."""
+        return self._tables.get(self.body(body), [])
 
-    def body(self, name: str | int) -> int:
-        """Body id of a registered name (an int is passed through after a check).
+    def base_link_name(self, body: str | int) -> str:
+        """The base link's URDF name (a primitive's is ``link0``, as on PyBullet)."""
+        return self._base_names.get(self.body(body), "link0")
 
-        Raises:
-            LookupNameError: No body has that name; the message lists the valid names.
-        """
-        if isinstance(name, int):
-            if name not in self._names:
-                raise LookupNameError("body id", str(name), [str(i) for i in self._names])
-            return name
-        try:
-            return self._bodies[name]
-        except KeyError:
-            raise LookupNameError("body", name, self._bodies) from None
+    def joint_parent(self, body: str | int, joint: int) -> int:
+        """Link index that joint ``joint`` hangs from (``-1`` = the base)."""
+        child = self._mj(body, joint)
+        return self._owner[int(self.model.body_parentid[child])][1]
 
-    def has_body(self, name: str) -> bool:
-        """True if a body with this name is registered."""
-        return name in self._bodies
-
-    def body_name(self, body_id: int) -> str | None:
-        """Registered name of a body id, or None."""
-        return self._names.get(body_id)
-
-    def mass(self, body: str | int) -> float:
-        """Total mass (kg) of a body and its links; 0 for a static body."""
-        rid = self.body(body)
-        if self._mj_name[rid] in self._static:
+    def mass(self, body: str | int, link: int = -1) -> float:
+        """Mass of a body's base or link, kg (0 for a static body)."""
+        bid = self._mj(body, link)
+        if link == -1 and self._root[self.body(body)] in self._static:
             return 0.0
-        m, _ = self.compiled()
-        return float(m.body_subtreemass[self._mj_id[rid]])
+        return float(self.model.body_mass[bid])
 
-    # ----------------------------------------------------------------- state
-    def _mj(self, body: str | int) -> int:
-        self.compiled()
-        return self._mj_id[self.body(body)]
-
-    def pose(self, body: str | int, link: int = -1) -> tuple[Vec3, Quat]:
-        """Pose of a body's base in its link (URDF) frame: position (m, world) and ``(x, y, z, w)``."""
-        if link != -1:
-            raise UserError("the mujoco engine reports base poses only (links come with joint support)")
+    def visual_rgba(self, body: str | int) -> tuple[float, float, float, float] | None:
+        """Colour of the body's first geom, 0..1."""
         bid = self._mj(body)
+        m = self.model
+        if m.body_geomnum[bid] == 0:
+            return None
+        r, g, b, a = (float(v) for v in m.geom_rgba[m.body_geomadr[bid]])
+        return (r, g, b, a)
+
+    # ----------------------------------------------------------------- poses and motion
+    def pose(self, body: str | int, link: int = -1) -> Pose:
+        """Link-frame pose: position (m, world) and ``(x, y, z, w)``."""
+        bid = self._mj(body, link)
         return _vec(self.data.xpos[bid]), _xyzw(self.data.xquat[bid])
 
-    def com_pose(self, body: str | int, link: int = -1) -> tuple[Vec3, Quat]:
-        """Pose of a body's base centre of mass (inertial frame), world frame."""
-        bid = self._mj(body)
+    def com_pose(self, body: str | int, link: int = -1) -> Pose:
+        """Centre-of-mass (inertial) frame pose, world frame."""
+        bid = self._mj(body, link)
         quat = np.zeros(4)
         mujoco.mju_mat2Quat(quat, self.data.ximat[bid])
         return _vec(self.data.xipos[bid]), _xyzw(quat)
 
-    def link_offset(self, body: str | int) -> tuple[Vec3, Quat] | None:
-        """Always None: MuJoCo reports body (link) frames directly."""
-        return None
+    def link_offset(self, body: str | int) -> Pose | None:
+        """The base's link frame seen from its centre of mass, or None when they coincide."""
+        bid = self._mj(body)
+        ipos, iquat = self.model.body_ipos[bid], self.model.body_iquat[bid]
+        if np.abs(ipos).max() < 1e-12 and abs(abs(iquat[0]) - 1.0) < 1e-12:
+            return None
+        from robokit.engines.mujoco_math import invert
+
+        return invert(_vec(ipos), _xyzw(iquat))
 
     def velocity(self, body: str | int) -> tuple[Vec3, Vec3]:
         """Linear velocity of the base's centre of mass (m/s) and angular velocity (rad/s), world frame."""
-        bid = self._mj(body)
+        return self.link_velocity(body, -1)
+
+    def link_velocity(self, body: str | int, link: int) -> tuple[Vec3, Vec3]:
+        """Linear (of the centre of mass, m/s) and angular (rad/s) velocity of a link, world frame."""
+        bid = self._mj(body, link)
         out = np.zeros(6)
         mujoco.mj_objectVelocity(self.model, self.data, mujoco.mjtObj.mjOBJ_BODY, bid, out, 0)
         return _vec(out[3:]), _vec(out[:3])
+
+    def body_states(self, bodies: Sequence[int]) -> list[tuple[Vec3, Quat, Vec3, Vec3]]:
+        """Pose and velocity of each body's base, in one call."""
+        out = []
+        for body in bodies:
+            pos, orn = self.pose(body)
+            lin, ang = self.velocity(body)
+            out.append((pos, orn, lin, ang))
+        return out
 
     def set_pose(self, body: str | int, position: Sequence[float], orientation: Sequence[float] | None = None) -> None:
         """Teleport a free body's base (velocity zeroed). For set-up and tests, not for control."""
         bid = self._mj(body)
         m, d = self.model, self.data
         if m.body_jntnum[bid] == 0 or m.jnt_type[m.body_jntadr[bid]] != mujoco.mjtJoint.mjJNT_FREE:
-            raise UserError(f"body {self._label(body)!r} is static: it cannot be moved on the mujoco engine")
+            raise UserError(f"body {self._label(body)!r} is static: the mujoco engine cannot move it")
         joint = m.body_jntadr[bid]
         qadr, dadr = m.jnt_qposadr[joint], m.jnt_dofadr[joint]
         d.qpos[qadr:qadr + 3] = list(position)
@@ -306,46 +290,136 @@ class MujocoWorld:
         mujoco.mj_step1(m, d)
 
     def aabb(self, body: str | int, link: int = -1) -> tuple[Vec3, Vec3]:
-        """Axis-aligned box ``(min, max)`` around a body and its links (m, world frame)."""
-        return self.body_aabb(body)
+        """Axis-aligned box ``(min, max)`` around one link's geoms (m, world frame)."""
+        return self._box([self._mj(body, link)])
 
     def body_aabb(self, body: str | int) -> tuple[Vec3, Vec3]:
-        """Axis-aligned box around every geom of a body and its links; a plane counts as its ±1 mm slab."""
-        bid = self._mj(body)
+        """Axis-aligned box around every geom of a body and its links (m, world frame)."""
+        self._mj(body)
+        return self._box(self._bid[self.body(body)])
+
+    def _box(self, bodies: list[int]) -> tuple[Vec3, Vec3]:
         m, d = self.model, self.data
-        geoms = [g for g in range(m.ngeom) if m.body_rootid[m.geom_bodyid[g]] == m.body_rootid[bid]]
         lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
-        for g in geoms:
-            centre, half = m.geom_aabb[g, :3], m.geom_aabb[g, 3:]
-            rot = d.geom_xmat[g].reshape(3, 3)
-            mid = d.geom_xpos[g] + rot @ centre
-            ext = np.abs(rot) @ half
-            lo, hi = np.minimum(lo, mid - ext), np.maximum(hi, mid + ext)
-        if not geoms:
-            lo = hi = d.xpos[bid]
+        for bid in bodies:
+            for g in range(m.body_geomadr[bid], m.body_geomadr[bid] + m.body_geomnum[bid]):
+                rot = d.geom_xmat[g].reshape(3, 3)
+                mid = d.geom_xpos[g] + rot @ m.geom_aabb[g, :3]
+                ext = np.abs(rot) @ m.geom_aabb[g, 3:]
+                lo, hi = np.minimum(lo, mid - ext), np.maximum(hi, mid + ext)
+        if not np.isfinite(lo).all():
+            lo = hi = d.xpos[bodies[0]]
         return _vec(lo), _vec(hi)
 
     def apply_force(self, body: str | int, force: Sequence[float], *, position: Sequence[float] | None = None,
                     link: int = -1) -> None:
-        """Apply a force (N, world frame) at a world point (default: the centre of mass) during the next step."""
-        bid = self._mj(body)
+        """Apply a force (N, world frame) at a world point (default: the link's centre of mass) in the next step."""
+        bid = self._mj(body, link)
         at = np.asarray(position if position is not None else self.data.xipos[bid], dtype=float)
         self._forces.append((bid, np.asarray(force, dtype=float), at))
 
-    def debug_line(self, start: Sequence[float], end: Sequence[float], rgb: Sequence[float], *,
-                   lifetime: float = 0.0) -> None:
-        """No-op: the mujoco engine has no GUI in robokit."""
+    # ----------------------------------------------------------------- joints: state and motors
+    def _joint(self, body: int | str, joint: int) -> tuple[int, int, int]:
+        """MuJoCo joint id, qpos address and dof address of a movable joint."""
+        bid = self._mj(body, joint)
+        m = self.model
+        if m.body_jntnum[bid] == 0:
+            raise UserError(f"joint {joint} of {self._label(body)!r} is fixed")
+        jid = int(m.body_jntadr[bid])
+        return jid, int(m.jnt_qposadr[jid]), int(m.jnt_dofadr[jid])
 
-    def _label(self, body: str | int) -> str:
-        return body if isinstance(body, str) else (self.body_name(body) or f"body {body}")
+    def joint_states(self, body: int, joints: Sequence[int]) -> Sequence[JointState]:
+        """Position, velocity and last motor force of each joint (reaction wrenches are not measured: zeros)."""
+        out = []
+        d = self.data
+        for j in joints:
+            jid, qadr, dadr = self._joint(body, j)
+            torque = float(d.qfrc_actuator[dadr])
+            out.append(JointState(float(d.qpos[qadr]), float(d.qvel[dadr]), (0.0,) * 6, torque))
+        return out
 
-    # ----------------------------------------------------------------- lifetime
+    def reset_joint(self, body: int, joint: int, position: float, velocity: float | None = None) -> None:
+        """Set a joint's position and velocity at once (set-up and resets)."""
+        _, qadr, dadr = self._joint(body, joint)
+        self.data.qpos[qadr] = position
+        self.data.qvel[dadr] = velocity or 0.0
+        mujoco.mj_step1(self.model, self.data)
+
+    def set_joint_motor(self, body: int, joint: int, mode: MotorMode, *, target_position: float | None = None,
+                        target_velocity: float | None = None, force: float | None = None,
+                        max_velocity: float | None = None, position_gain: float | None = None) -> None:
+        """Drive one joint with its MuJoCo motor; gains come from MuJoCo's model of the joint
+        (:func:`~robokit.engines.mujoco_links.motor_gains`), not from PyBullet's."""
+        jid, _, dadr = self._joint(body, joint)
+        m, d = self.model, self.data
+        act = m.actuator(f"{m.joint(jid).name}/motor").id
+        info = self.joints(body)[joint]
+        limit = float(force) if force is not None else info.max_force
+        inertia = float(m.dof_M0[dadr])
+        kv, kp = motor_gains(limit, inertia, self.time_step)
+        gain, bias = m.actuator_gainprm[act], m.actuator_biasprm[act]
+        gain[:] = 0.0
+        bias[:] = 0.0
+        if mode == "torque":
+            gain[0], limit = 1.0, abs(limit)
+            d.ctrl[act] = float(force or 0.0)
+        elif mode == "velocity":
+            gain[0], bias[2] = kv, -kv
+            d.ctrl[act] = float(target_velocity or 0.0)
+        else:
+            gain[0], bias[1], bias[2] = kp, -kp, -critical_damping(kp, inertia)
+            d.ctrl[act] = float(target_position or 0.0)
+        m.actuator_forcelimited[act] = 1 if limit > 0 or force is not None else 0
+        m.actuator_forcerange[act] = (-abs(limit), abs(limit))
+
+    def set_joint_motors(self, body: int, joints: Sequence[int], mode: MotorMode, *,
+                         target_positions: Sequence[float] | None = None,
+                         target_velocities: Sequence[float] | None = None, forces: Sequence[float] | None = None,
+                         position_gains: Sequence[float] | None = None,
+                         velocity_gains: Sequence[float] | None = None) -> None:
+        """:meth:`set_joint_motor` for many joints."""
+        for i, joint in enumerate(joints):
+            self.set_joint_motor(body, joint, mode,
+                                 target_position=None if target_positions is None else target_positions[i],
+                                 target_velocity=None if target_velocities is None else target_velocities[i],
+                                 force=None if forces is None else forces[i])
+
+    # ----------------------------------------------------------------- contacts
+    def contacts(self, body: int, other: int | None = None, *, link: int | None = None,
+                 other_link: int | None = None) -> list[Contact]:
+        """Contact points of ``body`` after the last step; the point is MuJoCo's (midway between the surfaces)."""
+        m, d = self.compiled()
+        rid = self.body(body)
+        out = []
+        wrench = np.zeros(6)
+        for i in range(d.ncon):
+            con = d.contact[i]
+            own = [self._owner.get(int(m.geom_bodyid[g]), (-1, -1)) for g in con.geom]
+            for side in (0, 1):
+                (a, la), (b, lb) = own[side], own[1 - side]
+                if a != rid or (link is not None and la != link) or (other is not None and b != other):
+                    continue
+                if other_link is not None and lb != other_link:
+                    continue
+                mujoco.mj_contactForce(m, d, i, wrench)
+                normal = con.frame[:3] * (-1.0 if side == 0 else 1.0)  # MuJoCo's points from geom 1 to geom 2
+                out.append(Contact(b, la, lb, float(wrench[0]), _vec(con.pos), _vec(normal)))
+        return out
+
+    # ----------------------------------------------------------------- episodes, lifetime
+    def snapshot(self) -> dict[str, Any]:
+        """The whole state (positions, velocities, motor commands)."""
+        _, d = self.compiled()
+        return {"qpos": d.qpos.copy(), "qvel": d.qvel.copy(), "ctrl": d.ctrl.copy()}
+
+    def restore(self, snapshot: dict[str, Any]) -> None:
+        """Put a :meth:`snapshot` back exactly, warm starts cleared, and the clock to tick 0."""
+        m, d = self.compiled()
+        mujoco.mj_resetData(m, d)
+        d.qpos[:], d.qvel[:], d.ctrl[:] = snapshot["qpos"], snapshot["qvel"], snapshot["ctrl"]
+        mujoco.mj_step1(m, d)
+        self.tick = 0
+
     def close(self) -> None:
         """Drop the model and data. Safe to call twice."""
-        self.model = self.data = None
-
-    def __enter__(self) -> MujocoWorld:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
+        self.model = self.data = self.client = None

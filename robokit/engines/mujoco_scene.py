@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -74,11 +74,28 @@ class Scene:
         spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
         return cls(spec)
 
+    def set_damping(self, body: str, linear: float | None, angular: float | None) -> None:
+        """Damping rates (1/s) of a free body's translation and rotation (None: keep what is set)."""
+        old = self.damping.get(body, (None, None))
+        self.damping[body] = (linear if linear is not None else old[0], angular if angular is not None else old[1])
+
+    def apply_damping(self, model: mujoco.MjModel) -> None:
+        """Write the damping rates into a compiled model's free-joint dofs (``mass`` / ``inertia`` times the rate)."""
+        for name, (linear, angular) in self.damping.items():
+            body = model.body(name)
+            if body.jntnum[0] == 0:
+                continue
+            dof = model.jnt_dofadr[body.jntadr[0]]
+            if linear is not None:
+                model.dof_damping[dof:dof + 3] = float(body.mass[0]) * linear
+            if angular is not None:
+                model.dof_damping[dof + 3:dof + 6] = [float(v) * angular for v in body.inertia]
+
     def geoms_of(self, body: mujoco.MjsBody) -> list[mujoco.MjsGeom]:
         """Every geom of a body and of the bodies below it."""
         return list(body.find_all(mujoco.mjtObj.mjOBJ_GEOM))
 
-    def set_contact(self, body: mujoco.MjsBody, params: dict[str, float | None]) -> None:
+    def set_contact(self, body: mujoco.MjsBody, params: Mapping[str, float | None]) -> None:
         """Apply robokit contact parameters (``lateral_friction`` …, ``restitution``) to a body's own geoms."""
         for geom in body.geoms:
             friction = list(geom.friction)
@@ -149,14 +166,15 @@ def _absolute_meshes(urdf_path: Path) -> str:
 
 
 def load_urdf(scene: Scene, name: str, path: Path, *, position: Sequence[float], orientation: Sequence[float],
-              fixed_base: bool, self_collision: bool) -> mujoco.MjsBody:
-    """Attach a URDF's links as bodies named ``NAME/LINK`` (geoms ``NAME/gI``); returns the root body.
+              fixed_base: bool, self_collision: bool) -> tuple[mujoco.MjsBody, list[str]]:
+    """Attach a URDF's links as bodies named ``NAME/LINK`` (geoms ``NAME/gI``, one motor ``NAME/JOINT/motor`` per
+    moving joint, switched off); returns the root body and the other links' names in MuJoCo's body order.
 
     The base is free unless ``fixed_base`` or it has no mass (as PyBullet makes a massless base static). Without
     ``self_collision`` no two links of the robot collide (PyBullet's default); MuJoCo already skips parent and child.
 
     Raises:
-        UserError: MuJoCo's URDF reader or compiler refuses the file.
+        UserError: MuJoCo's URDF reader refuses the file.
     """
     try:
         child = mujoco.MjSpec.from_string(_absolute_meshes(path))
@@ -167,16 +185,30 @@ def load_urdf(scene: Scene, name: str, path: Path, *, position: Sequence[float],
     frame = scene.spec.worldbody.add_frame(pos=list(position), quat=mj_quat(orientation))
     scene.spec.attach(child, prefix=f"{name}/", frame=frame)
     root = next(b for b in scene.spec.bodies if b.name.startswith(f"{name}/"))
-    links = list(root.find_all(mujoco.mjtObj.mjOBJ_BODY))
-    total_mass = root.mass + sum(b.mass for b in links)
-    if not fixed_base and total_mass > 0:
+    links = [b for b in root.find_all(mujoco.mjtObj.mjOBJ_BODY) if b.name != root.name]
+    if not fixed_base and root.mass + sum(b.mass for b in links) > 0:
         root.add_freejoint(name=f"{name}/free")
     if not self_collision:
         group = [root, *links]
         for i, b1 in enumerate(group):
             for b2 in group[i + 1:]:
                 scene.spec.add_exclude(bodyname1=b1.name, bodyname2=b2.name)
-    return root
+    for link in links:
+        for joint in link.joints:
+            _add_motor(scene.spec, joint.name)
+    return root, [b.name[len(name) + 1:] for b in links]
+
+
+def _add_motor(spec: mujoco.MjSpec, joint: str) -> None:
+    """A joint motor whose gains the engine sets when a plugin drives the joint (zero: no force)."""
+    motor = spec.add_actuator(name=f"{joint}/motor", target=joint)
+    motor.trntype = mujoco.mjtTrn.mjTRN_JOINT
+    motor.gaintype = mujoco.mjtGain.mjGAIN_FIXED
+    motor.biastype = mujoco.mjtBias.mjBIAS_AFFINE
+    motor.gainprm = [0.0] * len(motor.gainprm)
+    motor.biasprm = [0.0] * len(motor.biasprm)
+    motor.ctrllimited = mujoco.mjtLimited.mjLIMITED_FALSE
+    motor.forcelimited = mujoco.mjtLimited.mjLIMITED_FALSE
 
 
 def _first_line(exc: BaseException) -> str:

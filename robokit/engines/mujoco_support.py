@@ -116,8 +116,9 @@ def open_world(config: Config, *, gui: bool, seed: int) -> MujocoWorld:
     if gui:
         raise ConfigError(f"--gui: no GUI window on {ENGINE} (--engine pybullet has one)", key="world.gui",
                           file=config.source)
-    from robokit.engines.mujoco_engine import MujocoWorld
+    from robokit.engines.interface import World
 
     wc = config.world
-    return MujocoWorld(time_step=wc.time_step, gravity=wc.gravity, solver_iterations=wc.solver_iterations,
-                       seed=seed, base_dir=config.base_dir)
+    world = World(engine="mujoco", time_step=wc.time_step, gravity=wc.gravity,
+                  solver_iterations=wc.solver_iterations, seed=seed, base_dir=config.base_dir)
+    return world  # type: ignore[return-value]

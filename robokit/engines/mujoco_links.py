@@ -1,0 +1,91 @@
+"""A robot's links and joints on the mujoco engine, numbered as the World interface numbers them.
+
+MuJoCo turns each URDF link into a body and keeps only the joints that move; the World numbers links ``-1`` (the
+base) and ``0 .. n-1`` (link ``i`` is the child of joint ``i``, fixed joints included). The joint table therefore
+comes from the URDF itself (names of fixed joints, effort and velocity limits), laid over MuJoCo's body order.
+"""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+from pathlib import Path
+
+from robokit.engines.interface import JointInfo
+
+URDF_TYPES = {"revolute": "revolute", "continuous": "revolute", "prismatic": "prismatic", "fixed": "fixed",
+              "floating": "fixed", "planar": "planar"}
+
+
+@dataclass(frozen=True)
+class UrdfJoint:
+    """One ``<joint>`` of a URDF: its name, type, limits (rad or m, N·m or N, rad/s or m/s), dynamics, child."""
+
+    name: str
+    type: str
+    lower: float
+    upper: float
+    effort: float
+    velocity: float
+    damping: float
+    friction: float
+
+
+def _float(element: ET.Element | None, attribute: str, default: float) -> float:
+    if element is None or element.get(attribute) is None:
+        return default
+    try:
+        return float(element.get(attribute, default))
+    except ValueError:
+        return default
+
+
+def urdf_joints(path: Path) -> dict[str, UrdfJoint]:
+    """Child link name -> the URDF joint that moves it."""
+    root = ET.parse(path).getroot()
+    out = {}
+    for joint in root.iter("joint"):
+        child = joint.find("child")
+        if child is None or child.get("link") is None:
+            continue
+        kind = URDF_TYPES.get(joint.get("type", "fixed"), "fixed")
+        limit, dynamics = joint.find("limit"), joint.find("dynamics")
+        unlimited = joint.get("type") == "continuous"
+        out[str(child.get("link"))] = UrdfJoint(
+            name=joint.get("name", ""), type=kind,
+            lower=0.0 if unlimited else _float(limit, "lower", 0.0),
+            upper=-1.0 if unlimited else _float(limit, "upper", -1.0),
+            effort=_float(limit, "effort", 0.0), velocity=_float(limit, "velocity", 0.0),
+            damping=_float(dynamics, "damping", 0.0), friction=_float(dynamics, "friction", 0.0))
+    return out
+
+
+def joint_table(links: list[str], joints: dict[str, UrdfJoint]) -> list[JointInfo]:
+    """The World's joint table of a robot whose non-base links are ``links`` (MuJoCo's body order)."""
+    table = []
+    for i, link in enumerate(links):
+        j = joints.get(link, UrdfJoint(f"{link}_joint", "fixed", 0.0, -1.0, 0.0, 0.0, 0.0, 0.0))
+        table.append(JointInfo(index=i, name=j.name, type=j.type, lower=j.lower, upper=j.upper, max_force=j.effort,
+                               max_velocity=j.velocity, damping=j.damping, friction=j.friction, child_link=link))
+    return table
+
+
+def motor_gains(max_force: float, inertia: float, time_step: float) -> tuple[float, float]:
+    """Velocity gain (N·m·s/rad) and position gain (N·m/rad) of a joint motor, from MuJoCo's model of the joint.
+
+    The velocity motor saturates at ``max_force`` 0.05 rad/s (or m/s) off its target: stiff, as a motor holding a
+    speed should be; MuJoCo's implicit integration keeps any velocity gain stable. The position motor's stiffness
+    is bounded by the joint's own inertia (``dof_M0``) so that it stays stable at ``time_step``:
+    ``omega * time_step <= 0.5``.
+    """
+    force = max_force if max_force > 0 else 100.0 * max(inertia, 1e-3)
+    kv = force / 0.05
+    omega = 0.5 / time_step
+    kp = min(force / 0.01, inertia * omega * omega)
+    return kv, kp
+
+
+def critical_damping(kp: float, inertia: float) -> float:
+    """Damping (N·m·s/rad) that makes a position motor of stiffness ``kp`` on ``inertia`` critically damped."""
+    return 2.0 * math.sqrt(max(kp * inertia, 0.0))

@@ -1,0 +1,103 @@
+"""The rest of the World interface on the mujoco engine: pose arithmetic and camera matrices (numpy), and what is
+not built yet, each refused with one line naming the engine (configs that need them are refused before the run by
+:mod:`robokit.engines.mujoco_support`)."""
+
+from __future__ import annotations
+
+from collections.abc import Collection, Mapping, Sequence
+from typing import Any, NoReturn
+
+import numpy as np
+
+from robokit.engines import mujoco_math as mm
+from robokit.engines.interface import ChainFrame, ChainJoint, Pose, Quat, RayCaster, RenderedImage, Vec3
+from robokit.errors import UserError
+
+
+def _not_yet(what: str) -> NoReturn:
+    raise UserError(f"{what} is not built on the mujoco engine yet (--engine pybullet has it)")
+
+
+class MujocoExtras:
+    """Mixed into :class:`~robokit.engines.mujoco_engine.MujocoWorld` before the World interface."""
+
+    # ----------------------------------------------------------------- pose arithmetic
+    def multiply_transforms(self, position_a: Sequence[float], orientation_a: Sequence[float],
+                            position_b: Sequence[float], orientation_b: Sequence[float]) -> Pose:
+        return mm.multiply(position_a, orientation_a, position_b, orientation_b)
+
+    def invert_transform(self, position: Sequence[float], orientation: Sequence[float]) -> Pose:
+        return mm.invert(position, orientation)
+
+    def quaternion_from_euler(self, rpy: Sequence[float]) -> Quat:
+        return mm.from_euler(rpy)
+
+    def euler_from_quaternion(self, quaternion: Sequence[float]) -> Vec3:
+        return mm.to_euler(quaternion)
+
+    def matrix_from_quaternion(self, quaternion: Sequence[float]) -> tuple[float, ...]:
+        return mm.matrix(quaternion)
+
+    def view_matrix(self, eye: Sequence[float], target: Sequence[float], up: Sequence[float]) -> tuple[float, ...]:
+        return mm.look_at(eye, target, up)
+
+    def projection_matrix(self, fov_deg: float, aspect: float, near: float, far: float) -> tuple[float, ...]:
+        return mm.perspective(fov_deg, aspect, near, far)
+
+    def image_sample_offset(self, renderer: str) -> float:
+        return 0.5
+
+    # ----------------------------------------------------------------- GUI (none on mujoco)
+    def debug_line(self, start: Sequence[float], end: Sequence[float], rgb: Sequence[float], *,
+                   lifetime: float = 0.0) -> None:
+        """No viewer: nothing to draw on."""
+
+    def key_events(self) -> Mapping[int, int]:
+        """No viewer: no keys."""
+        return {}
+
+    # ----------------------------------------------------------------- not built yet
+    def load_model(self, name: str, path: str, kind: str, **_: Any) -> list[int]:
+        _not_yet(f"loading {kind.upper()} files ({path})")
+
+    def mount(self, child: str, parent: str, link: int, **_: Any) -> int:
+        _not_yet("mounting a body on another's link")
+
+    def enable_joint_wrench(self, body: int, joint: int, enabled: bool = True) -> None:
+        _not_yet("measuring joint reaction wrenches")
+
+    def kinematic_chain(self, body: int, link: int) -> list[ChainFrame | ChainJoint]:
+        _not_yet("kinematic chains (forward kinematics in numpy)")
+
+    def inverse_kinematics(self, body: int, link: int, position: Sequence[float], orientation: Sequence[float],
+                           **_: Any) -> list[float] | None:
+        return None  # MuJoCo has no IK call: the caller solves it
+
+    def jacobian(self, body: int, link: int, positions: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
+        _not_yet("Jacobians")
+
+    def attach(self, parent: int, parent_link: int, child: int, **_: Any) -> int:
+        _not_yet("attaching bodies")
+
+    def couple_joints(self, body: int, leader: int, follower: int, ratio: float, **_: Any) -> int:
+        _not_yet("coupling joints")
+
+    def detach(self, attachment: int) -> None:
+        _not_yet("attachments")
+
+    def joined(self, a: int, b: int) -> bool:
+        return False  # nothing can be attached on mujoco yet
+
+    def disable_collisions(self, body: int) -> None:
+        _not_yet("switching a body's collisions off")
+
+    def ray_caster(self, *, skip: Collection[int] = (), see_hidden: bool = True, mask: int = -1,
+                   num_threads: int = 1, analytic: bool = True) -> RayCaster:
+        _not_yet("ray casting")
+
+    def hide_from_rays(self, body: int) -> None:
+        _not_yet("hiding bodies from rays")
+
+    def render(self, width: int, height: int, view: Sequence[float], projection: Sequence[float], *, near: float,
+               far: float, segmentation: bool = True, renderer: str = "tiny") -> RenderedImage:
+        _not_yet("rendering camera images")
