@@ -20,7 +20,7 @@ OVERLAP_TOLERANCE = 0.005
 
 def is_static(world: World, name: str) -> bool:
     """True for bodies that never move: zero base mass (static primitives, fixed-base URDFs)."""
-    return bool(world.client.getDynamicsInfo(world.body(name), -1)[0] == 0.0)
+    return world.mass(name) == 0.0
 
 
 def overlapping_bodies(world: World, keys: Mapping[str, str],
@@ -30,6 +30,8 @@ def overlapping_bodies(world: World, keys: Mapping[str, str],
     Two static bodies may overlap (walls meeting at a corner); a body that moves must not start inside another:
     the solver would throw it out at the first step.
     """
+    if world.engine != "pybullet":  # the World interface has no closest-points query yet: PyBullet's check only
+        return []
     names = world.body_names
     static = {n: is_static(world, n) for n in names}
     problems = []
