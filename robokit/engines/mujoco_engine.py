@@ -13,14 +13,24 @@ Units are SI; quaternions are robokit's ``(x, y, z, w)`` (MuJoCo's ``(w, x, y, z
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from pathlib import Path
 from typing import Any
 
 import mujoco
 import numpy as np
 
-from robokit.engines.interface import Contact, JointInfo, JointState, MotorMode, Pose, Quat, Vec3, World
+from robokit.engines.interface import (
+    Contact,
+    JointInfo,
+    JointState,
+    MotorMode,
+    Pose,
+    Quat,
+    RayCaster,
+    Vec3,
+    World,
+)
 from robokit.engines.mujoco_links import critical_damping, joint_table, motor_gains, urdf_joints
 from robokit.engines.mujoco_more import MujocoExtras
 from robokit.engines.mujoco_scene import Scene, add_primitive, load_urdf, mj_quat
@@ -383,6 +393,27 @@ class MujocoWorld(MujocoExtras, World):
                                  target_position=None if target_positions is None else target_positions[i],
                                  target_velocity=None if target_velocities is None else target_velocities[i],
                                  force=None if forces is None else forces[i])
+
+    # ----------------------------------------------------------------- rays
+    def owners(self) -> dict[int, tuple[int, int]]:
+        """MuJoCo body id -> (robokit body id, link), for the scene as compiled now."""
+        self.compiled()
+        return self._owner
+
+    def ray_caster(self, *, skip: Collection[int] = (), see_hidden: bool = True, mask: int = -1,
+                   num_threads: int = 1, analytic: bool = True) -> RayCaster:
+        """A caster on MuJoCo's ``mj_multiRay`` / ``mj_ray`` (``mask``, ``num_threads``, ``analytic`` do not apply)."""
+        from robokit.engines.mujoco_rays import MujocoRayCaster
+
+        return MujocoRayCaster(self, skip, see_hidden)
+
+    def hide_from_rays(self, body: int) -> None:
+        """Put the body's geoms in the geom group rays of ``see_hidden=False`` casters leave out."""
+        from robokit.engines.mujoco_rays import HIDDEN_GROUP
+
+        for geom in self.scene.geoms_of(self.scene.spec.body(self._root[self.body(body)])):
+            geom.group = HIDDEN_GROUP
+        self._dirty = True
 
     # ----------------------------------------------------------------- contacts
     def contacts(self, body: int, other: int | None = None, *, link: int | None = None,

@@ -4,13 +4,13 @@ not built yet, each refused with one line naming the engine (configs that need t
 
 from __future__ import annotations
 
-from collections.abc import Collection, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any, NoReturn
 
 import numpy as np
 
 from robokit.engines import mujoco_math as mm
-from robokit.engines.interface import ChainFrame, ChainJoint, Pose, Quat, RayCaster, RenderedImage, Vec3
+from robokit.engines.interface import ChainFrame, ChainJoint, Pose, Quat, RenderedImage, Vec3
 from robokit.errors import UserError
 
 
@@ -90,13 +90,6 @@ class MujocoExtras:
 
     def disable_collisions(self, body: int) -> None:
         _not_yet("switching a body's collisions off")
-
-    def ray_caster(self, *, skip: Collection[int] = (), see_hidden: bool = True, mask: int = -1,
-                   num_threads: int = 1, analytic: bool = True) -> RayCaster:
-        _not_yet("ray casting")
-
-    def hide_from_rays(self, body: int) -> None:
-        _not_yet("hiding bodies from rays")
 
     def render(self, width: int, height: int, view: Sequence[float], projection: Sequence[float], *, near: float,
                far: float, segmentation: bool = True, renderer: str = "tiny") -> RenderedImage:

@@ -119,6 +119,6 @@ def open_world(config: Config, *, gui: bool, seed: int) -> MujocoWorld:
     from robokit.engines.interface import World
 
     wc = config.world
-    world = World(engine="mujoco", time_step=wc.time_step, gravity=wc.gravity,
-                  solver_iterations=wc.solver_iterations, seed=seed, base_dir=config.base_dir)
+    world = World.engine_class("mujoco")(time_step=wc.time_step, gravity=wc.gravity,
+                                         solver_iterations=wc.solver_iterations, seed=seed, base_dir=config.base_dir)
     return world  # type: ignore[return-value]
