@@ -55,9 +55,9 @@ class Simulation:
         if wc.engine == "mujoco":  # checks the config first: what mujoco cannot honour is refused before the run
             from robokit.engines.mujoco_support import open_world
 
-            self.world: Any = open_world(config, gui=bool(gui), seed=self.seed)
+            self.world: World = open_world(config, gui=bool(gui), seed=self.seed)
         else:
-            self.world = World(
+            self.world = World.create(
                 gui=wc.gui if gui is None else gui,
                 time_step=wc.time_step,
                 gravity=wc.gravity,

@@ -103,6 +103,9 @@ class Contact(NamedTuple):
 class JointState(NamedTuple):
     """State of one joint after the last physics step (:meth:`World.joint_states`).
 
+    Read it by index (``[0]`` position, ``[1]`` velocity, ``[2]`` reaction, ``[3]`` torque): an engine may hand back
+    plain tuples of this layout (PyBullet does: controllers read joint states every tick).
+
     Attributes:
         position: rad (revolute) or m (prismatic).
         velocity: rad/s or m/s.
@@ -229,6 +232,12 @@ class World(ABC):
         if cls is World:
             cls = World.engine_class(str(kwargs.get("engine") or "pybullet"))
         return super().__new__(cls)
+
+    @staticmethod
+    def create(engine: str = "pybullet", **kwargs: Any) -> World:
+        """A World of the named engine: ``World.create("pybullet", seed=3)`` (the keyword arguments of
+        :class:`World`). The same as ``World(engine=..., ...)``, in a form type checkers accept."""
+        return World.engine_class(engine)(**kwargs)
 
     @staticmethod
     def engine_class(name: str) -> type[World]:
@@ -488,7 +497,8 @@ class World(ABC):
         """Set contact and damping parameters of one link (``-1`` = base); ``None`` values are left alone.
 
         Keywords: ``lateral_friction``, ``rolling_friction``, ``spinning_friction`` (coefficients),
-        ``restitution`` (0..1), ``linear_damping``, ``angular_damping``, ``mass`` (kg).
+        ``restitution`` (0..1), ``linear_damping``, ``angular_damping``, ``mass`` (kg), ``friction_anchor`` (True:
+        keep static friction anchored at the contact, for fingers that hold; engines without it ignore it).
         """
 
     @abstractmethod
@@ -609,6 +619,11 @@ class World(ABC):
         velocity zeroed. For set-up and tests, not for control."""
 
     @abstractmethod
+    def set_com_pose(self, body: str | int, position: Sequence[float], orientation: Sequence[float]) -> None:
+        """Teleport a body's base so that its **centre-of-mass** frame (as :meth:`com_pose` reports it) is at
+        ``position`` / ``orientation``; velocity kept. For set-up and carried cargo, not for control."""
+
+    @abstractmethod
     def aabb(self, body: str | int, link: int = -1) -> tuple[Vec3, Vec3]:
         """Axis-aligned bounding box ``(min, max)`` of a body's link (``-1`` = base), metres, world frame."""
 
@@ -625,8 +640,8 @@ class World(ABC):
     # ----------------------------------------------------------------- joints: state and motors
     @abstractmethod
     def joint_states(self, body: int, joints: Sequence[int]) -> Sequence[JointState]:
-        """State of each joint in ``joints`` (indices), in that order, after the last physics step. Called every
-        tick by controllers: PyBullet hands its own tuples back, laid out as :class:`JointState`."""
+        """State of each joint in ``joints`` (indices), in that order, after the last physics step, laid out as
+        :class:`JointState` (read by index). Called every tick by controllers: keep it cheap."""
 
     @abstractmethod
     def reset_joint(self, body: int, joint: int, position: float, velocity: float | None = None) -> None:
@@ -671,6 +686,11 @@ class World(ABC):
     @abstractmethod
     def enable_joint_wrench(self, body: int, joint: int, enabled: bool = True) -> None:
         """Switch measuring a joint's reaction wrench (:attr:`JointState.reaction`) on or off."""
+
+    @abstractmethod
+    def wrench_frame(self, body: int, joint: int) -> tuple[float, ...]:
+        """Rotation matrix (9 floats, row by row, world from frame) of the frame a joint's
+        :attr:`JointState.reaction` is given in, as of the last physics step (when the wrench was measured)."""
 
     @abstractmethod
     def kinematic_chain(self, body: int, link: int) -> list[ChainFrame | ChainJoint]:

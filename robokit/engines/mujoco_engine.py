@@ -299,6 +299,18 @@ class MujocoWorld(MujocoExtras, World):
         d.qvel[dadr:dadr + 6] = 0.0
         mujoco.mj_step1(m, d)
 
+    def set_com_pose(self, body: str | int, position: Sequence[float], orientation: Sequence[float]) -> None:
+        """Teleport a free body so that its centre-of-mass frame is at ``position`` / ``orientation``; velocity kept."""
+        from robokit.engines.mujoco_math import multiply
+
+        offset = self.link_offset(body)
+        pos, orn = (position, orientation) if offset is None else multiply(position, orientation, *offset)
+        _, d = self.compiled()
+        qvel = d.qvel.copy()
+        self.set_pose(body, pos, orn)
+        d.qvel[:] = qvel
+        mujoco.mj_step1(self.model, d)
+
     def aabb(self, body: str | int, link: int = -1) -> tuple[Vec3, Vec3]:
         """Axis-aligned box ``(min, max)`` around one link's geoms (m, world frame)."""
         return self._box([self._mj(body, link)])

@@ -66,6 +66,9 @@ class MujocoExtras:
     def enable_joint_wrench(self, body: int, joint: int, enabled: bool = True) -> None:
         _not_yet("measuring joint reaction wrenches")
 
+    def wrench_frame(self, body: int, joint: int) -> tuple[float, ...]:
+        _not_yet("joint reaction wrenches")
+
     def kinematic_chain(self, body: int, link: int) -> list[ChainFrame | ChainJoint]:
         _not_yet("kinematic chains (forward kinematics in numpy)")
 

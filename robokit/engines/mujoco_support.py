@@ -14,7 +14,7 @@ from robokit.errors import ConfigError
 
 if TYPE_CHECKING:  # read by attribute only: the engines sit below robokit.config in the house
     from robokit.config import BodyConfig, ComponentSpec, Config
-    from robokit.engines.mujoco_engine import MujocoWorld
+    from robokit.engines.interface import World
 
 ENGINE = "the mujoco engine"
 
@@ -102,7 +102,7 @@ def _components(cfg: Config) -> tuple[str, str] | None:
     return None
 
 
-def open_world(config: Config, *, gui: bool, seed: int) -> MujocoWorld:
+def open_world(config: Config, *, gui: bool, seed: int) -> World:
     """A MuJoCo World for ``config`` (its ``[world]`` settings; ``seed`` and ``gui`` as the run overrides them).
 
     Raises:
@@ -119,6 +119,5 @@ def open_world(config: Config, *, gui: bool, seed: int) -> MujocoWorld:
     from robokit.engines.interface import World
 
     wc = config.world
-    world = World.engine_class("mujoco")(time_step=wc.time_step, gravity=wc.gravity,
-                                         solver_iterations=wc.solver_iterations, seed=seed, base_dir=config.base_dir)
-    return world  # type: ignore[return-value]
+    return World.create("mujoco", time_step=wc.time_step, gravity=wc.gravity, solver_iterations=wc.solver_iterations,
+                        seed=seed, base_dir=config.base_dir)

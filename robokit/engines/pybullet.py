@@ -220,8 +220,10 @@ class PyBulletWorld(World):
             "linear_damping": "linearDamping",
             "angular_damping": "angularDamping",
             "mass": "mass",
+            "friction_anchor": "frictionAnchor",
         }
-        kwargs = {names[k]: float(v) for k, v in params.items() if v is not None}
+        kwargs: dict[str, float | int] = {
+            names[k]: (int(v) if k == "friction_anchor" else float(v)) for k, v in params.items() if v is not None}
         if kwargs:
             self.client.changeDynamics(self.body(body), link, **kwargs)
 
@@ -433,6 +435,10 @@ class PyBulletWorld(World):
         self.client.resetBasePositionAndOrientation(bid, com_pos, com_orn)
         self.client.resetBaseVelocity(bid, [0, 0, 0], [0, 0, 0])
 
+    def set_com_pose(self, body: str | int, position: Sequence[float], orientation: Sequence[float]) -> None:
+        """``resetBasePositionAndOrientation`` (PyBullet places a base by its centre-of-mass frame)."""
+        self.client.resetBasePositionAndOrientation(self.body(body), position, orientation)
+
     def aabb(self, body: str | int, link: int = -1) -> tuple[Vec3, Vec3]:
         """Axis-aligned bounding box ``(min, max)`` of a body's link (``-1`` = base), metres, world frame."""
         lo, hi = self.client.getAABB(self.body(body), link)
@@ -565,6 +571,11 @@ class PyBulletWorld(World):
 
     def enable_joint_wrench(self, body: int, joint: int, enabled: bool = True) -> None:
         self.client.enableJointForceTorqueSensor(body, joint, 1 if enabled else 0)
+
+    def wrench_frame(self, body: int, joint: int) -> tuple[float, ...]:
+        """The child link's frame as ``getLinkState`` kept it from the last step (no forward kinematics rerun)."""
+        c = self.client
+        return c.getMatrixFromQuaternion(c.getLinkState(body, joint)[5])  # type: ignore[no-any-return]
 
     def kinematic_chain(self, body: int, link: int) -> list[ChainFrame | ChainJoint]:
         """PyBullet's joint table as a chain: a joint's ``parentFramePos``/``parentFrameOrn`` are given in the parent
