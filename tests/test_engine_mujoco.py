@@ -113,3 +113,17 @@ def test_removing_a_body_keeps_the_others_state(plugins) -> None:  # type: ignor
     assert not world.has_body("sphere") and "sphere" not in world.body_names
     assert (world.pose("box"), world.velocity("box")) == before
     world.step()
+
+
+def test_lesson_01_runs_on_mujoco_and_reruns_identically(plugins) -> None:  # type: ignore[no-untyped-def]
+    from robokit.core.simulation import Simulation
+
+    results = []
+    for _ in range(2):
+        cfg = load_config(DROP, plugins, {"world.engine": "mujoco", "behaviour.duration": 1.0})
+        with Simulation(cfg, plugins) as sim:
+            out = sim.run(max_time=1.5)
+        assert out.outcome == "succeeded", out.reason
+        results.append(out.result["bodies"])
+    assert results[0] == results[1]
+    assert results[0]["ball_r9"]["peak_bounce_height"] > results[0]["ball_r2"]["peak_bounce_height"]

@@ -353,7 +353,7 @@ class MujocoWorld(MujocoExtras, World):
     def joint_states(self, body: int, joints: Sequence[int]) -> Sequence[JointState]:
         """Position, velocity and last motor force of each joint (reaction wrenches are not measured: zeros)."""
         out = []
-        d = self.data
+        _, d = self.compiled()
         for j in joints:
             jid, qadr, dadr = self._joint(body, j)
             torque = float(d.qfrc_actuator[dadr])

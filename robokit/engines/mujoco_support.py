@@ -21,13 +21,8 @@ ENGINE = "the mujoco engine"
 NOT_YET: dict[str, str] = {
     "camera": "no renderer behind the World on mujoco yet",
     "colour_detector": "it reads a camera, which has no renderer on mujoco yet",
-    "contact": "contact queries are not behind the World on mujoco yet",
-    "lidar": "ray casts are not behind the World on mujoco yet",
     "force_torque": "joint reaction forces are not behind the World on mujoco yet",
     "keyboard": "it reads PyBullet's GUI keyboard events",
-    "diff_drive": "joint motors are not behind the World on mujoco yet",
-    "joint_control": "joint motors are not behind the World on mujoco yet",
-    "pid": "joint motors are not behind the World on mujoco yet",
     "ik_arm": "mujoco has no inverse kinematics call (differential IK is not built yet)",
     "ee_delta": "mujoco has no inverse kinematics call (differential IK is not built yet)",
     "gripper": "joint motors and finger contacts are not behind the World on mujoco yet",
@@ -36,10 +31,8 @@ NOT_YET: dict[str, str] = {
     "reach": "its arm needs inverse kinematics, not built on mujoco yet",
     "push": "its arm needs inverse kinematics, not built on mujoco yet",
     "pick": "its arm needs inverse kinematics, not built on mujoco yet",
-    "go_to": "its robot drives with joint motors, not behind the World on mujoco yet",
     "sort": "it drives an arm with inverse kinematics, not built on mujoco yet",
     "pick_place": "it drives an arm with inverse kinematics, not built on mujoco yet",
-    "patrol": "it reaches into PyBullet for the robot's pose and rays",
     "patrol_collect": "it reaches into PyBullet for the robot's pose and rays",
     "policy": "it reaches into PyBullet for the robot's state",
 }
@@ -82,8 +75,6 @@ def _body(body: BodyConfig) -> tuple[str, str] | None:
         return "mjcf", "MJCF bodies are not loaded through robokit yet"
     if body.mount is not None:
         return "mount", "mounting a body on another's link is not built"
-    if body.joint_positions:
-        return "joint_positions", "joints are not behind the World yet"
     if body.urdf is not None and body.scale != 1.0:
         return "scale", f"URDFs load at scale 1 only, not {body.scale:g}"
     return None
