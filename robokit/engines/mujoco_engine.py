@@ -31,7 +31,7 @@ from robokit.engines.interface import (
     Vec3,
     World,
 )
-from robokit.engines.mujoco_links import critical_damping, joint_table, motor_gains, urdf_joints
+from robokit.engines.mujoco_links import Motors, critical_damping, joint_table, motor_gains, urdf_joints
 from robokit.engines.mujoco_more import MujocoExtras
 from robokit.engines.mujoco_scene import Scene, add_primitive, load_urdf, mj_quat
 from robokit.errors import UserError
@@ -74,6 +74,7 @@ class MujocoWorld(MujocoExtras, World):
         self._bid: dict[int, list[int]] = {}  # robokit id -> MuJoCo body ids of base, link 0, link 1 ...
         self._owner: dict[int, tuple[int, int]] = {}  # MuJoCo body id -> (robokit id, link)
         self._forces: list[tuple[int, np.ndarray, np.ndarray]] = []
+        self.motors = Motors()
 
     # ----------------------------------------------------------------- stepping and compiling
     def step(self) -> None:
@@ -82,6 +83,8 @@ class MujocoWorld(MujocoExtras, World):
         for bid, force, point in self._forces:
             mujoco.mj_applyFT(m, d, force, np.zeros(3), point, bid, d.qfrc_applied)
         mujoco.mj_step2(m, d)
+        if self.motors.torques:
+            self.motors.after_step(m, d)
         if self._forces:
             d.qfrc_applied[:] = 0.0
             self._forces.clear()
@@ -113,6 +116,7 @@ class MujocoWorld(MujocoExtras, World):
                      for rid, root in self._root.items()}
         self._owner = {bid: (rid, i - 1) for rid, ids in self._bid.items() for i, bid in enumerate(ids)}
         self.scene.apply_damping(m)
+        self.motors.reapply(m, self.data, {m.actuator(i).name for i in range(m.nu)})
         mujoco.mj_step1(m, self.data)
 
     def _name(self, rid: int) -> str:
@@ -374,25 +378,19 @@ class MujocoWorld(MujocoExtras, World):
         (:func:`~robokit.engines.mujoco_links.motor_gains`), not from PyBullet's."""
         jid, _, dadr = self._joint(body, joint)
         m, d = self.model, self.data
-        act = m.actuator(f"{m.joint(jid).name}/motor").id
         info = self.joints(body)[joint]
-        limit = float(force) if force is not None else info.max_force
+        limit = abs(float(force)) if force is not None else info.max_force
         inertia = float(m.dof_M0[dadr])
         kv, kp = motor_gains(limit, inertia, self.time_step)
-        gain, bias = m.actuator_gainprm[act], m.actuator_biasprm[act]
-        gain[:] = 0.0
-        bias[:] = 0.0
         if mode == "torque":
-            gain[0], limit = 1.0, abs(limit)
-            d.ctrl[act] = float(force or 0.0)
+            setting = (1.0, 0.0, 0.0, limit, float(force or 0.0))
         elif mode == "velocity":
-            gain[0], bias[2] = kv, -kv
-            d.ctrl[act] = float(target_velocity or 0.0)
+            setting = (kv, 0.0, -kv, limit if force is not None or limit > 0 else 0.0, float(target_velocity or 0.0))
         else:
-            gain[0], bias[1], bias[2] = kp, -kp, -critical_damping(kp, inertia)
-            d.ctrl[act] = float(target_position or 0.0)
-        m.actuator_forcelimited[act] = 1 if limit > 0 or force is not None else 0
-        m.actuator_forcerange[act] = (-abs(limit), abs(limit))
+            setting = (kp, -kp, -critical_damping(kp, inertia), limit, float(target_position or 0.0))
+        if force is not None and limit == 0.0:  # force 0: the motor is off (a passive joint)
+            setting = (0.0, 0.0, 0.0, 0.0, 0.0)
+        self.motors.set(m, d, f"{m.joint(jid).name}/motor", setting, torque=mode == "torque")
 
     def set_joint_motors(self, body: int, joints: Sequence[int], mode: MotorMode, *,
                          target_positions: Sequence[float] | None = None,

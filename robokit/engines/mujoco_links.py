@@ -9,8 +9,10 @@ from __future__ import annotations
 
 import math
 import xml.etree.ElementTree as ET
+from collections.abc import Collection
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from robokit.engines.interface import JointInfo
 
@@ -90,3 +92,45 @@ def motor_gains(max_force: float, inertia: float, time_step: float) -> tuple[flo
 def critical_damping(kp: float, inertia: float) -> float:
     """Damping (N·m·s/rad) that makes a position motor of stiffness ``kp`` on ``inertia`` critically damped."""
     return 2.0 * math.sqrt(max(kp * inertia, 0.0))
+
+
+class Motors:
+    """The joint motors' settings, kept here and written into the model: a recompile (a body added or removed)
+    builds a fresh model, and :meth:`reapply` puts every motor back as it was."""
+
+    def __init__(self) -> None:
+        self.settings: dict[str, tuple[float, float, float, float, float]] = {}
+        """Actuator name -> (gain, position bias, velocity bias, force limit (0: none), control)."""
+        self.torques: set[str] = set()
+        """Motors in torque mode: their torque lasts one step."""
+
+    def set(self, model: Any, data: Any, name: str, setting: tuple[float, float, float, float, float],
+            torque: bool) -> None:
+        """Store one motor's setting and write it into ``model`` / ``data``."""
+        self.settings[name] = setting
+        (self.torques.add if torque else self.torques.discard)(name)
+        self._write(model, data, name)
+
+    def _write(self, model: Any, data: Any, name: str) -> None:
+        gain, kp, kd, limit, ctrl = self.settings[name]
+        act = model.actuator(name).id
+        model.actuator_gainprm[act, :3] = (gain, 0.0, 0.0)
+        model.actuator_biasprm[act, :3] = (0.0, kp, kd)
+        model.actuator_forcelimited[act] = 1 if limit > 0 else 0
+        model.actuator_forcerange[act] = (-limit, limit)
+        data.ctrl[act] = ctrl
+
+    def reapply(self, model: Any, data: Any, names: Collection[str]) -> None:
+        """Write every stored motor that still exists (``names``: the model's actuators) into a new model."""
+        for name in [n for n in self.settings if n not in names]:
+            del self.settings[name]
+            self.torques.discard(name)
+        for name in self.settings:
+            self._write(model, data, name)
+
+    def after_step(self, model: Any, data: Any) -> None:
+        """Torque commands last one step: zero them."""
+        for name in self.torques:
+            gain, kp, kd, limit, _ = self.settings[name]
+            self.settings[name] = (gain, kp, kd, limit, 0.0)
+            data.ctrl[model.actuator(name).id] = 0.0
