@@ -20,6 +20,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from robokit.engines import mujoco_attach
 from robokit.engines.interface import (
     Contact,
     JointInfo,
@@ -75,6 +76,7 @@ class MujocoWorld(MujocoExtras, World):
         self._owner: dict[int, tuple[int, int]] = {}  # MuJoCo body id -> (robokit id, link)
         self._forces: list[tuple[int, np.ndarray, np.ndarray]] = []
         self.motors = Motors()
+        self.joins = mujoco_attach.Joins()
 
     # ----------------------------------------------------------------- stepping and compiling
     def step(self) -> None:
@@ -118,6 +120,19 @@ class MujocoWorld(MujocoExtras, World):
         self.scene.apply_damping(m)
         self.motors.reapply(m, self.data, {m.actuator(i).name for i in range(m.nu)})
         mujoco.mj_step1(m, self.data)
+
+    def link_body_name(self, body: str | int, link: int) -> str:
+        """MuJoCo's name of a body's base (``-1``) or link."""
+        rid = self.body(body)
+        return self._root[rid] if link == -1 else f"{self._name(rid)}/{self._links[rid][link]}"
+
+    def changed(self) -> None:
+        """The spec changed: compile again at the next look."""
+        self._dirty = True
+
+    def mj_body(self, body: str | int, link: int = -1) -> int:
+        """MuJoCo's body id of a body's base (``-1``) or link, compiling first if needed."""
+        return self._mj(body, link)
 
     def _name(self, rid: int) -> str:
         return self._names[rid]
@@ -201,6 +216,8 @@ class MujocoWorld(MujocoExtras, World):
         """Remove a body (the scene is recompiled; the other bodies keep their state)."""
         rid = self.body(name)
         self.compiled()
+        for attachment in [a for a, (p, c, _) in self.joins.held.items() if rid in (p, c)]:
+            self.detach(attachment)
         root = self._root.pop(rid)
         body = self.scene.spec.body(root)
         for geom in self.scene.geoms_of(body):
@@ -424,6 +441,29 @@ class MujocoWorld(MujocoExtras, World):
         for geom in self.scene.geoms_of(self.scene.spec.body(self._root[self.body(body)])):
             geom.group = HIDDEN_GROUP
         self._dirty = True
+
+    # ----------------------------------------------------------------- attachments
+    def attach(self, parent: int, parent_link: int, child: int, *, position: Sequence[float] | None = None,
+               max_force: float | None = None) -> int:
+        """A weld (see :mod:`robokit.engines.mujoco_attach`)."""
+        return mujoco_attach.attach(self, parent, parent_link, child, position=position, max_force=max_force)
+
+    def couple_joints(self, body: int, leader: int, follower: int, ratio: float, *, erp: float,
+                      max_force: float) -> int:
+        """A joint equality (see :mod:`robokit.engines.mujoco_attach`)."""
+        return mujoco_attach.couple_joints(self, body, leader, follower, ratio, erp=erp, max_force=max_force)
+
+    def detach(self, attachment: int) -> None:
+        """Remove an attachment."""
+        mujoco_attach.detach(self, attachment)
+
+    def joined(self, a: int, b: int) -> bool:
+        """True if an attachment joins ``a`` and ``b`` directly."""
+        return mujoco_attach.joined(self, a, b)
+
+    def disable_collisions(self, body: int) -> None:
+        """Take a body's base out of contact."""
+        mujoco_attach.disable_collisions(self, body)
 
     # ----------------------------------------------------------------- contacts
     def contacts(self, body: int, other: int | None = None, *, link: int | None = None,

@@ -79,21 +79,6 @@ class MujocoExtras:
     def jacobian(self, body: int, link: int, positions: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
         _not_yet("Jacobians")
 
-    def attach(self, parent: int, parent_link: int, child: int, **_: Any) -> int:
-        _not_yet("attaching bodies")
-
-    def couple_joints(self, body: int, leader: int, follower: int, ratio: float, **_: Any) -> int:
-        _not_yet("coupling joints")
-
-    def detach(self, attachment: int) -> None:
-        _not_yet("attachments")
-
-    def joined(self, a: int, b: int) -> bool:
-        return False  # nothing can be attached on mujoco yet
-
-    def disable_collisions(self, body: int) -> None:
-        _not_yet("switching a body's collisions off")
-
     def render(self, width: int, height: int, view: Sequence[float], projection: Sequence[float], *, near: float,
                far: float, segmentation: bool = True, renderer: str = "tiny") -> RenderedImage:
         _not_yet("rendering camera images")
