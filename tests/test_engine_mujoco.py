@@ -3,11 +3,13 @@ and every shipped config either runs on mujoco or is refused before the run in o
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+os.environ.setdefault("MUJOCO_GL", "egl")  # as robokit sets it: MuJoCo picks its GL backend when first imported
 pytest.importorskip("mujoco")
 
 from robokit.config import load_config  # noqa: E402
@@ -127,3 +129,28 @@ def test_lesson_01_runs_on_mujoco_and_reruns_identically(plugins) -> None:  # ty
         results.append(out.result["bodies"])
     assert results[0] == results[1]
     assert results[0]["ball_r9"]["peak_bounce_height"] > results[0]["ball_r2"]["peak_bounce_height"]
+
+
+CAMERA_SCENE = {
+    "world": {"engine": "mujoco", "max_time": 1.0},
+    "bodies": {"plane": {"urdf": "plane.urdf", "position": [0, 0, 0]},
+               "crate": {"shape": "box", "size": [0.4, 0.4, 0.2], "mass": 0, "position": [0, 0, 0.1],
+                         "rgba": [0.9, 0.1, 0.1, 1]}},
+    "sensors": {"cam": {"type": "camera", "width": 64, "height": 48, "fov": 40.0, "near": 0.1, "far": 5.0,
+                        "eye": [0, 0, 2.0], "target": [0, 0, 0], "up": [0, 1, 0]}},
+}
+
+
+def test_a_camera_renders_rgb_metric_depth_and_body_segmentation() -> None:
+    from robokit.core.simulation import build
+
+    with build(CAMERA_SCENE) as sim:
+        frame = sim.components["cam"].read()
+        crate, plane = sim.world.body("crate"), sim.world.body("plane")
+    centre, corner = (24, 32), (2, 2)
+    assert frame.depth.shape == (48, 64) and frame.rgb.shape == (48, 64, 3)
+    assert frame.depth[centre] == pytest.approx(2.0 - 0.2, abs=0.01)  # looking straight down on the crate's top
+    assert frame.depth[corner] == pytest.approx(2.0, abs=0.01)  # the floor, along the view axis
+    assert frame.segmentation[centre] == crate and frame.segmentation[corner] == plane
+    red, green, blue = (int(v) for v in frame.rgb[centre])
+    assert red > 2 * green and red > 2 * blue

@@ -19,7 +19,7 @@ from robokit.plugin_api.plugins import load_plugins  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 CONFIGS = sorted([*(ROOT / "configs").glob("*.toml"), *(ROOT / "configs" / "gym").glob("*.toml")])
 RUNS_ON_MUJOCO = {"drop_test", "contact_stop", "go_to_goal", "kuka_dance", "lesson04_rays", "patrol", "patrol_logged",
-                  "patrol_robot", "pid_kuka"}
+                  "patrol_robot", "pid_kuka", "go_to"}
 """Configs that run on mujoco today; every other one is refused (the test fails when one changes sides silently)."""
 
 
@@ -58,6 +58,7 @@ def test_the_cli_refuses_with_exit_code_2_before_anything_runs(capsys, tmp_path,
     code = main(["run", str(config), "--engine", "mujoco"])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2
-    assert err == [f"robokit: error: {config}: sensors.fixed_cam.type: not supported on the mujoco engine: sensor "
-                   "type 'camera', no renderer behind the World on mujoco yet (--engine pybullet runs it)"]
+    assert err == [f"robokit: error: {config}: actuators.arm.type: not supported on the mujoco engine: actuator type "
+                   "'ik_arm', mujoco has no inverse kinematics call (differential IK is not built yet) (--engine "
+                   "pybullet runs it)"]
     assert not [p for p in tmp_path.rglob("*") if p.is_file()]  # nothing was run, nothing kept

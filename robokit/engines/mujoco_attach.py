@@ -10,9 +10,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
-import mujoco
-
 from robokit.engines import mujoco_math as mm
+from robokit.engines.mujoco_gl import mujoco
 from robokit.engines.mujoco_scene import mj_quat
 
 if TYPE_CHECKING:

@@ -17,10 +17,9 @@ from collections.abc import Collection, Sequence
 from pathlib import Path
 from typing import Any
 
-import mujoco
 import numpy as np
 
-from robokit.engines import mujoco_attach
+from robokit.engines import mujoco_attach, mujoco_render
 from robokit.engines.interface import (
     Contact,
     JointInfo,
@@ -29,11 +28,14 @@ from robokit.engines.interface import (
     Pose,
     Quat,
     RayCaster,
+    RenderedImage,
     Vec3,
     World,
 )
+from robokit.engines.mujoco_gl import mujoco
 from robokit.engines.mujoco_links import Motors, critical_damping, joint_table, motor_gains, urdf_joints
 from robokit.engines.mujoco_more import MujocoExtras
+from robokit.engines.mujoco_render import Cameras
 from robokit.engines.mujoco_scene import Scene, add_primitive, load_urdf, mj_quat
 from robokit.errors import UserError
 
@@ -77,6 +79,7 @@ class MujocoWorld(MujocoExtras, World):
         self._forces: list[tuple[int, np.ndarray, np.ndarray]] = []
         self.motors = Motors()
         self.joins = mujoco_attach.Joins()
+        self.cameras = Cameras()
 
     # ----------------------------------------------------------------- stepping and compiling
     def step(self) -> None:
@@ -465,6 +468,13 @@ class MujocoWorld(MujocoExtras, World):
         """Take a body's base out of contact."""
         mujoco_attach.disable_collisions(self, body)
 
+    # ----------------------------------------------------------------- cameras
+    def render(self, width: int, height: int, view: Sequence[float], projection: Sequence[float], *, near: float,
+               far: float, segmentation: bool = True, renderer: str = "tiny") -> RenderedImage:
+        """One image from MuJoCo's OpenGL renderer (``renderer`` does not apply: there is one)."""
+        return mujoco_render.render(self, width, height, view, projection, near=near, far=far,
+                                    segmentation=segmentation)
+
     # ----------------------------------------------------------------- contacts
     def contacts(self, body: int, other: int | None = None, *, link: int | None = None,
                  other_link: int | None = None) -> list[Contact]:
@@ -502,5 +512,6 @@ class MujocoWorld(MujocoExtras, World):
         self.tick = 0
 
     def close(self) -> None:
-        """Drop the model and data. Safe to call twice."""
+        """Close the renderers, drop the model and data. Safe to call twice."""
+        self.cameras.close()
         self.model = self.data = self.client = None

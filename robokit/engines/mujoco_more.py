@@ -10,7 +10,7 @@ from typing import Any, NoReturn
 import numpy as np
 
 from robokit.engines import mujoco_math as mm
-from robokit.engines.interface import ChainFrame, ChainJoint, Pose, Quat, RenderedImage, Vec3
+from robokit.engines.interface import ChainFrame, ChainJoint, Pose, Quat, Vec3
 from robokit.errors import UserError
 
 
@@ -78,7 +78,3 @@ class MujocoExtras:
 
     def jacobian(self, body: int, link: int, positions: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
         _not_yet("Jacobians")
-
-    def render(self, width: int, height: int, view: Sequence[float], projection: Sequence[float], *, near: float,
-               far: float, segmentation: bool = True, renderer: str = "tiny") -> RenderedImage:
-        _not_yet("rendering camera images")

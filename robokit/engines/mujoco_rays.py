@@ -10,10 +10,10 @@ from __future__ import annotations
 from collections.abc import Collection
 from typing import TYPE_CHECKING
 
-import mujoco
 import numpy as np
 
 from robokit.engines.interface import RayHits
+from robokit.engines.mujoco_gl import mujoco
 
 if TYPE_CHECKING:
     from robokit.engines.mujoco_engine import MujocoWorld

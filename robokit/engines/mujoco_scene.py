@@ -24,8 +24,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import mujoco
-
+from robokit.engines.mujoco_gl import mujoco
 from robokit.errors import UserError
 
 DEFAULT_TIMECONST = 0.02

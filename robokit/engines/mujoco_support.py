@@ -19,8 +19,6 @@ if TYPE_CHECKING:  # read by attribute only: the engines sit below robokit.confi
 ENGINE = "the mujoco engine"
 
 NOT_YET: dict[str, str] = {
-    "camera": "no renderer behind the World on mujoco yet",
-    "colour_detector": "it reads a camera, which has no renderer on mujoco yet",
     "force_torque": "joint reaction forces are not behind the World on mujoco yet",
     "keyboard": "it reads PyBullet's GUI keyboard events",
     "ik_arm": "mujoco has no inverse kinematics call (differential IK is not built yet)",
@@ -98,15 +96,13 @@ def open_world(config: Config, *, gui: bool, seed: int) -> World:
         UserError: MuJoCo is not installed (one line naming the extra).
         ConfigError: The config asks for something the mujoco engine cannot honour (one line naming the key).
     """
-    from robokit.extras import require
+    from robokit.engines.interface import World
 
-    require("mujoco", 'world.engine = "mujoco"')
+    engine = World.engine_class("mujoco")  # first: a missing MuJoCo is one line naming the extra
     check_config(config)
     if gui:
         raise ConfigError(f"--gui: no GUI window on {ENGINE} (--engine pybullet has one)", key="world.gui",
                           file=config.source)
-    from robokit.engines.interface import World
-
     wc = config.world
-    return World.create("mujoco", time_step=wc.time_step, gravity=wc.gravity, solver_iterations=wc.solver_iterations,
-                        seed=seed, base_dir=config.base_dir)
+    return engine(time_step=wc.time_step, gravity=wc.gravity, solver_iterations=wc.solver_iterations, seed=seed,
+                  base_dir=config.base_dir)
