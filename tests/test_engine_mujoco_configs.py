@@ -3,10 +3,12 @@ and the engine (exit code 2, as every config error)."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
 
+os.environ.setdefault("MUJOCO_GL", "egl")  # as robokit sets it: MuJoCo picks its GL backend when first imported
 pytest.importorskip("mujoco")
 
 from robokit.cli import main  # noqa: E402

@@ -14,6 +14,7 @@ import numpy as np
 
 from robokit.engines.interface import RenderedImage
 from robokit.engines.mujoco_gl import mujoco
+from robokit.errors import UserError
 
 if TYPE_CHECKING:
     from robokit.engines.mujoco_engine import MujocoWorld
@@ -33,7 +34,11 @@ class Cameras:
                 renderer.close()
             model.vis.global_.offwidth = max(model.vis.global_.offwidth, width)
             model.vis.global_.offheight = max(model.vis.global_.offheight, height)
-            renderer = self.renderers[key] = mujoco.Renderer(model, height, width)
+            try:
+                renderer = self.renderers[key] = mujoco.Renderer(model, height, width)
+            except Exception as exc:  # noqa: BLE001 - MuJoCo's FatalError when no OpenGL context can be made
+                raise UserError(f"camera: MuJoCo could not render ({str(exc).splitlines()[0][:120]}); set "
+                                "MUJOCO_GL=egl (or osmesa) before anything imports mujoco") from None
         return renderer
 
     def close(self) -> None:
