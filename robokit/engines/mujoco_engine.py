@@ -19,8 +19,10 @@ from typing import Any
 
 import numpy as np
 
-from robokit.engines import mujoco_attach, mujoco_render
+from robokit.engines import mujoco_attach, mujoco_kin, mujoco_render
 from robokit.engines.interface import (
+    ChainFrame,
+    ChainJoint,
     Contact,
     JointInfo,
     JointState,
@@ -467,6 +469,15 @@ class MujocoWorld(MujocoExtras, World):
     def disable_collisions(self, body: int) -> None:
         """Take a body's base out of contact."""
         mujoco_attach.disable_collisions(self, body)
+
+    # ----------------------------------------------------------------- kinematics
+    def kinematic_chain(self, body: int, link: int) -> list[ChainFrame | ChainJoint]:
+        """The frames from the world to a link (see :mod:`robokit.engines.mujoco_kin`)."""
+        return mujoco_kin.kinematic_chain(self, body, link)
+
+    def jacobian(self, body: int, link: int, positions: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
+        """MuJoCo's Jacobian of a link's centre of mass (see :mod:`robokit.engines.mujoco_kin`)."""
+        return mujoco_kin.jacobian(self, body, link, positions)
 
     # ----------------------------------------------------------------- cameras
     def render(self, width: int, height: int, view: Sequence[float], projection: Sequence[float], *, near: float,

@@ -7,10 +7,8 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any, NoReturn
 
-import numpy as np
-
 from robokit.engines import mujoco_math as mm
-from robokit.engines.interface import ChainFrame, ChainJoint, Pose, Quat, Vec3
+from robokit.engines.interface import Pose, Quat, Vec3
 from robokit.errors import UserError
 
 
@@ -69,12 +67,6 @@ class MujocoExtras:
     def wrench_frame(self, body: int, joint: int) -> tuple[float, ...]:
         _not_yet("joint reaction wrenches")
 
-    def kinematic_chain(self, body: int, link: int) -> list[ChainFrame | ChainJoint]:
-        _not_yet("kinematic chains (forward kinematics in numpy)")
-
     def inverse_kinematics(self, body: int, link: int, position: Sequence[float], orientation: Sequence[float],
                            **_: Any) -> list[float] | None:
         return None  # MuJoCo has no IK call: the caller solves it
-
-    def jacobian(self, body: int, link: int, positions: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
-        _not_yet("Jacobians")

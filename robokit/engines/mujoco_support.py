@@ -21,15 +21,12 @@ ENGINE = "the mujoco engine"
 NOT_YET: dict[str, str] = {
     "force_torque": "joint reaction forces are not behind the World on mujoco yet",
     "keyboard": "it reads PyBullet's GUI keyboard events",
-    "ik_arm": "mujoco has no inverse kinematics call (differential IK is not built yet)",
     "ee_delta": "mujoco has no inverse kinematics call (differential IK is not built yet)",
-    "gripper": "joint motors and finger contacts are not behind the World on mujoco yet",
     "suction": "attachments are not behind the World on mujoco yet",
     "reach": "its arm needs inverse kinematics, not built on mujoco yet",
     "push": "its arm needs inverse kinematics, not built on mujoco yet",
     "pick": "its arm needs inverse kinematics, not built on mujoco yet",
     "sort": "it drives an arm with inverse kinematics, not built on mujoco yet",
-    "pick_place": "it drives an arm with inverse kinematics, not built on mujoco yet",
     "policy": "it reaches into PyBullet for the robot's state",
 }
 """robokit's own plugin types that do not run on mujoco yet -> why."""
