@@ -190,13 +190,11 @@ class MujocoWorld(MujocoExtras, World):
                   orientation: Sequence[float] = (0.0, 0.0, 0.0, 1.0), fixed_base: bool = False, scale: float = 1.0,
                   self_collision: bool = False) -> int:
         """Load a URDF: its links become bodies ``NAME/LINK``; joints keep the URDF's names and limits."""
-        if scale != 1.0:
-            raise UserError(f"scale = {scale:g}: the mujoco engine loads URDFs at scale 1 only")
         if name in self._bodies:
             raise UserError(f"a body named {name!r} already exists")
         path = Path(self.resolve_urdf(urdf))
         root, links = load_urdf(self.scene, name, path, position=position, orientation=orientation,
-                                fixed_base=fixed_base, self_collision=self_collision)
+                                fixed_base=fixed_base, self_collision=self_collision, scale=scale)
         rid = self._add(name, root.name, links, static=not root.joints)
         self._tables[rid] = joint_table(links, urdf_joints(path))
         self._base_names[rid] = root.name[len(name) + 1:]

@@ -165,7 +165,7 @@ def _absolute_meshes(urdf_path: Path) -> str:
 
 
 def load_urdf(scene: Scene, name: str, path: Path, *, position: Sequence[float], orientation: Sequence[float],
-              fixed_base: bool, self_collision: bool) -> tuple[mujoco.MjsBody, list[str]]:
+              fixed_base: bool, self_collision: bool, scale: float = 1.0) -> tuple[mujoco.MjsBody, list[str]]:
     """Attach a URDF's links as bodies named ``NAME/LINK`` (geoms ``NAME/gI``, one motor ``NAME/JOINT/motor`` per
     moving joint, switched off); returns the root body and the other links' names in MuJoCo's body order.
 
@@ -181,6 +181,8 @@ def load_urdf(scene: Scene, name: str, path: Path, *, position: Sequence[float],
         raise UserError(f"URDF {path.name!r} could not be loaded by MuJoCo: {_first_line(exc)}") from None
     for i, geom in enumerate(child.geoms):
         geom.name = f"g{i}"
+    if scale != 1.0:
+        _scale(child, scale)
     frame = scene.spec.worldbody.add_frame(pos=list(position), quat=mj_quat(orientation))
     scene.spec.attach(child, prefix=f"{name}/", frame=frame)
     root = next(b for b in scene.spec.bodies if b.name.startswith(f"{name}/"))
@@ -196,6 +198,23 @@ def load_urdf(scene: Scene, name: str, path: Path, *, position: Sequence[float],
         for joint in link.joints:
             _add_motor(scene.spec, joint.name)
     return root, [b.name[len(name) + 1:] for b in links]
+
+
+def _scale(spec: mujoco.MjSpec, factor: float) -> None:
+    """Scale a model's geometry as PyBullet's ``globalScaling`` does: link placements, shapes and meshes; masses
+    stay, inertias scale with the square of the factor."""
+    for body in spec.bodies:
+        body.pos = [v * factor for v in body.pos]
+        body.ipos = [v * factor for v in body.ipos]
+        body.inertia = [v * factor * factor for v in body.inertia]
+    for geom in spec.geoms:
+        geom.pos = [v * factor for v in geom.pos]
+        if geom.type != mujoco.mjtGeom.mjGEOM_MESH:
+            geom.size = [v * factor for v in geom.size]
+    for mesh in spec.meshes:
+        mesh.scale = [v * factor for v in mesh.scale]
+    for joint in spec.joints:
+        joint.pos = [v * factor for v in joint.pos]
 
 
 def _add_motor(spec: mujoco.MjSpec, joint: str) -> None:

@@ -26,7 +26,6 @@ NOT_YET: dict[str, str] = {
     "reach": "its arm needs inverse kinematics, not built on mujoco yet",
     "push": "its arm needs inverse kinematics, not built on mujoco yet",
     "pick": "its arm needs inverse kinematics, not built on mujoco yet",
-    "sort": "it drives an arm with inverse kinematics, not built on mujoco yet",
     "policy": "it reaches into PyBullet for the robot's state",
 }
 """robokit's own plugin types that do not run on mujoco yet -> why."""
@@ -68,8 +67,6 @@ def _body(body: BodyConfig) -> tuple[str, str] | None:
         return "mjcf", "MJCF bodies are not loaded through robokit yet"
     if body.mount is not None:
         return "mount", "mounting a body on another's link is not built"
-    if body.urdf is not None and body.scale != 1.0:
-        return "scale", f"URDFs load at scale 1 only, not {body.scale:g}"
     return None
 
 
