@@ -38,7 +38,7 @@ from robokit.engines.mujoco_gl import mujoco
 from robokit.engines.mujoco_links import Motors, critical_damping, joint_table, motor_gains, urdf_joints
 from robokit.engines.mujoco_more import MujocoExtras
 from robokit.engines.mujoco_render import Cameras
-from robokit.engines.mujoco_scene import Scene, add_primitive, load_urdf, mj_quat
+from robokit.engines.mujoco_scene import Scene, add_primitive, load_urdf, mj_quat, mujoco_joints
 from robokit.errors import UserError
 
 
@@ -196,7 +196,7 @@ class MujocoWorld(MujocoExtras, World):
         root, links = load_urdf(self.scene, name, path, position=position, orientation=orientation,
                                 fixed_base=fixed_base, self_collision=self_collision, scale=scale)
         rid = self._add(name, root.name, links, static=not root.joints)
-        self._tables[rid] = joint_table(links, urdf_joints(path))
+        self._tables[rid] = joint_table(links, urdf_joints(path), mujoco_joints(name, links, self.scene.spec))
         self._base_names[rid] = root.name[len(name) + 1:]
         return rid
 

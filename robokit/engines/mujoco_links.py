@@ -45,7 +45,10 @@ def _float(element: ET.Element | None, attribute: str, default: float) -> float:
 
 def urdf_joints(path: Path) -> dict[str, UrdfJoint]:
     """Child link name -> the URDF joint that moves it."""
-    root = ET.parse(path).getroot()
+    try:
+        root = ET.parse(path).getroot()
+    except ET.ParseError:  # MuJoCo's reader is more lenient: its own joints stand in (see joint_table)
+        return {}
     out = {}
     for joint in root.iter("joint"):
         child = joint.find("child")
@@ -63,11 +66,14 @@ def urdf_joints(path: Path) -> dict[str, UrdfJoint]:
     return out
 
 
-def joint_table(links: list[str], joints: dict[str, UrdfJoint]) -> list[JointInfo]:
-    """The World's joint table of a robot whose non-base links are ``links`` (MuJoCo's body order)."""
+def joint_table(links: list[str], joints: dict[str, UrdfJoint], mujoco_joints: dict[str, UrdfJoint]) -> list[
+        JointInfo]:
+    """The World's joint table of a robot whose non-base links are ``links`` (MuJoCo's body order): the URDF's
+    joints, else MuJoCo's (``mujoco_joints``, by child link), else a fixed joint named after the link."""
     table = []
     for i, link in enumerate(links):
-        j = joints.get(link, UrdfJoint(f"{link}_joint", "fixed", 0.0, -1.0, 0.0, 0.0, 0.0, 0.0))
+        fixed = UrdfJoint(f"{link}_joint", "fixed", 0.0, -1.0, 0.0, 0.0, 0.0, 0.0)
+        j = joints.get(link) or mujoco_joints.get(link, fixed)
         table.append(JointInfo(index=i, name=j.name, type=j.type, lower=j.lower, upper=j.upper, max_force=j.effort,
                                max_velocity=j.velocity, damping=j.damping, friction=j.friction, child_link=link))
     return table

@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from robokit.engines.mujoco_gl import mujoco
+from robokit.engines.mujoco_links import UrdfJoint
 from robokit.errors import UserError
 
 DEFAULT_TIMECONST = 0.02
@@ -198,6 +199,18 @@ def load_urdf(scene: Scene, name: str, path: Path, *, position: Sequence[float],
         for joint in link.joints:
             _add_motor(scene.spec, joint.name)
     return root, [b.name[len(name) + 1:] for b in links]
+
+
+def mujoco_joints(name: str, links: list[str], spec: mujoco.MjSpec) -> dict[str, UrdfJoint]:
+    """The joints MuJoCo read, by child link (for a URDF robokit cannot read itself)."""
+    kinds = {mujoco.mjtJoint.mjJNT_HINGE: "revolute", mujoco.mjtJoint.mjJNT_SLIDE: "prismatic"}
+    out = {}
+    for link in links:
+        for joint in spec.body(f"{name}/{link}").joints:
+            lower, upper = (float(v) for v in joint.range)
+            out[link] = UrdfJoint(joint.name[len(name) + 1:], kinds.get(joint.type, "fixed"), lower, upper,
+                                  0.0, 0.0, float(joint.damping[0]), float(joint.frictionloss))
+    return out
 
 
 def _scale(spec: mujoco.MjSpec, factor: float) -> None:
