@@ -20,13 +20,7 @@ ENGINE = "the mujoco engine"
 
 NOT_YET: dict[str, str] = {
     "force_torque": "joint reaction forces are not behind the World on mujoco yet",
-    "keyboard": "it reads PyBullet's GUI keyboard events",
-    "ee_delta": "mujoco has no inverse kinematics call (differential IK is not built yet)",
-    "suction": "attachments are not behind the World on mujoco yet",
-    "reach": "its arm needs inverse kinematics, not built on mujoco yet",
-    "push": "its arm needs inverse kinematics, not built on mujoco yet",
-    "pick": "its arm needs inverse kinematics, not built on mujoco yet",
-    "policy": "it reaches into PyBullet for the robot's state",
+    "policy": "robokit.gym's task code it runs still reaches into PyBullet (robokit/gym/task.py)",
 }
 """robokit's own plugin types that do not run on mujoco yet -> why."""
 
