@@ -1,0 +1,74 @@
+"""Devices on the mujoco engine, each against an expectation worked out by hand: a contact sensor weighs a resting
+box, a lidar measures the distance to a wall, the diff drive rolls the diffbot, and the Panda picks and places a
+cube the same way twice."""
+
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+
+import pytest
+
+os.environ.setdefault("MUJOCO_GL", "egl")  # as robokit sets it: MuJoCo picks its GL backend when first imported
+pytest.importorskip("mujoco")
+
+from robokit.core.simulation import build  # noqa: E402
+from robokit.msgs import Twist  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+PLANE = {"urdf": "plane.urdf", "position": [0, 0, 0]}
+
+
+def test_a_contact_sensor_weighs_a_box_resting_on_the_floor() -> None:
+    scene = {"world": {"engine": "mujoco"},
+             "bodies": {"plane": PLANE,
+                        "crate": {"shape": "box", "size": [0.2, 0.2, 0.2], "mass": 2.0, "position": [0, 0, 0.1]}},
+             "sensors": {"touch": {"type": "contact", "body": "crate"}}}
+    with build(scene) as sim:
+        sim.step(240)
+        state = sim.components["touch"].read()
+    assert state.in_contact and state.others == ("plane",)
+    assert state.normal_force == pytest.approx(2.0 * 9.81, rel=0.02)  # the floor carries the box's weight
+
+
+def test_a_lidar_measures_the_distance_to_a_wall() -> None:
+    scene = {"world": {"engine": "mujoco"},
+             "bodies": {"plane": PLANE,
+                        "wall": {"shape": "box", "size": [0.1, 4.0, 0.5], "mass": 0, "position": [2.0, 0, 0.25]}},
+             "robots": {"robot": {"urdf": "robots/diffbot.urdf", "position": [0, 0, 0.06]}},
+             "sensors": {"scan": {"type": "lidar", "robot": "robot", "link": "lidar_link", "rays": 8,
+                                  "range_max": 3.0}}}
+    with build(scene) as sim:
+        sim.step(2)
+        origin = sim.world.pose("robot", sim.world.link("robot", "lidar_link"))[0]
+        scan = sim.components["scan"].read()
+    ahead = [i for i in range(8) if abs(scan.angle_min + i * scan.angle_increment) < 1e-9][0]
+    assert scan.ranges[ahead] == pytest.approx(1.95 - origin[0], abs=0.005)  # the wall's near face is at x = 1.95
+    behind = [i for i in range(8) if abs(abs(scan.angle_min + i * scan.angle_increment) - math.pi) < 1e-9][0]
+    assert math.isinf(scan.ranges[behind])  # nothing within 3 m behind the robot
+
+
+def test_the_diff_drive_rolls_the_diffbot_forward() -> None:
+    scene = {"world": {"engine": "mujoco"}, "bodies": {"plane": PLANE},
+             "robots": {"robot": {"urdf": "robots/diffbot.urdf", "position": [0, 0, 0.06]}},
+             "actuators": {"drive": {"type": "diff_drive", "left_wheels": ["left_wheel"],
+                                     "right_wheels": ["right_wheel"], "wheel_radius": 0.05, "track_width": 0.26}}}
+    with build(scene) as sim:
+        sim.step(10)
+        sim.components["drive"].command(Twist(0.2, 0.0))
+        sim.step(2 * 240)
+        (x, y, _), _ = sim.world.pose("robot")
+    assert 0.25 < x < 0.4  # 0.2 m/s for 2 s, less the ramp up
+    assert abs(y) < 0.03
+
+
+def test_the_panda_picks_and_places_a_cube_the_same_way_twice() -> None:
+    results = []
+    for _ in range(2):
+        with build(ROOT / "configs" / "pick_place.toml", overrides={"world.engine": "mujoco"}) as sim:
+            out = sim.run()
+        assert out.outcome == "succeeded", out.reason
+        results.append(out.result)
+    assert results[0] == results[1]
+    assert results[0]["placement_error"] < 0.02  # the cube rests within 2 cm of the place position
