@@ -52,6 +52,12 @@ def attach(world: MujocoWorld, parent: int, parent_link: int, child: int, *,
         offset = world.link_offset(child)
         child_pose = held if offset is None else mm.multiply(*held, *offset)
     rel_pos, rel_orn = mm.multiply(*mm.invert(*parent_pose), *child_pose)
+    return weld(world, parent, parent_link, child, rel_pos, rel_orn)
+
+
+def weld(world: MujocoWorld, parent: int, parent_link: int, child: int, rel_pos: Sequence[float],
+         rel_orn: Sequence[float]) -> int:
+    """A weld holding ``child``'s base link frame at ``rel_pos`` / ``rel_orn`` in ``parent_link``'s link frame."""
     names = (world.link_body_name(parent, parent_link), world.link_body_name(child, -1))
     attachment, name = world.joins.new()
     world.scene.spec.add_equality(name=name, type=mujoco.mjtEq.mjEQ_WELD, objtype=mujoco.mjtObj.mjOBJ_BODY,
@@ -96,3 +102,14 @@ def disable_collisions(world: MujocoWorld, body: int) -> None:
         geom.contype = geom.conaffinity = 0
         world.scene.contacts.pop(geom.name, None)
     world.changed()
+
+
+def mount(world: MujocoWorld, child: str, parent: str, link: int, position: Sequence[float],
+          orientation: Sequence[float]) -> int:
+    """Move ``child``'s base to ``position`` / ``orientation`` in ``parent``'s ``link`` frame and weld it there; the
+    two never collide."""
+    pid, cid = world.body(parent), world.body(child)
+    world.set_pose(cid, *mm.multiply(*world.pose(pid, link), position, orientation))
+    world.scene.spec.add_exclude(bodyname1=world.link_body_name(pid, link), bodyname2=world.link_body_name(cid, -1))
+    world.mounts[cid] = pid
+    return weld(world, pid, link, cid, position, orientation)

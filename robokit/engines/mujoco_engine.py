@@ -221,6 +221,7 @@ class MujocoWorld(MujocoExtras, World):
         self.compiled()
         for attachment in [a for a, (p, c, _) in self.joins.held.items() if rid in (p, c)]:
             self.detach(attachment)
+        self.mounts = {c: p for c, p in self.mounts.items() if rid not in (c, p)}
         root = self._root.pop(rid)
         body = self.scene.spec.body(root)
         for geom in self.scene.geoms_of(body):
@@ -450,6 +451,11 @@ class MujocoWorld(MujocoExtras, World):
                max_force: float | None = None) -> int:
         """A weld (see :mod:`robokit.engines.mujoco_attach`)."""
         return mujoco_attach.attach(self, parent, parent_link, child, position=position, max_force=max_force)
+
+    def mount(self, child: str, parent: str, link: int, *, position: Sequence[float] = (0.0, 0.0, 0.0),
+              orientation: Sequence[float] = (0.0, 0.0, 0.0, 1.0), max_force: float = 10_000.0) -> int:
+        """A tool on a flange: a weld, the two bodies out of each other's contacts (MuJoCo's stiffness)."""
+        return mujoco_attach.mount(self, child, parent, link, position, orientation)
 
     def couple_joints(self, body: int, leader: int, follower: int, ratio: float, *, erp: float,
                       max_force: float) -> int:

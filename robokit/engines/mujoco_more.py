@@ -58,9 +58,6 @@ class MujocoExtras:
     def load_model(self, name: str, path: str, kind: str, **_: Any) -> list[int]:
         _not_yet(f"loading {kind.upper()} files ({path})")
 
-    def mount(self, child: str, parent: str, link: int, **_: Any) -> int:
-        _not_yet("mounting a body on another's link")
-
     def enable_joint_wrench(self, body: int, joint: int, enabled: bool = True) -> None:
         _not_yet("measuring joint reaction wrenches")
 

@@ -59,8 +59,6 @@ def _body(body: BodyConfig) -> tuple[str, str] | None:
         return "sdf", "SDF files are not loaded (URDF and primitives are)"
     if body.mjcf is not None:
         return "mjcf", "MJCF bodies are not loaded through robokit yet"
-    if body.mount is not None:
-        return "mount", "mounting a body on another's link is not built"
     return None
 
 
