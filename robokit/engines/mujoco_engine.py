@@ -252,11 +252,15 @@ class MujocoWorld(MujocoExtras, World):
         return self._owner[int(self.model.body_parentid[child])][1]
 
     def mass(self, body: str | int, link: int = -1) -> float:
-        """Mass of a body's base or link, kg (0 for a static body)."""
+        """Mass of a body's base or link, kg (0 for a static body; a moving base with no mass of its own, as the
+        husky's ``base_footprint``, reports the mass of the whole body, so that it never reads as static)."""
         bid = self._mj(body, link)
         if link == -1 and self._root[self.body(body)] in self._static:
             return 0.0
-        return float(self.model.body_mass[bid])
+        mass = float(self.model.body_mass[bid])
+        if link == -1 and mass == 0.0:  # a URDF base without inertia that still moves: what it carries (not static)
+            return float(self.model.body_subtreemass[bid])
+        return mass
 
     def visual_rgba(self, body: str | int) -> tuple[float, float, float, float] | None:
         """Colour of the body's first geom, 0..1."""

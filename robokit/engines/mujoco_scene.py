@@ -153,7 +153,7 @@ def add_primitive(scene: Scene, name: str, shape: str, *, size: Sequence[float],
 
 def _absolute_meshes(urdf_path: Path) -> str:
     """The URDF's text with every mesh ``filename`` made absolute (``package://x`` is ``x`` beside the URDF, as
-    PyBullet reads it)."""
+    PyBullet reads it) and xacro's ``$(optenv NAME default)`` left in a file replaced by its default."""
     folder = urdf_path.parent
 
     def fix(match: re.Match[str]) -> str:
@@ -162,7 +162,8 @@ def _absolute_meshes(urdf_path: Path) -> str:
             name = name[len("package://"):]
         return f"{match.group(1)}{(folder / name).resolve() if not Path(name).is_absolute() else name}\""
 
-    return re.sub(r'(filename\s*=\s*")([^"]*)"', fix, urdf_path.read_text(encoding="utf-8"))
+    text = re.sub(r'(filename\s*=\s*")([^"]*)"', fix, urdf_path.read_text(encoding="utf-8"))
+    return re.sub(r"\$\(optenv\s+\S+\s*([^)]*)\)", r"\1", text)  # xacro left-overs: their default values
 
 
 def load_urdf(scene: Scene, name: str, path: Path, *, position: Sequence[float], orientation: Sequence[float],
