@@ -23,7 +23,7 @@ CONFIGS = sorted([*(ROOT / "configs").glob("*.toml"), *(ROOT / "configs" / "gym"
 RUNS_ON_MUJOCO = {"drop_test", "contact_stop", "go_to_goal", "kuka_dance", "lesson04_rays", "patrol", "patrol_logged",
                   "patrol_robot", "pid_kuka", "pick_place", "sort_robot", "lesson06_collect", "camera_demo",
                   "urdf_gallery", "drive_teleop", "kuka_teleop", "go_to", "reach", "pick", "push", "pick_place_suction",
-                  "husky_go_to_goal"}
+                  "husky_go_to_goal", "contact_abort"}
 """Configs that run on mujoco today; every other one is refused (the test fails when one changes sides silently)."""
 
 
@@ -58,11 +58,10 @@ def test_config_runs_or_is_refused_in_one_line(path: Path, plugins) -> None:  # 
 
 def test_the_cli_refuses_with_exit_code_2_before_anything_runs(capsys, tmp_path, monkeypatch) -> None:  # type: ignore[no-untyped-def]
     monkeypatch.chdir(tmp_path)  # a run would keep its folder under ./results
-    config = ROOT / "configs" / "contact_abort.toml"
+    config = ROOT / "configs" / "sort_kuka.toml"
     code = main(["run", str(config), "--engine", "mujoco"])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2
-    assert err == [f"robokit: error: {config}: sensors.wrist.type: not supported on the mujoco engine: sensor type "
-                   "'force_torque', joint reaction forces are not behind the World on mujoco yet (--engine pybullet "
-                   "runs it)"]
+    assert err == [f"robokit: error: {config}: robots.kuka.sdf: not supported on the mujoco engine: SDF files are "
+                   "not loaded (URDF and primitives are) (--engine pybullet runs it)"]
     assert not [p for p in tmp_path.rglob("*") if p.is_file()]  # nothing was run, nothing kept

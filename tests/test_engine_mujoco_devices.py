@@ -72,3 +72,21 @@ def test_the_panda_picks_and_places_a_cube_the_same_way_twice() -> None:
         results.append(out.result)
     assert results[0] == results[1]
     assert results[0]["placement_error"] < 0.02  # the cube rests within 2 cm of the place position
+
+
+def test_a_wrist_force_torque_sensor_weighs_the_hand() -> None:
+    scene = {"world": {"engine": "mujoco"},
+             "robots": {"panda": {"urdf": "franka_panda/panda.urdf", "position": [0, 0, 0], "fixed_base": True}},
+             "sensors": {"ft": {"type": "force_torque", "body": "panda", "joint": "panda_hand_joint",
+                                "world_frame": True}}}
+    with build(scene) as sim:
+        world = sim.world
+        arm = world.body("panda")
+        for joint in [j.index for j in world.joints(arm) if j.movable]:  # hold the arm still
+            world.set_joint_motor(arm, joint, "position", target_position=0.0, force=500.0)
+        sim.step(480)
+        carried = sum(world.mass(arm, world.link(arm, name))
+                      for name in ("panda_hand", "panda_leftfinger", "panda_rightfinger"))
+        wrench = sim.components["ft"].read()
+    assert wrench.force[2] == pytest.approx(carried * 9.81, rel=0.01)  # the arm holds the hand up against gravity
+    assert abs(wrench.force[0]) < 0.01 and abs(wrench.force[1]) < 0.01

@@ -82,6 +82,8 @@ class MujocoWorld(MujocoExtras, World):
         self.motors = Motors()
         self.joins = mujoco_attach.Joins()
         self.cameras = Cameras()
+        self._wrenches: dict[tuple[int, int], tuple[tuple[float, ...], tuple[float, ...]]] = {}
+        """(body, joint) -> reaction wrench of the last step (child frame) and that frame's rotation."""
 
     # ----------------------------------------------------------------- stepping and compiling
     def step(self) -> None:
@@ -90,6 +92,8 @@ class MujocoWorld(MujocoExtras, World):
         for bid, force, point in self._forces:
             mujoco.mj_applyFT(m, d, force, np.zeros(3), point, bid, d.qfrc_applied)
         mujoco.mj_step2(m, d)
+        if self._wrenches:
+            self._measure_wrenches()
         if self.motors.torques:
             self.motors.after_step(m, d)
         if self._forces:
@@ -380,14 +384,39 @@ class MujocoWorld(MujocoExtras, World):
         return jid, int(m.jnt_qposadr[jid]), int(m.jnt_dofadr[jid])
 
     def joint_states(self, body: int, joints: Sequence[int]) -> Sequence[JointState]:
-        """Position, velocity and last motor force of each joint (reaction wrenches are not measured: zeros)."""
+        """Position, velocity, reaction wrench (zeros unless :meth:`enable_joint_wrench`) and last motor force of
+        each joint; a fixed joint reads position and velocity 0."""
         out = []
-        _, d = self.compiled()
+        m, d = self.compiled()
         for j in joints:
-            jid, qadr, dadr = self._joint(body, j)
+            reaction = self._wrenches.get((self.body(body), j), ((0.0,) * 6, ()))[0]
+            bid = self._mj(body, j)
+            if m.body_jntnum[bid] == 0:
+                out.append(JointState(0.0, 0.0, reaction, 0.0))  # type: ignore[arg-type]
+                continue
+            _, qadr, dadr = self._joint(body, j)
             torque = float(d.qfrc_actuator[dadr])
-            out.append(JointState(float(d.qpos[qadr]), float(d.qvel[dadr]), (0.0,) * 6, torque))
+            out.append(JointState(float(d.qpos[qadr]), float(d.qvel[dadr]), reaction, torque))  # type: ignore[arg-type]
         return out
+
+    def enable_joint_wrench(self, body: int, joint: int, enabled: bool = True) -> None:
+        """Measure (or stop measuring) a joint's reaction wrench at every step."""
+        key = (self.body(body), joint)
+        if enabled:
+            self._mj(body, joint)
+            self._wrenches.setdefault(key, ((0.0,) * 6, (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)))
+        else:
+            self._wrenches.pop(key, None)
+
+    def wrench_frame(self, body: int, joint: int) -> tuple[float, ...]:
+        """Rotation (world from child link frame) the joint's reaction was given in, as of the last step."""
+        return self._wrenches.get((self.body(body), joint), ((), (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)))[1]
+
+    def _measure_wrenches(self) -> None:
+        m, d = self.model, self.data
+        mujoco.mj_rnePostConstraint(m, d)
+        for (rid, joint) in self._wrenches:
+            self._wrenches[(rid, joint)] = mujoco_kin.joint_wrench(m, d, self._mj(rid, joint))
 
     def reset_joint(self, body: int, joint: int, position: float, velocity: float | None = None) -> None:
         """Set a joint's position and velocity at once (set-up and resets)."""

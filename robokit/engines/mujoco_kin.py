@@ -67,3 +67,20 @@ def jacobian(world: MujocoWorld, body: int, link: int, positions: Sequence[float
     jacp, jacr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
     mujoco.mj_jacBodyCom(m, scratch, jacp, jacr, world.mj_body(body, link))
     return jacp[:, dofs], jacr[:, dofs]
+
+
+def joint_wrench(model: Any, data: Any, child: int) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """What body ``child`` receives from its parent through its joint in the last step, ``(Fx, Fy, Fz, Mx, My, Mz)``
+    in the child's frame, torque about its origin (N, N·m); and that frame's rotation (9 floats, row by row).
+
+    Call right after ``mj_step2`` with ``mj_rnePostConstraint`` done: MuJoCo's ``cfrc_int`` is the force the parent
+    exerts, given at the subtree's centre of mass (``subtree_com`` of the root), world orientation, torque first.
+    """
+    wrench = data.cfrc_int[child]
+    torque_c, force = np.asarray(wrench[:3]), np.asarray(wrench[3:])
+    centre = data.subtree_com[model.body_rootid[child]]
+    origin = data.xpos[child]
+    torque = torque_c + np.cross(centre - origin, force)
+    rot = np.asarray(data.xmat[child]).reshape(3, 3)
+    local = np.concatenate([rot.T @ force, rot.T @ torque])
+    return tuple(float(v) for v in local), tuple(float(v) for v in rot.reshape(-1))

@@ -58,12 +58,6 @@ class MujocoExtras:
     def load_model(self, name: str, path: str, kind: str, **_: Any) -> list[int]:
         _not_yet(f"loading {kind.upper()} files ({path})")
 
-    def enable_joint_wrench(self, body: int, joint: int, enabled: bool = True) -> None:
-        _not_yet("measuring joint reaction wrenches")
-
-    def wrench_frame(self, body: int, joint: int) -> tuple[float, ...]:
-        _not_yet("joint reaction wrenches")
-
     def inverse_kinematics(self, body: int, link: int, position: Sequence[float], orientation: Sequence[float],
                            **_: Any) -> list[float] | None:
         return None  # MuJoCo has no IK call: the caller solves it
