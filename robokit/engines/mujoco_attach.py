@@ -97,8 +97,9 @@ def joined(world: MujocoWorld, a: int, b: int) -> bool:
 
 
 def disable_collisions(world: MujocoWorld, body: int) -> None:
-    """Take the base's geoms out of contact (and out of restitution pairs)."""
-    for geom in world.scene.spec.body(world.link_body_name(body, -1)).geoms:
+    """Take every link of a body out of contact (and out of restitution pairs)."""
+    root = world.scene.spec.body(world.link_body_name(body, -1))
+    for geom in world.scene.geoms_of(root):
         geom.contype = geom.conaffinity = 0
         world.scene.contacts.pop(geom.name, None)
     world.changed()

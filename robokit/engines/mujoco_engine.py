@@ -213,6 +213,13 @@ class MujocoWorld(MujocoExtras, World):
         if "mass" in values:
             raise UserError("the mujoco engine cannot change a mass after the body is built")
         target = self._root[rid] if link == -1 else f"{self._name(rid)}/{self._links[rid][link]}"
+        values.pop("friction_anchor", None)  # PyBullet's; MuJoCo's soft contacts have no anchor to keep
+        joint_damping = values.pop("joint_damping", None)
+        if joint_damping is not None:
+            for joint in self.scene.spec.body(target).joints:
+                damping = list(joint.damping)
+                damping[0] = joint_damping
+                joint.damping = damping
         linear, angular = values.pop("linear_damping", None), values.pop("angular_damping", None)
         if (linear is not None or angular is not None) and link == -1 and self._root[rid] not in self._static:
             self.scene.set_damping(target, linear, angular)
@@ -265,6 +272,38 @@ class MujocoWorld(MujocoExtras, World):
         if link == -1 and mass == 0.0:  # a URDF base without inertia that still moves: what it carries (not static)
             return float(self.model.body_subtreemass[bid])
         return mass
+
+    def dynamics(self, body: str | int, link: int = -1) -> dict[str, float]:
+        """Mass and contact parameters of a base or link now (its first geom's friction; restitution as set)."""
+        bid = self._mj(body, link)
+        m = self.model
+        out = {"mass": self.mass(body, link), "lateral_friction": 0.0, "rolling_friction": 0.0,
+               "spinning_friction": 0.0, "restitution": 0.0}
+        if m.body_geomnum[bid]:
+            g = int(m.body_geomadr[bid])
+            slide, spin, roll = (float(v) for v in m.geom_friction[g])
+            out.update(lateral_friction=slide, spinning_friction=spin, rolling_friction=roll,
+                       restitution=self.scene.restitution(m.geom(g).name))
+        return out
+
+    def set_visual_rgba(self, body: str | int, rgba: Sequence[float], link: int = -1) -> None:
+        """Recolour a base or link's geoms (what cameras see)."""
+        bid = self._mj(body, link)
+        for geom in self.scene.spec.body(self.model.body(bid).name).geoms:
+            geom.rgba = list(rgba)
+        m = self.model
+        m.geom_rgba[m.body_geomadr[bid]:m.body_geomadr[bid] + m.body_geomnum[bid]] = list(rgba)
+
+    def penetration(self, a: int, b: int) -> float:
+        """Deepest interpenetration of two bodies now (m; 0 when apart), from MuJoCo's contacts of this state."""
+        m, d = self.compiled()
+        ra, rb, deepest = self.body(a), self.body(b), 0.0
+        for i in range(d.ncon):
+            con = d.contact[i]
+            owners = {self._owner.get(int(m.geom_bodyid[g]), (-1, -1))[0] for g in con.geom}
+            if owners == {ra, rb}:
+                deepest = max(deepest, -float(con.dist))
+        return deepest
 
     def visual_rgba(self, body: str | int) -> tuple[float, float, float, float] | None:
         """Colour of the body's first geom, 0..1."""

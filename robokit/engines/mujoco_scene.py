@@ -74,6 +74,11 @@ class Scene:
         spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
         return cls(spec)
 
+    def restitution(self, geom: str) -> float:
+        """The restitution robokit set on a geom (0 if none)."""
+        contact = self.contacts.get(geom)
+        return contact.restitution if contact is not None else 0.0
+
     def set_damping(self, body: str, linear: float | None, angular: float | None) -> None:
         """Damping rates (1/s) of a free body's translation and rotation (None: keep what is set)."""
         old = self.damping.get(body, (None, None))
