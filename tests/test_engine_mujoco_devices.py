@@ -90,3 +90,17 @@ def test_a_wrist_force_torque_sensor_weighs_the_hand() -> None:
         wrench = sim.components["ft"].read()
     assert wrench.force[2] == pytest.approx(carried * 9.81, rel=0.01)  # the arm holds the hand up against gravity
     assert abs(wrench.force[0]) < 0.01 and abs(wrench.force[1]) < 0.01
+
+
+def test_randomize_scales_masses_and_friction_on_mujoco() -> None:
+    raw = {"world": {"engine": "mujoco"},
+           "bodies": {"plane": PLANE, "cube": {"shape": "box", "mass": 0.1, "position": [0, 0, 0.05]}},
+           "robots": {"panda": {"urdf": "franka_panda/panda.urdf", "position": [1, 0, 0], "fixed_base": True}},
+           "actuators": {"gripper": {"type": "gripper", "body": "panda"}},
+           "randomize": {"friction_scale": [0.5, 0.5], "mass_scale": [2.0, 2.0]}}
+    with build(raw) as sim:
+        world = sim.world
+        finger = world.dynamics("panda", world.link("panda", "panda_leftfinger"))
+        assert world.mass("cube") == pytest.approx(0.2)  # 0.1 kg times 2
+        assert finger["mass"] == pytest.approx(0.2)  # the URDF's 0.1 kg times 2
+        assert finger["lateral_friction"] == pytest.approx(0.6)  # the gripper's 1.2 times 0.5

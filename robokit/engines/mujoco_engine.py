@@ -210,9 +210,10 @@ class MujocoWorld(MujocoExtras, World):
         if not values:
             return
         rid = self.body(body)
-        if "mass" in values:
-            raise UserError("the mujoco engine cannot change a mass after the body is built")
         target = self._root[rid] if link == -1 else f"{self._name(rid)}/{self._links[rid][link]}"
+        mass = values.pop("mass", None)
+        if mass is not None and not (link == -1 and self._root[rid] in self._static):
+            self.scene.set_mass(self.scene.spec.body(target), mass)
         values.pop("friction_anchor", None)  # PyBullet's; MuJoCo's soft contacts have no anchor to keep
         joint_damping = values.pop("joint_damping", None)
         if joint_damping is not None:

@@ -74,6 +74,16 @@ class Scene:
         spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
         return cls(spec)
 
+    def set_mass(self, body: mujoco.MjsBody, mass: float) -> None:
+        """A body's mass (kg): the URDF's inertial (inertia scaled alike), or a primitive's geom."""
+        if body.mass > 0 or not body.geoms:  # the inertial a URDF gave
+            if body.mass > 0:
+                body.inertia = [v * mass / body.mass for v in body.inertia]
+            body.mass = mass
+            return
+        for geom in body.geoms:
+            geom.mass = mass / len(body.geoms)
+
     def restitution(self, geom: str) -> float:
         """The restitution robokit set on a geom (0 if none)."""
         contact = self.contacts.get(geom)

@@ -39,8 +39,6 @@ def check_config(cfg: Config) -> None:
 def _world(cfg: Config) -> tuple[str, str] | None:
     if cfg.world.gui:
         return "world.gui", "no GUI window"
-    if cfg.randomize is not None:
-        return "randomize", "domain randomisation is not built"
     return None
 
 
