@@ -154,3 +154,13 @@ def test_a_camera_renders_rgb_metric_depth_and_body_segmentation() -> None:
     assert frame.segmentation[centre] == crate and frame.segmentation[corner] == plane
     red, green, blue = (int(v) for v in frame.rgb[centre])
     assert red > 2 * green and red > 2 * blue
+
+
+def test_a_static_body_can_be_moved_and_stays_put(plugins) -> None:  # type: ignore[no-untyped-def]
+    world = drop_world(plugins)
+    world.step()
+    world.set_pose("plane", (0.0, 0.0, -0.5))  # the floor drops half a metre: bodies fall on to it again
+    for _ in range(2 * HZ):
+        world.step()
+    assert world.pose("plane")[0] == (0.0, 0.0, -0.5) and world.mass("plane") == 0.0
+    assert world.pose("box")[0][2] == pytest.approx(-0.5 + 0.1, abs=0.01)

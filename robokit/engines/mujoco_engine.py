@@ -359,17 +359,33 @@ class MujocoWorld(MujocoExtras, World):
         return out
 
     def set_pose(self, body: str | int, position: Sequence[float], orientation: Sequence[float] | None = None) -> None:
-        """Teleport a free body's base (velocity zeroed). For set-up and tests, not for control."""
+        """Teleport a body's base (velocity zeroed). For set-up and tests, not for control. A static body becomes a
+        MuJoCo mocap body the first time it is moved (recompiled once): still static to the physics, now movable."""
         bid = self._mj(body)
         m, d = self.model, self.data
-        if m.body_jntnum[bid] == 0 or m.jnt_type[m.body_jntadr[bid]] != mujoco.mjtJoint.mjJNT_FREE:
-            raise UserError(f"body {self._label(body)!r} is static: the mujoco engine cannot move it")
+        if m.body_jntnum[bid] == 0:
+            self._move_static(body, position, orientation)
+            return
+        if m.jnt_type[m.body_jntadr[bid]] != mujoco.mjtJoint.mjJNT_FREE:
+            raise UserError(f"body {self._label(body)!r} is jointed to the world: the mujoco engine cannot move it")
         joint = m.body_jntadr[bid]
         qadr, dadr = m.jnt_qposadr[joint], m.jnt_dofadr[joint]
         d.qpos[qadr:qadr + 3] = list(position)
         if orientation is not None:
             d.qpos[qadr + 3:qadr + 7] = mj_quat(orientation)
         d.qvel[dadr:dadr + 6] = 0.0
+        mujoco.mj_step1(m, d)
+
+    def _move_static(self, body: str | int, position: Sequence[float], orientation: Sequence[float] | None) -> None:
+        spec_body = self.scene.spec.body(self._root[self.body(body)])
+        if not spec_body.mocap:
+            spec_body.mocap = True
+            self._dirty = True
+        m, d = self.compiled()
+        mocap = int(m.body_mocapid[self._mj(body)])
+        d.mocap_pos[mocap] = list(position)
+        if orientation is not None:
+            d.mocap_quat[mocap] = mj_quat(orientation)
         mujoco.mj_step1(m, d)
 
     def set_com_pose(self, body: str | int, position: Sequence[float], orientation: Sequence[float]) -> None:

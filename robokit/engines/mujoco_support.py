@@ -19,7 +19,6 @@ if TYPE_CHECKING:  # read by attribute only: the engines sit below robokit.confi
 ENGINE = "the mujoco engine"
 
 NOT_YET: dict[str, str] = {
-    "policy": "robokit.gym's task code it runs still reaches into PyBullet (robokit/gym/task.py)",
 }
 """robokit's own plugin types that do not run on mujoco yet -> why."""
 
