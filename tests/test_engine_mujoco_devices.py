@@ -104,3 +104,28 @@ def test_randomize_scales_masses_and_friction_on_mujoco() -> None:
         assert world.mass("cube") == pytest.approx(0.2)  # 0.1 kg times 2
         assert finger["mass"] == pytest.approx(0.2)  # the URDF's 0.1 kg times 2
         assert finger["lateral_friction"] == pytest.approx(0.6)  # the gripper's 1.2 times 0.5
+
+
+def test_a_gym_env_on_mujoco_passes_check_env_and_replays_a_seed() -> None:
+    pytest.importorskip("gymnasium")
+    import numpy as np
+    from gymnasium.utils.env_checker import check_env
+
+    import robokit.gym
+
+    env = robokit.gym.make(ROOT / "configs" / "gym" / "reach.toml", world__engine="mujoco")
+    try:
+        assert env.world.engine == "mujoco"
+        check_env(env, skip_render_check=True)
+        episodes = []
+        for _ in range(2):
+            obs, _ = env.reset(seed=3)
+            actions = np.random.default_rng(0).uniform(-1, 1, (20, *env.action_space.shape))
+            seen = [np.ravel(obs)]
+            for action in actions.astype(env.action_space.dtype):
+                obs, reward, *_ = env.step(action)
+                seen += [np.ravel(obs), np.array([reward])]
+            episodes.append(np.concatenate(seen))
+        assert episodes[0].tobytes() == episodes[1].tobytes()
+    finally:
+        env.close()
