@@ -65,3 +65,27 @@ def test_the_cli_refuses_with_exit_code_2_before_anything_runs(capsys, tmp_path,
     assert err == [f"robokit: error: {config}: robots.kuka.sdf: not supported on the mujoco engine: SDF files are "
                    "not loaded (URDF and primitives are) (--engine pybullet runs it)"]
     assert not [p for p in tmp_path.rglob("*") if p.is_file()]  # nothing was run, nothing kept
+
+
+HIDE_MUJOCO = """
+import sys
+class Hidden:
+    def find_spec(self, name, path=None, target=None):
+        if name.partition(".")[0] == "mujoco":
+            raise ModuleNotFoundError(f"No module named {name!r} (hidden by the test)", name=name)
+        return None
+sys.meta_path.insert(0, Hidden())
+from robokit.cli import main
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def test_without_mujoco_the_engine_says_what_to_install(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    import subprocess
+    import sys
+
+    proc = subprocess.run([sys.executable, "-c", HIDE_MUJOCO, "run", str(ROOT / "configs" / "drop_test.toml"),
+                           "--engine", "mujoco"], cwd=tmp_path, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 2, proc.stderr
+    assert proc.stderr.strip().splitlines() == ["robokit: error: world.engine = \"mujoco\" needs mujoco, which is not "
+                                                "installed: pip install 'robokit[mujoco]'"]
