@@ -641,16 +641,19 @@ class PyBulletWorld(World):
         self, body: int, other: int | None = None, *, link: int | None = None, other_link: int | None = None
     ) -> list[Contact]:
         """``getContactPoints``, each point as a :class:`Contact` (fields 2, 3, 4, 9, 6, 7 of its tuple)."""
-        kwargs: dict[str, int] = {"bodyA": body}
-        if other is not None:
-            kwargs["bodyB"] = other
-        if link is not None:
-            kwargs["linkIndexA"] = link
-        if other_link is not None:
-            kwargs["linkIndexB"] = other_link
-        new = tuple.__new__  # builds the named tuple without its Python-level __new__ (every tick)
-        return [new(Contact, (cp[2], cp[3], cp[4], cp[9], cp[6], cp[7]))
-                for cp in self.client.getContactPoints(**kwargs)]
+        if other is None and link is None and other_link is None:  # the common query (a whole robot), every tick
+            points = self.client.getContactPoints(bodyA=body)
+        else:
+            kwargs: dict[str, int] = {"bodyA": body}
+            if other is not None:
+                kwargs["bodyB"] = other
+            if link is not None:
+                kwargs["linkIndexA"] = link
+            if other_link is not None:
+                kwargs["linkIndexB"] = other_link
+            points = self.client.getContactPoints(**kwargs)
+        new = tuple.__new__  # builds the named tuple without its Python-level __new__
+        return [new(Contact, (cp[2], cp[3], cp[4], cp[9], cp[6], cp[7])) for cp in points]
 
     def attach(
         self,
