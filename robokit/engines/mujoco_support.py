@@ -1,9 +1,8 @@
 """What the mujoco engine honours of a config, checked before anything is built: a refusal is one line naming the
 key and the engine (a :class:`ConfigError`, exit code 2), never a failure halfway through a run.
 
-Third-party plugin types are let through: they are written against the World and run on both engines. robokit's
-own types that still reach past the World into PyBullet, or need a World feature the mujoco engine lacks, are
-listed in :data:`NOT_YET` with the reason.
+Every plugin type runs: plugins and behaviours talk to physics only through the World, which the mujoco engine
+answers whole. What is refused is what the engine cannot build: SDF and MJCF bodies, and a GUI window.
 """
 
 from __future__ import annotations
@@ -13,14 +12,11 @@ from typing import TYPE_CHECKING
 from robokit.errors import ConfigError
 
 if TYPE_CHECKING:  # read by attribute only: the engines sit below robokit.config in the house
-    from robokit.config import BodyConfig, ComponentSpec, Config
+    from robokit.config import BodyConfig, Config
     from robokit.engines.interface import World
 
 ENGINE = "the mujoco engine"
 
-NOT_YET: dict[str, str] = {
-}
-"""robokit's own plugin types that do not run on mujoco yet -> why."""
 
 
 def check_config(cfg: Config) -> None:
@@ -29,7 +25,7 @@ def check_config(cfg: Config) -> None:
     Raises:
         ConfigError: One line: the file, the key, what is refused on mujoco and why.
     """
-    problem = _world(cfg) or _bodies(cfg) or _components(cfg)
+    problem = _world(cfg) or _bodies(cfg)
     if problem is not None:
         key, why = problem
         raise ConfigError(f"not supported on {ENGINE}: {why} (--engine pybullet runs it)", key=key, file=cfg.source)
@@ -55,19 +51,6 @@ def _body(body: BodyConfig) -> tuple[str, str] | None:
         return "sdf", "SDF files are not loaded (URDF and primitives are)"
     if body.mjcf is not None:
         return "mjcf", "MJCF bodies are not loaded through robokit yet"
-    return None
-
-
-def _components(cfg: Config) -> tuple[str, str] | None:
-    specs: list[ComponentSpec] = [*cfg.sensors, *cfg.actuators, *cfg.monitors, *cfg.recoveries.values()]
-    stack = [cfg.behaviour] if cfg.behaviour is not None else []
-    while stack:
-        spec = stack.pop()
-        specs.append(spec)
-        stack.extend(spec.children)
-    for spec in specs:
-        if spec.type in NOT_YET:
-            return f"{spec.key}.type", f"{spec.kind} type {spec.type!r}, {NOT_YET[spec.type]}"
     return None
 
 
