@@ -89,3 +89,16 @@ def test_without_mujoco_the_engine_says_what_to_install(tmp_path) -> None:  # ty
     assert proc.returncode == 2, proc.stderr
     assert proc.stderr.strip().splitlines() == ["robokit: error: world.engine = \"mujoco\" needs mujoco, which is not "
                                                 "installed: pip install 'robokit[mujoco]'"]
+
+
+def test_a_mujoco_run_is_recorded_and_its_video_rebuilt(tmp_path, monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    from robokit.record.format import find_run
+
+    monkeypatch.chdir(tmp_path)
+    config = ROOT / "configs" / "drop_test.toml"
+    assert main(["run", str(config), "--engine", "mujoco", "--quiet", "--set", "behaviour.duration=0.5"]) == 0
+    rec = find_run("last")
+    final = rec.result["result"]["bodies"]["box"]["final_position"]
+    logged = rec.poses["base/box"][-1, :3]  # the final state, a tick after the last reading the behaviour saw
+    assert [float(v) for v in logged] == pytest.approx(final, abs=2e-3)  # a box moves < 2 mm in a tick
+    assert main(["video", "last", "-o", "run.mp4"]) == 0 and (tmp_path / "run.mp4").stat().st_size > 0

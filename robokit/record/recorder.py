@@ -131,13 +131,14 @@ class Recorder:
         self._rows.append(row)
 
     def _sample_world(self, tick: int) -> None:
-        """:meth:`sample` through the World interface (engines other than PyBullet): link-frame base poses."""
+        """:meth:`sample` through the World interface (engines other than PyBullet): base poses in the centre-of-mass
+        frame, as the PyBullet path logs them and the replays set them."""
         row: list[float] = []
         for (_, bid, movable), present in zip(self._layout, self._present, strict=True):
             if not present:
                 row += [np.nan] * (7 + len(movable))
                 continue
-            pos, orn = self.world.pose(bid)
+            pos, orn = self.world.com_pose(bid)
             row += [*pos, *orn]
             if movable:
                 row += [s[0] for s in self.world.joint_states(bid, movable)]
