@@ -129,3 +129,26 @@ def test_a_gym_env_on_mujoco_passes_check_env_and_replays_a_seed() -> None:
         assert episodes[0].tobytes() == episodes[1].tobytes()
     finally:
         env.close()
+
+
+TWO_BODIES = """<mujoco><worldbody>
+  <body name="stand" pos="0 0 1"><geom type="box" size="0.05 0.05 0.05" mass="0"/>
+    <body name="arm"><joint name="swing" type="hinge" axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02" mass="0.5"/></body></body>
+  <body name="ball" pos="1 0 0.5"><freejoint/><geom type="sphere" size="0.05" mass="0.2"/></body>
+</worldbody></mujoco>"""
+
+
+def test_an_mjcf_file_loads_as_bodies_placed_as_the_file_places_them(tmp_path: Path) -> None:
+    (tmp_path / "two.xml").write_text(TWO_BODIES)
+    scene = {"world": {"engine": "mujoco"},
+             "bodies": {"plane": PLANE, "rig": {"mjcf": "two.xml", "position": [0, 0, 0.5]}}}
+    with build(scene, base_dir=tmp_path) as sim:
+        world = sim.world
+        assert world.body_names == ["plane", "rig", "rig_1"]
+        assert world.pose("rig")[0] == pytest.approx((0, 0, 0.5))  # the first base where the config puts it
+        assert world.pose("rig_1")[0] == pytest.approx((1, 0, 0.0))  # the second kept 0.5 m below the first
+        assert [(j.name, j.type) for j in world.joints("rig")] == [("swing", "revolute")]
+        sim.step(240)
+        assert world.pose("rig_1")[0][2] == pytest.approx(0.05, abs=0.005)  # the ball rests on the floor
+        assert abs(world.joint_states(world.body("rig"), [0])[0].position) > 0.5  # the arm swung down

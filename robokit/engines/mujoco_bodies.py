@@ -163,6 +163,28 @@ class MujocoBodies(MujocoExtras, World):
         self._base_names[rid] = root.name[len(name) + 1:]
         return rid
 
+    def load_model(self, name: str, path: str, kind: str, *, position: Sequence[float] = (0.0, 0.0, 0.0),
+                   orientation: Sequence[float] = (0.0, 0.0, 0.0, 1.0), fixed_base: bool = False,
+                   scale: float = 1.0) -> list[int]:
+        """Load an MJCF file (see :mod:`robokit.engines.mujoco_mjcf`); SDF is PyBullet's only."""
+        if kind != "mjcf":
+            raise UserError(f"{kind.upper()} {path!r}: the mujoco engine loads URDF and MJCF files, not {kind.upper()}")
+        from robokit.engines.mujoco_mjcf import load_mjcf
+
+        resolved = Path(self.resolve_urdf(path))
+        names = [name] + [f"{name}_{k}" for k in range(1, 64)]
+        taken = [n for n in names if n in self._bodies]
+        if name in taken:
+            raise UserError(f"a body named {name!r} already exists")
+        ids = []
+        for k, (root, links) in enumerate(load_mjcf(self.scene, names, resolved, position=position,
+                                                    orientation=orientation, fixed_base=fixed_base, scale=scale)):
+            rid = self._add(names[k], root.name, links, static=not root.joints)
+            self._tables[rid] = joint_table(links, {}, mujoco_joints(names[k], links, self.scene.spec))
+            self._base_names[rid] = root.name[len(names[k]) + 1:]
+            ids.append(rid)
+        return ids
+
     def set_dynamics(self, body: int | str, link: int = -1, **params: float | None) -> None:
         """Contact and damping parameters of a body's base or link (see :mod:`robokit.engines.mujoco_scene`)."""
         values = {k: float(v) for k, v in params.items() if v is not None}

@@ -55,9 +55,6 @@ class MujocoExtras:
         return {}
 
     # ----------------------------------------------------------------- not built yet
-    def load_model(self, name: str, path: str, kind: str, **_: Any) -> list[int]:
-        _not_yet(f"loading {kind.upper()} files ({path})")
-
     def inverse_kinematics(self, body: int, link: int, position: Sequence[float], orientation: Sequence[float],
                            **_: Any) -> list[float] | None:
         return None  # MuJoCo has no IK call: the caller solves it

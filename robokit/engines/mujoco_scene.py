@@ -199,7 +199,7 @@ def load_urdf(scene: Scene, name: str, path: Path, *, position: Sequence[float],
     for i, geom in enumerate(child.geoms):
         geom.name = f"g{i}"
     if scale != 1.0:
-        _scale(child, scale)
+        scale_spec(child, scale)
     frame = scene.spec.worldbody.add_frame(pos=list(position), quat=mj_quat(orientation))
     scene.spec.attach(child, prefix=f"{name}/", frame=frame)
     root = next(b for b in scene.spec.bodies if b.name.startswith(f"{name}/"))
@@ -213,7 +213,7 @@ def load_urdf(scene: Scene, name: str, path: Path, *, position: Sequence[float],
                 scene.spec.add_exclude(bodyname1=b1.name, bodyname2=b2.name)
     for link in links:
         for joint in link.joints:
-            _add_motor(scene.spec, joint.name)
+            add_motor(scene.spec, joint.name)
     return root, [b.name[len(name) + 1:] for b in links]
 
 
@@ -229,7 +229,7 @@ def mujoco_joints(name: str, links: list[str], spec: mujoco.MjSpec) -> dict[str,
     return out
 
 
-def _scale(spec: mujoco.MjSpec, factor: float) -> None:
+def scale_spec(spec: mujoco.MjSpec, factor: float) -> None:
     """Scale a model's geometry as PyBullet's ``globalScaling`` does: link placements, shapes and meshes; masses
     stay, inertias scale with the square of the factor."""
     for body in spec.bodies:
@@ -246,7 +246,7 @@ def _scale(spec: mujoco.MjSpec, factor: float) -> None:
         joint.pos = [v * factor for v in joint.pos]
 
 
-def _add_motor(spec: mujoco.MjSpec, joint: str) -> None:
+def add_motor(spec: mujoco.MjSpec, joint: str) -> None:
     """A joint motor whose gains the engine sets when a plugin drives the joint (zero: no force)."""
     motor = spec.add_actuator(name=f"{joint}/motor", target=joint)
     motor.trntype = mujoco.mjtTrn.mjTRN_JOINT

@@ -2,7 +2,7 @@
 key and the engine (a :class:`ConfigError`, exit code 2), never a failure halfway through a run.
 
 Every plugin type runs: plugins and behaviours talk to physics only through the World, which the mujoco engine
-answers whole. What is refused is what the engine cannot build: SDF and MJCF bodies, and a GUI window.
+answers whole. What is refused is what the engine cannot build: SDF bodies and a GUI window.
 """
 
 from __future__ import annotations
@@ -49,8 +49,6 @@ def _bodies(cfg: Config) -> tuple[str, str] | None:
 def _body(body: BodyConfig) -> tuple[str, str] | None:
     if body.sdf is not None:
         return "sdf", "SDF files are not loaded (URDF and primitives are)"
-    if body.mjcf is not None:
-        return "mjcf", "MJCF bodies are not loaded through robokit yet"
     return None
 
 
