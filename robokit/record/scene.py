@@ -103,7 +103,7 @@ def apply_drawn_looks(world: Any, rec: RunRecord) -> list[float] | None:
         return None
     for name, entry in drawn.get("bodies", {}).items():
         if "rgba" in entry and world.has_body(name):
-            world.client.changeVisualShape(world.body(name), -1, rgbaColor=entry["rgba"])
+            world.set_visual_rgba(name, entry["rgba"])
     light = drawn.get("light_direction")
     return None if light is None else [float(v) for v in light]
 
