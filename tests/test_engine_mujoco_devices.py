@@ -152,3 +152,10 @@ def test_an_mjcf_file_loads_as_bodies_placed_as_the_file_places_them(tmp_path: P
         sim.step(240)
         assert world.pose("rig_1")[0][2] == pytest.approx(0.05, abs=0.005)  # the ball rests on the floor
         assert abs(world.joint_states(world.body("rig"), [0])[0].position) > 0.5  # the arm swung down
+
+
+def test_a_plugin_that_reaches_for_pybullet_is_told_so_on_mujoco() -> None:
+    with build({"world": {"engine": "mujoco"}, "bodies": {"plane": PLANE}}) as sim:
+        assert sim.world.client.model.nbody == 2  # MuJoCo's own handle, for engine-aware tools
+        with pytest.raises(AttributeError, match=r"world.client.getContactPoints is a PyBullet call"):
+            sim.world.client.getContactPoints()

@@ -33,6 +33,30 @@ def _vec(v: Any) -> Vec3:
     return (float(v[0]), float(v[1]), float(v[2]))
 
 
+class MujocoHandle:
+    """``world.client`` on the mujoco engine: MuJoCo's own ``model``, ``data`` and ``spec`` (for engine-aware
+    tools). Anything else is a PyBullet call a plugin reached for: the error says so in one line."""
+
+    def __init__(self, world: MujocoBodies) -> None:
+        self._world = world
+
+    @property
+    def model(self) -> Any:
+        return self._world.compiled()[0]
+
+    @property
+    def data(self) -> Any:
+        return self._world.compiled()[1]
+
+    @property
+    def spec(self) -> Any:
+        return self._world.scene.spec
+
+    def __getattr__(self, name: str) -> Any:
+        raise AttributeError(f"world.client.{name} is a PyBullet call; on the mujoco engine world.client is MuJoCo's "
+                             f"(model, data, spec): use the World's methods (docs/plugins.md)")
+
+
 class MujocoBodies(MujocoExtras, World):
     """One MuJoCo model and data and the named bodies in them (see the module's docstring)."""
 
@@ -44,7 +68,7 @@ class MujocoBodies(MujocoExtras, World):
         super().__init__(gui=False, time_step=time_step, gravity=gravity, solver_iterations=solver_iterations,
                          seed=seed, base_dir=base_dir, engine=engine)
         self.scene = Scene.new(self.time_step, gravity, solver_iterations)
-        self.client: Any = self.scene
+        self.client: Any = MujocoHandle(self)
         self.model: Any = None
         self.data: Any = None
         self._dirty = True
