@@ -118,6 +118,7 @@ def _add_run_command(sub: Any) -> None:
 def _add_other_commands(sub: Any) -> None:
     val = sub.add_parser("validate", help="check a config, its URDFs and named joints/links, without running")
     val.add_argument("config")
+    val.add_argument("--engine", choices=("pybullet", "mujoco"), help="override world.engine")
     val.set_defaults(func=cmd_validate)
 
     plug = sub.add_parser("plugins", help="list every registered plugin type")

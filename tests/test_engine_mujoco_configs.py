@@ -102,3 +102,20 @@ def test_a_mujoco_run_is_recorded_and_its_video_rebuilt(tmp_path, monkeypatch) -
     logged = rec.poses["base/box"][-1, :3]  # the final state, a tick after the last reading the behaviour saw
     assert [float(v) for v in logged] == pytest.approx(final, abs=2e-3)  # a box moves < 2 mm in a tick
     assert main(["video", "last", "-o", "run.mp4"]) == 0 and (tmp_path / "run.mp4").stat().st_size > 0
+
+
+@pytest.mark.parametrize("path", CONFIGS, ids=[p.stem for p in CONFIGS])
+def test_validate_on_mujoco_passes_what_runs_and_refuses_the_rest(path: Path, capsys) -> None:  # type: ignore[no-untyped-def]
+    code = main(["validate", str(path), "--engine", "mujoco"])
+    err = capsys.readouterr().err
+    assert code == (0 if path.stem in RUNS_ON_MUJOCO else 2), err
+
+
+def test_validate_on_mujoco_finds_bodies_spawned_inside_each_other(tmp_path: Path, capsys) -> None:  # type: ignore[no-untyped-def]
+    (tmp_path / "overlap.toml").write_text(
+        '[world]\nengine = "mujoco"\n'
+        '[bodies.a]\nshape = "box"\nsize = [0.2, 0.2, 0.2]\nmass = 1\nposition = [0, 0, 0.5]\n'
+        '[bodies.b]\nshape = "box"\nsize = [0.2, 0.2, 0.2]\nmass = 1\nposition = [0, 0, 0.45]\n')
+    assert main(["validate", str(tmp_path / "overlap.toml")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "'b' is spawned overlapping 'a'" in err[0] and "by 150 mm" in err[0], err
