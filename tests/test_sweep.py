@@ -16,7 +16,7 @@ from report_server import Answer, CourseServer
 from robokit.errors import UserError
 from robokit.sweep import SweepOptions, SweepSpec, parse_seeds, parse_set, read_trials, run_sweep
 from robokit.sweep.spec import load_sweep_file
-from robokit.sweep.summary import percentile, summarise, wilson
+from robokit.sweep.summary import percentile, summarise, to_markdown, wilson
 
 ROOT = Path(__file__).resolve().parent.parent
 PLUGINS = Path(__file__).resolve().parent / "sweep_plugins"
@@ -176,6 +176,20 @@ def test_summary_aggregates_only_the_named_metrics() -> None:
     summary = summarise(rows, ["a"], ["x"])
     assert summary["metrics"] == ["x"] and set(summary["cells"][0]["figures"]) == {"x", "sim_time", "wall_time"}
     assert summary["cells"][0]["figures"]["x"]["median"] == 2.0
+
+
+def test_sim_time_is_one_column_whether_a_result_has_it_or_metrics_name_it(
+        tmp_path: Path, fault_plugins: None) -> None:
+    spec = SweepSpec(FAULT, range(2), metrics=("seed_squared", "sim_time"), plugins=("sweep_faults",))
+    run = run_sweep(spec, SweepOptions(out=tmp_path / "out", workers=1))
+    head = to_markdown(run.summary).splitlines()[0]
+    assert head.count("sim_time") == 1 and head.count("seed_squared") == 1, head
+    ran = [float(r["sim_time"]) for r in run.rows]  # the fault trial's own figures have no sim_time
+    assert run.summary["cells"][0]["figures"]["sim_time"]["median"] == pytest.approx(sum(ran) / 2)
+    rows = [{"cell": "a", "overrides": {}, "outcome": "succeeded", "figures": {"sim_time": 2.0 + i},
+             "sim_time": 9.0, "wall_time": 0.1} for i in range(3)]  # pick_place's result has a sim_time figure
+    table = to_markdown(summarise(rows, ["a"]))
+    assert table.splitlines()[0].count("sim_time") == 1 and "| 3 / 4 |" in table, table
 
 
 # ----------------------------------------------------------------------------------------------- reporting
