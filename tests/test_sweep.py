@@ -170,6 +170,21 @@ def test_cli_writes_trials_summary_junit_and_plots(tmp_path: Path) -> None:
     assert (out / "distribution_seed_squared.png").stat().st_size > 1000
 
 
+def test_paths_from_a_sweep_file_are_printed_and_stored_without_dot_dot(tmp_path: Path) -> None:
+    (tmp_path / "lab" / "sweeps").mkdir(parents=True)
+    (tmp_path / "lab" / "scene.toml").write_text(FAULT.read_text(encoding="utf-8"), encoding="utf-8")
+    (tmp_path / "lab" / "sweeps" / "s.toml").write_text(
+        'config = "../scene.toml"\nseeds = "0:2"\nplugins = ["sweep_faults"]\nout = "../../runs/s"\n'
+        "[set]\nbehaviour.raise_seeds = [1]\n", encoding="utf-8")
+    proc = robokit("sweep", "lab/sweeps/s.toml", "--workers", "1", cwd=tmp_path)
+    assert proc.returncode == 1, proc.stderr  # seed 1 raised
+    assert f"trials: {Path('runs/s/trials.jsonl')}; summary: {Path('runs/s/summary.md')}" in proc.stdout
+    assert "reproduce: `robokit run lab/scene.toml --seed 1" in proc.stdout, proc.stdout
+    assert ".." not in proc.stdout
+    summary = json.loads((tmp_path / "runs" / "s" / "summary.json").read_text(encoding="utf-8"))
+    assert summary["failed_trials"][0]["command"].startswith("robokit run lab/scene.toml --seed 1")
+
+
 def test_summary_aggregates_only_the_named_metrics() -> None:
     rows = [{"cell": "a", "overrides": {}, "outcome": "succeeded", "figures": {"x": float(i), "y": 1},
              "sim_time": 1.0, "wall_time": 0.1} for i in range(5)]
