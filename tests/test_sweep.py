@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import io
 import json
 import os
 import subprocess
@@ -148,6 +149,37 @@ def test_resuming_into_a_folder_of_another_config_is_refused(tmp_path: Path, fau
     other.write_text(FAULT.read_text(encoding="utf-8").replace("max_time = 1.0", "max_time = 2.0"), encoding="utf-8")
     with pytest.raises(UserError, match="cannot resume this sweep: the config file's text changed"):
         run_sweep(SweepSpec(other, range(1), plugins=("sweep_faults",)), SweepOptions(out=tmp_path / "out"))
+
+
+class StoppedClock:
+    """Stands in for the ``time`` module of the progress display: a clock the test moves by hand."""
+
+    def __init__(self) -> None:
+        self.now = 100.0
+
+    def monotonic(self) -> float:
+        return self.now
+
+
+def test_the_rate_after_a_resume_leaves_out_the_workers_start_up(monkeypatch: pytest.MonkeyPatch) -> None:
+    from robokit.sweep import progress
+
+    clock = StoppedClock()
+    monkeypatch.setattr(progress, "time", clock)
+    out = io.StringIO()
+    shown = progress.Progress(total=40, done=20, failed=0, stream=out)  # resumed: 20 left, a line per trial
+    clock.now += 9.0  # the workers start (imports, pybullet) before their first trial runs
+    for _batch in range(10):  # 2 workers, 2 s a trial: 1 trial/s
+        clock.now += 2.0
+        for _ in range(2):
+            shown.update({"outcome": "succeeded", "wall_time": 2.0})
+    lines = out.getvalue().splitlines()
+    assert lines[0] == "sweep: 20/40 trials already done, resuming"
+    assert lines[1] == "sweep: 21/40 done, 0 not succeeded, ETA ?"  # one trial tells no rate
+    assert lines[2] == "sweep: 22/40 done, 0 not succeeded, 1.00 trials/s, ETA 18 s"
+    assert lines[-1] == "sweep: 40/40 done, 0 not succeeded, 1.00 trials/s, ETA 0 s"
+    rates = [float(line.split(", ")[2].split()[0]) for line in lines[2:]]
+    assert min(rates) >= 0.75 and len(rates) == 19
 
 
 # ----------------------------------------------------------------------------------------------- outputs
