@@ -15,7 +15,7 @@ import pytest
 from report_server import Answer, CourseServer
 
 from robokit.errors import UserError
-from robokit.sweep import SweepOptions, SweepSpec, parse_seeds, parse_set, read_trials, run_sweep
+from robokit.sweep import SweepOptions, SweepRun, SweepSpec, parse_seeds, parse_set, read_trials, run_sweep
 from robokit.sweep.spec import load_sweep_file
 from robokit.sweep.summary import percentile, summarise, to_markdown, wilson
 
@@ -106,21 +106,55 @@ def test_a_bad_key_or_value_is_one_line_before_any_trial_runs(tmp_path: Path, op
 
 
 # ----------------------------------------------------------------------------------------------- faults
-def test_a_trial_that_raises_hangs_or_kills_its_worker_is_an_error_and_the_others_finish(
-        tmp_path: Path, fault_plugins: None) -> None:
-    spec = SweepSpec(FAULT, range(6), fixed={"behaviour.raise_seeds": [1], "behaviour.hang_seeds": [2],
-                                             "behaviour.die_seeds": [3]}, plugins=("sweep_faults",))
-    run = run_sweep(spec, SweepOptions(out=tmp_path / "out", workers=2, trial_timeout=4.0))
+def check_faults(run: SweepRun, out: Path, timeout: float | None) -> None:
+    """Seed 1 raised, seed 3 killed its worker (twice: it is retried once), seed 2 hung (when ``timeout`` is given:
+    the sweep had a hanging seed); 0, 4 and 5 succeeded."""
     by_seed = {r["seed"]: r for r in run.rows}
     assert [by_seed[s]["outcome"] for s in range(6)] == \
-        ["succeeded", "error", "error", "error", "succeeded", "succeeded"]
+        ["succeeded", "error", "error" if timeout else "succeeded", "error", "succeeded", "succeeded"]
     assert "RuntimeError: fault injected on seed 1" in by_seed[1]["reason"]
-    assert by_seed[2]["reason"].startswith("timed out: no result after 4 s (--trial-timeout)")
+    if timeout:
+        assert by_seed[2]["reason"].startswith(f"timed out: no result after {timeout:g} s (--trial-timeout)")
     assert "worker died twice" in by_seed[3]["reason"] and "exit code 17" in by_seed[3]["reason"]
     assert [by_seed[s]["figures"]["seed_squared"] for s in (0, 4, 5)] == [0, 16, 25]
-    assert len(read_trials(tmp_path / "out" / "trials.jsonl")) == 6
+    assert len(read_trials(out / "trials.jsonl")) == 6
     cell = run.summary["cells"][0]
-    assert (cell["trials"], cell["succeeded"], cell["errors"]) == (6, 3, 3)
+    errors = 3 if timeout else 2
+    assert (cell["trials"], cell["succeeded"], cell["errors"]) == (6, 6 - errors, errors)
+
+
+def test_a_trial_that_raises_or_kills_its_worker_is_an_error_and_the_others_finish(
+        tmp_path: Path, fault_plugins: None) -> None:
+    """No --trial-timeout: nothing here depends on how fast the machine is."""
+    spec = SweepSpec(FAULT, range(6), fixed={"behaviour.raise_seeds": [1], "behaviour.die_seeds": [3]},
+                     plugins=("sweep_faults",))
+    run = run_sweep(spec, SweepOptions(out=tmp_path / "out", workers=2))
+    check_faults(run, tmp_path / "out", None)
+
+
+def test_trials_that_never_end_are_killed_at_the_timeout_and_the_next_runs_on_a_fresh_worker(
+        tmp_path: Path, fault_plugins: None) -> None:
+    """Every trial here blocks forever, so a timeout however short ends each of them and never a healthy trial
+    (there is none to misjudge on a loaded machine): the outcome cannot depend on the machine's speed. One worker:
+    the second trial runs only if the pool replaced the worker it killed."""
+    spec = SweepSpec(FAULT, range(2), fixed={"behaviour.hang_seeds": [0, 1]}, plugins=("sweep_faults",))
+    run = run_sweep(spec, SweepOptions(out=tmp_path / "out", workers=1, trial_timeout=0.5))
+    assert [r["outcome"] for r in run.rows] == ["error", "error"]
+    for row in run.rows:
+        assert row["reason"].startswith("timed out: no result after 0.5 s (--trial-timeout); worker "), row
+        assert row["wall_time"] >= 0.5
+    assert run.rows[0]["worker"] != run.rows[1]["worker"]  # the hung worker was killed and replaced
+
+
+@pytest.mark.slow
+def test_a_hung_trial_among_healthy_ones_is_killed_and_the_others_finish(
+        tmp_path: Path, fault_plugins: None) -> None:
+    """All the faults in one sweep, the hang among healthy trials; the timeout is generous (a healthy trial takes
+    well under a second of CPU), so only the trial that never ends reaches it, however loaded the machine."""
+    spec = SweepSpec(FAULT, range(6), fixed={"behaviour.raise_seeds": [1], "behaviour.hang_seeds": [2],
+                                             "behaviour.die_seeds": [3]}, plugins=("sweep_faults",))
+    run = run_sweep(spec, SweepOptions(out=tmp_path / "out", workers=2, trial_timeout=60.0))
+    check_faults(run, tmp_path / "out", 60.0)
 
 
 # ----------------------------------------------------------------------------------------------- resuming
