@@ -5,6 +5,7 @@ from __future__ import annotations
 import io
 import json
 import os
+import socket
 import subprocess
 import sys
 from pathlib import Path
@@ -155,6 +156,19 @@ def test_a_hung_trial_among_healthy_ones_is_killed_and_the_others_finish(
                                              "behaviour.die_seeds": [3]}, plugins=("sweep_faults",))
     run = run_sweep(spec, SweepOptions(out=tmp_path / "out", workers=2, trial_timeout=60.0))
     check_faults(run, tmp_path / "out", 60.0)
+
+
+def test_a_ray_address_where_nothing_listens_is_one_line_at_once(tmp_path: Path, fault_plugins: None) -> None:
+    """Ray itself retries such an address without end (a mistyped port hung the sweep for good)."""
+    pytest.importorskip("ray", reason="the Ray backend needs robokit[ray] (in the test extra)")
+    with socket.socket() as s:  # a port nothing listens on: bound, never listening
+        s.bind(("127.0.0.1", 0))
+        address = f"127.0.0.1:{s.getsockname()[1]}"
+        with pytest.raises(UserError) as caught:
+            run_sweep(SweepSpec(FAULT, range(1), plugins=("sweep_faults",)),
+                      SweepOptions(out=tmp_path / "out", backend="ray", address=address))
+    assert str(caught.value).startswith(f"--address {address}: nothing answers there (Connection refused)")
+    assert not (tmp_path / "out" / "trials.jsonl").exists() or not read_trials(tmp_path / "out" / "trials.jsonl")
 
 
 # ----------------------------------------------------------------------------------------------- resuming

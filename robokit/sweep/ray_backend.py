@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import logging
 import os
+import socket
 import time
 from collections import deque
 from collections.abc import Iterator, Sequence
@@ -47,6 +48,20 @@ def connect_error(address: str | None) -> str:
     return f"{where}: cannot connect to a Ray cluster there (none answered, or it refused this driver): {hint}"
 
 
+def _probe(address: str | None) -> None:
+    """Fail at once when nothing listens at a ``HOST:PORT`` address: Ray retries such an address without end (a
+    mistyped port hung the sweep). ``auto``, ``ray://`` and other forms are left to Ray."""
+    host, _, port = (address or "").rpartition(":")
+    if not host or not port.isdigit() or "/" in host:
+        return
+    try:
+        with socket.create_connection((host.strip("[]"), int(port)), timeout=10):
+            pass
+    except OSError as exc:
+        raise UserError(f"--address {address}: nothing answers there ({exc.strerror or exc}); is the cluster "
+                        "running (ray status on its head) and is that its port?") from None
+
+
 class RayBackend:
     """Runs trials as Ray tasks.
 
@@ -69,6 +84,7 @@ class RayBackend:
         self.ray = ray
         if ray.is_initialized():
             return False
+        _probe(self.address)
         try:
             ray.init(address=self.address, log_to_driver=False, logging_level=logging.ERROR, include_dashboard=False)
         except (ConnectionError, getattr(ray.exceptions, "AuthenticationError", ConnectionError)):  # older Rays: none
