@@ -14,10 +14,15 @@ MAX_FILES = 20
 
 
 def find_artifacts(run_dir: str | Path, config: Any = None) -> list[tuple[str, Path]]:
-    """``(upload name, path)`` of the files worth uploading from a run folder (two levels deep), plus the
-    run's config file when ``config`` names a TOML file that exists (uploaded as ``config.toml``)."""
+    """``(upload name, path)`` of the files worth uploading from a run folder (two levels deep), the video
+    ``robokit video`` / ``robokit run --video FILE`` last made of the run wherever it was written (the run
+    folder's ``video.json`` names it), plus the run's config file when ``config`` names a TOML file that exists
+    (uploaded as ``config.toml``)."""
     folder = Path(run_dir)
     found: dict[str, Path] = {}
+    video = _noted_video(folder)
+    if video is not None:
+        found[video.name] = video
     if folder.is_dir():
         for path in sorted(folder.glob("*")) + sorted(folder.glob("*/*")):
             if path.is_file() and path.suffix.lower() in SUFFIXES and path.name not in found:
@@ -25,6 +30,18 @@ def find_artifacts(run_dir: str | Path, config: Any = None) -> list[tuple[str, P
     if isinstance(config, str) and config.endswith(".toml") and Path(config).is_file():
         found.setdefault("config.toml", Path(config))
     return list(found.items())[:MAX_FILES]
+
+
+def _noted_video(folder: Path) -> Path | None:
+    """The MP4 the run folder's ``video.json`` names, when it still exists."""
+    import json
+
+    try:
+        note = json.loads((folder / "video.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    path = Path(str(note.get("path", ""))) if isinstance(note, dict) else None
+    return path if path is not None and path.suffix.lower() == ".mp4" and path.is_file() else None
 
 
 def artifacts_url(results_url: str, run_id: str) -> str:
