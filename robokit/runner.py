@@ -144,7 +144,8 @@ def run_config(
     and :attr:`RunOutput.exit_code` is 130 (SIGINT) or 143 (SIGTERM).
     With ``before_send(out)`` (``robokit run --video``), the pose log is written right after the local delivery and
     ``before_send`` runs then, before the reporters that send the result away: what it adds to the run folder (a
-    video) goes with the result. A signal there ends ``before_send`` only, and an exception it raises is kept in
+    video) goes with the result (a sender that uploads the record, ``upload_artifacts``, also has the pose log
+    written first). A signal there ends ``before_send`` only, and an exception it raises is kept in
     :attr:`RunOutput.before_send_error`: the result is sent (or kept in the outbox) all the same.
     """
     run_seed = cfg.world.seed if seed is None else seed
@@ -179,7 +180,7 @@ def run_config(
             error = sim.error
         out, senders = _keep(cfg, plugins, result, guard, report=report, error=error)
         out.record_failures += failures
-        if before_send is not None and sim is not None:
+        if sim is not None and (before_send is not None or any(r.uploads_record for r in senders)):
             _before_send(recorder, out, guard, before_send)
             recorder = None  # its pose log is written
         with guard.immediate():  # a signal keeps the result in the senders' outbox
@@ -268,13 +269,15 @@ def _keep(cfg: Config, plugins: Plugins, result: RunResult, guard: StopGuard, *,
     return RunOutput(result, payload, deliveries, error=error), senders
 
 
-def _before_send(recorder: Any, out: RunOutput, guard: StopGuard, before_send: Callable[[RunOutput], None]) -> None:
-    """Write the pose log now, then ``before_send(out)``; a signal breaks into it and is told, nothing more."""
+def _before_send(recorder: Any, out: RunOutput, guard: StopGuard,
+                 before_send: Callable[[RunOutput], None] | None) -> None:
+    """Write the pose log now (a sender uploads the record, or ``before_send`` needs it), then ``before_send(out)``;
+    a signal breaks into it and is told, nothing more."""
     try:
         with guard.deferred():
             if recorder is not None:
                 out.record_failures += recorder.write_poses()
-        if not guard.signalled:
+        if before_send is not None and not guard.signalled:
             with guard.immediate():
                 before_send(out)
     except Exception as exc:  # noqa: BLE001 - told by the caller after the result is sent

@@ -206,7 +206,8 @@ def _page_urls(course: Course, run_id: str, artifact_pk: int) -> dict[str, str]:
         "leaderboard": f"/classes/{room}/projects/{project.pk}/", "history": f"/classes/{room}/students/"
         f"{course.kim.pk}/", "export-csv": f"/classes/{room}/results.csv", "run": f"/runs/{run_id}/",
         "artifact": f"/artifacts/{artifact_pk}/xy.png", "me": "/me/", "me-logout": "/me/logout/",
-        "api-result": API, "api-artifacts": f"{API}{run_id}/artifacts/", **_course_work_urls(course),
+        "api-result": API, "api-artifacts": f"{API}{run_id}/artifacts/", "replay-viewer": "/replay/viewer.js",
+        "replay-script": "/replay/replay.js", **_course_work_urls(course),
     }
 
 
