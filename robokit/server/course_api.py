@@ -5,8 +5,9 @@
 robokit's validation refuses; 403 before the assignment opens or after it is due when late work is refused.
 
 ``POST /api/robotics/training/`` ``{"name": "...", "run_id": "...", "log": "<JSON lines>"}`` with the token: a
-training run (``robokit.gym``'s log: one object per line with ``steps`` and any of ``episodes``, ``return``,
-``success_rate``), plotted on the student's page. 201, or 200 for a ``run_id`` already stored.
+training run (one object per line with ``steps`` and any of ``episodes``, ``return``, ``success_rate``; or
+``python -m robokit.gym.train``'s ``progress.jsonl`` as it is: ``env_steps``, ``return_mean``, its ``summary`` line
+skipped), plotted on the student's page. 201, or 200 for a ``run_id`` already stored.
 """
 
 from __future__ import annotations
@@ -146,12 +147,14 @@ def training_points(log: Any) -> list[dict[str, float]]:
             raise PayloadError(f"log[{i}]", "not a JSON object") from None
         if not isinstance(rec, dict):
             raise PayloadError(f"log[{i}]", "not a JSON object")
-        steps = rec.get("steps")
+        if "summary" in rec and "steps" not in rec and "env_steps" not in rec:
+            continue  # python -m robokit.gym.train's last line: the evaluation, not a point of the curve
+        steps = rec.get("steps", rec.get("env_steps"))
         if not isinstance(steps, int) or isinstance(steps, bool) or steps < 0:
             raise PayloadError(f"log[{i}].steps", "expected a whole number >= 0")
         point: dict[str, float] = {"steps": steps}
-        for key in ("episodes", "return", "success_rate"):
-            value = rec.get(key)
+        for key, alias in (("episodes", "episodes"), ("return", "return_mean"), ("success_rate", "success_rate")):
+            value = rec.get(key, rec.get(alias))
             if value is None:
                 continue
             if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
