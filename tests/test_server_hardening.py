@@ -224,6 +224,7 @@ def _course_work_urls(course: Course) -> dict[str, str]:
         "assignment": f"/classes/{room}/assignments/{a.pk}/", "assignment-chart":
         f"/classes/{room}/assignments/{a.pk}/reasons.svg", "dashboard": f"/classes/{room}/students/{kim}/dashboard/",
         "student-chart": f"/classes/{room}/students/{kim}/weekly.svg", "grades-csv": f"/classes/{room}/grades.csv",
+        "grades-xlsx": f"/classes/{room}/grades.xlsx",
         "moderate": f"/classes/{room}/moderate/", "moderation": f"/classes/{room}/moderation/",
         "submission": f"/submissions/{sub.pk}/", "api-submit": f"/api/robotics/assignments/{a.name}/submissions/",
         "api-submission": f"/api/robotics/submissions/{sub.pk}/", "api-training": "/api/robotics/training/",

@@ -4,7 +4,7 @@ from django.contrib import admin
 from django.contrib.auth import views as auth_views
 from django.urls import path
 
-from robokit.server import api, course_api, course_pages, pages, replay_page
+from robokit.server import api, course_api, course_pages, grades, pages, replay_page
 
 urlpatterns = [
     path("api/robotics/result/", api.post_result, name="api-result"),
@@ -26,5 +26,6 @@ urlpatterns = [
     path("me/", pages.me, name="me"),
     path("me/logout/", pages.me_logout, name="me-logout"),
     *course_pages.urlpatterns,
+    *grades.urlpatterns,
     path("admin/", admin.site.urls),
 ]
