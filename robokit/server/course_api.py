@@ -2,7 +2,9 @@
 
 ``POST /api/robotics/assignments/<name>/submissions/`` ``{"config": "<TOML text>"}`` with the student's token:
 201 with the submission (queued for official evaluation); 400 naming the key a config may not change or that
-robokit's validation refuses; 403 before the assignment opens or after it is due when late work is refused.
+robokit's validation refuses; 403 before the assignment opens or after it is due when late work is refused. With
+``"plugin_files": {"path.py": "source", ...}`` (the assignment must allow it, else 403): the student's own plugin
+package, checked by :mod:`robokit.server.plugin_upload` and imported only in the evaluation's sandbox.
 
 ``POST /api/robotics/training/`` ``{"name": "...", "run_id": "...", "log": "<JSON lines>"}`` with the token: a
 training run (one object per line with ``steps`` and any of ``episodes``, ``return``, ``success_rate``; or
@@ -29,6 +31,8 @@ from robokit.server.api import NO_TOKEN, _token, _unauthorized, error
 from robokit.server.assignments import Assignment, Submission, TrainingRun
 from robokit.server.models import Token
 from robokit.server.payload import RUN_ID, PayloadError, parse
+from robokit.server.plugin_upload import MAX_BYTES as MAX_PLUGIN_BYTES
+from robokit.server.plugin_upload import check_plugin_files
 from robokit.server.submitted import SubmissionError, check_submission
 
 MAX_TRAINING_POINTS = 20_000
@@ -76,11 +80,16 @@ def submit(request: HttpRequest, name: str) -> JsonResponse:
         return error(404, "assignment", f"no assignment {name!r} in class {token.classroom.name!r} "
                      f"(assignments: {known})")
     try:
-        text = _body(request, settings.MAX_CONFIG_BYTES + 4096).get("config")
+        body = _body(request, settings.MAX_CONFIG_BYTES + MAX_PLUGIN_BYTES + 8192)
+        text = body.get("config")
         if not isinstance(text, str) or not text.strip():
             raise PayloadError("config", "expected the config file's text (a string)")
     except PayloadError as exc:
         return error(413 if "limit" in exc.message else 400, exc.field, exc.message)
+    plugin_files = body.get("plugin_files")
+    if plugin_files and not assignment.allow_plugins:
+        return error(403, "plugin", f"{assignment.name!r} does not accept plugin packages: submit the config alone "
+                     "(your teacher decides whether an assignment takes students' own plugins)")
     now = timezone.now()
     if assignment.opens_at is not None and now < assignment.opens_at:
         return error(403, "opens_at", f"{assignment.name!r} opens at {assignment.opens_at.isoformat()}")
@@ -89,13 +98,15 @@ def submit(request: HttpRequest, name: str) -> JsonResponse:
         return error(403, "due_at", f"{assignment.name!r} was due at {assignment.due_at.isoformat()}; "
                      f"late submissions are refused")
     try:
-        check_submission(assignment, text)
+        modules = check_plugin_files(plugin_files) if plugin_files else []
+        check_submission(assignment, text, validate=not modules)  # types of the student's plugin: in the sandbox
     except SubmissionError as exc:
         return error(400, exc.field, exc.message)
     from robokit.server.evaluation import create_submission
 
     Token.objects.filter(pk=token.pk).update(last_used_at=now)
-    sub = create_submission(assignment=assignment, student=token.student, config_text=text, late=late)
+    sub = create_submission(assignment=assignment, student=token.student, config_text=text, late=late,
+                            plugin_files=plugin_files or {}, plugin_modules=modules)
     return JsonResponse(sub.to_dict(), status=201, json_dumps_params={"ensure_ascii": False})
 
 
