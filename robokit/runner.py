@@ -180,7 +180,7 @@ def run_config(
             error = sim.error
         out, senders = _keep(cfg, plugins, result, guard, report=report, error=error)
         out.record_failures += failures
-        if sim is not None and (before_send is not None or any(r.uploads_record for r in senders)):
+        if sim is not None and (before_send is not None or any(getattr(r, "uploads_record", False) for r in senders)):
             _before_send(recorder, out, guard, before_send)
             recorder = None  # its pose log is written
         with guard.immediate():  # a signal keeps the result in the senders' outbox

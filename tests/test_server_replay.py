@@ -89,6 +89,26 @@ def test_the_server_keeps_a_replay_and_its_run_page_loads_it(client: Any, course
     assert script.startswith(b"// robokit's replay")
 
 
+@pytest.mark.django_db
+def test_a_run_that_uploads_its_files_sends_its_replay(live_server: Any, course: Course, settings: Any,
+                                                       tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The pose log is written before the result is sent when the reporter uploads the record, so the upload right
+    after the result carries the replay (it used to be written after delivery)."""
+    from robokit.server.models import Artifact
+
+    settings.MEDIA_ROOT = tmp_path / "media"
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("ROBOKIT_TOKEN", course.kim_token)
+    (tmp_path / "scene.toml").write_text(SCENE, encoding="utf-8")
+    assert main(["run", "scene.toml", "--quiet", "--report-url", live_server.url + "/api/robotics/result/",
+                 "--set", "report.http.upload_artifacts=true", "--project", "A"]) == 0
+    rec = find_run("last", tmp_path / "results")
+    stored = {a.name: a for a in Artifact.objects.filter(result__run_id=rec.run_id)}
+    assert {"replay.json", "trace.jsonl"} <= set(stored)
+    kept = Path(settings.MEDIA_ROOT) / stored["replay.json"].path
+    assert kept.read_bytes() == (rec.folder / "replay.json").read_bytes()
+
+
 def _driver(tmp_path: Path) -> Any:
     from selenium import webdriver
     from selenium.webdriver.chrome.service import Service
