@@ -273,3 +273,39 @@ def test_world_draws_apply_over_what_plugins_set() -> None:
         assert sim.world.client.getDynamicsInfo(sim.world.body("panda"), finger)[1] == pytest.approx(0.6)
     finally:
         sim.close()
+
+
+def test_the_video_of_a_randomised_run_shows_the_drawn_colours_and_light(tmp_path: Path,
+                                                                         monkeypatch: pytest.MonkeyPatch) -> None:
+    """The video is drawn from the record, not from the run's cameras: its rebuilt bodies take the colours and the
+    light ``[randomize]`` drew (from the record's ``randomize``/``drawn`` event), not the config's nominal ones."""
+    from robokit.cli import main
+    from robokit.record.format import find_run
+    from robokit.record.scene import View, rebuild
+    from robokit.record.video import Renderer
+
+    monkeypatch.chdir(tmp_path)
+    text = SCENE_TOML.replace("max_time = 0.5", "max_time = 0.1") + (
+        "\n[randomize]\ncolour_hue_deg = 30\ncolour_value = 0.3\nlight_azimuth_deg = [0, 360]\n"
+        "light_elevation_deg = [10, 30]\n")
+    (tmp_path / "scene.toml").write_text(text)
+    assert main(["run", "scene.toml", "--quiet", "--seed", "2"]) == 0
+    rec = find_run("last")
+    drawn = rec.result["result"]["randomize"]
+    with rebuild(rec) as rebuilt:
+        for name in ("cube_0", "cube_1", "cube_2"):
+            rgba = drawn["bodies"][name]["rgba"]
+            assert rgba != [0.9, 0.1, 0.1, 1.0]
+            shown = rebuilt.world.client.getVisualShapeData(rebuilt.world.body(name))[0][7]
+            assert shown == pytest.approx(rgba)
+        assert rebuilt.light_direction == pytest.approx(drawn["light_direction"])
+        rebuilt.set_frame(0)
+        x, y, _ = rebuilt.world.pose("cube_0")[0]
+        renderer = Renderer(rebuilt, View(eye=(x, y, 0.6), target=(x, y, 0.0), up=(1.0, 0.0, 0.0), fov=8), (16, 16))
+        centre = renderer.render()[8, 8].astype(float) / 255  # the cube fills the middle of this narrow view
+    lit_nominal = np.array([0.9, 0.1, 0.1])
+    lit_drawn = np.array(drawn["bodies"]["cube_0"]["rgba"][:3])
+    hue = np.argmax(centre)
+    assert hue == np.argmax(lit_drawn)  # the drawn colour's dominant channel, shaded by the drawn light
+    assert np.abs(centre / centre.max() - lit_drawn / lit_drawn.max()).sum() < \
+        np.abs(centre / centre.max() - lit_nominal / lit_nominal.max()).sum()

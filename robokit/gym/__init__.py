@@ -49,7 +49,8 @@ def make(config: str | Path | dict[str, Any], *, render_mode: str | None = None,
 
     Args:
         config: Path to a TOML config, or a dict as TOML parses it.
-        render_mode: ``"rgb_array"`` to have ``render()`` return the ``[env] render_camera``'s RGB frame.
+        render_mode: ``"rgb_array"`` to have ``render()`` return the ``[env] render_camera``'s RGB frame;
+            ``"human"`` to watch the episodes in PyBullet's GUI window, paced to wall-clock time.
         goal_env: True for panda-gym's goal dict observation and a sparse reward unless the config names one
             (``[env] goal_env``; None keeps the config's).
         overrides: Dotted config keys with ``__`` for dots, e.g. ``env__task__reward="sparse"``,

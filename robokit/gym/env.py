@@ -71,11 +71,13 @@ class RobokitEnv(gym.Env):  # type: ignore[type-arg]
 
     Args:
         config: Path to a TOML config (or a dict as TOML parses it).
-        render_mode: ``"rgb_array"`` (the ``[env] render_camera`` sensor's RGB frame) or None.
+        render_mode: ``"rgb_array"`` (``render()`` returns the ``[env] render_camera`` sensor's RGB frame),
+            ``"human"`` (the episode runs in PyBullet's GUI window, paced to wall-clock time unless
+            ``[world] realtime = false``; ``render()`` returns None, as Gymnasium's human mode does) or None.
         overrides: Dotted keys set before validation, e.g. ``{"env.task.reward": "sparse"}``.
     """
 
-    metadata = {"render_modes": ["rgb_array"], "render_fps": 25}
+    metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 25}
     sim: Simulation | None = None
     _episode_rng: np.random.Generator | None = None
 
@@ -88,7 +90,7 @@ class RobokitEnv(gym.Env):  # type: ignore[type-arg]
         self.cfg, self.env_spec, self.plugins = load_env_config(config, overrides, plugins)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}")
-        if render_mode is not None and self.env_spec.render_camera is None:
+        if render_mode == "rgb_array" and self.env_spec.render_camera is None:
             raise ConfigError("render_mode='rgb_array' needs [env] render_camera = a camera sensor's name",
                               key="env.render_camera", file=self.cfg.source)
         self.render_mode = render_mode
@@ -120,7 +122,8 @@ class RobokitEnv(gym.Env):  # type: ignore[type-arg]
     def _build(self, randomize_rng: np.random.Generator | None = None) -> None:
         if self.sim is not None:
             self.sim.close()
-        self.sim = Simulation(self.cfg, self.plugins, randomize_rng=randomize_rng)
+        self.sim = Simulation(self.cfg, self.plugins, randomize_rng=randomize_rng,
+                              gui=True if self.render_mode == "human" else None)
         self.world = self.sim.world
         spec = self.env_spec
         self.repeat = spec.action_repeat(self.world.physics_hz)
@@ -164,6 +167,11 @@ class RobokitEnv(gym.Env):  # type: ignore[type-arg]
         return out
 
     @property
+    def _paced(self) -> bool:
+        """Human mode with ``[world] realtime`` on: each step waits until wall-clock time catches up with sim time."""
+        return self.render_mode == "human" and self.cfg.world.realtime
+
+    @property
     def _sim(self) -> Simulation:
         assert self.sim is not None, "the environment is closed"
         return self.sim
@@ -190,6 +198,8 @@ class RobokitEnv(gym.Env):  # type: ignore[type-arg]
             self._build(rng)
         self.task.reset(self.np_random)
         self.episode_ticks = 0
+        if self._paced:
+            self._sim.scheduler.start_pacing()  # type: ignore[union-attr]
         info = self._info()
         if self._sim.randomizer is not None:
             info["randomize"] = self._sim.randomizer.drawn
@@ -222,6 +232,8 @@ class RobokitEnv(gym.Env):  # type: ignore[type-arg]
         for _ in range(self.repeat):
             tick()
         self.episode_ticks += self.repeat
+        if self._paced:
+            self.sim.scheduler.pace()  # type: ignore[union-attr]
         task = self.task
         reward = float(task.reward())
         failure = task.failure()
@@ -239,8 +251,9 @@ class RobokitEnv(gym.Env):  # type: ignore[type-arg]
         return self.task.compute_reward(np.asarray(achieved_goal), np.asarray(desired_goal), info)
 
     def render(self) -> np.ndarray | None:  # type: ignore[override]
-        """The render camera's RGB frame (``H x W x 3`` uint8), or None without ``render_mode``."""
-        if self.render_mode is None or self.sim is None:
+        """The render camera's RGB frame (``H x W x 3`` uint8) in ``rgb_array`` mode; None otherwise (in ``human``
+        mode the GUI window shows the episode as it runs)."""
+        if self.render_mode != "rgb_array" or self.sim is None:
             return None
         frame = self.sim.readings[self.env_spec.render_camera]  # type: ignore[index]
         return np.asarray(frame.rgb, dtype=np.uint8)

@@ -30,6 +30,8 @@ class Scene:
     joints: dict[str, list[int]]
     lowered: dict[str, float] = field(default_factory=dict)
     """Ground planes drawn this much lower (m) than recorded: see :func:`floor_drops`."""
+    light_direction: list[float] | None = None
+    """The light every camera of the run used when ``[randomize]`` drew one (None: the renderer's default)."""
 
     def set_frame(self, i: int) -> None:
         """Put every body in the pose of pose-log sample ``i``."""
@@ -86,10 +88,24 @@ def rebuild(rec: RunRecord) -> Scene:
         for name, info in header["bodies"].items():
             joints[name] = [world.joint(name, j).index for j in info["joints"]]
         lowered = floor_drops(world)
+        light = apply_drawn_looks(world, rec)
     except Exception:
         world.close()
         raise
-    return Scene(world, rec, joints, lowered)
+    return Scene(world, rec, joints, lowered, light)
+
+
+def apply_drawn_looks(world: Any, rec: RunRecord) -> list[float] | None:
+    """Give the rebuilt bodies the colours ``[randomize]`` drew for the run (the record's ``randomize``/``drawn``
+    event), so its video shows what its cameras saw; returns the drawn light direction, if any."""
+    drawn = next((e for e in rec.events if e.get("source") == "randomize" and e.get("kind") == "drawn"), None)
+    if drawn is None:
+        return None
+    for name, entry in drawn.get("bodies", {}).items():
+        if "rgba" in entry and world.has_body(name):
+            world.client.changeVisualShape(world.body(name), -1, rgbaColor=entry["rgba"])
+    light = drawn.get("light_direction")
+    return None if light is None else [float(v) for v in light]
 
 
 def floor_drops(world: Any) -> dict[str, float]:

@@ -69,9 +69,10 @@ class Renderer:
         import pybullet as p
 
         w, h = self.size
+        light = {} if self.scene.light_direction is None else {"lightDirection": self.scene.light_direction}
         _, _, rgba, _, _ = self.scene.world.client.getCameraImage(
             w, h, viewMatrix=self.view_matrix, projectionMatrix=self.projection, renderer=p.ER_TINY_RENDERER,
-            flags=p.ER_NO_SEGMENTATION_MASK, shadow=0)
+            flags=p.ER_NO_SEGMENTATION_MASK, shadow=0, **light)
         return np.asarray(rgba, dtype=np.uint8).reshape(h, w, 4)[:, :, :3].copy()
 
     def project(self, point: tuple[float, float, float]) -> tuple[float, float]:
