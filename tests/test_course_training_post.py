@@ -92,6 +92,13 @@ def test_a_training_log_posted_by_the_student_is_plotted_on_their_dashboard(
     assert np.argsort(ys).tolist() == np.argsort(means)[::-1].tolist() or len(set(means)) < 4
     assert len(_vertices(svg, "success-0")) == 4
 
+    client.logout()  # the student, on their own page
+    assert client.get("/me/training.svg").status_code == 404  # not before the token opened the session
+    assert client.post("/me/", {"token": course.kim_token}).status_code == 302
+    mine = client.get("/me/").content.decode()
+    assert "My training runs" in mine and "reach-random-s0: 4 points" in mine and 'id="my-training"' in mine
+    assert len(_vertices(client.get("/me/training.svg").content, "return-0")) == 4
+
 
 def test_a_bad_url_or_a_missing_token_stops_train_before_it_trains(monkeypatch: pytest.MonkeyPatch,
                                                                     capsys: pytest.CaptureFixture[str],

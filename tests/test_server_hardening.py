@@ -207,7 +207,7 @@ def _page_urls(course: Course, run_id: str, artifact_pk: int) -> dict[str, str]:
         f"{course.kim.pk}/", "export-csv": f"/classes/{room}/results.csv", "run": f"/runs/{run_id}/",
         "artifact": f"/artifacts/{artifact_pk}/xy.png", "me": "/me/", "me-logout": "/me/logout/",
         "api-result": API, "api-artifacts": f"{API}{run_id}/artifacts/", "replay-viewer": "/replay/viewer.js",
-        "replay-script": "/replay/replay.js", **_course_work_urls(course),
+        "replay-script": "/replay/replay.js", "my-training-chart": "/me/training.svg", **_course_work_urls(course),
     }
 
 

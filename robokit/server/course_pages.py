@@ -18,7 +18,7 @@ from django.views.decorators.http import require_POST
 from robokit.server import charts
 from robokit.server.assignments import Assignment, ModerationEvent, Submission, TrainingRun
 from robokit.server.models import Result, Student
-from robokit.server.pages import _teacher_class
+from robokit.server.pages import _teacher_class, session_student
 
 NUMBER = re.compile(r"-?\d+(\.\d+)?")
 
@@ -157,9 +157,22 @@ def student_chart(request: HttpRequest, pk: int, spk: int, kind: str) -> HttpRes
                                            [w["rate"] for w in rows], [w["runs"] for w in rows],
                                            [w["official"] for w in rows]))
     if kind == "training":
-        train = [(t.name or t.run_id[:8], t.points) for t in TrainingRun.objects.filter(student=s)[:8]]
-        return _svg_response(charts.training(f"{s.name}: 학습 곡선 training", train))
+        return training_chart(s)
     raise Http404("no such chart")
+
+
+def training_chart(s: Student) -> HttpResponse:
+    """The student's last eight training runs: return and success rate over env steps."""
+    train = [(t.name or t.run_id[:8], t.points) for t in TrainingRun.objects.filter(student=s)[:8]]
+    return _svg_response(charts.training(f"{s.name}: 학습 곡선 training", train))
+
+
+def my_training_chart(request: HttpRequest) -> HttpResponse:
+    """``/me/training.svg``: the same chart for the student whose token opened the session."""
+    student = session_student(request)
+    if student is None:
+        raise Http404("open /me/ with your token first")
+    return training_chart(student)
 
 
 @login_required
@@ -215,4 +228,5 @@ urlpatterns = [
     path("classes/<int:pk>/moderate/", moderate, name="moderate"),
     path("classes/<int:pk>/moderation/", moderation_log, name="moderation"),
     path("submissions/<int:pk>/", submission_page, name="submission"),
+    path("me/training.svg", my_training_chart, name="my-training-chart"),
 ]

@@ -312,7 +312,8 @@ def me(request: HttpRequest) -> HttpResponse:
     runs = (Result.objects.filter(student=student, verified=True, official=False)
             .select_related("project"))
     subs = student.submissions.select_related("assignment")[:100]
-    return render(request, "course/me.html", {"student": student, "runs": _history(runs), "subs": subs})
+    return render(request, "course/me.html", {"student": student, "runs": _history(runs), "subs": subs,
+                                              "training": list(student.training_runs.all()[:20])})
 
 
 @require_http_methods(["POST"])
