@@ -128,14 +128,9 @@
     const r = Math.max(size.length() / 2, 0.3) * 1.1;
     // MeshCat's orbit controls turn about the world's origin: the scene is shifted to put its middle there. The
     // camera sits in a y-up frame ("rotated"): world (x, y, z) is (x, z, -y) there. The same view as the video's
-    // default ("iso"): from yaw 45 degrees, 30 degrees above, far enough for the scene's bounding sphere to fit
-    // the narrower of the camera's two angles of view.
-    const middle = root.parent.worldToLocal(centre.clone()); // the box is in world axes, the shift in the parent's
-    root.position.set(-middle.x, -middle.y, -middle.z);
-    const cam = viewer.camera;
-    const half = Math.min(cam.fov * Math.PI / 360, Math.atan(Math.tan(cam.fov * Math.PI / 360) * cam.aspect));
-    const away = r / Math.sin(half) / Math.hypot(0.61, 0.61, 0.5);
-    const eye = [-0.61 * away, 0.61 * away, 0.5 * away];
+    // default ("iso"): from yaw 45 degrees, 30 degrees above.
+    root.position.set(-centre.x, -centre.y, -centre.z);
+    const eye = [-0.61 * r, 0.61 * r, 0.5 * r];
     viewer.set_property(["Cameras", "default", "rotated", "<object>"], "position", [eye[0], eye[2], -eye[1]]);
   }
 
