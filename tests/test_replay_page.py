@@ -9,6 +9,7 @@ import shutil
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -53,6 +54,29 @@ def arm_points(rec_folder: Path, sample: int) -> list[list[float]]:
         p.disconnect(client)
 
 
+def chromium() -> Any:
+    """Headless Chromium drawing WebGL with SwiftShader, 1280 x 1000 CSS pixels at scale 1."""
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+
+    opts = webdriver.ChromeOptions()
+    opts.binary_location = shutil.which("chromium") or "/usr/bin/chromium"
+    for arg in ("--headless=new", "--no-sandbox", "--enable-unsafe-swiftshader", "--use-angle=swiftshader",
+                "--disable-background-networking", "--window-size=1280,1000", "--force-device-scale-factor=1"):
+        opts.add_argument(arg)
+    return webdriver.Chrome(service=Service(shutil.which("chromedriver") or "/usr/bin/chromedriver"), options=opts)
+
+
+def screenshot(driver: Any) -> np.ndarray:
+    """The page as an RGB array, drawn again first."""
+    import cv2
+
+    driver.execute_script("rkReplay.viewer.render();")
+    decoded = cv2.imdecode(np.frombuffer(driver.get_screenshot_as_png(), np.uint8), cv2.IMREAD_COLOR)
+    assert decoded is not None
+    return cv2.cvtColor(decoded, cv2.COLOR_BGR2RGB)
+
+
 def colour_mask(shot: np.ndarray, colour: str) -> np.ndarray:
     r, g, b = (shot[:, :, k].astype(int) for k in range(3))
     if colour == "red":
@@ -63,8 +87,6 @@ def colour_mask(shot: np.ndarray, colour: str) -> np.ndarray:
 @pytest.mark.slow
 def test_the_replay_draws_the_arm_the_cubes_in_their_bins_and_follows_state_clicks(sort_page: Path) -> None:
     import cv2
-    from selenium import webdriver
-    from selenium.webdriver.chrome.service import Service
     from selenium.webdriver.common.by import By
     from selenium.webdriver.support.ui import WebDriverWait
 
@@ -72,12 +94,7 @@ def test_the_replay_draws_the_arm_the_cubes_in_their_bins_and_follows_state_clic
     assert page.stat().st_size <= 5 * MB  # video, plots, diagrams and the replay with the Panda's meshes
     rec = find_run("last", sort_page / "results")
     poses = np.load(rec.folder / "poses.npz")
-    opts = webdriver.ChromeOptions()
-    opts.binary_location = shutil.which("chromium") or "/usr/bin/chromium"
-    for arg in ("--headless=new", "--no-sandbox", "--enable-unsafe-swiftshader", "--use-angle=swiftshader",
-                "--disable-background-networking", "--window-size=1280,1000", "--force-device-scale-factor=1"):
-        opts.add_argument(arg)
-    driver = webdriver.Chrome(service=Service(shutil.which("chromedriver") or "/usr/bin/chromedriver"), options=opts)
+    driver = chromium()
     shot_path = sort_page / "replay.png"
     try:
         driver.get(page.as_uri())
@@ -86,11 +103,7 @@ def test_the_replay_draws_the_arm_the_cubes_in_their_bins_and_follows_state_clic
         driver.execute_script("arguments[0].scrollIntoView(); window.scrollBy(0, -10);", pane)
 
         def shot() -> np.ndarray:
-            driver.execute_script("rkReplay.viewer.render();")
-            png = driver.get_screenshot_as_png()
-            decoded = cv2.imdecode(np.frombuffer(png, np.uint8), cv2.IMREAD_COLOR)
-            assert decoded is not None
-            return cv2.cvtColor(decoded, cv2.COLOR_BGR2RGB)
+            return screenshot(driver)
 
         def project(point: list[float]) -> tuple[int, int]:
             x, y = driver.execute_script("return rkReplay.project(...arguments)", *[float(v) for v in point])
@@ -151,3 +164,83 @@ def test_the_replay_draws_the_arm_the_cubes_in_their_bins_and_follows_state_clic
     finally:
         driver.quit()
     assert shot_path.stat().st_size > 10_000  # the artifact: the replay at the end of the run
+
+
+TALL = """
+[world]
+max_time = 0.5
+seed = 4
+
+[bodies.plane]
+urdf = "plane.urdf"
+position = [0, 0, 0]
+
+[robots.kuka]
+urdf = "kuka_iiwa/model.urdf"
+position = [0, 0, 0]
+fixed_base = true
+"""
+"""A 1.3 m arm alone on the floor: nothing else widens the scene's box."""
+
+
+def kuka_box(rec_folder: Path) -> tuple[np.ndarray, np.ndarray]:
+    """The KUKA's world bounding box (all links) at the first pose sample, from pybullet itself."""
+    import pybullet as p
+    import pybullet_data
+
+    poses = np.load(rec_folder / "poses.npz")
+    header = json.loads((rec_folder / "trace.jsonl").read_text().splitlines()[0])
+    client = p.connect(p.DIRECT)
+    try:
+        p.setAdditionalSearchPath(pybullet_data.getDataPath(), physicsClientId=client)
+        arm = p.loadURDF("kuka_iiwa/model.urdf", [0, 0, 0], useFixedBase=True, physicsClientId=client)
+        names = {p.getJointInfo(arm, j, physicsClientId=client)[1].decode(): j
+                 for j in range(p.getNumJoints(arm, physicsClientId=client))}
+        for name, q in zip(header["bodies"]["kuka"]["joints"], poses["joints/kuka"][0], strict=True):
+            p.resetJointState(arm, names[name], float(q), physicsClientId=client)
+        links = range(-1, p.getNumJoints(arm, physicsClientId=client))
+        boxes = [p.getAABB(arm, j, physicsClientId=client) for j in links]
+        return np.min([b[0] for b in boxes], axis=0), np.max([b[1] for b in boxes], axis=0)
+    finally:
+        p.disconnect(client)
+
+
+@pytest.mark.slow
+def test_the_default_view_shows_a_tall_robot_from_its_base_to_its_top(tmp_path: Path) -> None:
+    from selenium.webdriver.common.by import By
+    from selenium.webdriver.support.ui import WebDriverWait
+
+    (tmp_path / "tall.toml").write_text(TALL, encoding="utf-8")
+    for args in (("run", "tall.toml", "--quiet"), ("view", "last", "-o", "tall.html")):
+        proc = subprocess.run([sys.executable, "-m", "robokit.cli", *args], capture_output=True, text=True,
+                              cwd=tmp_path, timeout=300)
+        assert proc.returncode == 0, proc.stderr
+    lo, hi = kuka_box(find_run("last", tmp_path / "results").folder)
+    assert hi[2] - lo[2] > 1.2  # the arm stands upright: a tall scene
+    driver = chromium()
+    try:
+        driver.get((tmp_path / "tall.html").as_uri())
+        WebDriverWait(driver, 30).until(lambda d: d.execute_script("return !!window.rkReplay"))
+        pane = driver.find_element(By.ID, "rk-pane")
+        driver.execute_script("arguments[0].scrollIntoView(); window.scrollBy(0, -10);", pane)
+        rect = driver.execute_script("return rkReplay.viewer.renderer.domElement.getBoundingClientRect()")
+        corners = [driver.execute_script("return rkReplay.project(...arguments)", float(x), float(y), float(z))
+                   for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]
+        cols, rows = (np.array(v) for v in zip(*corners, strict=True))
+        left, top, right, bottom = cols.min(), rows.min(), cols.max(), rows.max()
+        # the arm's whole box is inside the canvas, and not a speck in it
+        assert rect["left"] <= left and right <= rect["left"] + rect["width"], (cols, rect)
+        assert rect["top"] <= top and bottom <= rect["top"] + rect["height"], (rows, rect)
+        assert bottom - top > rect["height"] / 3, (rows, rect)
+        with_arm = screenshot(driver)
+        driver.execute_script("rkReplay.viewer.scene.getObjectByName('robokit').children"
+                              ".filter(g => g.name.startsWith('kuka/')).forEach(g => { g.visible = false; });")
+        without = screenshot(driver)
+        drawn = np.abs(with_arm.astype(int) - without.astype(int)).sum(axis=2) > 60
+        r0, r1, c0, c1 = int(top), int(bottom) + 1, int(left), int(right) + 1
+        band = max(3, (r1 - r0) // 10)
+        assert drawn[r0:r0 + band, c0:c1].sum() > 20, "the arm's top is not drawn"
+        assert drawn[r1 - band:r1, c0:c1].sum() > 20, "the arm's base is not drawn"
+        assert drawn[:, :c0].sum() + drawn[:, c1:].sum() + drawn[:r0].sum() + drawn[r1:].sum() < 0.02 * drawn.sum()
+    finally:
+        driver.quit()
