@@ -25,16 +25,6 @@ from robokit.report.artifact_upload import find_artifacts, replay_file
 pytest_plugins = ["course_fixtures"]
 CHROMIUM, CHROMEDRIVER = "/usr/bin/chromium", "/usr/bin/chromedriver"
 PASSWORD = "media-teacher-pass"
-WIDE = SCENE + """
-[bodies.mat]
-shape = "box"
-size = [3.0, 3.0, 0.01]
-mass = 0
-position = [0, 0, -0.005]
-rgba = [0.55, 0.75, 0.55, 1]
-"""
-"""The arm scene on a 3 m mat: the replay's default view, which frames the scene's bounding box, then shows the
-whole arm (the 1.3 m arm alone on a plane is framed so close that its top is cut)."""
 
 
 @pytest.fixture(scope="module")
@@ -167,7 +157,7 @@ def test_the_served_run_page_draws_the_uploaded_replay(tmp_path: Path) -> None:
     data, token = _class_with_student(tmp_path)
     work = tmp_path / "student"
     work.mkdir()
-    (work / "scene.toml").write_text(WIDE, encoding="utf-8")
+    (work / "scene.toml").write_text(SCENE, encoding="utf-8")
     server = Server(data, free_port()).start()
     driver = None
     try:
