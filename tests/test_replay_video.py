@@ -75,3 +75,41 @@ def test_video_command_with_workers_writes_every_frame(record: Path, capsys: pyt
     assert meta["size"] == (96, 72) and sum(1 for _ in reader) == 37
     assert main(["video", "last", "--workers", "0"]) == 2
     assert "--workers must be at least 1, got 0" in capsys.readouterr().err
+
+
+class _SlowHelper:
+    """A pool whose helper finishes a chunk only after this process rendered ``lag`` chunks (a slow start-up),
+    then one chunk per chunk rendered here; results are what ``_worker_render`` would give: the frame numbers."""
+
+    def __init__(self, lag: int) -> None:
+        self.lag, self.own = lag, 0
+        self.handed: list[int] = []
+
+    def apply_async(self, fn: object, args: tuple[list[tuple[int, int]]]) -> object:
+        pool, position = self, len(self.handed)
+        self.handed.append(args[0][0][0])
+
+        class Result:
+            def ready(self) -> bool:
+                return pool.own >= pool.lag + position
+
+            def get(self) -> list[bytes]:
+                return [str(k).encode() for k, _ in args[0]]
+
+        return Result()
+
+    def render(self, job: list[tuple[int, int]]) -> list[bytes]:
+        self.own += 1
+        return [str(k).encode() for k, _ in job]
+
+
+def test_this_process_renders_chunks_while_the_helper_lags_and_the_frames_stay_in_order() -> None:
+    from robokit.record.video import _shared_chunks
+
+    jobs = [(k, k) for k in range(40)]
+    chunks = [jobs[a:a + 4] for a in range(0, 40, 4)]
+    pool = _SlowHelper(lag=2)
+    out = list(_shared_chunks(pool, chunks, pool.render, ahead=2))
+    assert out == [str(k).encode() for k in range(40)]
+    assert pool.own + len(pool.handed) == len(chunks) and abs(pool.own - len(pool.handed)) <= 1  # shared evenly
+    assert pool.handed[:2] == [0, 4]  # the helper got the first chunks; this process rendered while it started
