@@ -6,7 +6,8 @@
 2. **Video render rate**: frames per second of ``robokit video``'s renderer for the recorded run (rebuild the
    scene, set the poses, render each frame with TinyRenderer and draw the overlay; no encoding), at ``--size``,
    serial (one process) and parallel (``--workers``, default one per core), on the same run, side by side, with
-   wall time and CPU time (the parallel figure includes its workers' CPU and their start-up).
+   wall time and CPU time (the parallel figure includes its workers' CPU and their start-up); then, in CPU time,
+   the best speed-up two cores allow given the serial parts (scene rebuild, a helper's start-up).
 
     python benchmarks/record.py [--repeats 7] [--size 480x360] [--video-frames 0 (= all)] [--workers N]
     python benchmarks/record.py --video-only     # skip the recording overhead part (one run, then the video)
@@ -110,6 +111,50 @@ def render_rate(run: Path, size: tuple[int, int], limit: int, workers: int) -> N
           f"{' '.join(f'{v:.2f}' for v in os.getloadavg())}")
 
 
+def _helper_start(folder: str) -> None:
+    from robokit.record.video import _worker_init
+
+    _worker_init(folder, None, (480, 360), 30.0)
+
+
+def parallel_bound(run: Path, size: tuple[int, int], limit: int) -> None:
+    """What limits the parallel speed-up on 2 cores, in CPU seconds (a loaded machine inflates wall time, not
+    these): the scene rebuild R every process does before its first frame, a helper's start-up S (interpreter,
+    imports, its own rebuild; spawned, so it starts S after this process), and the render of one frame f.
+    This process renders from R on and the helper from S on, so with no other overhead the N frames are done at
+    T = (R + S + N f) / 2 against R + N f serially: 2 (R + N f) / (R + S + N f) < 2 since S > R."""
+    import multiprocessing
+    import resource
+
+    from robokit.record.scene import choose_view, rebuild
+    from robokit.record.video import Renderer, frame_indices, overlay
+
+    rec = RunRecord(run)
+    frames = limit or len(frame_indices(rec.poses["t"], 30.0))
+    start = time.process_time()
+    scene = rebuild(rec)
+    r = time.process_time() - start
+    renderer = Renderer(scene, choose_view(scene, None, size[0] / size[1]), size)
+    samples = frame_indices(rec.poses["t"], 30.0)[: max(1, min(frames, 40))]
+    spans = rec.spans()
+    start = time.process_time()
+    for k, i in enumerate(samples):
+        scene.set_frame(i)
+        overlay(renderer.render(), k / 30, rec.state_at(spans, k / 30)).tobytes()
+    f = (time.process_time() - start) / len(samples)
+    scene.close()
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    helper = multiprocessing.get_context("spawn").Process(target=_helper_start, args=(str(run),))
+    helper.start()
+    helper.join()
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    s = (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
+    bound = 2 * (r + frames * f) / (r + s + frames * f)
+    print(f"  CPU: rebuild R = {r:.3f} s, helper start-up S = {s:.3f} s, frame f = {1000 * f:.1f} ms x {frames}: "
+          f"best 2-core speed-up 2(R+Nf)/(R+S+Nf) = {bound:.3f}x (a fork after the rebuild, S = R: "
+          f"{2 * (r + frames * f) / (2 * r + frames * f):.3f}x)")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--repeats", type=int, default=7)
@@ -133,6 +178,7 @@ def main() -> None:
                   f"{100 * cost * 1e-6 * n / plain:.2f} % of the median unrecorded run ({plain:.2f} s)")
         w, h = (int(v) for v in args.size.split("x"))
         render_rate(run, (w, h), args.video_frames, args.workers or default_workers())
+        parallel_bound(run, (w, h), args.video_frames)
     print(f"load average after: {' '.join(f'{v:.2f}' for v in os.getloadavg())}")
 
 
