@@ -147,17 +147,17 @@ class IkArm(Actuator):
         super().setup(ctx)
         cfg: IkArmConfig = self.config
         w = self.world
-        self.body, self.ee, self.movable, self.arm = arm_joints(ctx, cfg.body, cfg.ee_link)
+        self._joints = arm_joints(ctx, cfg.body, cfg.ee_link)
+        self.body, self.ee, self.movable, self.arm = self._joints
         self._movable_indices = [j.index for j in self.movable]
         self._limits()
-        names = [j.name for j in self.movable]
         self.ready = self._pose_vector(cfg.ready_pose, "ready_pose", self._measured_all())
         self.rest = self._pose_vector(cfg.rest_pose, "rest_pose", self.ready) if cfg.rest_pose else self.ready
-        self.arm_cols = [names.index(j.name) for j in self.arm]
+        self.arm_cols = self._joints.columns
         for j, q in zip(self.movable, self.ready, strict=True):
             if j in self.arm or j.name in cfg.ready_pose:
                 w.reset_joint(self.body, j.index, float(q))
-        self.forces = [cfg.max_force or (j.max_force if j.max_force > 0 else 100.0) for j in self.arm]
+        self.forces = self._joints.forces(cfg.max_force)
         self.q_cmd = self.ready[self.arm_cols].copy()
         self.path: list[np.ndarray] | None = None
         self.status, self.reason, self.command_id = "idle", "", 0
@@ -169,7 +169,7 @@ class IkArm(Actuator):
         self._has_tool = any(cfg.ee_offset) or any(cfg.ee_rpy_deg)
         self.chain = Chain(w, self.body, self.ee, {j.index: k for k, j in enumerate(self.movable)}, tool=self._tool)
         self._indices = [j.index for j in self.arm]
-        self._names = [j.name for j in self.movable]
+        self._names = self._joints.names
         self._ik_options: dict[str, Any] = {"damping": [0.01] * len(self.movable), "iterations": cfg.ik_iterations,
                                             "tolerance": cfg.ik_tolerance / 10.0}
         self._gains = ([cfg.position_gain] * len(self.arm), [cfg.velocity_gain] * len(self.arm))
@@ -184,10 +184,8 @@ class IkArm(Actuator):
 
     def _limits(self) -> None:
         cfg: IkArmConfig = self.config
-        names = [j.name for j in self.movable]
         for name in cfg.limits:
-            if name not in names:
-                raise ConfigError(f"unknown joint {name!r}; movable joints: {', '.join(names)}", key="limits")
+            self._joints.column(name, "limits")
         lo, hi = [], []
         for j in self.movable:
             low, high = cfg.limits.get(j.name, (j.lower, j.upper))
@@ -198,12 +196,9 @@ class IkArm(Actuator):
         self.lower, self.upper = np.array(lo), np.array(hi)
 
     def _pose_vector(self, pose: dict[str, float], key: str, default: np.ndarray) -> np.ndarray:
-        names = [j.name for j in self.movable]
         out = np.array(default, float)
         for name, value in pose.items():
-            if name not in names:
-                raise ConfigError(f"unknown joint {name!r}; movable joints: {', '.join(names)}", key=key)
-            out[names.index(name)] = value
+            out[self._joints.column(name, key)] = value
         return np.clip(out, self.lower, self.upper)
 
     # ------------------------------------------------------------------ kinematics
