@@ -86,7 +86,7 @@ def known_map(ctx: SetupContext, names: tuple[str, ...], key: str = "map_bodies"
         if not world.has_body(name):
             raise ConfigError(f"unknown body {name!r}; bodies: {', '.join(world.body_names)}", key=f"{key}[{i}]")
     if not names:
-        names = tuple(n for n in world.body_names if world.client.getDynamicsInfo(world.body(n), -1)[0] == 0
+        names = tuple(n for n in world.body_names if world.mass(n) == 0
                       and world.body_aabb(n)[1][2] > 0.02)
     boxes = []
     for name in names:
@@ -109,7 +109,7 @@ def world_bounds(ctx: SetupContext, boxes: list[MapBox], drive: str) -> tuple[st
     floors = []
     for name in world.body_names:
         lo, hi = world.body_aabb(name)
-        if hi[2] <= 0.05 and world.client.getDynamicsInfo(world.body(name), -1)[0] == 0:
+        if hi[2] <= 0.05 and world.mass(name) == 0:
             floors.append(MapBox(name, (lo[0], lo[1]), (hi[0], hi[1])))
     finite = [f for f in floors if max(abs(v) for v in (*f.lo, *f.hi)) < 1e3]
     if not finite or len(finite) != len(floors):

@@ -103,9 +103,8 @@ class PatrolCollect(Patrol):
         world, out = ctx.world, []
         for name in world.body_names:
             bid = world.body(name)
-            mass = world.client.getDynamicsInfo(bid, -1)[0]
-            if name != robot and name not in self.map_names and world.client.getNumJoints(bid) == 0 \
-                    and 0.0 < mass <= limit:
+            mass = world.mass(bid)
+            if name != robot and name not in self.map_names and not world.joints(bid) and 0.0 < mass <= limit:
                 out.append(name)
         return out
 
@@ -225,11 +224,8 @@ class PatrolCollect(Patrol):
         cfg = getattr(self.ctx.components.get(self.config.collector), "config", None)
         if cfg is None or not world.has_body(name) or not world.has_body(cfg.robot):
             return False
-        client, body, robot = world.client, world.body(name), world.body(cfg.robot)
-        for i in range(client.getNumConstraints()):
-            info = client.getConstraintInfo(client.getConstraintUniqueId(i))
-            if {info[0], info[2]} == {robot, body}:
-                return True
+        if world.joined(world.body(cfg.robot), world.body(name)):
+            return True
         (bx, by, bz), _ = world.pose(cfg.robot, world.link(cfg.robot, cfg.bin_link))
         x, y, z = world.pose(name)[0]
         return math.hypot(x - bx, y - by) <= BIN_RADIUS and z > bz

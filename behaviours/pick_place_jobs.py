@@ -81,7 +81,7 @@ def object_rests_at(world: Any, name: str, target: Sequence[float], tolerance: f
     error = math.dist(pos[:2], target[:2]) if horizontal else math.dist(pos, target)
     speed = math.hypot(*world.velocity(name)[0])
     held = robot is not None and world.has_body(robot) and bool(
-        world.client.getContactPoints(world.body(name), world.body(robot)))
+        world.contacts(world.body(name), world.body(robot)))
     details = {"object": name, "final_position": [round(v, 4) for v in pos], "placement_error": round(error, 5),
                "speed": round(speed, 4), "touching_robot": held}
     where = f"{name} is {error * 1000:.0f} mm from the place position (tolerance {tolerance * 1000:g} mm)"

@@ -204,10 +204,10 @@ class Sort(MachineBehaviour):
         world, out = ctx.world, {}
         for name in world.body_names:
             bid = world.body(name)
-            if name in bins or world.client.getNumJoints(bid) or world.client.getDynamicsInfo(bid, -1)[0] <= 0:
+            if name in bins or world.joints(bid) or world.mass(bid) <= 0:
                 continue
-            shapes = world.client.getVisualShapeData(bid)
-            out[name] = self._colour_class(shapes[0][7][:3]) if shapes else None
+            rgba = world.visual_rgba(bid)
+            out[name] = self._colour_class(rgba[:3]) if rgba is not None else None
         return out
 
     def _colour_class(self, rgb: Any) -> str | None:
@@ -502,7 +502,7 @@ class Sort(MachineBehaviour):
         return camera if hasattr(camera, "in_view") else None
 
     def _unknown_colour(self, ctx: SetupContext, name: str) -> str:
-        rgba = [round(v, 3) for v in ctx.world.client.getVisualShapeData(ctx.world.body(name))[0][7]]
+        rgba = [round(v, 3) for v in ctx.world.visual_rgba(ctx.world.body(name)) or ()]
         classes = getattr(ctx.components.get(self.config.detector), "colours", {}) or {}
         return (f"colour {rgba} of {name!r} matches no colour class of detector {self.config.detector!r} "
                 f"({', '.join(classes) or 'none'}): the sort could never see it; change the colour or add a class")

@@ -8,8 +8,6 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
-import pybullet as p
-
 from robokit import hookimpl
 from robokit.components import Sensor, SetupContext
 from robokit.config import Schema
@@ -51,13 +49,11 @@ class BodyPoseSensor(Sensor):
         for i, name in enumerate(names):
             ctx.body(name, key=f"bodies[{i}]")
         if not names:
-            client = self.world.client
-            names = tuple(n for n in self.world.body_names if client.getDynamicsInfo(self.world.body(n), -1)[0] > 0)
+            names = tuple(n for n in self.world.body_names if self.world.mass(n) > 0)
         self.names = names
         self._all = [(name, self.world.body(name)) for name in names]  # looked up once, at load
         self._ids, self._removals = list(self._all), 0
-        # bodies whose URDF link frame is not their centre of mass: reported in the link frame (World.pose)
-        self._offsets = {bid for _, bid in self._all if self.world.link_offset(bid) is not None}
+        self._bids = [bid for _, bid in self._ids]
 
     def reset(self, rng: object = None) -> None:
         """Nothing to reset between robokit.gym episodes: a reading depends only on the world."""
@@ -66,14 +62,11 @@ class BodyPoseSensor(Sensor):
         world = self.world
         if world.removals != self._removals:  # a body was removed during the run: drop it from the list
             self._ids = [(n, b) for n, b in self._all if world.body_name(b) == n]
+            self._bids = [bid for _, bid in self._ids]
             self._removals = world.removals
-        cid, pose, velocity, new = world.cid, p.getBasePositionAndOrientation, p.getBaseVelocity, tuple.__new__
-        offsets = self._offsets
-        return {  # tuple.__new__ builds the named tuple without its Python-level __new__ (hot path)
-            name: new(BodyState, (pose(bid, physicsClientId=cid) if bid not in offsets else world.pose(bid))
-                      + velocity(bid, physicsClientId=cid))
-            for name, bid in self._ids
-        }
+        new = tuple.__new__  # builds the named tuple without its Python-level __new__ (hot path)
+        return {name: new(BodyState, state)
+                for (name, _), state in zip(self._ids, world.body_states(self._bids), strict=True)}
 
 
 @hookimpl

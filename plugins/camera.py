@@ -81,15 +81,10 @@ class Camera(Sensor):
             assert cfg.mount_link is not None
             self.link = ctx.link(cfg.mount_body, cfg.mount_link, key="mount_link")
             self.body_id = self.world.body(cfg.mount_body)
-        client = self.world.client
-        self.projection = tuple(client.computeProjectionMatrixFOV(
-            fov=cfg.fov, aspect=cfg.width / cfg.height, nearVal=cfg.near, farVal=cfg.far))
-        # DIRECT mode has no OpenGL context: PyBullet falls back to the TinyRenderer, so "opengl" needs the GUI
-        use_gl = cfg.renderer != "tiny" and self.world.gui
-        self.renderer = client.ER_BULLET_HARDWARE_OPENGL if use_gl else client.ER_TINY_RENDERER
-        self.sample_offset = 0.5 if use_gl else 0.0  # TinyRenderer samples pixel corners (see vision_types)
-        self.flags = 0 if cfg.segmentation else client.ER_NO_SEGMENTATION_MASK
-        self._offset_orn = client.getQuaternionFromEuler([math.radians(a) for a in cfg.offset_rpy_deg])
+        w = self.world
+        self.projection = w.projection_matrix(cfg.fov, cfg.width / cfg.height, cfg.near, cfg.far)
+        self.sample_offset = w.image_sample_offset(cfg.renderer)  # where a pixel is sampled (see vision_types)
+        self._offset_orn = w.quaternion_from_euler([math.radians(a) for a in cfg.offset_rpy_deg])
         run_dir = getattr(ctx, "run_dir", None)
         wanted = cfg.save or getattr(ctx, "save_frames", False)
         self.save_dir = Path(run_dir) / "frames" if wanted and run_dir is not None else None
@@ -102,10 +97,10 @@ class Camera(Sensor):
         cfg = self.cfg
         if self.link is None:
             return cfg.eye, cfg.target, cfg.up
-        client = self.world.client
-        pos, orn = self.world.pose(self.body_id, self.link)  # type: ignore[arg-type]
-        eye, cam_orn = client.multiplyTransforms(pos, orn, cfg.offset_xyz, self._offset_orn)
-        rot = np.asarray(client.getMatrixFromQuaternion(cam_orn), dtype=float).reshape(3, 3)
+        w = self.world
+        pos, orn = w.pose(self.body_id, self.link)  # type: ignore[arg-type]
+        eye, cam_orn = w.multiply_transforms(pos, orn, cfg.offset_xyz, self._offset_orn)
+        rot = np.asarray(w.matrix_from_quaternion(cam_orn), dtype=float).reshape(3, 3)
         forward, down = rot[:, 2], rot[:, 1]
         target = np.asarray(eye) + forward
         return tuple(eye), tuple(float(v) for v in target), tuple(float(v) for v in -down)  # type: ignore[return-value]
@@ -114,8 +109,7 @@ class Camera(Sensor):
         """True if a point (metres, world) projects inside the image with the camera's current pose, between
         the near and far planes (occlusion is not considered)."""
         eye, target, up = self.pose()
-        client = self.world.client
-        view = np.asarray(client.computeViewMatrix(list(eye), list(target), list(up)), float).reshape(4, 4).T
+        view = np.asarray(self.world.view_matrix(eye, target, up), float).reshape(4, 4).T
         proj = np.asarray(self.projection, float).reshape(4, 4).T
         clip = proj @ view @ np.array([*point, 1.0])
         if clip[3] <= 0:
@@ -125,18 +119,14 @@ class Camera(Sensor):
 
     def read(self) -> CameraFrame:
         """Render one frame now (RGB, metric depth, segmentation) with the camera's current pose."""
-        cfg, client = self.cfg, self.world.client
+        cfg = self.cfg
         eye, target, up = self.pose()
-        view = tuple(client.computeViewMatrix(list(eye), list(target), list(up)))
-        _, _, rgba, depth_buf, seg = client.getCameraImage(
-            cfg.width, cfg.height, viewMatrix=view, projectionMatrix=self.projection,
-            renderer=self.renderer, flags=self.flags, shadow=0, **self.world.render_options)
-        rgb = np.asarray(rgba, dtype=np.uint8).reshape(cfg.height, cfg.width, 4)[:, :, :3]
-        d = np.asarray(depth_buf, dtype=np.float32).reshape(cfg.height, cfg.width)
-        depth = (cfg.far * cfg.near / (cfg.far - (cfg.far - cfg.near) * d)).astype(np.float32)
-        segmentation, labels = None, {}
-        if cfg.segmentation:
-            segmentation = np.asarray(seg, dtype=np.int32).reshape(cfg.height, cfg.width)
+        view = self.world.view_matrix(eye, target, up)
+        rgb, depth, segmentation = self.world.render(cfg.width, cfg.height, view, self.projection, near=cfg.near,
+                                                     far=cfg.far, segmentation=cfg.segmentation,
+                                                     renderer=cfg.renderer)
+        labels = {}
+        if segmentation is not None:
             for body_id in np.unique(segmentation):
                 name = self.world.body_name(int(body_id)) if body_id >= 0 else None
                 if name is not None:

@@ -83,7 +83,7 @@ class Collector(Actuator):
     def _in_reach(self) -> str | None:
         cfg = self.config
         (rx, ry, rz), orn = self.world.pose(self.body)
-        yaw = self.world.client.getEulerFromQuaternion(orn)[2]
+        yaw = self.world.euler_from_quaternion(orn)[2]
         cos, sin = math.cos(yaw), math.sin(yaw)
         for name in self.world.body_names:
             bid = self.world.body(name)
@@ -96,22 +96,22 @@ class Collector(Actuator):
         return None
 
     def _loose(self, bid: int) -> bool:
-        mass = self.world.client.getDynamicsInfo(bid, -1)[0]
-        return 0.0 < mass <= self.config.max_mass and self.world.client.getNumJoints(bid) == 0
+        mass = self.world.mass(bid)
+        return 0.0 < mass <= self.config.max_mass and not self.world.joints(bid)
 
     def _stow(self, name: str) -> None:
         """Lift the object into the bin: collisions off, placed on the bin, held by a fixed constraint."""
-        c = self.world.client
-        bid = self.world.body(name)
+        w = self.world
+        bid = w.body(name)
         (x, y, _), _ = self.world.pose(bid)
         lo, hi = self.world.aabb(bid)
         slot = len(self.held)
         local = [0.04 * ((slot % 3) - 1), 0.05 * ((slot // 3) % 3 - 1), 0.005 + (hi[2] - lo[2]) / 2.0]
-        c.setCollisionFilterGroupMask(bid, -1, 0, 0)
-        pos, orn = self.world.pose(self.body, self.bin)
-        world_pos, _ = c.multiplyTransforms(pos, orn, local, [0, 0, 0, 1])
-        c.resetBasePositionAndOrientation(bid, world_pos, orn)
-        cid = c.createConstraint(self.body, self.bin, bid, -1, c.JOINT_FIXED, [0, 0, 0], local, [0, 0, 0])
+        w.disable_collisions(bid)
+        pos, orn = w.pose(self.body, self.bin)
+        world_pos, _ = w.multiply_transforms(pos, orn, local, [0, 0, 0, 1])
+        w.set_com_pose(bid, world_pos, orn)
+        cid = w.attach(self.body, self.bin, bid, position=local)
         self.held.append(name)
         self.constraints.append(cid)
         self.last_at = self.world.time
@@ -124,11 +124,11 @@ class Collector(Actuator):
 
     def close(self) -> None:
         """Remove the holding constraints."""
-        if self.world.client is None:
+        if self.world.closed:
             return
         for cid in self.constraints:
             try:
-                self.world.client.removeConstraint(cid)
+                self.world.detach(cid)
             except Exception:  # noqa: BLE001, S110 - the world may already be gone
                 pass
         self.constraints.clear()

@@ -56,18 +56,11 @@ class ContactSensor(Sensor):
 
     def read(self) -> ContactState:
         """Contact points now (from the last physics step)."""
-        kwargs: dict[str, int] = {"bodyA": self.body}
-        if self.other is not None:
-            kwargs["bodyB"] = self.other
-        if self.link is not None:
-            kwargs["linkIndexA"] = self.link
-        if self.other_link is not None:
-            kwargs["linkIndexB"] = self.other_link
-        points = [cp for cp in self.world.client.getContactPoints(**kwargs)
-                  if cp[2] != self.body and cp[9] >= self.config.min_force]
-        names = {self.world.body_name(cp[2]) or f"body{cp[2]}" for cp in points}
+        points = [cp for cp in self.world.contacts(self.body, self.other, link=self.link, other_link=self.other_link)
+                  if cp.other != self.body and cp.normal_force >= self.config.min_force]
+        names = {self.world.body_name(cp.other) or f"body{cp.other}" for cp in points}
         return ContactState(in_contact=bool(points), points=len(points),
-                            normal_force=float(sum(cp[9] for cp in points)), others=tuple(sorted(names)))
+                            normal_force=float(sum(cp.normal_force for cp in points)), others=tuple(sorted(names)))
 
 
 @hookimpl

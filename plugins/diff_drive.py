@@ -71,9 +71,8 @@ class DiffDrive(Actuator):
         self._both = self.left + self.right
         default_caster = "passive_joints" not in cfg.model_fields_set  # robots without a caster skip it
         passive = self._joints(cfg.passive_joints, "passive_joints", skip_missing=default_caster)
-        c = self.world.client
         for j in passive:
-            c.setJointMotorControl2(self.body, j, c.VELOCITY_CONTROL, targetVelocity=0.0, force=0.0)
+            self.world.set_joint_motor(self.body, j, "velocity", target_velocity=0.0, force=0.0)
         self.reset()
 
     def reset(self, rng: Any = None) -> None:
@@ -123,16 +122,16 @@ class DiffDrive(Actuator):
 
     def update(self) -> None:
         """Ramp the wheel speeds towards the targets, push them into the motors and integrate odometry."""
-        c = self.world.client
         force = self.config.max_wheel_force
         dt = self.world.time_step * (self.world.tick - self.last_tick) if self.last_tick >= 0 else 0.0
         self.last_tick = self.world.tick
         step = self.config.max_acceleration / self.config.wheel_radius * dt
         speeds = tuple(s + max(-step, min(step, t - s)) for s, t in zip(self.speeds, self.targets, strict=True))
         if speeds != self._sent:  # the motors keep their targets: send only a change, both sides in one call
-            c.setJointMotorControlArray(self.body, self._both, c.VELOCITY_CONTROL,
-                                        targetVelocities=[speeds[0]] * len(self.left) + [speeds[1]] * len(self.right),
-                                        forces=[force] * len(self._both))
+            self.world.set_joint_motors(
+                self.body, self._both, "velocity",
+                target_velocities=[speeds[0]] * len(self.left) + [speeds[1]] * len(self.right),
+                forces=[force] * len(self._both))
             self._sent = speeds
         self.speeds = speeds
         self._integrate()
@@ -153,7 +152,7 @@ class DiffDrive(Actuator):
 
     def _wheel_means(self, field: int) -> tuple[float, float]:
         """Mean joint state ``field`` (0 = angle, rad; 1 = speed, rad/s) of the left and the right wheels."""
-        states = self.world.client.getJointStates(self.body, self._both)
+        states: Any = self.world.joint_states(self.body, self._both)
         n = len(self.left)
         left, right = states[:n], states[n:]
         return sum(s[field] for s in left) / n, sum(s[field] for s in right) / len(right)
@@ -166,14 +165,14 @@ class DiffDrive(Actuator):
 
     def _pose(self) -> tuple[float, float, float]:
         (x, y, _), orn = self.world.pose(self.body)
-        yaw = self.world.client.getEulerFromQuaternion(orn)[2]
+        yaw = self.world.euler_from_quaternion(orn)[2]
         return float(x), float(y), float(yaw)
 
     def _contacts(self) -> tuple[str, ...]:
         ignore = set(self.config.ignore_contacts)
         names = set()
-        for cp in self.world.client.getContactPoints(bodyA=self.body):
-            name = self.world.body_name(cp[2]) or f"body{cp[2]}"
+        for cp in self.world.contacts(self.body):
+            name = self.world.body_name(cp.other) or f"body{cp.other}"
             if name not in ignore:
                 names.add(name)
         return tuple(sorted(names))

@@ -73,20 +73,18 @@ class EEDeltaArm(Actuator):
         self.arm_index = [j.index for j in self.arm]
         self.lower = np.array([j.lower if j.upper > j.lower else -np.pi for j in self.arm])
         self.upper = np.array([j.upper if j.upper > j.lower else np.pi for j in self.arm])
-        states = w.client.getJointStates(self.body, [j.index for j in self.movable])
+        states = w.joint_states(self.body, [j.index for j in self.movable])
         self.ready = [cfg.ready_pose.get(j.name, s[0]) for j, s in zip(self.movable, states, strict=True)]
         self.rest = np.array(self.ready)[self.cols]
         self.forces = [cfg.max_force or (j.max_force if j.max_force > 0 else 100.0) for j in self.arm]
         self.down = down_quaternion(cfg.yaw)
-        self.zeros = [0.0] * len(self.movable)
         self.damping, self.eye = cfg.damping * np.eye(6), np.eye(len(self.cols))
         self.reset()
 
     def reset(self, rng: np.random.Generator | None = None) -> None:
         """Put the arm in its ready pose, at rest, with the motors holding it there."""
-        c = self.world.client
         for j, q in zip(self.movable, self.ready, strict=True):
-            c.resetJointState(self.body, j.index, q, 0.0)
+            self.world.reset_joint(self.body, j.index, q, 0.0)
         self.targets = self.rest.copy()
         self.dirty = True
 
@@ -100,15 +98,15 @@ class EEDeltaArm(Actuator):
         norm = float(np.linalg.norm(delta))
         if norm > self.config.max_step:
             delta = delta * (self.config.max_step / norm)
-        c = self.world.client
-        q_all = [s[0] for s in c.getJointStates(self.body, [j.index for j in self.movable])]
-        s = c.getLinkState(self.body, self.ee, computeForwardKinematics=True)
-        pos = np.array(s[4])
+        w = self.world
+        q_all = [s[0] for s in w.joint_states(self.body, [j.index for j in self.movable])]
+        ee_pos, ee_orn = w.pose(self.body, self.ee)
+        pos = np.array(ee_pos)
         goal = pos + delta
         goal[2] = max(goal[2], self.config.min_height)
-        err = np.concatenate([goal - pos, _tilt(s[5], self.down)])
-        jl, ja = c.calculateJacobian(self.body, self.ee, [0.0, 0.0, 0.0], q_all, self.zeros, self.zeros)
-        jac = np.vstack([np.asarray(jl), np.asarray(ja)])[:, self.cols]
+        err = np.concatenate([goal - pos, _tilt(ee_orn, self.down)])
+        jl, ja = w.jacobian(self.body, self.ee, q_all)
+        jac = np.vstack([jl, ja])[:, self.cols]
         pinv = jac.T @ np.linalg.inv(jac @ jac.T + self.damping)
         q = np.asarray(q_all)[self.cols]
         null = (self.eye - pinv @ jac) @ (self.config.null_gain * (self.rest - q))
@@ -119,17 +117,17 @@ class EEDeltaArm(Actuator):
         """Send new joint targets to the position motors (only when a command changed them)."""
         if not self.dirty:
             return
-        c = self.world.client
-        c.setJointMotorControlArray(self.body, self.arm_index, c.POSITION_CONTROL,
-                                    targetPositions=self.targets.tolist(), forces=self.forces)
+        self.world.set_joint_motors(self.body, self.arm_index, "position", target_positions=self.targets.tolist(),
+                                    forces=self.forces)
         self.dirty = False
 
     def read(self) -> EEState:
         """End-effector position, velocity and orientation; the arm's joint positions."""
-        c = self.world.client
-        s = c.getLinkState(self.body, self.ee, computeLinkVelocity=True, computeForwardKinematics=True)
-        q = c.getJointStates(self.body, self.arm_index)
-        return EEState(position=s[4], velocity=s[6], orientation=s[5],
+        w = self.world
+        position, orientation = w.pose(self.body, self.ee)
+        velocity = w.link_velocity(self.body, self.ee)[0]
+        q = w.joint_states(self.body, self.arm_index)
+        return EEState(position=position, velocity=velocity, orientation=orientation,
                        joint_positions={j.name: st[0] for j, st in zip(self.arm, q, strict=True)})
 
 

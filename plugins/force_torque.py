@@ -52,27 +52,27 @@ class ForceTorqueSensor(Sensor):
         self.index = info.index
         self.link_name = str(getattr(info, "child_link", "") or cfg.joint)
         self.frame = "world" if cfg.world_frame else self.link_name
-        self.world.client.enableJointForceTorqueSensor(self.body, self.index, 1)
+        self.world.enable_joint_wrench(self.body, self.index)
         self.enabled = True
 
     def read(self) -> Wrench:
         """The joint's reaction wrench from the last physics step."""
-        c = self.world.client
-        r = np.asarray(c.getJointState(self.body, self.index)[2], dtype=float)
+        w = self.world
+        r = np.asarray(w.joint_states(self.body, [self.index])[0][2], dtype=float)
         if self.config.noise_std > 0:
             r = r + self.ctx.tick_rng().normal(0.0, self.config.noise_std, 6)
         force, torque = r[:3], r[3:]
         if self.config.world_frame:
-            rot = np.asarray(c.getMatrixFromQuaternion(c.getLinkState(self.body, self.index)[5])).reshape(3, 3)
+            rot = np.asarray(w.wrench_frame(self.body, self.index)).reshape(3, 3)
             force, torque = rot @ force, rot @ torque
         return Wrench(force=tuple(float(v) for v in force), torque=tuple(float(v) for v in torque),  # type: ignore[arg-type]
                       frame=self.frame, time=self.world.time)
 
     def close(self) -> None:
         """Switch the joint's sensor off again (a closed sensor leaves no state behind in the world)."""
-        if getattr(self, "enabled", False) and self.world.client is not None:
+        if getattr(self, "enabled", False) and not self.world.closed:
             try:
-                self.world.client.enableJointForceTorqueSensor(self.body, self.index, 0)
+                self.world.enable_joint_wrench(self.body, self.index, False)
             except Exception:  # noqa: BLE001, S110 - the world may already be gone
                 pass
             self.enabled = False

@@ -116,8 +116,8 @@ class Gripper(Actuator):
                               key="stop_on")
         self._side = {link: i for i, links in enumerate(self.links) for link in links}  # link -> finger
         for link in set().union(*self.links):
-            w.client.changeDynamics(self.body, link, lateralFriction=cfg.lateral_friction,
-                                    spinningFriction=cfg.spinning_friction, frictionAnchor=True)
+            w.set_dynamics(self.body, link, lateral_friction=cfg.lateral_friction,
+                           spinning_friction=cfg.spinning_friction, friction_anchor=True)
         self.gears: list[int] = []
         if cfg.couple and len(self.fingers) == 2:
             a, b = self.fingers
@@ -125,7 +125,7 @@ class Gripper(Actuator):
             self.gears.append(self._gear(a.index, b.index, ratio))
         for follower, ratio in self.followers:
             # A follower is moved by its gear only: switch off the default velocity motor that would hold it.
-            w.client.setJointMotorControl2(self.body, follower.index, w.client.VELOCITY_CONTROL, force=0.0)
+            w.set_joint_motor(self.body, follower.index, "velocity", force=0.0)
             self.gears.append(self._gear(self.fingers[0].index, follower.index, ratio))
         self.reset()
 
@@ -136,12 +136,12 @@ class Gripper(Actuator):
         self.action, self.force = "open", cfg.force
         self.target = self.open_width if cfg.start_open else 0.0
         for j, q in zip(self.fingers, self._joint_targets(self.target), strict=True):
-            w.client.resetJointState(self.body, j.index, q)
+            w.reset_joint(self.body, j.index, q)
         for follower, ratio in self.followers:
-            q0 = w.client.getJointState(self.body, self.fingers[0].index)[0]
-            w.client.resetJointState(self.body, follower.index, ratio * q0)
+            q0 = w.joint_states(self.body, [self.fingers[0].index])[0][0]
+            w.reset_joint(self.body, follower.index, ratio * q0)
         for j, q in self.held_joints:
-            w.client.resetJointState(self.body, j.index, q)
+            w.reset_joint(self.body, j.index, q)
         self._speeds = [cfg.finger_speed * abs(o - c) / (self.open_width / 2)
                         for o, c in zip(self.open_q, self.closed_q, strict=True)]
         self._indices = [j.index for j in self.fingers]
@@ -158,8 +158,7 @@ class Gripper(Actuator):
         if cfg.finger_links is not None:
             return [{ctx.link(cfg.body, name, key=f"finger_links[{i}]") for name in side}
                     for i, side in enumerate(cfg.finger_links)]
-        parents = {j.index: self.world.client.getJointInfo(self.body, j.index)[16]
-                   for j in self.world.joints(cfg.body)}
+        parents = {j.index: self.world.joint_parent(self.body, j.index) for j in self.world.joints(cfg.body)}
         sets = []
         for finger in self.fingers:
             subtree = {finger.index}
@@ -181,11 +180,8 @@ class Gripper(Actuator):
     def _gear(self, parent: int, child: int, ratio: float) -> int:
         """Tie ``child`` to ``parent``: child position = ratio × parent (a gear constraint)."""
         cfg: GripperConfig = self.config
-        c = self.world.client
-        gear = c.createConstraint(self.body, parent, self.body, child, jointType=c.JOINT_GEAR,
-                                  jointAxis=[1, 0, 0], parentFramePosition=[0, 0, 0], childFramePosition=[0, 0, 0])
-        c.changeConstraint(gear, gearRatio=-ratio, erp=cfg.gear_erp, maxForce=cfg.gear_max_force)
-        return int(gear)
+        return self.world.couple_joints(self.body, parent, child, ratio, erp=cfg.gear_erp,
+                                        max_force=cfg.gear_max_force)
 
     def command(self, cmd: Any) -> None:
         """Accept a :class:`GripperCommand` (``open``, ``close`` or ``width``); ignored after a ``stop_on`` stop."""
@@ -236,12 +232,11 @@ class Gripper(Actuator):
         if not (self._dirty or self._tracking):
             return
         if self._dirty:
-            c = self.world.client
+            motor = self.world.set_joint_motor
             for j, q, v in zip(self.fingers, self._joint_targets(self.target), self._speeds, strict=True):
-                c.setJointMotorControl2(self.body, j.index, c.POSITION_CONTROL, targetPosition=q,
-                                        force=self.force, maxVelocity=v)
+                motor(self.body, j.index, "position", target_position=q, force=self.force, max_velocity=v)
             for j, q in self.held_joints:
-                c.setJointMotorControl2(self.body, j.index, c.POSITION_CONTROL, targetPosition=q, force=self.force)
+                motor(self.body, j.index, "position", target_position=q, force=self.force)
             self._dirty = False
         if self._tracking:
             self._track_settling()
@@ -250,7 +245,7 @@ class Gripper(Actuator):
         """Fingertip distance (m) and its rate (m/s), from the finger joints' travel between closed and open
         (the mean over the fingers)."""
         frac = rate = 0.0
-        states = self.world.client.getJointStates(self.body, self._indices)
+        states = self.world.joint_states(self.body, self._indices)
         for state, closed, span in zip(states, self.closed_q, self._spans, strict=True):  # read every carried tick
             frac += (state[0] - closed) / span
             rate += state[1] / span
@@ -285,10 +280,10 @@ class Gripper(Actuator):
         side = self._side
         touched: list[set[int]] = [set() for _ in self.links]
         total = 0
-        for cp in self.world.client.getContactPoints(bodyA=self.body):
-            i = side.get(cp[3])
-            if i is not None and cp[2] != self.body:
-                touched[i].add(cp[2])
+        for cp in self.world.contacts(self.body):
+            i = side.get(cp.link)
+            if i is not None and cp.other != self.body:
+                touched[i].add(cp.other)
                 total += 1
         return touched, total
 
@@ -312,10 +307,10 @@ class Gripper(Actuator):
                             holding=holding, held=held, finger_contacts=total, stopped=self.stopped)
 
     def close(self) -> None:
-        while self.gears and self.world.client is not None:
+        while self.gears and not self.world.closed:
             gear = self.gears.pop()
             try:
-                self.world.client.removeConstraint(gear)
+                self.world.detach(gear)
             except Exception:  # noqa: BLE001 - the world may already be gone
                 pass
 

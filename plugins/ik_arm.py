@@ -156,25 +156,22 @@ class IkArm(Actuator):
         self.arm_cols = [names.index(j.name) for j in self.arm]
         for j, q in zip(self.movable, self.ready, strict=True):
             if j in self.arm or j.name in cfg.ready_pose:
-                w.client.resetJointState(self.body, j.index, float(q))
+                w.reset_joint(self.body, j.index, float(q))
         self.forces = [cfg.max_force or (j.max_force if j.max_force > 0 else 100.0) for j in self.arm]
         self.q_cmd = self.ready[self.arm_cols].copy()
         self.path: list[np.ndarray] | None = None
         self.status, self.reason, self.command_id = "idle", "", 0
         self.target: tuple[Vec3, Quat] | None = None
         self.base_pos = np.array(w.pose(self.body)[0])
-        tool_orn = w.client.getQuaternionFromEuler([math.radians(a) for a in cfg.ee_rpy_deg])
+        tool_orn = w.quaternion_from_euler([math.radians(a) for a in cfg.ee_rpy_deg])
         self._tool = (list(cfg.ee_offset), list(tool_orn))  # the tool frame in the end-effector link's frame
-        self._tool_inv = w.client.invertTransform(*self._tool)
+        self._tool_inv = w.invert_transform(*self._tool)
         self._has_tool = any(cfg.ee_offset) or any(cfg.ee_rpy_deg)
-        self.chain = Chain(w.client, self.body, self.ee, {j.index: k for k, j in enumerate(self.movable)},
-                           tool=self._tool)
-        com_pos, com_orn = w.client.getBasePositionAndOrientation(self.body)
-        self._to_base = w.client.invertTransform(com_pos, com_orn)  # world -> the base's inertial frame
+        self.chain = Chain(w, self.body, self.ee, {j.index: k for k, j in enumerate(self.movable)}, tool=self._tool)
         self._indices = [j.index for j in self.arm]
         self._names = [j.name for j in self.movable]
-        self._ik_options = {"jointDamping": [0.01] * len(self.movable), "maxNumIterations": cfg.ik_iterations,
-                            "residualThreshold": cfg.ik_tolerance / 10.0}
+        self._ik_options: dict[str, Any] = {"damping": [0.01] * len(self.movable), "iterations": cfg.ik_iterations,
+                                            "tolerance": cfg.ik_tolerance / 10.0}
         self._gains = ([cfg.position_gain] * len(self.arm), [cfg.velocity_gain] * len(self.arm))
         self._zero = [0.0] * len(self.arm)
         self._holding = False  # the last target sent was a hold (zero velocity): nothing to resend
@@ -211,22 +208,23 @@ class IkArm(Actuator):
 
     # ------------------------------------------------------------------ kinematics
     def _measured_all(self) -> np.ndarray:
-        states = self.world.client.getJointStates(self.body, self._movable_indices)
+        states = self.world.joint_states(self.body, self._movable_indices)
         return np.array([s[0] for s in states])
 
     def _ik(self, q_all: np.ndarray, pos: np.ndarray, orn: Quat) -> np.ndarray:
-        """PyBullet's IK answer for one pose (C, a few tens of microseconds), seeded from ``q_all`` moved a little
-        towards the rest pose (a null-space pull). Not checked: see :meth:`_solve` and :meth:`_solve_path`."""
+        """The engine's IK answer for one pose (PyBullet: C, a few tens of microseconds), seeded from ``q_all`` moved a
+        little towards the rest pose (a null-space pull). Not checked: see :meth:`_solve` and :meth:`_solve_path`.
+        An engine without IK of its own answers ``q_all`` itself (the check then hands the pose to numpy)."""
         cols = self.arm_cols
         seed = q_all.copy()
         seed[cols] += 0.05 * (self.rest[cols] - q_all[cols])
-        client = self.world.client
+        w = self.world
         link_pos, link_orn = pos.tolist(), orn
-        if self._has_tool:  # PyBullet solves for the link's frame: the target tool pose times the inverse tool
-            link_pos, link_orn = client.multiplyTransforms(link_pos, link_orn, *self._tool_inv)
-        local_pos, local_orn = client.multiplyTransforms(self._to_base[0], self._to_base[1], link_pos, link_orn)
-        found = client.calculateInverseKinematics(self.body, self.ee, local_pos, local_orn,
-                                                  currentPositions=seed.tolist(), **self._ik_options)
+        if self._has_tool:  # the engine solves for the link's frame: the target tool pose times the inverse tool
+            link_pos, link_orn = w.multiply_transforms(link_pos, link_orn, *self._tool_inv)
+        found = w.inverse_kinematics(self.body, self.ee, link_pos, link_orn, seed=seed.tolist(), **self._ik_options)
+        if found is None:
+            return q_all.copy()
         q = q_all.copy()
         q[cols] = np.asarray(found)[cols]
         return q
@@ -475,20 +473,18 @@ class IkArm(Actuator):
 
     def _send(self, q: list[float], qd: list[float] | None) -> None:
         self._holding = qd is None
-        client = self.world.client
-        client.setJointMotorControlArray(
-            self.body, self._indices, client.POSITION_CONTROL, targetPositions=q,
-            targetVelocities=self._zero if qd is None else qd, forces=self.forces,
-            positionGains=self._gains[0], velocityGains=self._gains[1],
+        self.world.set_joint_motors(
+            self.body, self._indices, "position", target_positions=q,
+            target_velocities=self._zero if qd is None else qd, forces=self.forces,
+            position_gains=self._gains[0], velocity_gains=self._gains[1],
         )
 
     def read(self) -> ArmState:
         """End-effector pose and the state of the current target (see :class:`ArmState`)."""
-        client = self.world.client
-        s = client.getLinkState(self.body, self.ee, computeForwardKinematics=True)
-        pos, orn = s[4], s[5]
+        w = self.world
+        pos, orn = w.pose(self.body, self.ee)
         if self._has_tool:
-            pos, orn = client.multiplyTransforms(pos, orn, *self._tool)
+            pos, orn = w.multiply_transforms(pos, orn, *self._tool)
         ep = eo = 0.0
         target = self.target
         if target is not None:
@@ -496,7 +492,7 @@ class IkArm(Actuator):
             to = target[1]
             eo = 2.0 * math.acos(min(1.0, abs(orn[0] * to[0] + orn[1] * to[1] + orn[2] * to[2] + orn[3] * to[3])))
         self._update_status(ep, eo)
-        states = client.getJointStates(self.body, self._movable_indices)
+        states = w.joint_states(self.body, self._movable_indices)
         return ArmState(
             position=pos, orientation=orn, status=self.status, reason=self.reason,
             target_position=target[0] if target else None, target_orientation=target[1] if target else None,

@@ -107,8 +107,7 @@ class JointControl(Actuator):
 
     def _set_mode(self, name: str, mode: str) -> None:
         if mode == "torque" and self.modes.get(name) != "torque":
-            c = self.world.client
-            c.setJointMotorControl2(self.body, self.joints[name].index, c.VELOCITY_CONTROL, force=0.0)
+            self.world.set_joint_motor(self.body, self.joints[name].index, "velocity", force=0.0)
         self.modes[name] = mode
         self._any_torque = "torque" in self.modes.values()  # PyBullet applies a torque for one step only
         self._plan = None
@@ -157,7 +156,7 @@ class JointControl(Actuator):
 
     def _make_plan(self) -> list[tuple[Any, list[str]]]:
         """Group the joints by mode into one ``setJointMotorControlArray`` call each (rebuilt on mode changes)."""
-        c = self.world.client
+        send = self.world.set_joint_motors
         groups: dict[str, list[str]] = {}
         for name in self.values:
             groups.setdefault(self.modes[name], []).append(name)
@@ -168,29 +167,27 @@ class JointControl(Actuator):
                       for n in names]
             if mode == "position":
                 gains = [self.config.position_gain] * len(names)
-                call = partial(c.setJointMotorControlArray, self.body, idx, c.POSITION_CONTROL, forces=forces,
-                               positionGains=gains)
-                plan.append((lambda v, f=call: f(targetPositions=v), names))
+                call = partial(send, self.body, idx, "position", forces=forces, position_gains=gains)
+                plan.append((lambda v, f=call: f(target_positions=v), names))
             elif mode == "velocity":
-                call = partial(c.setJointMotorControlArray, self.body, idx, c.VELOCITY_CONTROL, forces=forces)
-                plan.append((lambda v, f=call: f(targetVelocities=v), names))
+                call = partial(send, self.body, idx, "velocity", forces=forces)
+                plan.append((lambda v, f=call: f(target_velocities=v), names))
             else:
-                call = partial(c.setJointMotorControlArray, self.body, idx, c.TORQUE_CONTROL)
+                call = partial(send, self.body, idx, "torque")
                 plan.append((lambda v, f=call: f(forces=v), names))
         self._plan = plan
         return plan
 
     def _drive(self, name: str, mode: str, value: float) -> None:
-        c, info = self.world.client, self.joints[name]
+        motor, info = self.world.set_joint_motor, self.joints[name]
         force = self.force or (info.max_force if info.max_force > 0 else 100.0)
         if mode == "position":
-            extra = {"maxVelocity": self.max_velocity} if self.max_velocity else {}
-            c.setJointMotorControl2(self.body, info.index, c.POSITION_CONTROL, targetPosition=value, force=force,
-                                    positionGain=self.config.position_gain, **extra)
+            motor(self.body, info.index, "position", target_position=value, force=force,
+                  position_gain=self.config.position_gain, max_velocity=self.max_velocity or None)
         elif mode == "velocity":
-            c.setJointMotorControl2(self.body, info.index, c.VELOCITY_CONTROL, targetVelocity=value, force=force)
+            motor(self.body, info.index, "velocity", target_velocity=value, force=force)
         else:
-            c.setJointMotorControl2(self.body, info.index, c.TORQUE_CONTROL, force=value)
+            motor(self.body, info.index, "torque", force=value)
 
     def _stop(self, contact: ContactState) -> None:
         """Freeze every driven joint where it is now (position mode, zero target velocity)."""
@@ -198,13 +195,13 @@ class JointControl(Actuator):
         touched = ", ".join(contact.others) or "something"
         self.stop_reason = f"contact with {touched} ({contact.normal_force:.1f} N) at t = {self.world.time:.3f} s"
         self.ctx.trace("safety_stop", actuator=self.name, reason=self.stop_reason)
-        c = self.world.client
-        states = c.getJointStates(self.body, [j.index for j in self.joints.values()])
+        w = self.world
+        states = w.joint_states(self.body, [j.index for j in self.joints.values()])
         for (name, info), state in zip(self.joints.items(), states, strict=True):
             self.modes[name], self.values[name] = "position", state[0]
             force = self.force or (info.max_force if info.max_force > 0 else 100.0)
-            c.setJointMotorControl2(self.body, info.index, c.POSITION_CONTROL, targetPosition=state[0],
-                                    targetVelocity=0.0, force=force, positionGain=self.config.position_gain)
+            w.set_joint_motor(self.body, info.index, "position", target_position=state[0], target_velocity=0.0,
+                              force=force, position_gain=self.config.position_gain)
         self.program.clear()
         self._plan = self._waves = None
         self._any_torque = False
@@ -217,7 +214,7 @@ class JointControl(Actuator):
 
     def read(self) -> JointStates:
         """Position, velocity and applied torque (N·m or N) of every driven joint, by name."""
-        states = self.world.client.getJointStates(self.body, self._indices)
+        states = self.world.joint_states(self.body, self._indices)
         names = list(self.joints)
         modes = set(self.modes.values())
         return JointStates(

@@ -1,11 +1,11 @@
-"""``keyboard`` sensor: keys held in the PyBullet GUI (lessons 03 and 07), or a timed script when headless.
+"""``keyboard`` sensor: keys held in the engine's viewer (lessons 03 and 07), or a timed script when headless.
 
-In GUI mode it reads ``getKeyboardEvents`` of the World's own client. A ``script`` of timed key presses makes the
-same teleop configs run headless and deterministic (tests, demos): each entry holds ``keys`` down from ``at`` for
-``hold`` sim seconds.
+In GUI mode it reads the World's key events (:meth:`World.key_events <robokit.engines.interface.World.key_events>`).
+A ``script`` of timed key presses makes the same teleop configs run headless and deterministic (tests, demos): each
+entry holds ``keys`` down from ``at`` for ``hold`` sim seconds.
 
-A key tapped between two readings (pressed and released before the sensor was due again) is not lost: PyBullet
-flags it ``KEY_WAS_TRIGGERED`` without ``KEY_IS_DOWN``, and the reading lists it in ``pressed`` (not in ``down``).
+A key tapped between two readings (pressed and released before the sensor was due again) is not lost: the World
+flags it ``KEY_TRIGGERED`` without ``KEY_DOWN``, and the reading lists it in ``pressed`` (not in ``down``).
 A scripted press shorter than the sensor's period behaves the same way.
 """
 
@@ -14,21 +14,21 @@ from __future__ import annotations
 import string
 from collections.abc import Mapping
 
-import pybullet as p
 from pydantic import Field
 
 from robokit import hookimpl
 from robokit.components import Sensor, SetupContext
 from robokit.config import Schema
+from robokit.engines.interface import KEY_DOWN, KEY_DOWN_ARROW, KEY_LEFT, KEY_RETURN, KEY_RIGHT, KEY_TRIGGERED, KEY_UP
 from robokit.errors import ConfigError
 from robokit.msgs.keyboard import KeyState
 
 SPECIAL = {
-    p.B3G_UP_ARROW: "up",
-    p.B3G_DOWN_ARROW: "down",
-    p.B3G_LEFT_ARROW: "left",
-    p.B3G_RIGHT_ARROW: "right",
-    p.B3G_RETURN: "return",
+    KEY_UP: "up",
+    KEY_DOWN_ARROW: "down",
+    KEY_LEFT: "left",
+    KEY_RIGHT: "right",
+    KEY_RETURN: "return",
     ord(" "): "space",
 }
 KEY_NAMES = {**SPECIAL, **{ord(c): c for c in string.digits + string.ascii_lowercase}}
@@ -85,7 +85,7 @@ class KeyboardSensor(Sensor):
 
     def read(self) -> KeyState:
         if self.use_gui:
-            state = decode_events(self.world.client.getKeyboardEvents(), self.previous)
+            state = decode_events(self.world.key_events(), self.previous)
         else:
             down, began = self._scripted()
             state = KeyState(down=down, pressed=(down - self.previous) | began)
@@ -94,14 +94,15 @@ class KeyboardSensor(Sensor):
 
 
 def decode_events(events: Mapping[int, int], previous: frozenset[str]) -> KeyState:
-    """A :class:`KeyState` from PyBullet's ``getKeyboardEvents()`` (key code -> state flags since the last call).
+    """A :class:`KeyState` from the World's ``key_events()`` (key code -> state flags since the last call; PyBullet's
+    ``getKeyboardEvents()`` codes and flags).
 
-    ``down``: keys flagged ``KEY_IS_DOWN``. ``pressed``: keys flagged ``KEY_WAS_TRIGGERED`` (also a tap released
+    ``down``: keys flagged ``KEY_DOWN``. ``pressed``: keys flagged ``KEY_TRIGGERED`` (also a tap released
     before this call) plus keys down now that were not down at the previous reading.
     """
-    down = frozenset(KEY_NAMES[k] for k, flags in events.items() if k in KEY_NAMES and flags & p.KEY_IS_DOWN)
+    down = frozenset(KEY_NAMES[k] for k, flags in events.items() if k in KEY_NAMES and flags & KEY_DOWN)
     triggered = frozenset(KEY_NAMES[k] for k, flags in events.items()
-                          if k in KEY_NAMES and flags & p.KEY_WAS_TRIGGERED)
+                          if k in KEY_NAMES and flags & KEY_TRIGGERED)
     return KeyState(down=down, pressed=triggered | (down - previous))
 
 

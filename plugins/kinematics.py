@@ -1,13 +1,12 @@
 """Forward kinematics and the geometric Jacobian of one link of a fixed-base arm, in numpy.
 
-Built once from PyBullet's joint table (:class:`Chain`), then evaluated for any joint vector without touching the
-simulation: no joint state is written and read back, so IK can try candidate configurations between physics steps
-for the price of a few 4x4 products. Used by ``ik_arm``.
+Built once from the World's kinematic chain (:meth:`World.kinematic_chain
+<robokit.engines.interface.World.kinematic_chain>`, :class:`Chain`), then evaluated for any joint vector without
+touching the simulation: no joint state is written and read back, so IK can try candidate configurations between
+physics steps for the price of a few 4x4 products. Used by ``ik_arm``.
 
-Frames follow PyBullet's conventions: a joint's ``parentFramePos``/``parentFrameOrn`` are given in the parent
-link's *inertial* frame; the child's URDF link frame is the joint frame moved by the joint; the child's inertial
-frame is its link frame times its local inertial offset. Positions in metres, world frame; quaternions ``(x, y, z,
-w)``.
+The engine describes the chain as fixed frames and joint motions in order (how it arrives at them, e.g. PyBullet's
+inertial frames, is its own business). Positions in metres, world frame; quaternions ``(x, y, z, w)``.
 """
 
 from __future__ import annotations
@@ -18,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from robokit.engines.interface import ChainFrame
 from robokit.errors import ConfigError
 
 
@@ -66,13 +66,12 @@ def _axis_rotation(axis: np.ndarray, angle: float) -> np.ndarray:
     ])
 
 
-def links_to(client: Any, body: int, link: int) -> list[int]:
-    """Indices of the links from the base (excluded) out to ``link``, base side first (each joint's parent is field
-    16 of ``getJointInfo``)."""
+def links_to(world: Any, body: int, link: int) -> list[int]:
+    """Indices of the links from the base (excluded) out to ``link``, base side first."""
     path = []
     while link >= 0:
         path.append(link)
-        link = client.getJointInfo(body, link)[16]
+        link = world.joint_parent(body, link)
     path.reverse()
     return path
 
@@ -86,7 +85,7 @@ def arm_joints(ctx: Any, body_name: str, ee_link: str) -> tuple[int, int, list[A
     if ee < 0:
         raise ConfigError(f"the end-effector link must not be the base link {ee_link!r}", key="ee_link")
     movable = [j for j in ctx.world.joints(body_name) if j.movable]
-    chain = set(links_to(ctx.world.client, body, ee))
+    chain = set(links_to(ctx.world, body, ee))
     arm = [j for j in movable if j.index in chain]
     if not arm:
         raise ConfigError(f"no movable joint between the base and {ee_link!r}", key="ee_link")
@@ -97,7 +96,7 @@ class Chain:
     """The joints from a fixed base to one link, folded into constant transforms between the moving joints.
 
     Args:
-        client: A PyBullet client (read at construction only).
+        world: The World (read at construction only).
         body: Body id of the arm (its base must not move while the chain is used).
         link: Index of the end link.
         columns: Joint index -> column in the joint vectors passed to :meth:`fk` / :meth:`jacobian`.
@@ -105,28 +104,25 @@ class Chain:
             then describe that frame (a tool-centre point) instead of the link's own.
     """
 
-    def __init__(self, client: Any, body: int, link: int, columns: dict[int, int],
+    def __init__(self, world: Any, body: int, link: int, columns: dict[int, int],
                  tool: tuple[Sequence[float], Sequence[float]] | None = None) -> None:
-        path = links_to(client, body, link)
-        pos, orn = client.getBasePositionAndOrientation(body)  # the base's inertial frame, world
-        const = transform(pos, orn)
+        const: np.ndarray | None = None  # frames since the last moving joint (None: none yet)
         self.constants: list[np.ndarray] = []  # frame before each moving joint, relative to the one after the last
         axes, prismatic, cols = [], [], []
-        for index in path:
-            info = client.getJointInfo(body, index)
-            x, y, z, w = info[15]  # getJointInfo reports the inverse of the joint frame's orientation
-            const = const @ transform(info[14], (-x, -y, -z, w))
-            col = columns.get(index, -1)
+        for step in world.kinematic_chain(body, link):
+            if isinstance(step, ChainFrame):
+                frame = transform(step.position, step.orientation)
+                const = frame if const is None else const @ frame
+                continue
+            col = columns.get(step.joint, -1)
             if col >= 0:
-                axis = np.asarray(info[13], float)
-                self.constants.append(const)
+                axis = np.asarray(step.axis, float)
+                self.constants.append(const if const is not None else np.eye(4))
                 axes.append(axis / max(float(np.linalg.norm(axis)), 1e-12))
-                prismatic.append(info[2] == client.JOINT_PRISMATIC)
+                prismatic.append(step.type == "prismatic")
                 cols.append(col)
                 const = np.eye(4)
-            if index != path[-1]:  # on to the child's inertial frame, where the next joint frame is given
-                dyn = client.getDynamicsInfo(body, index)
-                const = const @ transform(dyn[3], dyn[4])
+        const = const if const is not None else np.eye(4)
         self.tail = const if tool is None else const @ transform(*tool)
         self.axes = np.array(axes).reshape(-1, 3)
         self.prismatic = np.array(prismatic, bool)

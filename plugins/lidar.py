@@ -19,17 +19,12 @@ from typing import Any, ClassVar
 
 import numpy as np
 from pydantic import Field, model_validator
-from robokit_plugins.raycast import RayCaster
 
 from robokit import hookimpl
 from robokit.components import Sensor, SetupContext
 from robokit.config import Schema, Vec3
 from robokit.msgs.mobile import LaserScan
 
-OWN_BODY_GROUP = 0x100
-"""Collision group the lidar puts its robot's links in (their collisions with other bodies are unchanged)."""
-RAY_MASK = -1 ^ OWN_BODY_GROUP
-"""Rays hit every collision group but the robot's own."""
 SELF_MARGIN = 0.03
 """m: the robot's own box is grown by this much (Bullet grows broadphase boxes by its 0.02 m contact threshold)."""
 
@@ -116,11 +111,10 @@ class Lidar(Sensor):
         if cfg.position is None:
             self.body = ctx.body(cfg.robot, key="robot")
             self.link = ctx.link(cfg.robot, cfg.link, key="link")
-            self._exclude_own_body()
-            self._links = list(range(-1, self.world.client.getNumJoints(self.body)))
+            self.world.hide_from_rays(self.body)  # (about two thirds of a scan's cost on the diffbot otherwise)
         else:
-            orn = self.world.client.getQuaternionFromEuler([math.radians(a) for a in cfg.rpy_deg])
-            rot = np.asarray(self.world.client.getMatrixFromQuaternion(orn), float).reshape(3, 3)
+            orn = self.world.quaternion_from_euler([math.radians(a) for a in cfg.rpy_deg])
+            rot = np.asarray(self.world.matrix_from_quaternion(orn), float).reshape(3, 3)
             self._fixed_frame = (np.asarray(cfg.position, float), rot, math.atan2(rot[1, 0], rot[0, 0]))
         self.angle_min, self.angle_max, self.angle_inc = scan_angles(cfg.rays, cfg.fov_deg)
         angles = self.angle_min + self.angle_inc * np.arange(cfg.rays) + math.radians(cfg.yaw_offset_deg)
@@ -130,21 +124,8 @@ class Lidar(Sensor):
         self._near_min = np.full(cfg.rays, cfg.range_min)
         self._yaw_offset = math.radians(cfg.yaw_offset_deg)
         self._offset = np.asarray(cfg.offset, float) if any(cfg.offset) else None
-        self.caster = RayCaster(self.world, skip=() if self.body is None else (self.body,), mask=RAY_MASK,
-                                num_threads=cfg.num_threads, analytic=cfg.map_in_numpy)
-
-    def _exclude_own_body(self) -> None:
-        """Put the robot's links in collision group ``OWN_BODY_GROUP`` so that the rays can skip them.
-
-        Its collisions with everything else are unchanged (the masks still accept every group). Without this,
-        every ray whose box overlaps the robot's shapes (all of them, near the sensor) pays a narrow-phase test
-        against each of the robot's links: about two thirds of the scan's cost on the diffbot.
-        """
-        c = self.world.client
-        static = c.getDynamicsInfo(self.body, -1)[0] == 0
-        mask = -1 ^ 2 if static else -1  # Bullet's defaults: static bodies ignore other static ones
-        for link in range(-1, c.getNumJoints(self.body)):
-            c.setCollisionFilterGroupMask(self.body, link, OWN_BODY_GROUP, mask)
+        self.caster = self.world.ray_caster(skip=() if self.body is None else (self.body,), see_hidden=False,
+                                            num_threads=cfg.num_threads, analytic=cfg.map_in_numpy)
 
     def _sensor_frame(self) -> tuple[np.ndarray, np.ndarray, float]:
         """Sensor origin (world, m), the link's rotation matrix (3x3) and its heading about world +z (rad)."""
@@ -152,7 +133,7 @@ class Lidar(Sensor):
             assert self._fixed_frame is not None
             return self._fixed_frame
         pos, orn = self.world.pose(self.body, self.link)
-        m = self.world.client.getMatrixFromQuaternion(orn)
+        m = self.world.matrix_from_quaternion(orn)
         rot = np.array(m).reshape(3, 3)
         yaw = math.atan2(m[3], m[0])
         if self._offset is None:  # the link's origin (``pos + rot @ 0`` is ``pos``)
@@ -164,11 +145,10 @@ class Lidar(Sensor):
         axis, seen from the sensor origin ``x``; None when the origin lies outside it (or the sensor is fixed)."""
         if self.body is None:
             return None
-        aabb = self.world.client.getAABB
-        lows, highs = zip(*(aabb(self.body, link) for link in self._links), strict=True)
+        lows, highs = self.world.body_aabb(self.body)
         o = origin.tolist()
-        lo_ = [min(c) - SELF_MARGIN for c in zip(*lows, strict=True)]
-        hi_ = [max(c) + SELF_MARGIN for c in zip(*highs, strict=True)]
+        lo_ = [c - SELF_MARGIN for c in lows]
+        hi_ = [c + SELF_MARGIN for c in highs]
         if not all(low < x < high for low, x, high in zip(lo_, o, hi_, strict=True)):
             return None
         return [[high - x, low - x] for low, x, high in zip(lo_, o, hi_, strict=True)]
@@ -236,12 +216,10 @@ class Lidar(Sensor):
     def _draw(self, starts: np.ndarray, points: np.ndarray, hit: np.ndarray) -> None:
         """Draw the scan (GUI only). Rendering is paused meanwhile: each debug line is a round trip to the GUI
         thread, which otherwise waits for a rendered frame per line."""
-        c = self.world.client
-        c.configureDebugVisualizer(c.COV_ENABLE_RENDERING, 0)
         life = 0.1  # s: a 10 Hz scan replaces the last one
-        for s, e, h in zip(starts, points, hit, strict=True):
-            self.world.debug_line(s, e, (1.0, 0.0, 0.0) if h else (0.0, 1.0, 0.0), lifetime=life)
-        c.configureDebugVisualizer(c.COV_ENABLE_RENDERING, 1)
+        with self.world.drawing():
+            for s, e, h in zip(starts, points, hit, strict=True):
+                self.world.debug_line(s, e, (1.0, 0.0, 0.0) if h else (0.0, 1.0, 0.0), lifetime=life)
 
     def info(self) -> dict[str, Any]:
         """Static description of the scan (for reports)."""

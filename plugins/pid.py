@@ -99,8 +99,7 @@ class Pid(Actuator):
         for i, step in enumerate(cfg.schedule):
             self._check_names(step.setpoints, f"schedule[{i}].setpoints")
         self._check_names(cfg.setpoints, "setpoints")
-        c = self.world.client
-        c.setJointMotorControlArray(self.body, self.index, c.VELOCITY_CONTROL, forces=[0.0] * len(self.index))
+        self.world.set_joint_motors(self.body, self.index, "velocity", forces=[0.0] * len(self.index))
         self.reset()
 
     def _check_names(self, table: dict[str, float], key: str) -> None:
@@ -122,7 +121,7 @@ class Pid(Actuator):
         self.torque, self.saturated = zeros, np.zeros(len(self.names), bool)
 
     def _measure(self) -> tuple[np.ndarray, np.ndarray]:
-        states = self.world.client.getJointStates(self.body, self.index)
+        states = self.world.joint_states(self.body, self.index)
         return np.array([s[0] for s in states]), np.array([s[1] for s in states])
 
     def command(self, cmd: Any) -> None:
@@ -158,8 +157,7 @@ class Pid(Actuator):
         self.torque = np.clip(out, -self.limit, self.limit)
         self.saturated = np.abs(out) > self.limit
         self.terms = (p_term, self.integral.copy(), d_term)
-        c = self.world.client
-        c.setJointMotorControlArray(self.body, self.index, c.TORQUE_CONTROL, forces=self.torque.tolist())
+        self.world.set_joint_motors(self.body, self.index, "torque", forces=self.torque.tolist())
 
     def _filtered_rate(self, q: np.ndarray, dt: float) -> np.ndarray:
         """Finite-difference joint rate through a first-order low-pass filter (rad/s)."""

@@ -1,12 +1,11 @@
 """``suction`` actuator: a suction cup that holds what it touches, modelled as a constraint.
 
-There is no air flow in pybullet, so suction is modelled the way most simulators model it: while the cup is on
-(``GripperCommand("close")``), the first body that touches the cup's link is attached to it (never the robot
+There is no air flow in a rigid-body engine, so suction is modelled the way most simulators model it: while the cup
+is on (``GripperCommand("close")``), the first body that touches the cup's link is attached to it (never the robot
 itself, nor a body mounted on it or it on) with a fixed constraint at their relative pose at that moment, with a
 force limit (``max_force``, newtons: pull harder — a collision, a heavy object swinging — and the constraint
-yields). ``open`` removes the constraint and the
-object falls free. Nothing is attached while the cup is off, and only a body in contact can be picked: a cup that
-stops short of the object holds nothing.
+yields). ``open`` removes the constraint and the object falls free. Nothing is attached while the cup is off, and
+only a body in contact can be picked: a cup that stops short of the object holds nothing.
 
 It reads and takes the same messages as ``gripper`` (:class:`~robokit.msgs.arm.GripperCommand` in,
 :class:`~robokit.msgs.arm.GripperState` out), so ``pick_place`` and ``sort`` drive it unchanged: set their
@@ -89,29 +88,19 @@ class Suction(Actuator):
 
     def _touching(self) -> int | None:
         own = self.world.attached(self.body)  # the cup, the arm it is mounted on, anything else joined to them
-        for cp in self.world.client.getContactPoints(bodyA=self.body, linkIndexA=self.link):
-            if cp[2] not in own:
-                return int(cp[2])
+        for cp in self.world.contacts(self.body, link=self.link):
+            if cp.other not in own:
+                return int(cp.other)
         return None
 
     def _attach(self, other: int) -> None:
         """A fixed constraint keeping ``other`` where it is relative to the cup (both centre-of-mass frames)."""
-        c = self.world.client
-        if self.link == -1:
-            cup_pos, cup_orn = c.getBasePositionAndOrientation(self.body)
-        else:
-            cup_pos, cup_orn = c.getLinkState(self.body, self.link)[:2]
-        obj_pos, obj_orn = c.getBasePositionAndOrientation(other)
-        inv_pos, inv_orn = c.invertTransform(cup_pos, cup_orn)
-        rel_pos, rel_orn = c.multiplyTransforms(inv_pos, inv_orn, obj_pos, obj_orn)
-        self.constraint = c.createConstraint(self.body, self.link, other, -1, c.JOINT_FIXED, [0, 0, 0],
-                                             rel_pos, [0, 0, 0], parentFrameOrientation=rel_orn)
-        c.changeConstraint(self.constraint, maxForce=self.config.max_force)
+        self.constraint = self.world.attach(self.body, self.link, other, max_force=self.config.max_force)
         self.held = other
 
     def _release(self) -> None:
         if self.constraint is not None:
-            self.world.client.removeConstraint(self.constraint)
+            self.world.detach(self.constraint)
         self.constraint, self.held = None, None
 
     def read(self) -> GripperState:
@@ -119,13 +108,13 @@ class Suction(Actuator):
         holding, or ``settle_time`` after the cup was turned on with nothing to hold."""
         width = 0.0 if self.on or self.held is not None else self.config.open_width
         held = None if self.held is None else (self.world.body_name(self.held) or f"body{self.held}")
-        contacts = len(self.world.client.getContactPoints(bodyA=self.body, linkIndexA=self.link))
+        contacts = len(self.world.contacts(self.body, link=self.link))
         settled = not self.on or self.held is not None or self.world.time - self.since >= self.config.settle_time
         return GripperState(width=width, target_width=width, action=self.action, settled=settled,
                             holding=self.held is not None, held=held, finger_contacts=contacts, stopped=self.stopped)
 
     def close(self) -> None:
-        if self.world.client is not None:
+        if not self.world.closed:
             try:
                 self._release()
             except Exception:  # noqa: BLE001 - the world may already be gone

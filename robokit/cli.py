@@ -409,7 +409,7 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     """``robokit inspect``: lesson 02's joint table of a URDF."""
     from robokit.core.world import World
 
-    with World() as world:
+    with World.create() as world:
         world.load_urdf("robot", args.urdf, fixed_base=True)
         joints = world.joints("robot")
         base = world.base_link_name("robot")

@@ -16,6 +16,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("robokit", "robokit.errors", "robokit.process"),
     ("robokit.config",),
     ("robokit.plugin_api", "robokit.msgs", "robokit.components"),
+    ("robokit.engines",),
     ("robokit.core", "robokit.fsm"),
     ("robokit.report", "robokit.record"),
     ("robokit.runner", "robokit.sweep", "robokit.gym", "robokit.checks", "robokit.server"),

@@ -52,7 +52,7 @@ class Simulation:
         self.plugins = plugins
         wc = config.world
         self.seed = wc.seed if seed is None else int(seed)
-        self.world = World(
+        self.world = World.create(
             gui=wc.gui if gui is None else gui,
             time_step=wc.time_step,
             gravity=wc.gravity,

@@ -81,7 +81,7 @@ def rebuild(rec: RunRecord) -> Scene:
     raw["world"] = {k: v for k, v in raw.get("world", {}).items() if k != "gui"}
     base_dir = Path(header.get("config_dir") or ".")
     cfg = build_config(raw, load_plugins(), source=str(header.get("config_path", "<record>")), base_dir=base_dir)
-    world = World(gui=False, time_step=cfg.world.time_step, seed=int(header["seed"]), base_dir=base_dir)
+    world = World.create(gui=False, time_step=cfg.world.time_step, seed=int(header["seed"]), base_dir=base_dir)
     try:
         spawn_bodies(world, cfg)
         joints = {}

@@ -1,0 +1,26 @@
+"""Physics engines behind the World: the interface every engine answers, and the engines themselves.
+
+- :mod:`robokit.engines.interface` — :class:`~robokit.engines.interface.World`, the one interface to physics that
+  plugins and behaviours use (abstract methods with units and frames), and its engine-neutral half (names, clock,
+  random generator). It imports no engine.
+- :mod:`robokit.engines.pybullet` — the PyBullet engine (``engine = "pybullet"``, the default), with
+  :mod:`robokit.engines.pybullet_rays` (its batched ray caster).
+
+An engine registers here, by name, a function that imports and returns its World class: ``World(engine=NAME)``
+builds it, and nothing imports an engine until a World of it is made.
+
+May import: ``robokit.errors``, ``robokit.process`` (below it in the house); nothing above.
+"""
+
+from __future__ import annotations
+
+from robokit.engines.interface import World
+
+
+def _pybullet() -> type[World]:
+    from robokit.engines.pybullet import PyBulletWorld
+
+    return PyBulletWorld
+
+
+World.engines["pybullet"] = _pybullet
