@@ -40,6 +40,12 @@ in instructions (the work done, the same on any load).
     python benchmarks/handwritten.py --seeds 20 --jobs sort     # one job
     python benchmarks/handwritten.py --seeds 20 --job-seeds 10  # more whole-process runs (default 5)
     python benchmarks/handwritten.py --seeds 20 --pairs 3       # best of 3 interleaved pairs a seed (steadier)
+    python benchmarks/handwritten.py --callgrind 3 --jobs sort  # loop instructions under callgrind, seeds 0-2
+
+``--callgrind N`` counts instead of timing: each side's run loop (instrumentation switched on just before the loop
+and off after it) runs under valgrind's callgrind in a child process; the ratio is instructions per simulated
+second. It needs valgrind, takes about a minute a seed, and does not depend on the machine's load: the figure to
+quote on a shared machine without hardware counters.
 """
 
 from __future__ import annotations
@@ -413,6 +419,8 @@ class HandSort:
             mask = np.zeros((self.h, self.w), np.uint8)
             for lo, hi in spans:
                 mask |= cv2.inRange(hsv, np.array(lo, np.uint8), np.array(hi, np.uint8))
+            if not cv2.countNonZero(mask):
+                continue
             mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, self.kernel)
             count, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
             for i in range(1, count):
@@ -762,15 +770,65 @@ def hand_run(job: str, seed: int) -> dict[str, Any]:
     scene = Scene(JOBS[job], seed)
     try:
         runner = HAND_JOBS[job](scene, seed)
+        _callgrind(True)
         t0, c0, k0, i0 = time.perf_counter(), time.process_time(), _cycles(), _instructions()
         result = runner.run()
         wall, cpu, cycles = time.perf_counter() - t0, time.process_time() - c0, _cycles() - k0
         instr = _instructions() - i0
+        _callgrind(False)
     finally:
         scene.close()
     return {"wall": wall, "cpu": cpu, "cycles": cycles, "instr": instr, "sim": result["sim_time"],
             "ok": _hand_ok(job, result),
             "result": result}
+
+
+UNDER_CALLGRIND: list[bool] = []
+"""Set (``--callgrind-child``) when this process runs under valgrind's callgrind with instrumentation off at start."""
+
+
+def _callgrind(on: bool) -> None:
+    """Under callgrind: switch instrumentation on just before a run loop and off just after it (scene building,
+    imports and teardown are not counted). Elsewhere: nothing."""
+    if UNDER_CALLGRIND:
+        subprocess.run(["callgrind_control", "--instr=on" if on else "--instr=off", str(os.getpid())], check=True,
+                       stdout=subprocess.DEVNULL)
+
+
+def _count_loop(job: str, side: str, seed: int, folder: str) -> tuple[int, float, bool]:
+    """One side's run loop for one seed in a child process under callgrind: (instructions, sim seconds, success)."""
+    out = os.path.join(folder, f"callgrind.{side}.{seed}")
+    env = {**os.environ, "PYTHONHASHSEED": "0", "OPENBLAS_NUM_THREADS": "1"}
+    cmd = ["valgrind", "--tool=callgrind", "--instr-atstart=no", f"--callgrind-out-file={out}", sys.executable,
+           str(Path(__file__).resolve()), "--child", job, "--side", side, "--seed", str(seed), "--callgrind-child"]
+    proc = subprocess.run(cmd, capture_output=True, text=True, env=env)
+    found = [line.split()[-1] for line in proc.stderr.splitlines() if "Collected :" in line]
+    if proc.returncode != 0 or not found:
+        raise SystemExit(f"callgrind run of the {side} side failed ({proc.returncode}): {proc.stderr.strip()[-300:]}")
+    data = json.loads(proc.stdout.strip().splitlines()[-1])
+    return int(found[-1].replace(",", "")), float(data["sim"]), bool(data["ok"])
+
+
+def instruction_ratios(job: str, seeds: list[int]) -> None:
+    """Each side's run loop counted by callgrind (instructions executed: the same on any load, no hardware counters
+    needed), per seed in child processes two at a time; robokit over hand-written per simulated second."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    with tempfile.TemporaryDirectory() as tmp, ThreadPoolExecutor(2) as pool:
+        runs = {(side, seed): pool.submit(_count_loop, job, side, seed, tmp)
+                for seed in seeds for side in ("robokit", "hand")}
+        ratios, ok = [], {"robokit": 0, "hand": 0}
+        for seed in seeds:
+            (rk, rk_sim, rk_ok), (hw, hw_sim, hw_ok) = runs["robokit", seed].result(), runs["hand", seed].result()
+            ratios.append((rk / rk_sim) / (hw / hw_sim))
+            ok["robokit"] += rk_ok
+            ok["hand"] += hw_ok
+            print(f"  {job} seed {seed:3d}: robokit {rk / 1e6:8.1f} M instructions / {rk_sim:6.2f} sim s "
+                  f"= {rk / rk_sim / 1e6:6.1f} M/s {'ok' if rk_ok else 'FAIL'} | hand {hw / 1e6:8.1f} M / "
+                  f"{hw_sim:6.2f} s = {hw / hw_sim / 1e6:6.1f} M/s {'ok' if hw_ok else 'FAIL'} | "
+                  f"ratio {ratios[-1]:.3f}", flush=True)
+    print(f"{job} loop, instructions per sim second (callgrind), robokit / hand-written: {_stats(ratios)}")
+    print(f"{job} success: robokit {ok['robokit']}/{len(seeds)}, hand-written {ok['hand']}/{len(seeds)}", flush=True)
 
 
 _COUNTERS: list[Any] = []
@@ -818,10 +876,12 @@ def robokit_run(job: str, seed: int) -> dict[str, Any]:
     from robokit.testing import make_sim
 
     with make_sim(str(JOBS[job]), seed=seed, overrides=dict(OVERRIDES) or None) as sim:
+        _callgrind(True)
         t0, c0, k0, i0 = time.perf_counter(), time.process_time(), _cycles(), _instructions()
         result = sim.run()
         wall, cpu, cycles = time.perf_counter() - t0, time.process_time() - c0, _cycles() - k0
         instr = _instructions() - i0
+        _callgrind(False)
     r = result.result
     if job == "sort":
         ok = result.outcome == "succeeded" and r.get("red_sorted", 0) + r.get("blue_sorted", 0) == 4
@@ -914,7 +974,8 @@ def loop_ratios(job: str, seeds: list[int], pairs: int = 1) -> None:
 def job_ratios(job: str, seeds: list[int]) -> None:
     """Whole processes, interleaved: ``robokit run`` against this script's hand-written child, per seed."""
     exe = Path(sys.executable).parent / "robokit"
-    ratios, walls = [], {"robokit": [], "hand": []}
+    ratios: list[float] = []
+    walls: dict[str, list[float]] = {"robokit": [], "hand": []}
     # Both sides as a user's machine runs them: bytecode caches written and used (a shell with
     # PYTHONDONTWRITEBYTECODE set would compile robokit's ~50 modules on every start); one warm-up round first.
     env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
@@ -953,15 +1014,25 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--set", type=_override, action="append", default=[], metavar="KEY=VALUE",
                         help="config override on robokit's side of the loop runs (repeatable), e.g. "
                              "sensors.scan.map_in_numpy=false; the whole-job runs use the config as it is")
+    parser.add_argument("--callgrind", type=int, default=0, metavar="N",
+                        help="instead of timing: count each side's loop instructions under valgrind's callgrind on "
+                             "seeds 0..N-1 (load-independent; about a minute a seed)")
     parser.add_argument("--child", choices=sorted(JOBS), help=argparse.SUPPRESS)
+    parser.add_argument("--side", choices=("hand", "robokit"), default="hand", help=argparse.SUPPRESS)
+    parser.add_argument("--callgrind-child", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--seed", type=int, default=0, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.pairs < 1 or args.seeds < 1:
         parser.error("--pairs and --seeds must be at least 1")
     OVERRIDES.update(args.set)
     if args.child:
-        out = hand_run(args.child, args.seed)
+        UNDER_CALLGRIND.extend([True] if args.callgrind_child else [])
+        out = (robokit_run if args.side == "robokit" else hand_run)(args.child, args.seed)
         print(json.dumps({"ok": out["ok"], "sim": out["sim"], "result": out["result"]}, default=str))
+        return
+    if args.callgrind:
+        for job in args.jobs:
+            instruction_ratios(job, list(range(args.callgrind)))
         return
     if OVERRIDES:
         print(f"robokit's loop runs with: {', '.join(f'{k} = {v!r}' for k, v in OVERRIDES.items())}")
