@@ -147,6 +147,7 @@ class Gripper(Actuator):
         self._indices = [j.index for j in self.fingers]
         self._spans = [o - c for o, c in zip(self.open_q, self.closed_q, strict=True)]
         self._dirty = True  # motor targets to send at the next update
+        self._read_at: tuple[int, float, float] | None = None  # (tick, width, rate) a read measured this tick
         self._last_width = self._width()
         self._still_since: float | None = self.world.time
         self._last_t = self.world.time
@@ -263,7 +264,11 @@ class Gripper(Actuator):
 
     def _track_settling(self) -> None:
         cfg: GripperConfig = self.config
-        now, width = self.world.time, self._width()
+        now, read = self.world.time, self._read_at
+        # A read earlier in this tick (the behaviour's, before the actuators update) measured the same joints: no
+        # physics step has run since, so its width is this tick's width.
+        width = read[1] if read is not None and read[0] == self.world.tick else self._width()
+        self._read_at = None
         dt = max(now - self._last_t, self.world.time_step)
         moving = abs(width - self._last_width) / dt > cfg.settle_speed
         if moving:
@@ -291,6 +296,7 @@ class Gripper(Actuator):
         """Width, settling, and whether (and what) the fingers hold."""
         cfg: GripperConfig = self.config
         width, rate = self._width_and_rate()
+        self._read_at = (self.world.tick, width, rate)
         if not self._tracking and abs(rate) > cfg.settle_speed:
             self._still_since = None  # settled fingers pushed open or shut: moving again
             self._watch()
