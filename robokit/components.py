@@ -71,8 +71,8 @@ class SetupContext:
     """What a component receives in ``setup``.
 
     Attributes:
-        world: The World (bodies by name, the PyBullet client, the clock). Behaviours should not drive
-            physics through it: readings in, commands out.
+        world: The World, the one interface to physics (bodies by name, joints, contacts, rays, the clock; see
+            robokit.engines.interface). Behaviours should not drive physics through it: readings in, commands out.
         rng: This component's own generator, spawned from the run's seed (independent of other components). For
             noise drawn at each reading use :meth:`tick_rng` (an extra read must not change later readings).
         key: The component's config key path, e.g. ``"sensors.cam"``; prefix errors with it.

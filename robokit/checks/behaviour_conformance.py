@@ -12,8 +12,8 @@ The check builds the behaviour from its ``example`` (a minimal scene, its sensor
 
 1. **declares**: a config schema (a :class:`robokit.config.Schema` subclass, so unknown keys are refused), a
    one-line description (the class docstring); a machine behaviour's ``INITIAL`` and ``TIMEOUTS`` name its states;
-2. **pybullet-free**: importing the behaviour's module (in a fresh interpreter) imports neither pybullet nor
-   OpenCV — readings in, commands out;
+2. **pybullet-free**: importing the behaviour's module (in a fresh interpreter) imports neither a physics engine
+   (pybullet, mujoco) nor OpenCV — readings in, commands out;
 3. **lint**: its module has no wall-clock reads, sleeps or global random generators (:mod:`robokit.checks.lint`);
 4. **builds** from the example and **ends with an outcome** (``succeeded``, ``failed`` or ``aborted``) within the
    example's ``world.max_time``;
@@ -207,7 +207,7 @@ class _BehaviourCheck:
     def _check_imports(self) -> None:
         module = self.ptype.cls.__module__
         code = (f"import sys; import {module}; "
-                "print(','.join(m for m in ('pybullet', 'cv2') if m in sys.modules))")
+                "print(','.join(m for m in ('pybullet', 'mujoco', 'cv2') if m in sys.modules))")
         env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in sys.path if p)}  # what this process sees
         proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=False, env=env)
         if proc.returncode != 0:

@@ -20,7 +20,7 @@ OVERLAP_TOLERANCE = 0.005
 
 def is_static(world: World, name: str) -> bool:
     """True for bodies that never move: zero base mass (static primitives, fixed-base URDFs)."""
-    return bool(world.client.getDynamicsInfo(world.body(name), -1)[0] == 0.0)
+    return bool(world.mass(name) == 0.0)
 
 
 def overlapping_bodies(world: World, keys: Mapping[str, str],
@@ -33,13 +33,11 @@ def overlapping_bodies(world: World, keys: Mapping[str, str],
     names = world.body_names
     static = {n: is_static(world, n) for n in names}
     problems = []
-    client = world.client
     for i, a in enumerate(names):
         for b in names[i + 1:]:
             if static[a] and static[b]:
                 continue
-            points = client.getClosestPoints(world.body(a), world.body(b), 0.0)
-            depth = -min((pt[8] for pt in points), default=0.0)
+            depth = world.penetration(world.body(a), world.body(b))
             if depth > tolerance:
                 key = keys.get(b, f"bodies.{b}")
                 problems.append(ConfigError(f"{b!r} is spawned overlapping {a!r} ({keys.get(a, a)}) by "

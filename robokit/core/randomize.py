@@ -135,40 +135,38 @@ class Randomizer:
     def apply_world(self, world: World) -> None:
         """Set the drawn masses, frictions, restitutions, joint dampings, colours and light on the World
         (factors act on the values the bodies had when first applied, so a redraw does not compound)."""
-        c = world.client
         for name, entry in self.drawn["bodies"].items():
             if not world.has_body(name):
                 continue
             bid = world.body(name)
             joints = world.joints(bid)
             for link in range(-1, len(joints)):
-                self._apply_link(c, bid, link, entry)
+                self._apply_link(world, bid, link, entry)
             for joint, damping in entry.get("joint_damping", {}).items():
-                c.changeDynamics(bid, world.joint(bid, joint).index, jointDamping=damping)
+                world.set_dynamics(bid, world.joint(bid, joint).index, joint_damping=damping)
             if "rgba" in entry:
-                c.changeVisualShape(bid, -1, rgbaColor=entry["rgba"])
+                world.set_visual_rgba(bid, entry["rgba"])
         if "light_direction" in self.drawn:
             world.render_options["lightDirection"] = list(self.drawn["light_direction"])
         for held in self._held:  # a new episode starts with fresh readings
             held.clear()
 
-    def _apply_link(self, c: Any, bid: int, link: int, entry: Mapping[str, Any]) -> None:
+    def _apply_link(self, world: World, bid: int, link: int, entry: Mapping[str, Any]) -> None:
         """Set a link's drawn mass, friction and restitution; values already in place are not set again (setting
         a mass, even the same one, changes how the link is solved)."""
-        mass, friction, restitution = self._nominal_of(c, bid, link)
+        mass, friction, restitution = self._nominal_of(world, bid, link)
         wanted = {"mass": mass * entry["mass_scale"] if "mass_scale" in entry and mass > 0 else mass,
-                  "lateralFriction": friction * entry.get("friction_scale", 1.0),
+                  "lateral_friction": friction * entry.get("friction_scale", 1.0),
                   "restitution": entry.get("restitution", restitution)}
-        info = c.getDynamicsInfo(bid, link)
-        now = {"mass": info[0], "lateralFriction": info[1], "restitution": info[5]}
+        now = world.dynamics(bid, link)
         changed = {k: v for k, v in wanted.items() if v != now[k]}
         if changed:
-            c.changeDynamics(bid, link, **changed)
+            world.set_dynamics(bid, link, **changed)
 
-    def _nominal_of(self, c: Any, bid: int, link: int) -> tuple[float, float, float]:
+    def _nominal_of(self, world: World, bid: int, link: int) -> tuple[float, float, float]:
         if (bid, link) not in self._nominal:
-            info = c.getDynamicsInfo(bid, link)
-            self._nominal[(bid, link)] = (float(info[0]), float(info[1]), float(info[5]))
+            info = world.dynamics(bid, link)
+            self._nominal[(bid, link)] = (info["mass"], info["lateral_friction"], info["restitution"])
         return self._nominal[(bid, link)]
 
     def params_for(self, spec: ComponentSpec) -> Any:

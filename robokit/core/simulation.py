@@ -635,7 +635,7 @@ def _spawn_one(world: World, key: str, name: str, body: BodyConfig, position: An
                     info = world.joint(name, joint_name)
                 except UserError as exc:
                     raise ConfigError(str(exc), key=f"{key}.joint_positions.{joint_name}") from None
-                world.client.resetJointState(world.body(name), info.index, value)
+                world.reset_joint(world.body(name), info.index, value)
     except ConfigError:
         raise
     except UserError as exc:

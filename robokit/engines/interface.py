@@ -498,7 +498,8 @@ class World(ABC):
 
         Keywords: ``lateral_friction``, ``rolling_friction``, ``spinning_friction`` (coefficients),
         ``restitution`` (0..1), ``linear_damping``, ``angular_damping``, ``mass`` (kg), ``friction_anchor`` (True:
-        keep static friction anchored at the contact, for fingers that hold; engines without it ignore it).
+        keep static friction anchored at the contact, for fingers that hold; engines without it ignore it),
+        ``joint_damping`` (N·m·s/rad of the joint whose child is ``link``).
         """
 
     @abstractmethod
@@ -580,6 +581,15 @@ class World(ABC):
     @abstractmethod
     def mass(self, body: str | int, link: int = -1) -> float:
         """Mass of a body's base or link, kg (0 = static)."""
+
+    @abstractmethod
+    def dynamics(self, body: str | int, link: int = -1) -> dict[str, float]:
+        """Contact and mass parameters of a base or link now: ``mass`` (kg), ``lateral_friction``,
+        ``rolling_friction``, ``spinning_friction``, ``restitution`` (the keys :meth:`set_dynamics` takes)."""
+
+    @abstractmethod
+    def set_visual_rgba(self, body: str | int, rgba: Sequence[float], link: int = -1) -> None:
+        """Recolour a base or link: ``(r, g, b, a)`` in 0..1 (what cameras see)."""
 
     @abstractmethod
     def visual_rgba(self, body: str | int) -> tuple[float, float, float, float] | None:
@@ -764,7 +774,12 @@ class World(ABC):
 
     @abstractmethod
     def disable_collisions(self, body: int) -> None:
-        """Make a body's base collide with nothing (carried cargo); it still moves with its attachments."""
+        """Make every link of a body collide with nothing (carried cargo, a goal marker); it still moves with its
+        attachments."""
+
+    @abstractmethod
+    def penetration(self, a: int, b: int) -> float:
+        """How deep bodies ``a`` and ``b`` interpenetrate now, metres (0 when apart or just touching)."""
 
     # ----------------------------------------------------------------- rays, cameras
     @abstractmethod

@@ -221,6 +221,7 @@ class PyBulletWorld(World):
             "angular_damping": "angularDamping",
             "mass": "mass",
             "friction_anchor": "frictionAnchor",
+            "joint_damping": "jointDamping",
         }
         kwargs: dict[str, float | int] = {
             names[k]: (int(v) if k == "friction_anchor" else float(v)) for k, v in params.items() if v is not None}
@@ -482,6 +483,15 @@ class PyBulletWorld(World):
         """Mass (kg) of a base or link: field 0 of ``getDynamicsInfo``."""
         return float(self.client.getDynamicsInfo(self.body(body), link)[0])
 
+    def dynamics(self, body: str | int, link: int = -1) -> dict[str, float]:
+        """Fields 0, 1, 6, 7, 5 of ``getDynamicsInfo``."""
+        info = self.client.getDynamicsInfo(self.body(body), link)
+        return {"mass": float(info[0]), "lateral_friction": float(info[1]), "rolling_friction": float(info[6]),
+                "spinning_friction": float(info[7]), "restitution": float(info[5])}
+
+    def set_visual_rgba(self, body: str | int, rgba: Sequence[float], link: int = -1) -> None:
+        self.client.changeVisualShape(self.body(body), link, rgbaColor=rgba)
+
     def visual_rgba(self, body: str | int) -> tuple[float, float, float, float] | None:
         """Colour of the first visual shape (field 7 of ``getVisualShapeData``)."""
         shapes = self.client.getVisualShapeData(self.body(body))
@@ -631,16 +641,19 @@ class PyBulletWorld(World):
         self, body: int, other: int | None = None, *, link: int | None = None, other_link: int | None = None
     ) -> list[Contact]:
         """``getContactPoints``, each point as a :class:`Contact` (fields 2, 3, 4, 9, 6, 7 of its tuple)."""
-        kwargs: dict[str, int] = {"bodyA": body}
-        if other is not None:
-            kwargs["bodyB"] = other
-        if link is not None:
-            kwargs["linkIndexA"] = link
-        if other_link is not None:
-            kwargs["linkIndexB"] = other_link
-        new = tuple.__new__  # builds the named tuple without its Python-level __new__ (every tick)
-        return [new(Contact, (cp[2], cp[3], cp[4], cp[9], cp[6], cp[7]))
-                for cp in self.client.getContactPoints(**kwargs)]
+        if other is None and link is None and other_link is None:  # the common query (a whole robot), every tick
+            points = self.client.getContactPoints(bodyA=body)
+        else:
+            kwargs: dict[str, int] = {"bodyA": body}
+            if other is not None:
+                kwargs["bodyB"] = other
+            if link is not None:
+                kwargs["linkIndexA"] = link
+            if other_link is not None:
+                kwargs["linkIndexB"] = other_link
+            points = self.client.getContactPoints(**kwargs)
+        new = tuple.__new__  # builds the named tuple without its Python-level __new__
+        return [new(Contact, (cp[2], cp[3], cp[4], cp[9], cp[6], cp[7])) for cp in points]
 
     def attach(
         self,
@@ -691,7 +704,13 @@ class PyBulletWorld(World):
         return False
 
     def disable_collisions(self, body: int) -> None:
-        self.client.setCollisionFilterGroupMask(body, -1, 0, 0)
+        c = self.client
+        for link in range(-1, c.getNumJoints(body)):
+            c.setCollisionFilterGroupMask(body, link, 0, 0)
+
+    def penetration(self, a: int, b: int) -> float:
+        """The deepest ``getClosestPoints(a, b, 0)`` distance, negated."""
+        return -min((pt[8] for pt in self.client.getClosestPoints(a, b, 0.0)), default=0.0)
 
     # ----------------------------------------------------------------- interface additions: rays, cameras
     def ray_caster(self, *, skip: Collection[int] = (), see_hidden: bool = True, mask: int = -1,

@@ -127,9 +127,7 @@ class Task:
 
 def hide_from_collisions(world: World, body: int) -> None:
     """Make a body a pure marker: it collides with nothing (a goal shown in the scene)."""
-    c = world.client
-    for link in range(-1, c.getNumJoints(body)):
-        c.setCollisionFilterGroupMask(body, link, 0, 0)
+    world.disable_collisions(body)
 
 
 def goal_reward(achieved_goal: Any, desired_goal: Any, threshold: float, kind: str) -> np.ndarray:

@@ -35,7 +35,7 @@ class Scene:
 
     def set_frame(self, i: int) -> None:
         """Put every body in the pose of pose-log sample ``i``."""
-        poses, client = self.rec.poses, self.world.client
+        poses, world = self.rec.poses, self.world
         for name, indices in self.joints.items():
             bid = self.world.body(name)
             base = poses.get(f"base/{name}")
@@ -43,15 +43,15 @@ class Scene:
                 continue
             row = base[i]
             if np.isnan(row[0]):
-                client.resetBasePositionAndOrientation(bid, FAR_AWAY, (0, 0, 0, 1))
+                world.set_com_pose(bid, FAR_AWAY, (0, 0, 0, 1))
                 continue
             position = row[:3].tolist()
             position[2] -= self.lowered.get(name, 0.0)
-            client.resetBasePositionAndOrientation(bid, position, row[3:7].tolist())
+            world.set_com_pose(bid, position, row[3:7].tolist())
             q = poses.get(f"joints/{name}")
             if q is not None:
                 for idx, value in zip(indices, q[i].tolist(), strict=True):
-                    client.resetJointState(bid, idx, value)
+                    world.reset_joint(bid, idx, value)
 
     def close(self) -> None:
         self.world.close()
@@ -103,7 +103,7 @@ def apply_drawn_looks(world: Any, rec: RunRecord) -> list[float] | None:
         return None
     for name, entry in drawn.get("bodies", {}).items():
         if "rgba" in entry and world.has_body(name):
-            world.client.changeVisualShape(world.body(name), -1, rgbaColor=entry["rgba"])
+            world.set_visual_rgba(name, entry["rgba"])
     light = drawn.get("light_direction")
     return None if light is None else [float(v) for v in light]
 
