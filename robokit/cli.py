@@ -80,6 +80,7 @@ def _parser(command: str | None = None) -> argparse.ArgumentParser:
 _RUN_OPTIONS: tuple[tuple[str, dict[str, Any]], ...] = (
     ("--gui", {"action": "store_true", "help": "open the PyBullet GUI (paced to real time)"}),
     ("--seed", {"type": int, "help": "override world.seed"}),
+    ("--engine", {"choices": ("pybullet", "mujoco"), "help": "override world.engine (mujoco: robokit[mujoco])"}),
     ("--max-time", {"type": _finite_float, "metavar": "S", "help": "override world.max_time (sim seconds)"}),
     ("--max-wall", {"type": _finite_float, "metavar": "S",
                     "help": "override world.max_wall_time: end the run (aborted) after S wall-clock seconds"}),
@@ -101,7 +102,8 @@ _RUN_OPTIONS: tuple[tuple[str, dict[str, Any]], ...] = (
     ("--no-record", {"action": "store_true", "help": "keep only result.json, no trace or pose log"}),
     ("--save-frames", {"action": "store_true", "help": "cameras save the frames they render as PNGs (RGB, depth, "
                                                        "segmentation) in the run folder"}),
-    ("--video", {"metavar": "FILE", "help": "render an MP4 of the run right after it (robokit video)"}),
+    ("--video", {"metavar": "FILE", "help": "render an MP4 of the run right after it, before the result is sent "
+                                            "(robokit video)"}),
 )
 """``robokit run``'s options."""
 
@@ -117,6 +119,7 @@ def _add_run_command(sub: Any) -> None:
 def _add_other_commands(sub: Any) -> None:
     val = sub.add_parser("validate", help="check a config, its URDFs and named joints/links, without running")
     val.add_argument("config")
+    val.add_argument("--engine", choices=("pybullet", "mujoco"), help="override world.engine")
     val.set_defaults(func=cmd_validate)
 
     plug = sub.add_parser("plugins", help="list every registered plugin type")
@@ -165,6 +168,8 @@ def _overrides(args: argparse.Namespace) -> dict[str, Any]:
     out: dict[str, Any] = _set_overrides(sets) if sets else {}
     if getattr(args, "seed", None) is not None:
         out["world.seed"] = args.seed
+    if getattr(args, "engine", None) is not None:
+        out["world.engine"] = args.engine
     if getattr(args, "student", None) is not None:
         out["report.student"] = args.student
     if getattr(args, "project", None) is not None:
@@ -240,10 +245,11 @@ def cmd_run(args: argparse.Namespace) -> int:
             _hold_window(hold_window, sim.world)
 
     trace = _open_trace(args.trace) if args.trace else None
+    video = _video_before_send(cfg, args) if args.video else None
     try:
         out = run_config(cfg, plugins, gui=True if args.gui else None, max_time=args.max_time, trace=trace,
                          record=not args.no_record, pose_hz=args.pose_hz, save_frames=args.save_frames,
-                         after_run=hold, on_problem=None if args.quiet else _warn_problem)
+                         after_run=hold, on_problem=None if args.quiet else _warn_problem, before_send=video)
     finally:
         if trace is not None:
             try:
@@ -262,11 +268,19 @@ def cmd_run(args: argparse.Namespace) -> int:
         if not args.quiet:
             print(f"robokit: interrupted ({out.signal or 'SIGINT'}); the result was kept (see above)",
                   file=sys.stderr)
-    elif args.video:
-        from robokit.record.cli import video_after_run
-
-        video_after_run(cfg, out.result.run_id, args.video, quiet=args.quiet)
+    elif out.before_send_error is not None:  # the video failed; the result was sent all the same
+        raise out.before_send_error
     return refused if refused is not None and out.exit_code not in (130, 143, 4) else out.exit_code
+
+
+def _video_before_send(cfg: Any, args: argparse.Namespace) -> Any:
+    """``--video FILE``: render the video before the result is sent, so ``upload_artifacts`` uploads it too."""
+    from robokit.record.cli import video_after_run
+
+    def render(out: Any) -> None:
+        if not out.result.interrupted:
+            video_after_run(cfg, out.result.run_id, args.video, quiet=args.quiet)
+    return render
 
 
 def _refused(out: Any) -> int | None:

@@ -314,6 +314,12 @@ class Reporter:
         """Deliver the payload (the RunResult dict plus course fields). Must not raise for delivery failures."""
         raise NotImplementedError
 
+    @property
+    def uploads_record(self) -> bool:
+        """True when the reporter also uploads the run folder's files (its config's ``upload_artifacts``): the
+        run's pose log is then written before it runs, so the upload includes the 3D replay."""
+        return bool(getattr(self.config, "upload_artifacts", False))
+
     def keep(self, payload: dict[str, Any]) -> Delivery:
         """Keep the payload without sending it: called instead of :meth:`report` once the user pressed Ctrl-C (or
         sent SIGTERM), who wants the process to end now. The default calls :meth:`report` (right for reporters that

@@ -16,6 +16,7 @@ EXTRAS: dict[str, tuple[str, ...]] = {
     "ray": ("ray",),
     "gym": ("gymnasium",),
     "rerun": ("rerun", "mcap"),
+    "mujoco": ("mujoco",),
 }
 """Extra -> the modules it makes importable. matplotlib and imageio-ffmpeg are in the base install too (the README's
 first command gives video, plots and the run page); ``video`` stays as an extra for older install commands."""

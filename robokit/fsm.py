@@ -83,6 +83,7 @@ class MachineBehaviour(Behaviour):
         self._clock_started = False
         self.entered_at = 0.0
         self.visited: list[str] = [self.INITIAL.name]
+        self._entries = 0  # transitions run so far (self-transitions included): what fire() compares
         self.phase_times: dict[str, float] = {}
         configured = getattr(config, "timeouts", None) or {}
         self.timeouts: dict[str, float] = {**self.TIMEOUTS, **configured}
@@ -128,17 +129,20 @@ class MachineBehaviour(Behaviour):
         return self._state_name
 
     def fire(self, trigger: str) -> bool:
-        """Fire a trigger (only when something changed); returns True if the state changed."""
+        """Fire a trigger (only when something changed); returns True if a transition ran: the state changed, or a
+        self-transition left and re-entered it (a retry fired in the very state it retries). False when a
+        condition held the transition back."""
         self._trigger = trigger
-        before = self.state
+        before = self._entries
         self.trigger(trigger)
-        return self.state != before
+        return self._entries != before
 
     def _before_change(self) -> None:
         self._from = self.state_name
         self.phase_times[self._from] = self.phase_times.get(self._from, 0.0) + (self.t - self.entered_at)
 
     def _after_change(self) -> None:
+        self._entries += 1
         self.entered_at = self.t
         self.visited.append(self.state_name)
         if self._trace is not None:

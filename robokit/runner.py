@@ -46,6 +46,7 @@ class RunOutput:
     error: BaseException | None = None
     signal: str | None = None
     record_failures: list[str] = field(default_factory=list)
+    before_send_error: Exception | None = None
 
     @property
     def stored(self) -> bool:
@@ -123,6 +124,7 @@ def run_config(
     save_frames: bool = False,
     after_run: Any = None,
     on_problem: Callable[[ConfigError], None] | None = None,
+    before_send: Callable[[RunOutput], None] | None = None,
 ) -> RunOutput:
     """Build the simulation, run it, close it, then hand the payload to every reporter.
 
@@ -140,6 +142,11 @@ def run_config(
     ``aborted`` with no ticks, during the loop at a tick boundary; after the loop the result is kept as it was
     (reporters that send it somewhere slow keep it in their outbox instead), the pose log is finished or abandoned,
     and :attr:`RunOutput.exit_code` is 130 (SIGINT) or 143 (SIGTERM).
+    With ``before_send(out)`` (``robokit run --video``), the pose log is written right after the local delivery and
+    ``before_send`` runs then, before the reporters that send the result away: what it adds to the run folder (a
+    video) goes with the result (a sender that uploads the record, ``upload_artifacts``, also has the pose log
+    written first). A signal there ends ``before_send`` only, and an exception it raises is kept in
+    :attr:`RunOutput.before_send_error`: the result is sent (or kept in the outbox) all the same.
     """
     run_seed = cfg.world.seed if seed is None else seed
     run_id = str(uuid.uuid4())
@@ -171,8 +178,13 @@ def run_config(
             result, recorder, failures = _run(sim, cfg, run_dir, trace, guard, pose_hz=pose_hz, max_time=max_time,
                                     max_wall=max_wall)
             error = sim.error
-        out = _keep(cfg, plugins, result, guard, report=report, error=error)
+        out, senders = _keep(cfg, plugins, result, guard, report=report, error=error)
         out.record_failures += failures
+        if sim is not None and (before_send is not None or any(getattr(r, "uploads_record", False) for r in senders)):
+            _before_send(recorder, out, guard, before_send)
+            recorder = None  # its pose log is written
+        with guard.immediate():  # a signal keeps the result in the senders' outbox
+            out.deliveries += deliver(senders, out.payload, stop=guard)
         if sim is not None:
             _after(sim, recorder, out, guard, after_run)
         out.interrupted, out.signal = guard.signalled or result.interrupted, guard.signal or _signal_of(result)
@@ -242,19 +254,38 @@ def _write_failures(writer: TraceWriter | None, recorder: Any) -> list[str]:
 
 
 def _keep(cfg: Config, plugins: Plugins, result: RunResult, guard: StopGuard, *, report: bool,
-          error: BaseException | None) -> RunOutput:
-    """Deliver the result before anything slow: local reporters inside a critical section (a signal waits for
-    ``result.json`` to be whole), then reporters that send it away (a signal there keeps it in their outbox)."""
+          error: BaseException | None) -> tuple[RunOutput, list[Any]]:
+    """Keep the result before anything slow: local reporters inside a critical section (a signal waits for
+    ``result.json`` to be whole). Returns the output and the reporters that send it away, for the caller to run
+    next (a signal there keeps it in their outbox)."""
     payload = build_payload(result, student=cfg.report.student, project=cfg.report.project)
     deliveries: list[tuple[str, Delivery]] = []
+    senders: list[Any] = []
     if report:
         reporters = make_reporters(cfg, plugins)
-        local = [r for r in reporters if not getattr(r, "sends", False)]
+        senders = [r for r in reporters if getattr(r, "sends", False)]
         with guard.deferred(), guard.critical():
-            deliveries += deliver(local, payload, stop=guard)
-        with guard.immediate():
-            deliveries += deliver([r for r in reporters if r not in local], payload, stop=guard)
-    return RunOutput(result, payload, deliveries, error=error)
+            deliveries += deliver([r for r in reporters if r not in senders], payload, stop=guard)
+    return RunOutput(result, payload, deliveries, error=error), senders
+
+
+def _before_send(recorder: Any, out: RunOutput, guard: StopGuard,
+                 before_send: Callable[[RunOutput], None] | None) -> None:
+    """Write the pose log now (a sender uploads the record, or ``before_send`` needs it), then ``before_send(out)``;
+    a signal breaks into it and is told, nothing more."""
+    try:
+        with guard.deferred():
+            if recorder is not None:
+                out.record_failures += recorder.write_poses()
+        if before_send is not None and not guard.signalled:
+            with guard.immediate():
+                before_send(out)
+    except Exception as exc:  # noqa: BLE001 - told by the caller after the result is sent
+        out.before_send_error = exc
+    except Interrupted as exc:
+        if recorder is not None:
+            recorder.abandon()
+        out.record_failures.append(f"run record: stopped before the result was sent ({exc.reason})")
 
 
 def _after(sim: Simulation, recorder: Any, out: RunOutput, guard: StopGuard, after_run: Any) -> None:

@@ -56,6 +56,41 @@ def test_grades_one_row_per_student_with_the_best_official_result(client: Any, c
     assert a2.name == "A2"
 
 
+def test_grades_workbook_has_the_csv_rows_with_numbers_and_times_read_back_by_openpyxl(client: Any,
+                                                                                      course: Course) -> None:
+    from openpyxl import load_workbook
+
+    from robokit.server.models import Student
+
+    a1 = make_assignment(course.room, "A1", due_at=T0 + dt.timedelta(hours=1))
+    make_assignment(course.room, "A2", due_at=T0 + dt.timedelta(days=7))
+    evaluated(a1, course.kim, 12, 20, 5)
+    best = evaluated(a1, course.kim, 18, 20, 30)
+    evaluated(a1, course.lee, 20, 20, 90, late=True)
+    Student.objects.create(classroom=course.room, name="=1+1")  # a name a spreadsheet would run
+    client.login(username="teacher", password=PASSWORD)
+    resp = client.get(f"/classes/{course.room.pk}/grades.xlsx")
+    assert resp.status_code == 200 and resp["Content-Type"].startswith("application/vnd.openxmlformats")
+    assert resp["Content-Disposition"] == f'attachment; filename="grades-class-{course.room.pk}.xlsx"'
+    sheet = load_workbook(io.BytesIO(resp.content)).active
+    rows = [[c.value for c in row] for row in sheet.iter_rows()]
+    groups = ("success_rate", "wilson_low", "wilson_high", "submitted_at", "late", "submissions")
+    assert rows[0] == ["student", *[f"{a}: {c}" for a in ("A1", "A2") for c in groups]]
+    by_name = {row[0]: dict(zip(rows[0], row, strict=True)) for row in rows[1:]}
+    assert sorted(by_name) == sorted(["김민준", course.lee.name, "=1+1"])  # one row per student
+    kim = by_name["김민준"]
+    assert kim["A1: success_rate"] == 0.9 and kim["A1: wilson_low"] == 0.45 and kim["A1: submissions"] == 2
+    assert kim["A1: submitted_at"] == (T0 + dt.timedelta(minutes=30)).replace(tzinfo=None)  # UTC, as a time
+    assert kim["A1: submitted_at"] == best.submitted_at.replace(tzinfo=None) and kim["A1: late"] is None
+    assert kim["A2: success_rate"] is None and kim["A2: submissions"] == 0
+    lee = by_name[course.lee.name]
+    assert lee["A1: success_rate"] == 1.0 and lee["A1: late"] == "late"
+    formula_row = next(row for row in sheet.iter_rows(min_row=2) if row[0].value == "=1+1")
+    assert formula_row[0].data_type == "s"  # text, not a formula
+    csv_names = [r["student"] for r in grades(client, course)]  # the CSV's rows, its "=1+1" quoted as "'=1+1"
+    assert csv_names == [("'" if row[0] == "=1+1" else "") + row[0] for row in rows[1:]]
+
+
 def test_excluding_a_submission_removes_it_from_board_and_grades_with_an_audit_entry(client: Any,
                                                                                       course: Course) -> None:
     from robokit.server.models import ModerationEvent

@@ -5,6 +5,7 @@ clearance, whole-body boxes, quaternion normalisation, state machines' phase tim
 
 from __future__ import annotations
 
+import enum
 import math
 from pathlib import Path
 
@@ -198,3 +199,30 @@ def test_state_timeouts_count_from_each_states_entry() -> None:
         looks = [r["t"] for r in sim.trace if r.get("kind") == "transition" and r.get("dest_state") == "LOOK"]
     assert result.outcome == "succeeded", result.reason
     assert max(looks) > 2.0  # a LOOK entered long after the run's first second
+
+
+class _Gate(enum.Enum):
+    SHUT = "shut"
+    OPEN = "open"
+
+
+def test_fire_says_whether_a_transition_ran_self_transitions_included() -> None:
+    """``fire`` is True when the state changed or a self-transition re-entered it (entry time reset, one more
+    visit), False when a condition held the transition back (nothing entered)."""
+    from robokit.fsm import MachineBehaviour
+
+    class Gate(MachineBehaviour):
+        STATES = _Gate
+        INITIAL = _Gate.SHUT
+        TRANSITIONS = [{"trigger": "push", "source": "SHUT", "dest": "OPEN", "conditions": "unlocked"},
+                       {"trigger": "retry", "source": "SHUT", "dest": "SHUT"}]
+        unlocked = False
+
+    gate = Gate("gate", None)
+    gate.t = 0.0
+    gate.t = 1.5
+    assert gate.fire("push") is False and gate.state_name == "SHUT" and gate.visited == ["SHUT"]
+    assert gate.fire("retry") is True and gate.state_name == "SHUT" and gate.visited == ["SHUT", "SHUT"]
+    assert gate.entered_at == 1.5
+    gate.unlocked = True
+    assert gate.fire("push") is True and gate.visited == ["SHUT", "SHUT", "OPEN"]

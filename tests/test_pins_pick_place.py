@@ -4,6 +4,7 @@ lift_height over the higher of pick and place, place_clearance, the release widt
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any
 
@@ -88,3 +89,37 @@ def test_pick_place_time_inside_a_sort_counts_from_each_pick() -> None:
     times = [o["pick_place_time"] for o in res["objects"]]
     assert len(times) == 2 and all(t > 0.5 for t in times)
     assert sum(times) <= res["total_time"] + 1e-6
+
+
+def test_an_approach_that_times_out_is_retried_with_the_move_sent_again() -> None:
+    """The first approach (about 0.8 s at 0.8 m/s) overruns a 0.5 s APPROACH timeout. The retry re-enters APPROACH
+    (a self-transition): the move above the cube is sent again, from where the arm is (a new arm command), and
+    counted as attempt 2; it arrives inside the timeout and the cube is placed."""
+    timeout, above = 0.5, 0.07  # APPROACH timeout, s; approach_height (grasp_offset 0), m
+    seen: list[tuple[float, str, int, Any]] = []  # (t, state, arm command id, arm target) after each tick
+
+    def note(sim: Any) -> bool:
+        arm = sim.readings["arm"]
+        seen.append((sim.world.time, sim.behaviour.state_name, arm.command_id, arm.target_position))
+        return sim.outcome is not None
+
+    with make_sim(CONFIG, overrides={"behaviour.speed": 0.8, "behaviour.timeouts": {"APPROACH": timeout}}) as sim:
+        cube0 = sim.world.pose("cube")[0]
+        assert sim.run_until(note, 240 * 20)
+        cube = sim.world.pose("cube")[0]
+        res, outcome = sim.behaviour.result(), sim.outcome
+        moves = [(r["t"], r["source_state"], r["dest_state"]) for r in sim.trace
+                 if r["kind"] == "transition" and r["machine"] == "behaviour"]
+    assert moves[:3] == [(0.0, "WAIT", "APPROACH"), (pytest.approx(timeout, abs=0.01), "APPROACH", "APPROACH"),
+                         (moves[2][0], "APPROACH", "DESCEND")]
+    retried = moves[1][0]
+    before = [s for s in seen if s[0] < retried and s[1] == "APPROACH"]
+    after = [s for s in seen if retried < s[0] < moves[2][0]]
+    assert before and after
+    assert {s[2] for s in after} == {before[-1][2] + 1}  # one new arm command at the retry: the move, sent again
+    # above the cube, located again (it settled by about a millimetre since it was spawned)
+    assert after[0][3] == pytest.approx((cube0[0], cube0[1], cube0[2] + above), abs=0.002)
+    assert moves[2][0] - retried < timeout  # the re-sent approach arrived within its own timeout
+    assert outcome is not None and outcome.status == "succeeded"
+    assert res["attempts"] == 2 and res["failures"] == [f"timed out in APPROACH after {timeout:g} s"]
+    assert math.dist(cube[:2], (0.45, -0.35)) < 0.02  # configs/pick_place.toml's place_position, on the target

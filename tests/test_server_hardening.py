@@ -206,7 +206,8 @@ def _page_urls(course: Course, run_id: str, artifact_pk: int) -> dict[str, str]:
         "leaderboard": f"/classes/{room}/projects/{project.pk}/", "history": f"/classes/{room}/students/"
         f"{course.kim.pk}/", "export-csv": f"/classes/{room}/results.csv", "run": f"/runs/{run_id}/",
         "artifact": f"/artifacts/{artifact_pk}/xy.png", "me": "/me/", "me-logout": "/me/logout/",
-        "api-result": API, "api-artifacts": f"{API}{run_id}/artifacts/", **_course_work_urls(course),
+        "api-result": API, "api-artifacts": f"{API}{run_id}/artifacts/", "replay-viewer": "/replay/viewer.js",
+        "replay-script": "/replay/replay.js", "my-training-chart": "/me/training.svg", **_course_work_urls(course),
     }
 
 
@@ -223,6 +224,7 @@ def _course_work_urls(course: Course) -> dict[str, str]:
         "assignment": f"/classes/{room}/assignments/{a.pk}/", "assignment-chart":
         f"/classes/{room}/assignments/{a.pk}/reasons.svg", "dashboard": f"/classes/{room}/students/{kim}/dashboard/",
         "student-chart": f"/classes/{room}/students/{kim}/weekly.svg", "grades-csv": f"/classes/{room}/grades.csv",
+        "grades-xlsx": f"/classes/{room}/grades.xlsx",
         "moderate": f"/classes/{room}/moderate/", "moderation": f"/classes/{room}/moderation/",
         "submission": f"/submissions/{sub.pk}/", "api-submit": f"/api/robotics/assignments/{a.name}/submissions/",
         "api-submission": f"/api/robotics/submissions/{sub.pk}/", "api-training": "/api/robotics/training/",

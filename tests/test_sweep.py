@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import io
 import json
 import os
+import socket
 import subprocess
 import sys
 from pathlib import Path
@@ -14,9 +16,9 @@ import pytest
 from report_server import Answer, CourseServer
 
 from robokit.errors import UserError
-from robokit.sweep import SweepOptions, SweepSpec, parse_seeds, parse_set, read_trials, run_sweep
+from robokit.sweep import SweepOptions, SweepRun, SweepSpec, parse_seeds, parse_set, read_trials, run_sweep
 from robokit.sweep.spec import load_sweep_file
-from robokit.sweep.summary import percentile, summarise, wilson
+from robokit.sweep.summary import percentile, summarise, to_markdown, wilson
 
 ROOT = Path(__file__).resolve().parent.parent
 PLUGINS = Path(__file__).resolve().parent / "sweep_plugins"
@@ -105,21 +107,68 @@ def test_a_bad_key_or_value_is_one_line_before_any_trial_runs(tmp_path: Path, op
 
 
 # ----------------------------------------------------------------------------------------------- faults
-def test_a_trial_that_raises_hangs_or_kills_its_worker_is_an_error_and_the_others_finish(
-        tmp_path: Path, fault_plugins: None) -> None:
-    spec = SweepSpec(FAULT, range(6), fixed={"behaviour.raise_seeds": [1], "behaviour.hang_seeds": [2],
-                                             "behaviour.die_seeds": [3]}, plugins=("sweep_faults",))
-    run = run_sweep(spec, SweepOptions(out=tmp_path / "out", workers=2, trial_timeout=4.0))
+def check_faults(run: SweepRun, out: Path, timeout: float | None) -> None:
+    """Seed 1 raised, seed 3 killed its worker (twice: it is retried once), seed 2 hung (when ``timeout`` is given:
+    the sweep had a hanging seed); 0, 4 and 5 succeeded."""
     by_seed = {r["seed"]: r for r in run.rows}
     assert [by_seed[s]["outcome"] for s in range(6)] == \
-        ["succeeded", "error", "error", "error", "succeeded", "succeeded"]
+        ["succeeded", "error", "error" if timeout else "succeeded", "error", "succeeded", "succeeded"]
     assert "RuntimeError: fault injected on seed 1" in by_seed[1]["reason"]
-    assert by_seed[2]["reason"].startswith("timed out: no result after 4 s (--trial-timeout)")
+    if timeout:
+        assert by_seed[2]["reason"].startswith(f"timed out: no result after {timeout:g} s (--trial-timeout)")
     assert "worker died twice" in by_seed[3]["reason"] and "exit code 17" in by_seed[3]["reason"]
     assert [by_seed[s]["figures"]["seed_squared"] for s in (0, 4, 5)] == [0, 16, 25]
-    assert len(read_trials(tmp_path / "out" / "trials.jsonl")) == 6
+    assert len(read_trials(out / "trials.jsonl")) == 6
     cell = run.summary["cells"][0]
-    assert (cell["trials"], cell["succeeded"], cell["errors"]) == (6, 3, 3)
+    errors = 3 if timeout else 2
+    assert (cell["trials"], cell["succeeded"], cell["errors"]) == (6, 6 - errors, errors)
+
+
+def test_a_trial_that_raises_or_kills_its_worker_is_an_error_and_the_others_finish(
+        tmp_path: Path, fault_plugins: None) -> None:
+    """No --trial-timeout: nothing here depends on how fast the machine is."""
+    spec = SweepSpec(FAULT, range(6), fixed={"behaviour.raise_seeds": [1], "behaviour.die_seeds": [3]},
+                     plugins=("sweep_faults",))
+    run = run_sweep(spec, SweepOptions(out=tmp_path / "out", workers=2))
+    check_faults(run, tmp_path / "out", None)
+
+
+def test_trials_that_never_end_are_killed_at_the_timeout_and_the_next_runs_on_a_fresh_worker(
+        tmp_path: Path, fault_plugins: None) -> None:
+    """Every trial here blocks forever, so a timeout however short ends each of them and never a healthy trial
+    (there is none to misjudge on a loaded machine): the outcome cannot depend on the machine's speed. One worker:
+    the second trial runs only if the pool replaced the worker it killed."""
+    spec = SweepSpec(FAULT, range(2), fixed={"behaviour.hang_seeds": [0, 1]}, plugins=("sweep_faults",))
+    run = run_sweep(spec, SweepOptions(out=tmp_path / "out", workers=1, trial_timeout=0.5))
+    assert [r["outcome"] for r in run.rows] == ["error", "error"]
+    for row in run.rows:
+        assert row["reason"].startswith("timed out: no result after 0.5 s (--trial-timeout); worker "), row
+        assert row["wall_time"] >= 0.5
+    assert run.rows[0]["worker"] != run.rows[1]["worker"]  # the hung worker was killed and replaced
+
+
+@pytest.mark.slow
+def test_a_hung_trial_among_healthy_ones_is_killed_and_the_others_finish(
+        tmp_path: Path, fault_plugins: None) -> None:
+    """All the faults in one sweep, the hang among healthy trials; the timeout is generous (a healthy trial takes
+    well under a second of CPU), so only the trial that never ends reaches it, however loaded the machine."""
+    spec = SweepSpec(FAULT, range(6), fixed={"behaviour.raise_seeds": [1], "behaviour.hang_seeds": [2],
+                                             "behaviour.die_seeds": [3]}, plugins=("sweep_faults",))
+    run = run_sweep(spec, SweepOptions(out=tmp_path / "out", workers=2, trial_timeout=60.0))
+    check_faults(run, tmp_path / "out", 60.0)
+
+
+def test_a_ray_address_where_nothing_listens_is_one_line_at_once(tmp_path: Path, fault_plugins: None) -> None:
+    """Ray itself retries such an address without end (a mistyped port hung the sweep for good)."""
+    pytest.importorskip("ray", reason="the Ray backend needs robokit[ray] (in the test extra)")
+    with socket.socket() as s:  # a port nothing listens on: bound, never listening
+        s.bind(("127.0.0.1", 0))
+        address = f"127.0.0.1:{s.getsockname()[1]}"
+        with pytest.raises(UserError) as caught:
+            run_sweep(SweepSpec(FAULT, range(1), plugins=("sweep_faults",)),
+                      SweepOptions(out=tmp_path / "out", backend="ray", address=address))
+    assert str(caught.value).startswith(f"--address {address}: nothing answers there (Connection refused)")
+    assert not (tmp_path / "out" / "trials.jsonl").exists() or not read_trials(tmp_path / "out" / "trials.jsonl")
 
 
 # ----------------------------------------------------------------------------------------------- resuming
@@ -150,6 +199,37 @@ def test_resuming_into_a_folder_of_another_config_is_refused(tmp_path: Path, fau
         run_sweep(SweepSpec(other, range(1), plugins=("sweep_faults",)), SweepOptions(out=tmp_path / "out"))
 
 
+class StoppedClock:
+    """Stands in for the ``time`` module of the progress display: a clock the test moves by hand."""
+
+    def __init__(self) -> None:
+        self.now = 100.0
+
+    def monotonic(self) -> float:
+        return self.now
+
+
+def test_the_rate_after_a_resume_leaves_out_the_workers_start_up(monkeypatch: pytest.MonkeyPatch) -> None:
+    from robokit.sweep import progress
+
+    clock = StoppedClock()
+    monkeypatch.setattr(progress, "time", clock)
+    out = io.StringIO()
+    shown = progress.Progress(total=40, done=20, failed=0, stream=out)  # resumed: 20 left, a line per trial
+    clock.now += 9.0  # the workers start (imports, pybullet) before their first trial runs
+    for _batch in range(10):  # 2 workers, 2 s a trial: 1 trial/s
+        clock.now += 2.0
+        for _ in range(2):
+            shown.update({"outcome": "succeeded", "wall_time": 2.0})
+    lines = out.getvalue().splitlines()
+    assert lines[0] == "sweep: 20/40 trials already done, resuming"
+    assert lines[1] == "sweep: 21/40 done, 0 not succeeded, ETA ?"  # one trial tells no rate
+    assert lines[2] == "sweep: 22/40 done, 0 not succeeded, 1.00 trials/s, ETA 18 s"
+    assert lines[-1] == "sweep: 40/40 done, 0 not succeeded, 1.00 trials/s, ETA 0 s"
+    rates = [float(line.split(", ")[2].split()[0]) for line in lines[2:]]
+    assert min(rates) >= 0.75 and len(rates) == 19
+
+
 # ----------------------------------------------------------------------------------------------- outputs
 def test_cli_writes_trials_summary_junit_and_plots(tmp_path: Path) -> None:
     out = tmp_path / "out"
@@ -170,12 +250,41 @@ def test_cli_writes_trials_summary_junit_and_plots(tmp_path: Path) -> None:
     assert (out / "distribution_seed_squared.png").stat().st_size > 1000
 
 
+def test_paths_from_a_sweep_file_are_printed_and_stored_without_dot_dot(tmp_path: Path) -> None:
+    (tmp_path / "lab" / "sweeps").mkdir(parents=True)
+    (tmp_path / "lab" / "scene.toml").write_text(FAULT.read_text(encoding="utf-8"), encoding="utf-8")
+    (tmp_path / "lab" / "sweeps" / "s.toml").write_text(
+        'config = "../scene.toml"\nseeds = "0:2"\nplugins = ["sweep_faults"]\nout = "../../runs/s"\n'
+        "[set]\nbehaviour.raise_seeds = [1]\n", encoding="utf-8")
+    proc = robokit("sweep", "lab/sweeps/s.toml", "--workers", "1", cwd=tmp_path)
+    assert proc.returncode == 1, proc.stderr  # seed 1 raised
+    assert f"trials: {Path('runs/s/trials.jsonl')}; summary: {Path('runs/s/summary.md')}" in proc.stdout
+    assert "reproduce: `robokit run lab/scene.toml --seed 1" in proc.stdout, proc.stdout
+    assert ".." not in proc.stdout
+    summary = json.loads((tmp_path / "runs" / "s" / "summary.json").read_text(encoding="utf-8"))
+    assert summary["failed_trials"][0]["command"].startswith("robokit run lab/scene.toml --seed 1")
+
+
 def test_summary_aggregates_only_the_named_metrics() -> None:
     rows = [{"cell": "a", "overrides": {}, "outcome": "succeeded", "figures": {"x": float(i), "y": 1},
              "sim_time": 1.0, "wall_time": 0.1} for i in range(5)]
     summary = summarise(rows, ["a"], ["x"])
     assert summary["metrics"] == ["x"] and set(summary["cells"][0]["figures"]) == {"x", "sim_time", "wall_time"}
     assert summary["cells"][0]["figures"]["x"]["median"] == 2.0
+
+
+def test_sim_time_is_one_column_whether_a_result_has_it_or_metrics_name_it(
+        tmp_path: Path, fault_plugins: None) -> None:
+    spec = SweepSpec(FAULT, range(2), metrics=("seed_squared", "sim_time"), plugins=("sweep_faults",))
+    run = run_sweep(spec, SweepOptions(out=tmp_path / "out", workers=1))
+    head = to_markdown(run.summary).splitlines()[0]
+    assert head.count("sim_time") == 1 and head.count("seed_squared") == 1, head
+    ran = [float(r["sim_time"]) for r in run.rows]  # the fault trial's own figures have no sim_time
+    assert run.summary["cells"][0]["figures"]["sim_time"]["median"] == pytest.approx(sum(ran) / 2)
+    rows = [{"cell": "a", "overrides": {}, "outcome": "succeeded", "figures": {"sim_time": 2.0 + i},
+             "sim_time": 9.0, "wall_time": 0.1} for i in range(3)]  # pick_place's result has a sim_time figure
+    table = to_markdown(summarise(rows, ["a"]))
+    assert table.splitlines()[0].count("sim_time") == 1 and "| 3 / 4 |" in table, table
 
 
 # ----------------------------------------------------------------------------------------------- reporting

@@ -3,6 +3,7 @@ x 4 seeds of pick_place gives per-trial results identical to the local backend's
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import signal
@@ -138,3 +139,39 @@ def test_on_ray_a_trial_that_raises_hangs_or_kills_its_worker_is_an_error_and_th
     assert "RuntimeError: fault injected on seed 1" in by_seed[1]["reason"]
     assert by_seed[2]["reason"].startswith("timed out: no result after 60 s (--trial-timeout)")
     assert "worker died twice" in by_seed[3]["reason"]
+
+
+def test_a_driver_without_ray_auth_mode_is_told_the_address_it_typed_and_to_set_it(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A head started where ``~/.ray/auth_token`` exists, in token mode: the docs' steps without
+    ``RAY_AUTH_MODE=token`` cannot join it, and robokit's one line says so; with it, the same command runs."""
+    pytest.importorskip("ray", reason="the Ray backend needs robokit[ray] (in the test extra)")
+    home = tmp_path / "home"
+    (home / ".ray").mkdir(parents=True)
+    (home / ".ray" / "auth_token").write_text("a" * 32 + "\n", encoding="utf-8")
+    monkeypatch.setenv("HOME", str(home))
+    monkeypatch.delenv("RAY_AUTH_TOKEN_PATH", raising=False)
+    monkeypatch.delenv("RAY_AUTH_TOKEN", raising=False)
+    monkeypatch.setenv("RAY_AUTH_MODE", "token")
+    temp_dir = tempfile.mkdtemp(prefix="rk", dir="/tmp")
+    port = _free_port()
+    head = _ray_node(["--head", "--port", str(port), "--include-dashboard", "false", "--temp-dir", temp_dir],
+                     temp_dir)
+    try:
+        command = [sys.executable, "-m", "robokit.cli", "sweep", str(FAULT), "--plugin", "sweep_faults",
+                   "--backend", "ray", "--address", f"127.0.0.1:{port}", "--quiet"]
+        env = {k: v for k, v in os.environ.items() if k != "RAY_AUTH_MODE"}
+        env["PYTHONPATH"] = str(PLUGINS)
+        refused = subprocess.run([*command, "--out", str(tmp_path / "a")], capture_output=True, text=True,
+                                 env=env, timeout=600)
+        assert refused.returncode == 2, refused.stderr[-2000:]
+        line = refused.stderr.splitlines()[-1]
+        assert line.startswith(f"robokit: error: --address 127.0.0.1:{port}: cannot connect to a Ray cluster"), line
+        assert f"a Ray token exists ({home / '.ray' / 'auth_token'})" in line and "RAY_AUTH_MODE=token" in line
+        joined = subprocess.run([*command, "--out", str(tmp_path / "b")], capture_output=True, text=True,
+                                env={**env, "RAY_AUTH_MODE": "token"}, timeout=600)
+        assert joined.returncode == 0, joined.stderr[-2000:]
+        assert json.loads((tmp_path / "b" / "summary.json").read_text(encoding="utf-8"))["succeeded"] == 1
+    finally:
+        _stop_node(head)
+        shutil.rmtree(temp_dir, ignore_errors=True)

@@ -82,6 +82,8 @@ class WorldConfig(Section):
                                                       "aborted)")
     gui: bool = setting(False, description="open the PyBullet window (as --gui does)")
     realtime: bool = setting(True, description="pace the GUI to wall-clock time (GUI only)")
+    engine: Literal["pybullet", "mujoco"] = setting("pybullet", description="physics engine (--engine overrides it; "
+                                                                          "mujoco needs robokit[mujoco])")
 
 
 class RegionConfig(Section):

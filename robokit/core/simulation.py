@@ -52,14 +52,19 @@ class Simulation:
         self.plugins = plugins
         wc = config.world
         self.seed = wc.seed if seed is None else int(seed)
-        self.world = World.create(
-            gui=wc.gui if gui is None else gui,
-            time_step=wc.time_step,
-            gravity=wc.gravity,
-            solver_iterations=wc.solver_iterations,
-            seed=self.seed,
-            base_dir=config.base_dir,
-        )
+        if wc.engine == "mujoco":  # checks the config first: what mujoco cannot honour is refused before the run
+            from robokit.engines.mujoco_support import open_world
+
+            self.world: World = open_world(config, gui=bool(gui), seed=self.seed)
+        else:
+            self.world = World.create(
+                gui=wc.gui if gui is None else gui,
+                time_step=wc.time_step,
+                gravity=wc.gravity,
+                solver_iterations=wc.solver_iterations,
+                seed=self.seed,
+                base_dir=config.base_dir,
+            )
         self.trace: list[dict[str, Any]] = []
         self.trace_listeners: list[Callable[[dict[str, Any]], None]] = []
         self.components: dict[str, Any] = {}

@@ -24,3 +24,18 @@ def _pybullet() -> type[World]:
 
 
 World.engines["pybullet"] = _pybullet
+
+
+def _mujoco() -> type[World]:
+    import os
+
+    from robokit.extras import require
+
+    os.environ.setdefault("MUJOCO_GL", "egl")  # headless (Mesa's EGL): MuJoCo picks its backend when first imported
+    require("mujoco", 'world.engine = "mujoco"')
+    from robokit.engines.mujoco_engine import MujocoWorld
+
+    return MujocoWorld
+
+
+World.engines["mujoco"] = _mujoco

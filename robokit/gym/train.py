@@ -93,6 +93,16 @@ def build_model(args: argparse.Namespace, venv: Any, dict_obs: bool, tb: str | N
                learning_starts=args.learning_starts, **extra, **common)
 
 
+def progress_line(env_steps: int, episodes: int, returns: list[float], successes: list[Any],
+                  wall_s: float) -> dict[str, Any]:
+    """One line of ``progress.jsonl``: env steps so far, episodes ended, mean return and success rate of the last
+    episodes (``returns``, ``successes``: the window SB3 keeps, 100 episodes), wall seconds."""
+    return {"env_steps": int(env_steps), "episodes": int(episodes),
+            "return_mean": round(float(np.mean(returns)), 6) if returns else None,
+            "success_rate": round(float(np.mean(successes)), 4) if successes else None,
+            "window": len(returns), "wall_s": round(wall_s, 2)}
+
+
 def progress_callback(path: Path, every: int, t0: float) -> Any:
     """An SB3 callback writing a progress line to ``path`` every ``every`` env steps."""
     from stable_baselines3.common.callbacks import BaseCallback
@@ -115,13 +125,9 @@ def progress_callback(path: Path, every: int, t0: float) -> Any:
 
         def write(self) -> None:
             model, self.written = self.model, self.num_timesteps
-            returns = [e["r"] for e in model.ep_info_buffer]
-            successes = list(model.ep_success_buffer)
-            line = {"env_steps": int(self.num_timesteps), "episodes": self.episodes,
-                    "return_mean": round(float(np.mean(returns)), 6) if returns else None,
-                    "success_rate": round(float(np.mean(successes)), 4) if successes else None,
-                    "window": len(returns), "wall_s": round(time.perf_counter() - t0, 2)}
-            if successes:
+            line = progress_line(self.num_timesteps, self.episodes, [e["r"] for e in model.ep_info_buffer],
+                                 list(model.ep_success_buffer), time.perf_counter() - t0)
+            if line["success_rate"] is not None:
                 self.logger.record("rollout/success_rate_window", line["success_rate"])
             with path.open("a") as f:
                 f.write(json.dumps(line) + "\n")
@@ -172,6 +178,11 @@ def write_policy(run: Path, model: Any, config: str, env: dict[str, Any], facts:
     return toml
 
 
+def run_folder(args: argparse.Namespace) -> Path:
+    """Where the run's files go: ``--out``, default ``runs/train/<config>-<algo>-s<seed>``."""
+    return Path(args.out or Path("runs") / "train" / f"{Path(str(args.config)).stem}-{args.algo}-s{args.seed}")
+
+
 def train(args: argparse.Namespace, log: Any = print) -> dict[str, Any]:
     """Train as ``args`` say; returns the summary (also the last line of ``progress.jsonl``)."""
     try:
@@ -197,7 +208,7 @@ def train(args: argparse.Namespace, log: Any = print) -> dict[str, Any]:
         raise TrainError(str(exc)) from None
     dict_obs = isinstance(probe.observation_space, spaces.Dict)
     probe.close()
-    run = Path(args.out or Path("runs") / "train" / f"{Path(config).stem}-{args.algo}-s{args.seed}")
+    run = run_folder(args)
     run.mkdir(parents=True, exist_ok=True)
     progress = run / "progress.jsonl"
     progress.write_text("")
@@ -256,16 +267,32 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--gamma", type=float, default=0.95)
     p.add_argument("--learning-rate", type=float, default=1e-3)
     p.add_argument("--learning-starts", type=int, default=1000, help="SAC/TD3: random steps before learning")
+    p.add_argument("--report-url", metavar="URL", help="post progress.jsonl to the course server when done (its "
+                   "results URL, as for robokit run; the token in $ROBOKIT_TOKEN): your dashboard plots it")
+    p.add_argument("--token-env", metavar="NAME", help="variable holding your token (default ROBOKIT_TOKEN)")
     return p
 
 
 def main(argv: list[str] | None = None) -> int:
+    from robokit.gym.post import PostError, post_file, token_from, training_url
+
     args = parser().parse_args(argv)
     try:
+        if args.report_url:  # checked before training, not after it
+            training_url(args.report_url)
+            token_from(args.token_env)
         train(args)
-    except TrainError as exc:
+    except (TrainError, PostError) as exc:
         print(f"train: error: {exc}", file=sys.stderr)
         return 2
+    if args.report_url:
+        progress = run_folder(args) / "progress.jsonl"
+        try:
+            print(post_file(progress, args.report_url, token_env=args.token_env))
+        except PostError as exc:
+            print(f"train: error: {exc}; post it later: python -m robokit.gym.post {progress} --report-url "
+                  f"{args.report_url}", file=sys.stderr)
+            return 1
     return 0
 
 

@@ -16,6 +16,7 @@ from typing import Any
 
 from robokit.record.diagram import machine_svg, mermaid_text
 from robokit.record.format import RunRecord
+from robokit.record.replay import REPLAY_CSS
 
 VIDEO_NOTE = "video.json"
 """Written into the run folder by ``robokit video``: where the latest video of the run is."""
@@ -32,20 +33,7 @@ th { background: #f4f4f4; text-align: left; } td.num { text-align: right; font-v
 .figs td:first-child { font-weight: bold; } .plots img { max-width: 100%; border: 1px solid #eee; margin: 6px 0; }
 pre { background: #f7f7f7; padding: 10px; overflow-x: auto; font-size: 12px; } video { max-width: 100%; }
 .meta { color: #555; font-size: 13px; } .fsm { max-width: 100%; height: auto; display: block; margin: 6px 0; }
-#rk-replay { position: relative; } #rk-pane { width: 100%; height: 480px; position: relative; overflow: hidden; }
-.rk-bar { display: flex; gap: 8px; align-items: center; margin: 6px 0; } #rk-time { flex: 1; }
-.rk-row { display: flex; align-items: center; gap: 8px; font-size: 11px; margin: 2px 0; }
-.rk-name { width: 90px; text-align: right; color: #555; }
-.rk-track { position: relative; flex: 1; height: 18px; background: #f4f4f4; }
-.rk-span { position: absolute; top: 0; height: 18px; overflow: hidden; white-space: nowrap; cursor: pointer;
-           font-size: 10px; line-height: 18px; padding-left: 2px; box-sizing: border-box;
-           border-right: 1px solid #fff; }
-#rk-hover { position: absolute; left: 8px; top: 8px; background: rgba(0,0,0,.6); color: #fff; font-size: 12px;
-            padding: 2px 6px; border-radius: 4px; display: none; pointer-events: none; z-index: 2; }
-#rk-seen { position: absolute; left: 8px; bottom: 8px; margin: 0; display: none; z-index: 2; background: #fff;
-           padding: 3px; font-size: 11px; } #rk-seen img { display: block; max-width: 220px; }
-.rk-cursor { position: absolute; top: -2px; width: 2px; height: 22px; background: #c62828; pointer-events: none; }
-"""
+""" + REPLAY_CSS
 
 
 def _data_uri(path: Path, mime: str) -> str:

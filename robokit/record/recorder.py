@@ -110,6 +110,9 @@ class Recorder:
         if self.world.removals != self._removals:
             self._removals = self.world.removals
             self._present = [self.world.has_body(name) for name, _, _ in self._layout]
+        if self.world.engine != "pybullet":  # the World's own calls (the raw pybullet ones below are the fast path)
+            self._sample_world(tick)
+            return
         cid = self.world.cid
         base, joints = p.getBasePositionAndOrientation, p.getJointStates
         row: list[float] = []
@@ -124,6 +127,21 @@ class Recorder:
             row += orn
             if movable:
                 row += [s[0] for s in joints(bid, movable, physicsClientId=cid)]
+        self._ticks.append(tick)
+        self._rows.append(row)
+
+    def _sample_world(self, tick: int) -> None:
+        """:meth:`sample` through the World interface (engines other than PyBullet): base poses in the centre-of-mass
+        frame, as the PyBullet path logs them and the replays set them."""
+        row: list[float] = []
+        for (_, bid, movable), present in zip(self._layout, self._present, strict=True):
+            if not present:
+                row += [np.nan] * (7 + len(movable))
+                continue
+            pos, orn = self.world.com_pose(bid)
+            row += [*pos, *orn]
+            if movable:
+                row += [s[0] for s in self.world.joint_states(bid, movable)]
         self._ticks.append(tick)
         self._rows.append(row)
 

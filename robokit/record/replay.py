@@ -219,24 +219,46 @@ def _camera_frames(rec: RunRecord) -> list[dict[str, Any]]:
     return out
 
 
-def viewer_script() -> str | None:
-    """MeshCat's bundled browser viewer (three.js with orbit controls), from the ``meshcat`` package's own files;
-    None when it is not installed."""
+def viewer_path() -> Path | None:
+    """MeshCat's bundled browser viewer (three.js with orbit controls) in the installed ``meshcat`` package; None
+    when it is not installed."""
     spec = importlib.util.find_spec("meshcat")
     if spec is None or not spec.submodule_search_locations:
         return None
     path = Path(list(spec.submodule_search_locations)[0]) / "viewer" / "dist" / "main.min.js"
-    return path.read_text(encoding="utf-8") if path.is_file() else None
+    return path if path.is_file() else None
 
 
-def replay_html(rec: RunRecord, replay: Replay | None = None) -> str | None:
-    """The replay's HTML: a canvas, play/pause, speed, a time scrubber and the state timeline; None without
-    MeshCat (the page then says how to get it)."""
-    viewer = viewer_script()
-    if viewer is None:
-        return None
-    data = json.dumps(payload(rec, replay), separators=(",", ":")).replace("</", "<\\/")
-    script = (Path(__file__).resolve().parent.parent / "data" / "replay.js").read_text(encoding="utf-8")
+def viewer_script() -> str | None:
+    """The text of :func:`viewer_path`'s file, or None."""
+    path = viewer_path()
+    return path.read_text(encoding="utf-8") if path is not None else None
+
+
+REPLAY_CSS = """
+#rk-replay { position: relative; } #rk-pane { width: 100%; height: 480px; position: relative; overflow: hidden; }
+.rk-bar { display: flex; gap: 8px; align-items: center; margin: 6px 0; } #rk-time { flex: 1; }
+.rk-row { display: flex; align-items: center; gap: 8px; font-size: 11px; margin: 2px 0; }
+.rk-name { width: 90px; text-align: right; color: #555; }
+.rk-track { position: relative; flex: 1; height: 18px; background: #f4f4f4; }
+.rk-span { position: absolute; top: 0; height: 18px; overflow: hidden; white-space: nowrap; cursor: pointer;
+           font-size: 10px; line-height: 18px; padding-left: 2px; box-sizing: border-box;
+           border-right: 1px solid #fff; }
+#rk-hover { position: absolute; left: 8px; top: 8px; background: rgba(0,0,0,.6); color: #fff; font-size: 12px;
+            padding: 2px 6px; border-radius: 4px; display: none; pointer-events: none; z-index: 2; }
+#rk-seen { position: absolute; left: 8px; bottom: 8px; margin: 0; display: none; z-index: 2; background: #fff;
+           padding: 3px; font-size: 11px; } #rk-seen img { display: block; max-width: 220px; }
+.rk-cursor { position: absolute; top: -2px; width: 2px; height: 22px; background: #c62828; pointer-events: none; }
+"""
+"""The replay's styles (the run page offline and the server's run page)."""
+
+REPLAY_SCRIPT = Path(__file__).resolve().parent.parent / "data" / "replay.js"
+"""robokit's replay script: draws ``RK_REPLAY`` (a :func:`payload`) with MeshCat's viewer."""
+
+
+def replay_markup(attrs: str = "") -> str:
+    """The replay's elements: a pane for the canvas, play/pause, speed, a time scrubber and the state timeline.
+    ``attrs`` (already escaped) go on the outer ``div`` (the server's page names its data and script there)."""
     controls = ("<div class='rk-bar'><button id='rk-play' type='button'>play</button>"
                 "<select id='rk-speed' aria-label='speed'><option value='0.25'>0.25x</option>"
                 "<option value='0.5'>0.5x</option><option value='1' selected>1x</option>"
@@ -244,6 +266,17 @@ def replay_html(rec: RunRecord, replay: Replay | None = None) -> str | None:
                 "<input id='rk-time' type='range' min='0' max='1000' value='0' aria-label='time'>"
                 "<span id='rk-clock' class='meta'>t = 0.00 s</span></div>"
                 "<div id='rk-states'></div>")
-    return (f"<div id='rk-replay'><div id='rk-pane'><div id='rk-hover'></div><figure id='rk-seen'>"
-            f"<figcaption></figcaption></figure></div>{controls}</div>"
+    return (f"<div id='rk-replay'{attrs}><div id='rk-pane'><div id='rk-hover'></div><figure id='rk-seen'>"
+            f"<figcaption></figcaption></figure></div>{controls}</div>")
+
+
+def replay_html(rec: RunRecord, replay: Replay | None = None) -> str | None:
+    """The replay for a page that opens offline: :func:`replay_markup`, then MeshCat's viewer, the data and the
+    script inline; None without MeshCat (the page then says how to get it)."""
+    viewer = viewer_script()
+    if viewer is None:
+        return None
+    data = json.dumps(payload(rec, replay), separators=(",", ":")).replace("</", "<\\/")
+    script = REPLAY_SCRIPT.read_text(encoding="utf-8")
+    return (replay_markup() +
             f"<script>{viewer}</script><script>var RK_REPLAY = {data};</script><script>{script}</script>")

@@ -1,4 +1,4 @@
-"""Uploading a run's files (video, plots, trace, config) to the course server, after its result arrived.
+"""Uploading a run's files (video, plots, trace, config, 3D replay) to the course server, after its result arrived.
 
 The server takes them at ``POST <results url><run_id>/artifacts/`` (multipart). Used by the ``http`` reporter's
 ``upload_artifacts = true`` and by ``robokit upload-artifacts`` (for a video or plot made after the run).
@@ -14,10 +14,15 @@ MAX_FILES = 20
 
 
 def find_artifacts(run_dir: str | Path, config: Any = None) -> list[tuple[str, Path]]:
-    """``(upload name, path)`` of the files worth uploading from a run folder (two levels deep), plus the
+    """``(upload name, path)`` of the files worth uploading from a run folder (two levels deep); the video
+    ``robokit video`` / ``robokit run --video FILE`` last made of the run wherever it was written (the run
+    folder's ``video.json`` names it); the 3D replay's data (``replay.json``, see :func:`replay_file`); and the
     run's config file when ``config`` names a TOML file that exists (uploaded as ``config.toml``)."""
     folder = Path(run_dir)
     found: dict[str, Path] = {}
+    for extra in (_noted_video(folder), replay_file(folder)):
+        if extra is not None:
+            found[extra.name] = extra
     if folder.is_dir():
         for path in sorted(folder.glob("*")) + sorted(folder.glob("*/*")):
             if path.is_file() and path.suffix.lower() in SUFFIXES and path.name not in found:
@@ -25,6 +30,46 @@ def find_artifacts(run_dir: str | Path, config: Any = None) -> list[tuple[str, P
     if isinstance(config, str) and config.endswith(".toml") and Path(config).is_file():
         found.setdefault("config.toml", Path(config))
     return list(found.items())[:MAX_FILES]
+
+
+def _noted_video(folder: Path) -> Path | None:
+    """The MP4 the run folder's ``video.json`` names, when it still exists."""
+    import json
+
+    try:
+        note = json.loads((folder / "video.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    path = Path(str(note.get("path", ""))) if isinstance(note, dict) else None
+    return path if path is not None and path.suffix.lower() == ".mp4" and path.is_file() else None
+
+
+REPLAY_FILE = "replay.json"
+
+
+def replay_file(folder: Path) -> Path | None:
+    """The run's 3D replay as the server's run page draws it (``replay.json``: the data ``robokit view``'s page
+    embeds), written into the run folder from its pose log the first time it is asked for; None when the record
+    has no pose log or its scene cannot be rebuilt here (the other files are uploaded all the same)."""
+    import json
+
+    out = folder / REPLAY_FILE
+    if out.is_file():
+        return out
+    if not (folder / "poses.npz").is_file():
+        return None
+    from robokit.record.format import RunRecord
+    from robokit.record.replay import payload
+
+    tmp = folder / (REPLAY_FILE + ".tmp")
+    try:
+        text = json.dumps(payload(RunRecord(folder)), separators=(",", ":"), allow_nan=False)
+        tmp.write_text(text, encoding="utf-8")
+        tmp.replace(out)
+    except Exception:  # noqa: BLE001 - a replay that cannot be made costs the replay only, never the upload
+        tmp.unlink(missing_ok=True)
+        return None
+    return out
 
 
 def artifacts_url(results_url: str, run_id: str) -> str:

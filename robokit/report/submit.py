@@ -1,4 +1,5 @@
-"""``robokit submit ASSIGNMENT CONFIG``: send a config to the course server for official evaluation.
+"""``robokit submit ASSIGNMENT CONFIG [--plugin PATH]``: send a config (and, where the assignment allows it, the
+student's own plugin package) to the course server for official evaluation.
 
 The server checks it (only the keys the assignment lets students change, then robokit's own validation) and queues
 it; its answer is printed in one line. Needs only ``requests`` (no Django).
@@ -26,7 +27,28 @@ def add_submit_command(sub: Any) -> None:
                    help="the course server, e.g. http://192.168.0.10:8000/ (default $ROBOKIT_SERVER_URL)")
     p.add_argument("--token-env", default="ROBOKIT_TOKEN", metavar="NAME",
                    help="environment variable holding your token (default ROBOKIT_TOKEN)")
+    p.add_argument("--plugin", metavar="PATH", help="your own plugin, sent with the config: a module (.py) or a "
+                   "package folder (only for assignments that allow students' plugins)")
     p.set_defaults(func=cmd_submit)
+
+
+def plugin_files(path: str) -> dict[str, str]:
+    """``{relative path: source}`` of a plugin module (``x.py``) or package folder (its ``*.py`` files, under the
+    folder's name)."""
+    root = Path(path)
+    if root.is_file() and root.suffix == ".py":
+        found = [(root.name, root)]
+    elif root.is_dir():
+        found = [(f"{root.name}/{f.relative_to(root).as_posix()}", f) for f in sorted(root.rglob("*.py"))
+                 if "__pycache__" not in f.parts]
+    else:
+        raise UserError(f"--plugin {path}: expected a .py file or a package folder")
+    if not found:
+        raise UserError(f"--plugin {path}: no .py files in it")
+    try:
+        return {name: f.read_text(encoding="utf-8") for name, f in found}
+    except (OSError, UnicodeDecodeError) as exc:
+        raise UserError(f"--plugin {path}: {getattr(exc, 'strerror', None) or exc}") from None
 
 
 def submit_url(server: str, assignment: str) -> str:
@@ -49,20 +71,25 @@ def cmd_submit(args: argparse.Namespace) -> int:
         text = Path(args.config).read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise UserError(f"{args.config}: cannot read the config: {getattr(exc, 'strerror', None) or exc}") from None
+    body: dict[str, Any] = {"config": text}
+    if args.plugin:
+        body["plugin_files"] = plugin_files(args.plugin)
     url = submit_url(args.url, args.assignment)
     try:
-        resp = requests.post(url, json={"config": text}, headers={"Authorization": f"Bearer {token}"}, timeout=60)
+        resp = requests.post(url, json=body, headers={"Authorization": f"Bearer {token}"}, timeout=60)
     except requests.RequestException as exc:
         print(f"robokit: error: cannot reach {url}: {type(exc).__name__}", file=sys.stderr)
         return EXIT_UNREACHABLE
     try:
-        body = resp.json()
+        answer = resp.json()
     except ValueError:
-        body = {"error": f"HTTP {resp.status_code} (not JSON)"}
+        answer = {"error": f"HTTP {resp.status_code} (not JSON)"}
     if resp.status_code != 201:
-        print(f"robokit: error: {args.config}: {body.get('error') or resp.status_code}", file=sys.stderr)
+        where = args.plugin if answer.get("field") == "plugin" else args.config
+        print(f"robokit: error: {where}: {answer.get('error') or resp.status_code}", file=sys.stderr)
         return EXIT_REFUSED
-    late = " (late)" if body.get("late") else ""
-    print(f"submitted{late}: submission {body['id']} of {body['assignment']!r} for {body['student']}, "
-          f"queued for official evaluation on {body['seeds']} seeds")
+    late = " (late)" if answer.get("late") else ""
+    plugins = f" with your plugin {', '.join(answer['plugins'])}" if answer.get("plugins") else ""
+    print(f"submitted{late}: submission {answer['id']} of {answer['assignment']!r} for {answer['student']}{plugins}, "
+          f"queued for official evaluation on {answer['seeds']} seeds")
     return 0

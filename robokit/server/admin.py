@@ -160,7 +160,7 @@ class ResultAdmin(OwnClassesMixin, admin.ModelAdmin):
 class AssignmentAdmin(OwnClassesMixin, admin.ModelAdmin):
     """An assignment: its official config, the keys students may change, seeds, due time, late policy."""
 
-    list_display = ("name", "classroom", "kind", "due_at", "late_policy")
+    list_display = ("name", "classroom", "kind", "due_at", "late_policy", "allow_plugins")
     list_filter = (("classroom", admin.RelatedOnlyFieldListFilter),)
     readonly_fields = ("project",)
 

@@ -29,7 +29,7 @@ from robokit.server.models import Artifact, Classroom, Project, Result, Student,
 from robokit.server.payload import RUN_ID, PayloadError, Posted, check, config_name, default_ranking, parse
 from robokit.server.private import private_dir
 
-TEXT_KINDS = ("plot", "trace", "config")
+TEXT_KINDS = ("plot", "trace", "config", "replay")
 
 
 def error(status: int, field: str, message: str, **headers: str) -> JsonResponse:
@@ -190,9 +190,9 @@ def _store(posted: Posted, run_id: str, classroom: Classroom, token: Token | Non
 
 
 def max_artifact_request() -> int:
-    """The largest artifact upload request: one video, one trace, a config and eight plots."""
+    """The largest artifact upload request: one video, one trace, a config, a replay and eight plots."""
     return (settings.MAX_VIDEO_BYTES + settings.MAX_TRACE_BYTES + settings.MAX_CONFIG_BYTES
-            + 8 * settings.MAX_PLOT_BYTES + (64 << 10))
+            + settings.MAX_REPLAY_BYTES + 8 * settings.MAX_PLOT_BYTES + (64 << 10))
 
 
 @csrf_exempt

@@ -9,11 +9,16 @@ plot        ``*.svg``            well-formed XML whose root is ``<svg>``; stored
                                  only drawing elements and attributes (:mod:`robokit.server.svg`)
 trace       ``*.jsonl``          UTF-8, every non-empty line a JSON object (robokit's trace)
 config      ``*.toml``           UTF-8 TOML that parses
+replay      ``replay.json``      the 3D replay's data as ``robokit view`` embeds it
+                                 (:func:`robokit.record.replay.payload`): its fields and types,
+                                 arrays whose sizes agree, camera frames only as PNG data URIs
 ==========  ===================  ===============================================================
 """
 
 from __future__ import annotations
 
+import base64
+import binascii
 import json
 import re
 import sys
@@ -47,7 +52,9 @@ KINDS = {
     ".svg": Kind("plot", "image/svg+xml", "MAX_PLOT_BYTES"),
     ".jsonl": Kind("trace", "application/jsonl", "MAX_TRACE_BYTES"),
     ".toml": Kind("config", "text/plain; charset=utf-8", "MAX_CONFIG_BYTES"),
+    ".json": Kind("replay", "application/json", "MAX_REPLAY_BYTES"),
 }
+REPLAY_NAME = "replay.json"
 
 
 def kind_for(name: str) -> Kind:
@@ -59,8 +66,9 @@ def kind_for(name: str) -> Kind:
     if not NAME.match(name) or ".." in name:
         raise ArtifactError(f"{name!r}: a file name (letters, digits, '.', '_', '-'; no folders) was expected")
     ext = "." + name.rsplit(".", 1)[-1].lower() if "." in name else ""
-    if ext not in KINDS:
-        raise ArtifactError(f"{name!r}: only {', '.join(KINDS)} files are accepted")
+    if ext not in KINDS or (ext == ".json" and name != REPLAY_NAME):
+        raise ArtifactError(f"{name!r}: only {', '.join(k for k in KINDS if k != '.json')} files and "
+                            f"{REPLAY_NAME} are accepted")
     return KINDS[ext]
 
 
@@ -100,6 +108,8 @@ def check_content(name: str, kind: Kind, head: bytes, whole: bytes | None) -> by
             raise ArtifactError(f"{name!r} {exc}") from None
     if ext == "jsonl":
         _check_jsonl(name, text)
+    elif ext == "json":
+        check_replay(name, text)
     else:
         try:
             tomllib.loads(text)
@@ -118,3 +128,52 @@ def _check_jsonl(name: str, text: str) -> None:
             raise ArtifactError(f"{name!r} line {number} is not JSON") from None
         if not isinstance(record, dict):
             raise ArtifactError(f"{name!r} line {number} is not a JSON object")
+
+
+def check_replay(name: str, text: str) -> None:
+    """``replay.json``: the fields the replay script reads, with their types, and sample arrays whose sizes agree
+    (``t``: N float32, ``poses``: N x links x 7 float32, base64). Camera frames must be PNG data URIs.
+
+    Raises:
+        ArtifactError: what is wrong, in one line.
+    """
+    try:
+        data = json.loads(text)
+    except ValueError:
+        raise ArtifactError(f"{name!r} is not JSON") from None
+    if not isinstance(data, dict):
+        raise ArtifactError(f"{name!r} is not a JSON object")
+    problem = _replay_problem(data)
+    if problem:
+        raise ArtifactError(f"{name!r} is not a robokit replay: {problem}")
+
+
+def _replay_problem(data: dict[str, object]) -> str | None:
+    kinds: dict[str, type | tuple[type, ...]] = {
+        "links": list, "shapes": list, "meshes": list, "frames": list, "machines": list, "t": str, "poses": str,
+        "duration": (int, float)}
+    for key, kind in kinds.items():
+        if not isinstance(data.get(key), kind):
+            return f"'{key}' is missing or of the wrong type"
+    links = data["links"]
+    assert isinstance(links, list)
+    if not all(isinstance(link, str) for link in links):
+        return "'links' must be names"
+    try:
+        samples = len(base64.b64decode(str(data["t"]), validate=True)) // 4
+        values = len(base64.b64decode(str(data["poses"]), validate=True)) // 4
+    except (ValueError, binascii.Error):
+        return "'t' and 'poses' must be base64"
+    if values != samples * len(links) * 7:
+        return (f"'poses' holds {values} numbers; {samples} samples of {len(links)} links need "
+                f"{samples * len(links) * 7}")
+    for items, key in ((data["shapes"], "shapes"), (data["meshes"], "meshes"), (data["frames"], "frames"),
+                       (data["machines"], "machines")):
+        assert isinstance(items, list)
+        if not all(isinstance(item, dict) for item in items):
+            return f"'{key}' must be objects"
+    frames = data["frames"]
+    assert isinstance(frames, list)
+    if not all(str(f.get("png", "")).startswith("data:image/png;base64,") for f in frames):
+        return "camera frames must be PNG data URIs"
+    return None

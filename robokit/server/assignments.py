@@ -1,7 +1,8 @@
 """Assignments, students' submissions, moderation and training runs (imported by :mod:`robokit.server.models`).
 
 An assignment belongs to a class: an official config, the keys students may change, the official seeds, a
-ranking, opens/due times and a late policy. A submission is a student's config for it; the queue evaluates it on
+ranking, opens/due times, a late policy and whether students may send their own plugin package. A submission is a
+student's config (and plugin package) for it; the queue evaluates it on
 the official seeds and stores one official :class:`~robokit.server.models.Result` per seed (its ``run_id`` is
 derived from the submission and the seed, so a trial can never be stored twice).
 """
@@ -31,6 +32,8 @@ class Assignment(models.Model):
     due_at = models.DateTimeField(null=True, blank=True)
     late_policy = models.CharField(max_length=10, default=ACCEPT,
                                    choices=[(ACCEPT, "accept and mark late"), (REFUSE, "refuse")])
+    allow_plugins = models.BooleanField(default=False, help_text="students may send their own plugin package "
+                                        "(Python code, run only in the evaluation sandbox)")
     project = models.OneToOneField("course.Project", on_delete=models.PROTECT, related_name="assignment")
     created_at = models.DateTimeField(auto_now_add=True)
 
@@ -66,6 +69,8 @@ class Submission(models.Model):
     assignment = models.ForeignKey(Assignment, on_delete=models.CASCADE, related_name="submissions")
     student = models.ForeignKey("course.Student", on_delete=models.CASCADE, related_name="submissions")
     config_text = models.TextField()
+    plugin_files = models.JSONField(default=dict, blank=True, help_text="the student's plugin package: {path: source}")
+    plugin_modules = models.JSONField(default=list, blank=True, help_text="its top-level modules, imported as plugins")
     submitted_at = models.DateTimeField(auto_now_add=True, db_index=True)
     late = models.BooleanField(default=False)
     status = models.CharField(max_length=10, default=QUEUED,
@@ -100,7 +105,8 @@ class Submission(models.Model):
     def to_dict(self) -> dict[str, Any]:
         return {"id": self.pk, "uuid": str(self.uuid), "assignment": self.assignment.name,
                 "student": self.student.name, "submitted_at": self.submitted_at.isoformat(), "late": self.late,
-                "status": self.status, "seeds": len(self.assignment.seeds), "success_rate": self.success_rate,
+                "status": self.status, "seeds": len(self.assignment.seeds), "plugins": self.plugin_modules,
+                "success_rate": self.success_rate,
                 "wilson95": [self.wilson_low, self.wilson_high], "url": f"/submissions/{self.pk}/"}
 
 

@@ -152,14 +152,15 @@ def training(title: str, runs: Sequence[tuple[str, Sequence[dict[str, float]]]])
     if not runs:
         _empty(left, "학습 기록 없음 (no training runs)")
         _empty(right, "")
-    for name, points in runs:
+    for k, (name, points) in enumerate(runs):  # each line's SVG group is named (gid): return-0, success-0, ...
         steps = [p["steps"] for p in points]
         if any("return" in p for p in points):
             left.plot([s for s, p in zip(steps, points, strict=True) if "return" in p],
-                      [p["return"] for p in points if "return" in p], label=name or "run")
+                      [p["return"] for p in points if "return" in p], label=name or "run", gid=f"return-{k}")
         if any("success_rate" in p for p in points):
             right.plot([s for s, p in zip(steps, points, strict=True) if "success_rate" in p],
-                       [100 * p["success_rate"] for p in points if "success_rate" in p], label=name or "run")
+                       [100 * p["success_rate"] for p in points if "success_rate" in p], label=name or "run",
+                       gid=f"success-{k}")
     if runs:
         left.set_xlabel("스텝 steps")
         left.set_ylabel("보상 return")

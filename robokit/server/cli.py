@@ -42,6 +42,7 @@ def add_server_commands(sub: Any) -> None:
                             "revoke_token, teacher_token, create_teacher, or any Django command",
                             add_help=False)
     manage.add_argument("--data", metavar="DIR", help="data folder (as for serve)")
+    manage.add_argument("-h", "--help", dest="manage_help", action="store_true")  # ours; after COMMAND: Django's
     manage.add_argument("args", nargs=argparse.REMAINDER)
     manage.set_defaults(func=cmd_manage)
 
@@ -192,7 +193,7 @@ def _max_body(settings: Any) -> int:
 
 def cmd_manage(args: argparse.Namespace) -> int:
     """``robokit manage COMMAND ...``: a Django management command on the server's database."""
-    if not args.args or args.args[0] in ("-h", "--help"):
+    if args.manage_help or not args.args or args.args[0] in ("-h", "--help"):
         print("usage: robokit manage [--data DIR] COMMAND [ARGS]\n\ncourse commands: create_teacher NAME | "
               "create_class NAME --teacher USER [--allow-unverified] | add_students CLASS NAME... [--file F] | "
               "issue_token CLASS STUDENT | revoke_token CLASS STUDENT | teacher_token CLASS --teacher USER | "

@@ -2,11 +2,14 @@
 
 ``POST /api/robotics/assignments/<name>/submissions/`` ``{"config": "<TOML text>"}`` with the student's token:
 201 with the submission (queued for official evaluation); 400 naming the key a config may not change or that
-robokit's validation refuses; 403 before the assignment opens or after it is due when late work is refused.
+robokit's validation refuses; 403 before the assignment opens or after it is due when late work is refused. With
+``"plugin_files": {"path.py": "source", ...}`` (the assignment must allow it, else 403): the student's own plugin
+package, checked by :mod:`robokit.server.plugin_upload` and imported only in the evaluation's sandbox.
 
 ``POST /api/robotics/training/`` ``{"name": "...", "run_id": "...", "log": "<JSON lines>"}`` with the token: a
-training run (``robokit.gym``'s log: one object per line with ``steps`` and any of ``episodes``, ``return``,
-``success_rate``), plotted on the student's page. 201, or 200 for a ``run_id`` already stored.
+training run (one object per line with ``steps`` and any of ``episodes``, ``return``, ``success_rate``; or
+``python -m robokit.gym.train``'s ``progress.jsonl`` as it is: ``env_steps``, ``return_mean``, its ``summary`` line
+skipped), plotted on the student's page. 201, or 200 for a ``run_id`` already stored.
 """
 
 from __future__ import annotations
@@ -28,6 +31,8 @@ from robokit.server.api import NO_TOKEN, _token, _unauthorized, error
 from robokit.server.assignments import Assignment, Submission, TrainingRun
 from robokit.server.models import Token
 from robokit.server.payload import RUN_ID, PayloadError, parse
+from robokit.server.plugin_upload import MAX_BYTES as MAX_PLUGIN_BYTES
+from robokit.server.plugin_upload import check_plugin_files
 from robokit.server.submitted import SubmissionError, check_submission
 
 MAX_TRAINING_POINTS = 20_000
@@ -75,11 +80,16 @@ def submit(request: HttpRequest, name: str) -> JsonResponse:
         return error(404, "assignment", f"no assignment {name!r} in class {token.classroom.name!r} "
                      f"(assignments: {known})")
     try:
-        text = _body(request, settings.MAX_CONFIG_BYTES + 4096).get("config")
+        body = _body(request, settings.MAX_CONFIG_BYTES + MAX_PLUGIN_BYTES + 8192)
+        text = body.get("config")
         if not isinstance(text, str) or not text.strip():
             raise PayloadError("config", "expected the config file's text (a string)")
     except PayloadError as exc:
         return error(413 if "limit" in exc.message else 400, exc.field, exc.message)
+    plugin_files = body.get("plugin_files")
+    if plugin_files and not assignment.allow_plugins:
+        return error(403, "plugin", f"{assignment.name!r} does not accept plugin packages: submit the config alone "
+                     "(your teacher decides whether an assignment takes students' own plugins)")
     now = timezone.now()
     if assignment.opens_at is not None and now < assignment.opens_at:
         return error(403, "opens_at", f"{assignment.name!r} opens at {assignment.opens_at.isoformat()}")
@@ -88,13 +98,15 @@ def submit(request: HttpRequest, name: str) -> JsonResponse:
         return error(403, "due_at", f"{assignment.name!r} was due at {assignment.due_at.isoformat()}; "
                      f"late submissions are refused")
     try:
-        check_submission(assignment, text)
+        modules = check_plugin_files(plugin_files) if plugin_files else []
+        check_submission(assignment, text, validate=not modules)  # types of the student's plugin: in the sandbox
     except SubmissionError as exc:
         return error(400, exc.field, exc.message)
     from robokit.server.evaluation import create_submission
 
     Token.objects.filter(pk=token.pk).update(last_used_at=now)
-    sub = create_submission(assignment=assignment, student=token.student, config_text=text, late=late)
+    sub = create_submission(assignment=assignment, student=token.student, config_text=text, late=late,
+                            plugin_files=plugin_files or {}, plugin_modules=modules)
     return JsonResponse(sub.to_dict(), status=201, json_dumps_params={"ensure_ascii": False})
 
 
@@ -146,12 +158,14 @@ def training_points(log: Any) -> list[dict[str, float]]:
             raise PayloadError(f"log[{i}]", "not a JSON object") from None
         if not isinstance(rec, dict):
             raise PayloadError(f"log[{i}]", "not a JSON object")
-        steps = rec.get("steps")
+        if "summary" in rec and "steps" not in rec and "env_steps" not in rec:
+            continue  # python -m robokit.gym.train's last line: the evaluation, not a point of the curve
+        steps = rec.get("steps", rec.get("env_steps"))
         if not isinstance(steps, int) or isinstance(steps, bool) or steps < 0:
             raise PayloadError(f"log[{i}].steps", "expected a whole number >= 0")
         point: dict[str, float] = {"steps": steps}
-        for key in ("episodes", "return", "success_rate"):
-            value = rec.get(key)
+        for key, alias in (("episodes", "episodes"), ("return", "return_mean"), ("success_rate", "success_rate")):
+            value = rec.get(key, rec.get(alias))
             if value is None:
                 continue
             if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):

@@ -1,9 +1,8 @@
 """The teacher's course pages: assignments (official board, who has submitted, charts), a student's learning
-dashboard, grades (CSV, one row per student), and moderation (exclude a run or a submission, with the log)."""
+dashboard, and moderation (exclude a run or a submission, with the log). Grades are in :mod:`robokit.server.grades`."""
 
 from __future__ import annotations
 
-import csv
 import re
 from collections import Counter
 from collections.abc import Callable, Iterable
@@ -19,7 +18,7 @@ from django.views.decorators.http import require_POST
 from robokit.server import charts
 from robokit.server.assignments import Assignment, ModerationEvent, Submission, TrainingRun
 from robokit.server.models import Result, Student
-from robokit.server.pages import _csv_safe, _teacher_class
+from robokit.server.pages import _teacher_class, session_student
 
 NUMBER = re.compile(r"-?\d+(\.\d+)?")
 
@@ -158,41 +157,22 @@ def student_chart(request: HttpRequest, pk: int, spk: int, kind: str) -> HttpRes
                                            [w["rate"] for w in rows], [w["runs"] for w in rows],
                                            [w["official"] for w in rows]))
     if kind == "training":
-        train = [(t.name or t.run_id[:8], t.points) for t in TrainingRun.objects.filter(student=s)[:8]]
-        return _svg_response(charts.training(f"{s.name}: 학습 곡선 training", train))
+        return training_chart(s)
     raise Http404("no such chart")
 
 
-@login_required
-def grades_csv(request: HttpRequest, pk: int) -> HttpResponse:
-    """One row per student; per assignment: best official success rate, its Wilson bounds, when it was submitted,
-    whether it was late, and how many submissions."""
-    room = _teacher_class(request, pk)
-    assignments = list(room.assignments.order_by("due_at", "name"))
-    best = {a.pk: {s.student_id: s for s in best_submissions(a)} for a in assignments}
-    counts = Counter((s.assignment_id, s.student_id) for s in Submission.objects.filter(assignment__classroom=room))
-    response = HttpResponse(content_type="text/csv; charset=utf-8")
-    response["Content-Disposition"] = f'attachment; filename="grades-class-{room.pk}.csv"'
-    response.write("\ufeff")
-    writer = csv.writer(response)
-    head = ["student"]
-    for a in assignments:
-        head += [f"{a.name}: {c}" for c in ("success_rate", "wilson_low", "wilson_high", "submitted_at", "late",
-                                            "submissions")]
-    writer.writerow([_csv_safe(h) for h in head])
-    for st in room.students.order_by("name"):
-        row: list[Any] = [st.name]
-        for a in assignments:
-            sub = best[a.pk].get(st.pk)
-            row += ([_round(sub.success_rate), _round(sub.wilson_low), _round(sub.wilson_high),
-                     sub.submitted_at.isoformat(), "late" if sub.late else "", counts[(a.pk, st.pk)]]
-                    if sub else ["", "", "", "", "", counts[(a.pk, st.pk)]])
-        writer.writerow([_csv_safe(v) for v in row])
-    return response
+def training_chart(s: Student) -> HttpResponse:
+    """The student's last eight training runs: return and success rate over env steps."""
+    train = [(t.name or t.run_id[:8], t.points) for t in TrainingRun.objects.filter(student=s)[:8]]
+    return _svg_response(charts.training(f"{s.name}: 학습 곡선 training", train))
 
 
-def _round(value: float | None) -> str:
-    return "" if value is None else f"{value:.4f}"
+def my_training_chart(request: HttpRequest) -> HttpResponse:
+    """``/me/training.svg``: the same chart for the student whose token opened the session."""
+    student = session_student(request)
+    if student is None:
+        raise Http404("open /me/ with your token first")
+    return training_chart(student)
 
 
 @login_required
@@ -245,8 +225,8 @@ urlpatterns = [
     path("classes/<int:pk>/assignments/<int:apk>/<str:kind>.svg", assignment_chart, name="assignment-chart"),
     path("classes/<int:pk>/students/<int:spk>/dashboard/", student_dashboard, name="dashboard"),
     path("classes/<int:pk>/students/<int:spk>/<str:kind>.svg", student_chart, name="student-chart"),
-    path("classes/<int:pk>/grades.csv", grades_csv, name="grades-csv"),
     path("classes/<int:pk>/moderate/", moderate, name="moderate"),
     path("classes/<int:pk>/moderation/", moderation_log, name="moderation"),
     path("submissions/<int:pk>/", submission_page, name="submission"),
+    path("me/training.svg", my_training_chart, name="my-training-chart"),
 ]

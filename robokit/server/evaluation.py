@@ -54,9 +54,10 @@ def trial_tasks(sub: Submission, seeds: list[int]) -> list[Any]:
     from robokit.sweep.trial import TrialTask, trial_run_id
 
     limit = float(sub.assignment.trial_seconds)
+    modules = tuple(sub.plugin_modules or ())  # the student's plugin package, imported in the sandbox
     return [TrialTask(key=f"seed={s}", cell=CELL, overrides={"world.max_wall_time": limit}, seed=int(s),
                       run_id=trial_run_id(str(sub.uuid), f"seed={s}"), config_text=sub.config_text,
-                      source=f"submission-{sub.pk}.toml", base_dir=".") for s in seeds]
+                      source=f"submission-{sub.pk}.toml", base_dir=".", plugins=modules) for s in seeds]
 
 
 def evaluate_submission(submission_id: int) -> str:
@@ -69,7 +70,7 @@ def evaluate_submission(submission_id: int) -> str:
     stored = set(sub.results.values_list("seed", flat=True))
     todo = trial_tasks(sub, [s for s in seeds if s not in stored])
     try:
-        for row in run_trials(todo, float(sub.assignment.trial_seconds)):
+        for row in run_trials(todo, float(sub.assignment.trial_seconds), dict(sub.plugin_files or {})):
             store_trial(sub, row)
     except Exception as exc:  # noqa: BLE001 - the submission says what went wrong; the queue task ends
         log.exception("evaluation of submission %s failed", sub.pk)
@@ -79,17 +80,18 @@ def evaluate_submission(submission_id: int) -> str:
     return finish(sub)
 
 
-def run_trials(tasks: list[Any], trial_seconds: float) -> Iterator[dict[str, Any]]:
+def run_trials(tasks: list[Any], trial_seconds: float, files: dict[str, str] | None = None) -> Iterator[dict[str, Any]]:
     """The trials' rows: on the Ray cluster at ``ROBOKIT_RAY_ADDRESS`` through ``robokit sweep``'s Ray backend
-    (a trial per Ray task, across the cluster's nodes), otherwise in a local sandbox process."""
+    (a trial per Ray task, across the cluster's nodes), otherwise in a local sandbox process. ``files``: a
+    student's plugin package, written into the sandbox's scratch folder (evaluated locally only)."""
     address = os.environ.get("ROBOKIT_RAY_ADDRESS", "").strip()
-    if address:
+    if address and not files:
         from robokit.sweep.ray_backend import RayBackend
 
         return RayBackend(address, trial_timeout=trial_seconds + 60).run(tasks)
     from robokit.server.sandbox import run_sandboxed
 
-    return run_sandboxed(tasks, trial_seconds)
+    return run_sandboxed(tasks, trial_seconds, files or {})
 
 
 def store_trial(sub: Submission, row: dict[str, Any]) -> None:

@@ -157,12 +157,13 @@ class Result(models.Model):
 
 
 class Artifact(models.Model):
-    """A file uploaded for a run: a video (mp4), a plot (png/svg), its trace (jsonl) or its config (toml)."""
+    """A file uploaded for a run: a video (mp4), a plot (png/svg), its trace (jsonl), its config (toml) or its 3D
+    replay (replay.json)."""
 
-    VIDEO, PLOT, TRACE, CONFIG = "video", "plot", "trace", "config"
+    VIDEO, PLOT, TRACE, CONFIG, REPLAY = "video", "plot", "trace", "config", "replay"
     result = models.ForeignKey(Result, on_delete=models.CASCADE, related_name="artifacts")
     name = models.CharField(max_length=100)
-    kind = models.CharField(max_length=10, choices=[(k, k) for k in (VIDEO, PLOT, TRACE, CONFIG)])
+    kind = models.CharField(max_length=10, choices=[(k, k) for k in (VIDEO, PLOT, TRACE, CONFIG, REPLAY)])
     content_type = models.CharField(max_length=50)
     size = models.BigIntegerField()
     sha256 = models.CharField(max_length=64)

@@ -26,6 +26,7 @@ from robokit.server import tokens
 from robokit.server.models import Artifact, Classroom, Project, Result, Student, Token
 from robokit.server.payload import config_name
 from robokit.server.ranking import best_per_student, columns
+from robokit.server.replay_page import replay_context
 
 SESSION_TOKEN = "course_student_token"
 
@@ -155,7 +156,8 @@ def run_detail(request: HttpRequest, run_id: str) -> HttpResponse:
     payload = dict(record.payload)
     if isinstance(payload.get("config"), str):  # rows stored before the server kept only the file name
         payload["config"] = config_name(payload["config"])
-    return render(request, "course/run.html", {
+    replay = next((a for a in artifacts if a.kind == Artifact.REPLAY), None)
+    return render(request, "course/run.html", {**replay_context(replay),
         "r": record, "config_name": config_name(record.config),
         "figures": [(k, _fmt(v)) for k, v in record.figures.items()],
         "objects": _objects_table(result.get("objects")),
@@ -310,7 +312,8 @@ def me(request: HttpRequest) -> HttpResponse:
     runs = (Result.objects.filter(student=student, verified=True, official=False)
             .select_related("project"))
     subs = student.submissions.select_related("assignment")[:100]
-    return render(request, "course/me.html", {"student": student, "runs": _history(runs), "subs": subs})
+    return render(request, "course/me.html", {"student": student, "runs": _history(runs), "subs": subs,
+                                              "training": list(student.training_runs.all()[:20])})
 
 
 @require_http_methods(["POST"])

@@ -17,7 +17,8 @@ What isolation there is (said plainly in docs/server.md):
   --map-root-user``: only a loopback device, down); otherwise the process has the server's network.
 
 It is not a security boundary against hostile code: the process runs as the server's user and can read what that
-user can read. Students submit configs, not code, so what runs is robokit and its installed plugins.
+user can read. Students submit configs, and their own plugin package (Python code) only where the assignment allows
+it: that code runs here, inside these limits and nowhere else.
 """
 
 from __future__ import annotations
@@ -65,12 +66,16 @@ def sandbox_command() -> list[str]:
     return ["unshare", "--net", "--map-root-user", *cmd] if network_isolation() else cmd
 
 
-def run_sandboxed(tasks: Sequence[Any], trial_seconds: float) -> Iterator[dict[str, Any]]:
+def run_sandboxed(tasks: Sequence[Any], trial_seconds: float,
+                  files: dict[str, str] | None = None) -> Iterator[dict[str, Any]]:
     """Yield one row per task (:class:`robokit.sweep.trial.TrialTask`), as each trial ends, from a fresh
-    limited process. A trial the process did not finish (it hit a limit or died) gets an ``error`` row."""
+    limited process. A trial the process did not finish (it hit a limit or died) gets an ``error`` row.
+    ``files`` (a student's plugin package, paths checked by :mod:`robokit.server.plugin_upload`) are written into
+    the scratch folder, the process's working directory, where the tasks' ``plugins`` modules are imported from."""
     from robokit.sweep.trial import error_row
 
     scratch = tempfile.mkdtemp(prefix="robokit-eval-")
+    _write_files(scratch, files or {})
     sent = [{**{f.name: getattr(t, f.name) for f in dataclasses.fields(t) if f.name not in ("before", "after")},
              "base_dir": scratch} for t in tasks]
     limits = {"cpu": int(len(tasks) * trial_seconds) + CPU_MARGIN, "memory_mb": MEMORY_MB, "file": FILE_LIMIT}
@@ -101,6 +106,17 @@ def run_sandboxed(tasks: Sequence[Any], trial_seconds: float) -> Iterator[dict[s
                 yield error_row(t, f"the evaluation process ended before this trial finished ({why})")
     finally:
         shutil.rmtree(scratch, ignore_errors=True)
+
+
+def _write_files(scratch: str, files: dict[str, str]) -> None:
+    root = os.path.realpath(scratch)
+    for rel, source in files.items():
+        path = os.path.join(root, *rel.split("/"))
+        if os.path.commonpath([root, os.path.realpath(path)]) != root:
+            raise ValueError(f"{rel!r} is outside the scratch folder")
+        os.makedirs(os.path.dirname(path), exist_ok=True)
+        with open(path, "w", encoding="utf-8") as fh:
+            fh.write(source)
 
 
 class _Collect(threading.Thread):

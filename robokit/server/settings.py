@@ -133,6 +133,7 @@ MAX_VIDEO_BYTES = int(os.environ.get("ROBOKIT_MAX_VIDEO_BYTES", 50 << 20))
 MAX_PLOT_BYTES = 5 << 20
 MAX_TRACE_BYTES = 20 << 20
 MAX_CONFIG_BYTES = 256 << 10
+MAX_REPLAY_BYTES = 10 << 20  # the 3D replay's data: the Panda's meshes and the poses of a minute-long run
 MAX_ARTIFACTS_PER_RUN = 30
 DATA_UPLOAD_MAX_MEMORY_SIZE = MAX_RESULT_BYTES
 FILE_UPLOAD_MAX_MEMORY_SIZE = 2 << 20

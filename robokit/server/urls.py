@@ -4,7 +4,7 @@ from django.contrib import admin
 from django.contrib.auth import views as auth_views
 from django.urls import path
 
-from robokit.server import api, course_api, course_pages, pages
+from robokit.server import api, course_api, course_pages, grades, pages, replay_page
 
 urlpatterns = [
     path("api/robotics/result/", api.post_result, name="api-result"),
@@ -21,8 +21,11 @@ urlpatterns = [
     path("classes/<int:pk>/results.csv", pages.export_csv, name="export-csv"),
     path("runs/<str:run_id>/", pages.run_detail, name="run"),
     path("artifacts/<int:pk>/<str:name>", pages.artifact_file, name="artifact"),
+    path("replay/viewer.js", replay_page.viewer_js, name="replay-viewer"),
+    path("replay/replay.js", replay_page.replay_js, name="replay-script"),
     path("me/", pages.me, name="me"),
     path("me/logout/", pages.me_logout, name="me-logout"),
     *course_pages.urlpatterns,
+    *grades.urlpatterns,
     path("admin/", admin.site.urls),
 ]

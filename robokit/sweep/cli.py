@@ -52,14 +52,14 @@ def add_sweep_command(sub: Any) -> None:
 
 def _spec(args: argparse.Namespace) -> tuple[Any, dict[str, Any]]:
     from robokit.config import read_toml
-    from robokit.sweep.spec import SweepSpec, load_sweep_file, parse_seeds, parse_set
+    from robokit.sweep.spec import SweepSpec, load_sweep_file, parse_seeds, parse_set, tidy
 
     path = Path(args.config)
     raw = read_toml(path)
     if "config" in raw and isinstance(raw["config"], str):
         spec, options = load_sweep_file(path)
     else:
-        spec, options = SweepSpec(config=path, seeds=range(0, 1)), {}
+        spec, options = SweepSpec(config=tidy(path), seeds=range(0, 1)), {}
     grid, fixed = parse_set(args.sets)
     overlap = (set(grid) | set(fixed)) & (set(spec.grid) | set(spec.fixed))
     grid = {**{k: v for k, v in spec.grid.items() if k not in overlap}, **grid}
@@ -74,6 +74,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     """Run the sweep, print the summary table, return the exit code."""
     from robokit.errors import UserError
     from robokit.sweep.engine import SweepOptions, run_sweep
+    from robokit.sweep.spec import tidy
     from robokit.sweep.summary import to_markdown
 
     spec, file_opts = _spec(args)
@@ -81,7 +82,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         raise UserError(f"--workers: expected at least 1, got {args.workers}")
     if args.trial_timeout is not None and args.trial_timeout <= 0:
         raise UserError(f"--trial-timeout: expected seconds > 0, got {args.trial_timeout}")
-    out = Path(args.out or file_opts.get("out") or Path("sweeps") / spec.config.stem)
+    out = tidy(args.out or file_opts.get("out") or Path("sweeps") / spec.config.stem)
     opts = SweepOptions(
         out=out, backend=args.backend, workers=args.workers or file_opts.get("workers"), address=args.address,
         trial_timeout=args.trial_timeout or file_opts.get("trial_timeout"), max_trials=args.max_trials,

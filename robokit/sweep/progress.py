@@ -21,6 +21,7 @@ class Progress:
         self.stream = stream
         self.start_done = done
         self.t0 = time.monotonic()  # display only: rates and ETA shown to people
+        self.began: float | None = None  # when the earliest trial finished so far began running
         self.every = max(1, (total - done) // 20)
         self.bar: Any = None
         if stream is not None and stream.isatty():
@@ -37,6 +38,8 @@ class Progress:
         """Count one finished trial."""
         self.done += 1
         self.failed += row["outcome"] != "succeeded"
+        began = max(self.t0, time.monotonic() - float(row.get("wall_time") or 0.0))
+        self.began = began if self.began is None else min(self.began, began)
         if self.bar is not None:
             self.bar.set_postfix_str(f"not succeeded {self.failed}", refresh=False)
             self.bar.update(1)
@@ -45,13 +48,20 @@ class Progress:
             self.stream.flush()
 
     def line(self) -> str:
-        """``sweep: 40/120 done, 3 not succeeded, 2.10 trials/s, ETA 38 s``."""
-        elapsed = time.monotonic() - self.t0
+        """``sweep: 40/120 done, 3 not succeeded, 2.10 trials/s, ETA 38 s``.
+
+        The rate counts from when the first trial began running, not from the start of the sweep: starting the
+        workers (seconds of imports) is no part of it, or the first line after a resume, printed after one trial,
+        would show the start-up as the rate. One finished trial cannot tell a rate when several workers run, so
+        the first line shows none.
+        """
+        head = f"sweep: {self.done}/{self.total} done, {self.failed} not succeeded"
         ran = self.done - self.start_done
-        rate = ran / elapsed if elapsed > 0 else 0.0
-        eta = f"{(self.total - self.done) / rate:.0f} s" if rate > 0 else "?"
-        return (f"sweep: {self.done}/{self.total} done, {self.failed} not succeeded, {rate:.2f} trials/s, "
-                f"ETA {eta}")
+        elapsed = time.monotonic() - (self.t0 if self.began is None else self.began)
+        if ran < 2 or elapsed <= 0:
+            return head + (", ETA ?" if self.done < self.total else "")
+        rate = ran / elapsed
+        return f"{head}, {rate:.2f} trials/s, ETA {(self.total - self.done) / rate:.0f} s"
 
     def close(self) -> None:
         """End the bar (the plain mode has nothing to close)."""

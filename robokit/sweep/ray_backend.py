@@ -14,9 +14,12 @@ close to when it really starts.
 from __future__ import annotations
 
 import logging
+import os
+import socket
 import time
 from collections import deque
 from collections.abc import Iterator, Sequence
+from pathlib import Path
 from typing import Any
 
 from robokit.errors import UserError
@@ -24,6 +27,39 @@ from robokit.sweep.trial import TrialTask, error_row, run_trial_safely
 
 MAX_CALLS = 100
 """Trials a Ray worker process runs before Ray replaces it (Ray's ``max_calls``)."""
+
+
+def connect_error(address: str | None) -> str:
+    """The one line for a Ray cluster that could not be joined: the address as typed (Ray's own message names
+    the address the cluster advertises, which the user never typed) and the authentication hint. A head started
+    where ``~/.ray/auth_token`` exists uses token authentication; a driver then needs ``RAY_AUTH_MODE=token``
+    and the token, and without them Ray reports only that it cannot connect."""
+    where = f"--address {address}" if address else "--backend ray"
+    token = Path(os.environ.get("RAY_AUTH_TOKEN_PATH") or Path.home() / ".ray" / "auth_token")
+    has_token = token.is_file() or bool(os.environ.get("RAY_AUTH_TOKEN"))
+    if has_token and os.environ.get("RAY_AUTH_MODE", "").lower() != "token":
+        hint = (f"a Ray token exists ({'RAY_AUTH_TOKEN' if not token.is_file() else token}) but RAY_AUTH_MODE "
+                "is not 'token': if the cluster uses token authentication, run again with RAY_AUTH_MODE=token")
+    elif has_token:
+        hint = "check that the cluster is running (ray status) and that this token is the cluster's"
+    else:
+        hint = ("check that the cluster is running (ray status); if it uses token authentication, copy its token "
+                "to ~/.ray/auth_token and run with RAY_AUTH_MODE=token")
+    return f"{where}: cannot connect to a Ray cluster there (none answered, or it refused this driver): {hint}"
+
+
+def _probe(address: str | None) -> None:
+    """Fail at once when nothing listens at a ``HOST:PORT`` address: Ray retries such an address without end (a
+    mistyped port hung the sweep). ``auto``, ``ray://`` and other forms are left to Ray."""
+    host, _, port = (address or "").rpartition(":")
+    if not host or not port.isdigit() or "/" in host:
+        return
+    try:
+        with socket.create_connection((host.strip("[]"), int(port)), timeout=10):
+            pass
+    except OSError as exc:
+        raise UserError(f"--address {address}: nothing answers there ({exc.strerror or exc}); is the cluster "
+                        "running (ray status on its head) and is that its port?") from None
 
 
 class RayBackend:
@@ -48,10 +84,11 @@ class RayBackend:
         self.ray = ray
         if ray.is_initialized():
             return False
+        _probe(self.address)
         try:
             ray.init(address=self.address, log_to_driver=False, logging_level=logging.ERROR, include_dashboard=False)
-        except ConnectionError as exc:
-            raise UserError(f"--address {self.address}: cannot connect to a Ray cluster: {exc}") from None
+        except (ConnectionError, getattr(ray.exceptions, "AuthenticationError", ConnectionError)):  # older Rays: none
+            raise UserError(connect_error(self.address)) from None
         return True
 
     def run(self, tasks: Sequence[TrialTask]) -> Iterator[dict[str, Any]]:

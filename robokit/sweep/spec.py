@@ -9,6 +9,7 @@ from __future__ import annotations
 import hashlib
 import itertools
 import json
+import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -150,6 +151,13 @@ def _split_top(text: str) -> list[str]:
     return parts
 
 
+def tidy(path: str | Path) -> Path:
+    """``path`` with ``.`` and ``dir/..`` taken out, still relative if it was (``configs/sweeps/../x.toml`` ->
+    ``configs/x.toml``): the form printed and stored. Lexical, like the shell's ``cd``: a symlinked folder
+    followed by ``..`` is read as its name says."""
+    return Path(os.path.normpath(path))
+
+
 def load_sweep_file(path: str | Path) -> tuple[SweepSpec, dict[str, Any]]:
     """Read a sweep file (TOML) into a spec plus the run options it sets (workers, out, trial_timeout, plot).
 
@@ -176,7 +184,7 @@ def load_sweep_file(path: str | Path) -> tuple[SweepSpec, dict[str, Any]]:
             raise UserError(f"{path}: grid.{key}: expected a non-empty list of values")
     fixed = _flatten(raw.get("set", {}), path, "set", lists_are_values=True)
     spec = SweepSpec(
-        config=(path.parent / raw["config"]),
+        config=tidy(path.parent / raw["config"]),
         seeds=parse_seeds(seeds_raw, f"{path}: seeds"),
         grid=grid, fixed=fixed,
         metrics=tuple(_strings(raw.get("metrics", []), path, "metrics")),
@@ -185,7 +193,7 @@ def load_sweep_file(path: str | Path) -> tuple[SweepSpec, dict[str, Any]]:
     )
     options: dict[str, Any] = {k: raw[k] for k in ("workers", "trial_timeout", "out", "plot") if k in raw}
     if "out" in options:
-        options["out"] = str(path.parent / options["out"])
+        options["out"] = str(tidy(path.parent / options["out"]))
     return spec, options
 
 

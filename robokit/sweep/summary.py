@@ -47,6 +47,18 @@ def _numeric(value: Any) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
+ROW_FIGURES = ("sim_time", "wall_time")
+"""Figures every row carries beside its result's figures (aggregated for every cell, named or not)."""
+
+
+def _figure(row: Mapping[str, Any], name: str) -> Any:
+    """The value of figure ``name`` in a row: the result's own figure of that name first, else the row's."""
+    figures = row.get("figures", {})
+    if name in figures:
+        return figures[name]
+    return row.get(name) if name in ROW_FIGURES else None
+
+
 def summarise(rows: Sequence[Mapping[str, Any]], cells: Sequence[str], metrics: Sequence[str] = ()) -> dict[str, Any]:
     """The summary of a sweep's rows, cell by cell (in ``cells`` order).
 
@@ -62,8 +74,8 @@ def summarise(rows: Sequence[Mapping[str, Any]], cells: Sequence[str], metrics: 
         ok = sum(r["outcome"] == "succeeded" for r in mine)
         lo, hi = wilson(ok, len(mine))
         figures: dict[str, Any] = {}
-        for name in [*names, "sim_time", "wall_time"]:
-            values = [r["figures"].get(name) if name in names else r.get(name) for r in mine]
+        for name in dict.fromkeys([*names, *ROW_FIGURES]):  # a metric named sim_time is aggregated once
+            values = [_figure(r, name) for r in mine]
             nums = [float(v) for v in values if v is not None and _numeric(v)]
             if nums:
                 figures[name] = {"n": len(nums), "median": statistics.median(nums), "p95": percentile(nums, 95)}
@@ -119,7 +131,7 @@ def _fmt(value: float) -> str:
 
 def to_markdown(summary: Mapping[str, Any]) -> str:
     """The summary as a Markdown table: one row per cell, ``median / p95`` per figure."""
-    names = [*summary["metrics"], "sim_time"]
+    names = list(dict.fromkeys([*summary["metrics"], "sim_time"]))
     head = ["cell", "trials", "success", "95 % CI", "errors", *(f"{n} (median / p95)" for n in names)]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for c in summary["cells"]:

@@ -43,6 +43,8 @@ class Command(BaseCommand):
         parser.add_argument("--late", choices=[Assignment.ACCEPT, Assignment.REFUSE], default=Assignment.ACCEPT,
                             help="after the due time: accept and mark late (default) or refuse")
         parser.add_argument("--trial-seconds", type=float, default=60.0, help="wall-clock limit of one trial")
+        parser.add_argument("--allow-plugins", action="store_true", help="students may send their own plugin "
+                            "package with a submission (run only in the evaluation sandbox)")
 
     def handle(self, *args: Any, **opts: Any) -> None:
         from robokit.errors import UserError
@@ -71,10 +73,11 @@ class Command(BaseCommand):
         fields = {"kind": kind, "config_text": text, "allowed_keys": opts["allow"], "seeds": seeds,
                   "ranking": opts["ranking"], "trial_seconds": opts["trial_seconds"],
                   "opens_at": when(opts["opens"], "--opens"), "due_at": when(opts["due"], "--due"),
-                  "late_policy": opts["late"], "project": project}
+                  "late_policy": opts["late"], "allow_plugins": opts["allow_plugins"], "project": project}
         assignment, created = Assignment.objects.update_or_create(classroom=room, name=opts["name"], defaults=fields)
         due = assignment.due_at.isoformat() if assignment.due_at else "no due time"
         self.stdout.write(f"assignment {assignment.name!r} {'created' if created else 'updated'} in class "
                           f"{room.name!r} (id {assignment.pk}): {len(seeds)} official seeds, {due}, late work "
                           f"{'refused' if assignment.late_policy == Assignment.REFUSE else 'accepted and marked'}; "
-                          f"students may change: {', '.join(assignment.allowed_keys) or 'nothing'}")
+                          f"students may change: {', '.join(assignment.allowed_keys) or 'nothing'}"
+                          + ("; students may send their own plugin package" if assignment.allow_plugins else ""))

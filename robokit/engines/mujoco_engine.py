@@ -1,0 +1,283 @@
+"""The mujoco engine: :class:`MujocoWorld`, the World on one MuJoCo model. Its bodies (building, compiling, poses)
+are :class:`~robokit.engines.mujoco_bodies.MujocoBodies`; here are the devices: stepping with forces, joint motors
+and wrenches, rays, attachments, kinematics, cameras, contacts and episodes.
+
+The state after :meth:`MujocoWorld.step` is consistent: ``mj_step2`` integrates, then ``mj_step1`` computes the
+positions and velocities of the new state, so poses read between two steps are those of the current state, and
+forces and motor commands set then act during the next step.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Collection, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from robokit.engines import mujoco_attach, mujoco_kin, mujoco_render
+from robokit.engines.interface import ChainFrame, ChainJoint, Contact, JointState, MotorMode, RayCaster, RenderedImage
+from robokit.engines.mujoco_bodies import MujocoBodies, _vec
+from robokit.engines.mujoco_gl import mujoco
+from robokit.engines.mujoco_links import Motors, critical_damping, motor_gains
+from robokit.engines.mujoco_render import Cameras
+from robokit.errors import UserError
+
+
+class MujocoWorld(MujocoBodies):
+    """The World on MuJoCo. Takes the World's keyword arguments; ``gui`` is refused (robokit runs MuJoCo headless).
+    """
+
+    engine = "mujoco"
+
+    def __init__(self, *, gui: bool = False, time_step: float = 1.0 / 240.0,
+                 gravity: Sequence[float] = (0.0, 0.0, -9.81), solver_iterations: int = 50, seed: int = 0,
+                 base_dir: str | Path = ".", engine: str | None = None) -> None:
+        super().__init__(gui=gui, time_step=time_step, gravity=gravity, solver_iterations=solver_iterations,
+                         seed=seed, base_dir=base_dir, engine=engine)
+        self._forces: list[tuple[int, np.ndarray, np.ndarray]] = []
+        self.motors = Motors()
+        self.joins = mujoco_attach.Joins()
+        self.cameras = Cameras()
+        self._wrenches: dict[tuple[int, int], tuple[tuple[float, ...], tuple[float, ...]]] = {}
+        """(body, joint) -> reaction wrench of the last step (child frame) and that frame's rotation."""
+
+    def step(self) -> None:
+        """Advance physics by one step (forces applied since the last step act during it)."""
+        m, d = self.compiled()
+        for bid, force, point in self._forces:
+            mujoco.mj_applyFT(m, d, force, np.zeros(3), point, bid, d.qfrc_applied)
+        mujoco.mj_step2(m, d)
+        if self._wrenches:
+            self._measure_wrenches()
+        if self.motors.torques:
+            self.motors.after_step(m, d)
+        if self._forces:
+            d.qfrc_applied[:] = 0.0
+            self._forces.clear()
+        mujoco.mj_step1(m, d)
+        self.tick += 1
+
+    def _after_compile(self, model: Any) -> None:
+        """Motor settings live in the model: put them back into a freshly compiled one."""
+        self.motors.reapply(model, self.data, {model.actuator(i).name for i in range(model.nu)})
+
+    def remove_body(self, name: str) -> None:
+        """Remove a body (the scene is recompiled; the other bodies keep their state)."""
+        rid = self.body(name)
+        self.compiled()
+        for attachment in [a for a, (p, c, _) in self.joins.held.items() if rid in (p, c)]:
+            self.detach(attachment)
+        self.mounts = {c: p for c, p in self.mounts.items() if rid not in (c, p)}
+        root = self._root.pop(rid)
+        body = self.scene.spec.body(root)
+        for geom in self.scene.geoms_of(body):
+            self.scene.contacts.pop(geom.name, None)
+        for actuator in list(self.scene.spec.actuators):
+            if actuator.name.startswith(f"{name}/"):
+                self.scene.spec.delete(actuator)
+        self.scene.spec.delete(body)
+        self._static.discard(root)
+        self.scene.damping.pop(root, None)
+        self._links.pop(rid)
+        self._tables.pop(rid, None)
+        self._unregister(name)
+        self._dirty = True
+
+    def apply_force(self, body: str | int, force: Sequence[float], *, position: Sequence[float] | None = None,
+                    link: int = -1) -> None:
+        """Apply a force (N, world frame) at a world point (default: the link's centre of mass) in the next step."""
+        bid = self._mj(body, link)
+        at = np.asarray(position if position is not None else self.data.xipos[bid], dtype=float)
+        self._forces.append((bid, np.asarray(force, dtype=float), at))
+
+    # ----------------------------------------------------------------- joints: state and motors
+    def _joint(self, body: int | str, joint: int) -> tuple[int, int, int]:
+        """MuJoCo joint id, qpos address and dof address of a movable joint."""
+        bid = self._mj(body, joint)
+        m = self.model
+        if m.body_jntnum[bid] == 0:
+            raise UserError(f"joint {joint} of {self._label(body)!r} is fixed")
+        jid = int(m.body_jntadr[bid])
+        return jid, int(m.jnt_qposadr[jid]), int(m.jnt_dofadr[jid])
+
+    def joint_states(self, body: int, joints: Sequence[int]) -> Sequence[JointState]:
+        """Position, velocity, reaction wrench (zeros unless :meth:`enable_joint_wrench`) and last motor force of
+        each joint; a fixed joint reads position and velocity 0."""
+        out = []
+        m, d = self.compiled()
+        for j in joints:
+            reaction = self._wrenches.get((self.body(body), j), ((0.0,) * 6, ()))[0]
+            bid = self._mj(body, j)
+            if m.body_jntnum[bid] == 0:
+                out.append(JointState(0.0, 0.0, reaction, 0.0))  # type: ignore[arg-type]
+                continue
+            _, qadr, dadr = self._joint(body, j)
+            torque = float(d.qfrc_actuator[dadr])
+            out.append(JointState(float(d.qpos[qadr]), float(d.qvel[dadr]), reaction, torque))  # type: ignore[arg-type]
+        return out
+
+    def enable_joint_wrench(self, body: int, joint: int, enabled: bool = True) -> None:
+        """Measure (or stop measuring) a joint's reaction wrench at every step."""
+        key = (self.body(body), joint)
+        if enabled:
+            self._mj(body, joint)
+            self._wrenches.setdefault(key, ((0.0,) * 6, (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)))
+        else:
+            self._wrenches.pop(key, None)
+
+    def wrench_frame(self, body: int, joint: int) -> tuple[float, ...]:
+        """Rotation (world from child link frame) the joint's reaction was given in, as of the last step."""
+        return self._wrenches.get((self.body(body), joint), ((), (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)))[1]
+
+    def _measure_wrenches(self) -> None:
+        m, d = self.model, self.data
+        mujoco.mj_rnePostConstraint(m, d)
+        for (rid, joint) in self._wrenches:
+            self._wrenches[(rid, joint)] = mujoco_kin.joint_wrench(m, d, self._mj(rid, joint))
+
+    def reset_joint(self, body: int, joint: int, position: float, velocity: float | None = None) -> None:
+        """Set a joint's position and velocity at once (set-up and resets)."""
+        _, qadr, dadr = self._joint(body, joint)
+        self.data.qpos[qadr] = position
+        self.data.qvel[dadr] = velocity or 0.0
+        mujoco.mj_step1(self.model, self.data)
+
+    def set_joint_motor(self, body: int, joint: int, mode: MotorMode, *, target_position: float | None = None,
+                        target_velocity: float | None = None, force: float | None = None,
+                        max_velocity: float | None = None, position_gain: float | None = None) -> None:
+        """Drive one joint with its MuJoCo motor; gains come from MuJoCo's model of the joint
+        (:func:`~robokit.engines.mujoco_links.motor_gains`), not from PyBullet's."""
+        jid, _, dadr = self._joint(body, joint)
+        m, d = self.model, self.data
+        info = self.joints(body)[joint]
+        limit = abs(float(force)) if force is not None else info.max_force
+        inertia = float(m.dof_M0[dadr])
+        kv, kp = motor_gains(limit, inertia, self.time_step)
+        if mode == "torque":
+            setting = (1.0, 0.0, 0.0, limit, float(force or 0.0))
+        elif mode == "velocity":
+            setting = (kv, 0.0, -kv, limit if force is not None or limit > 0 else 0.0, float(target_velocity or 0.0))
+        else:
+            setting = (kp, -kp, -critical_damping(kp, inertia), limit, float(target_position or 0.0))
+        if force is not None and limit == 0.0:  # force 0: the motor is off (a passive joint)
+            setting = (0.0, 0.0, 0.0, 0.0, 0.0)
+        self.motors.set(m, d, f"{m.joint(jid).name}/motor", setting, torque=mode == "torque")
+
+    def set_joint_motors(self, body: int, joints: Sequence[int], mode: MotorMode, *,
+                         target_positions: Sequence[float] | None = None,
+                         target_velocities: Sequence[float] | None = None, forces: Sequence[float] | None = None,
+                         position_gains: Sequence[float] | None = None,
+                         velocity_gains: Sequence[float] | None = None) -> None:
+        """:meth:`set_joint_motor` for many joints."""
+        for i, joint in enumerate(joints):
+            self.set_joint_motor(body, joint, mode,
+                                 target_position=None if target_positions is None else target_positions[i],
+                                 target_velocity=None if target_velocities is None else target_velocities[i],
+                                 force=None if forces is None else forces[i])
+
+    # ----------------------------------------------------------------- rays
+    def owners(self) -> dict[int, tuple[int, int]]:
+        """MuJoCo body id -> (robokit body id, link), for the scene as compiled now."""
+        self.compiled()
+        return self._owner
+
+    def ray_caster(self, *, skip: Collection[int] = (), see_hidden: bool = True, mask: int = -1,
+                   num_threads: int = 1, analytic: bool = True) -> RayCaster:
+        """A caster on MuJoCo's ``mj_multiRay`` / ``mj_ray`` (``mask``, ``num_threads``, ``analytic`` do not apply)."""
+        from robokit.engines.mujoco_rays import MujocoRayCaster
+
+        return MujocoRayCaster(self, skip, see_hidden)
+
+    def hide_from_rays(self, body: int) -> None:
+        """Put the body's geoms in the geom group rays of ``see_hidden=False`` casters leave out."""
+        from robokit.engines.mujoco_rays import HIDDEN_GROUP
+
+        for geom in self.scene.geoms_of(self.scene.spec.body(self._root[self.body(body)])):
+            geom.group = HIDDEN_GROUP
+        self._dirty = True
+
+    # ----------------------------------------------------------------- attachments
+    def attach(self, parent: int, parent_link: int, child: int, *, position: Sequence[float] | None = None,
+               max_force: float | None = None) -> int:
+        """A weld (see :mod:`robokit.engines.mujoco_attach`)."""
+        return mujoco_attach.attach(self, parent, parent_link, child, position=position, max_force=max_force)
+
+    def mount(self, child: str, parent: str, link: int, *, position: Sequence[float] = (0.0, 0.0, 0.0),
+              orientation: Sequence[float] = (0.0, 0.0, 0.0, 1.0), max_force: float = 10_000.0) -> int:
+        """A tool on a flange: a weld, the two bodies out of each other's contacts (MuJoCo's stiffness)."""
+        return mujoco_attach.mount(self, child, parent, link, position, orientation)
+
+    def couple_joints(self, body: int, leader: int, follower: int, ratio: float, *, erp: float,
+                      max_force: float) -> int:
+        """A joint equality (see :mod:`robokit.engines.mujoco_attach`)."""
+        return mujoco_attach.couple_joints(self, body, leader, follower, ratio, erp=erp, max_force=max_force)
+
+    def detach(self, attachment: int) -> None:
+        """Remove an attachment."""
+        mujoco_attach.detach(self, attachment)
+
+    def joined(self, a: int, b: int) -> bool:
+        """True if an attachment joins ``a`` and ``b`` directly."""
+        return mujoco_attach.joined(self, a, b)
+
+    def disable_collisions(self, body: int) -> None:
+        """Take a body's base out of contact."""
+        mujoco_attach.disable_collisions(self, body)
+
+    # ----------------------------------------------------------------- kinematics
+    def kinematic_chain(self, body: int, link: int) -> list[ChainFrame | ChainJoint]:
+        """The frames from the world to a link (see :mod:`robokit.engines.mujoco_kin`)."""
+        return mujoco_kin.kinematic_chain(self, body, link)
+
+    def jacobian(self, body: int, link: int, positions: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
+        """MuJoCo's Jacobian of a link's centre of mass (see :mod:`robokit.engines.mujoco_kin`)."""
+        return mujoco_kin.jacobian(self, body, link, positions)
+
+    # ----------------------------------------------------------------- cameras
+    def render(self, width: int, height: int, view: Sequence[float], projection: Sequence[float], *, near: float,
+               far: float, segmentation: bool = True, renderer: str = "tiny") -> RenderedImage:
+        """One image from MuJoCo's OpenGL renderer (``renderer`` does not apply: there is one)."""
+        return mujoco_render.render(self, width, height, view, projection, near=near, far=far,
+                                    segmentation=segmentation)
+
+    # ----------------------------------------------------------------- contacts
+    def contacts(self, body: int, other: int | None = None, *, link: int | None = None,
+                 other_link: int | None = None) -> list[Contact]:
+        """Contact points of ``body`` after the last step; the point is MuJoCo's (midway between the surfaces)."""
+        m, d = self.compiled()
+        rid = self.body(body)
+        out = []
+        wrench = np.zeros(6)
+        for i in range(d.ncon):
+            con = d.contact[i]
+            own = [self._owner.get(int(m.geom_bodyid[g]), (-1, -1)) for g in con.geom]
+            for side in (0, 1):
+                (a, la), (b, lb) = own[side], own[1 - side]
+                if a != rid or (link is not None and la != link) or (other is not None and b != other):
+                    continue
+                if other_link is not None and lb != other_link:
+                    continue
+                mujoco.mj_contactForce(m, d, i, wrench)
+                normal = con.frame[:3] * (-1.0 if side == 0 else 1.0)  # MuJoCo's points from geom 1 to geom 2
+                out.append(Contact(b, la, lb, float(wrench[0]), _vec(con.pos), _vec(normal)))
+        return out
+
+    # ----------------------------------------------------------------- episodes, lifetime
+    def snapshot(self) -> dict[str, Any]:
+        """The whole state (positions, velocities, motor commands)."""
+        _, d = self.compiled()
+        return {"qpos": d.qpos.copy(), "qvel": d.qvel.copy(), "ctrl": d.ctrl.copy()}
+
+    def restore(self, snapshot: dict[str, Any]) -> None:
+        """Put a :meth:`snapshot` back exactly, warm starts cleared, and the clock to tick 0."""
+        m, d = self.compiled()
+        mujoco.mj_resetData(m, d)
+        d.qpos[:], d.qvel[:], d.ctrl[:] = snapshot["qpos"], snapshot["qvel"], snapshot["ctrl"]
+        mujoco.mj_step1(m, d)
+        self.tick = 0
+
+    def close(self) -> None:
+        """Close the renderers, drop the model and data. Safe to call twice."""
+        self.cameras.close()
+        self.model = self.data = self.client = None

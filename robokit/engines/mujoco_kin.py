@@ -1,0 +1,86 @@
+"""Kinematics on the mujoco engine: the chain of frames from the world to a link (for robokit's numpy forward
+kinematics and differential IK: MuJoCo has no IK call of its own) and the Jacobian from MuJoCo's ``mj_jacBodyCom``."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from robokit.engines.interface import ChainFrame, ChainJoint
+from robokit.engines.mujoco_gl import mujoco
+from robokit.errors import UserError
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    from robokit.engines.mujoco_engine import MujocoWorld
+
+TYPES = {int(mujoco.mjtJoint.mjJNT_HINGE): "revolute", int(mujoco.mjtJoint.mjJNT_SLIDE): "prismatic"}
+
+
+def _xyzw(q: Any) -> tuple[float, float, float, float]:
+    return (float(q[1]), float(q[2]), float(q[3]), float(q[0]))
+
+
+def _vec(v: Any) -> tuple[float, float, float]:
+    return (float(v[0]), float(v[1]), float(v[2]))
+
+
+def kinematic_chain(world: MujocoWorld, body: int, link: int) -> list[ChainFrame | ChainJoint]:
+    """The base's pose now, then per body down to ``link``: its fixed placement in its parent and its joint's motion
+    (MuJoCo's URDF import puts each joint at its child body's origin)."""
+    m, d = world.compiled()
+    root = world.mj_body(body)
+    path = []
+    bid = world.mj_body(body, link)
+    while bid != root:
+        path.append(bid)
+        bid = int(m.body_parentid[bid])
+        if bid == 0:
+            raise UserError(f"link {link} is not below the base of {world.body_name(body)!r}")
+    owner = world.owners()
+    steps: list[ChainFrame | ChainJoint] = [ChainFrame(_vec(d.xpos[root]), _xyzw(d.xquat[root]))]
+    for bid in reversed(path):
+        steps.append(ChainFrame(_vec(m.body_pos[bid]), _xyzw(m.body_quat[bid])))
+        for jid in range(m.body_jntadr[bid], m.body_jntadr[bid] + m.body_jntnum[bid]):
+            if np.abs(m.jnt_pos[jid]).max() > 1e-12:
+                raise UserError(f"joint {m.joint(jid).name!r} is not at its link's origin: no chain on mujoco")
+            steps.append(ChainJoint(owner[bid][1], _vec(m.jnt_axis[jid]), TYPES.get(int(m.jnt_type[jid]), "fixed")))
+    return steps
+
+
+def jacobian(world: MujocoWorld, body: int, link: int, positions: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
+    """Linear and angular Jacobian (3 x n each) of ``link``'s centre of mass at the movable joints' ``positions``,
+    columns in joint index order; computed on a copy of the state (the world does not move)."""
+    m, d = world.compiled()
+    movable = [j.index for j in world.joints(body) if j.movable]
+    scratch = mujoco.MjData(m)
+    scratch.qpos[:] = d.qpos
+    dofs = []
+    for j, q in zip(movable, positions, strict=True):
+        jid = int(m.body_jntadr[world.mj_body(body, j)])
+        scratch.qpos[m.jnt_qposadr[jid]] = q
+        dofs.append(int(m.jnt_dofadr[jid]))
+    mujoco.mj_kinematics(m, scratch)
+    mujoco.mj_comPos(m, scratch)
+    jacp, jacr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
+    mujoco.mj_jacBodyCom(m, scratch, jacp, jacr, world.mj_body(body, link))
+    return jacp[:, dofs], jacr[:, dofs]
+
+
+def joint_wrench(model: Any, data: Any, child: int) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """What body ``child`` receives from its parent through its joint in the last step, ``(Fx, Fy, Fz, Mx, My, Mz)``
+    in the child's frame, torque about its origin (N, N·m); and that frame's rotation (9 floats, row by row).
+
+    Call right after ``mj_step2`` with ``mj_rnePostConstraint`` done: MuJoCo's ``cfrc_int`` is the force the parent
+    exerts, given at the subtree's centre of mass (``subtree_com`` of the root), world orientation, torque first.
+    """
+    wrench = data.cfrc_int[child]
+    torque_c, force = np.asarray(wrench[:3]), np.asarray(wrench[3:])
+    centre = data.subtree_com[model.body_rootid[child]]
+    origin = data.xpos[child]
+    torque = torque_c + np.cross(centre - origin, force)
+    rot = np.asarray(data.xmat[child]).reshape(3, 3)
+    local = np.concatenate([rot.T @ force, rot.T @ torque])
+    return tuple(float(v) for v in local), tuple(float(v) for v in rot.reshape(-1))

@@ -1,0 +1,142 @@
+"""A robot's links and joints on the mujoco engine, numbered as the World interface numbers them.
+
+MuJoCo turns each URDF link into a body and keeps only the joints that move; the World numbers links ``-1`` (the
+base) and ``0 .. n-1`` (link ``i`` is the child of joint ``i``, fixed joints included). The joint table therefore
+comes from the URDF itself (names of fixed joints, effort and velocity limits), laid over MuJoCo's body order.
+"""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from collections.abc import Collection
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from robokit.engines.interface import JointInfo
+
+URDF_TYPES = {"revolute": "revolute", "continuous": "revolute", "prismatic": "prismatic", "fixed": "fixed",
+              "floating": "fixed", "planar": "planar"}
+
+
+@dataclass(frozen=True)
+class UrdfJoint:
+    """One ``<joint>`` of a URDF: its name, type, limits (rad or m, N·m or N, rad/s or m/s), dynamics, child."""
+
+    name: str
+    type: str
+    lower: float
+    upper: float
+    effort: float
+    velocity: float
+    damping: float
+    friction: float
+
+
+def _float(element: ET.Element | None, attribute: str, default: float) -> float:
+    if element is None or element.get(attribute) is None:
+        return default
+    try:
+        return float(element.get(attribute, default))
+    except ValueError:
+        return default
+
+
+def urdf_joints(path: Path) -> dict[str, UrdfJoint]:
+    """Child link name -> the URDF joint that moves it."""
+    try:
+        root = ET.parse(path).getroot()
+    except ET.ParseError:  # MuJoCo's reader is more lenient: its own joints stand in (see joint_table)
+        return {}
+    out = {}
+    for joint in root.iter("joint"):
+        child = joint.find("child")
+        if child is None or child.get("link") is None:
+            continue
+        kind = URDF_TYPES.get(joint.get("type", "fixed"), "fixed")
+        limit, dynamics = joint.find("limit"), joint.find("dynamics")
+        unlimited = joint.get("type") == "continuous"
+        out[str(child.get("link"))] = UrdfJoint(
+            name=joint.get("name", ""), type=kind,
+            lower=0.0 if unlimited else _float(limit, "lower", 0.0),
+            upper=-1.0 if unlimited else _float(limit, "upper", -1.0),
+            effort=_float(limit, "effort", 0.0), velocity=_float(limit, "velocity", 0.0),
+            damping=_float(dynamics, "damping", 0.0), friction=_float(dynamics, "friction", 0.0))
+    return out
+
+
+def joint_table(links: list[str], joints: dict[str, UrdfJoint], mujoco_joints: dict[str, UrdfJoint]) -> list[
+        JointInfo]:
+    """The World's joint table of a robot whose non-base links are ``links`` (MuJoCo's body order): the URDF's
+    joints, else MuJoCo's (``mujoco_joints``, by child link), else a fixed joint named after the link."""
+    table = []
+    for i, link in enumerate(links):
+        fixed = UrdfJoint(f"{link}_joint", "fixed", 0.0, -1.0, 0.0, 0.0, 0.0, 0.0)
+        j = joints.get(link) or mujoco_joints.get(link, fixed)
+        table.append(JointInfo(index=i, name=j.name, type=j.type, lower=j.lower, upper=j.upper, max_force=j.effort,
+                               max_velocity=j.velocity, damping=j.damping, friction=j.friction, child_link=link))
+    return table
+
+
+def motor_gains(max_force: float, inertia: float, time_step: float) -> tuple[float, float]:
+    """Velocity gain (N·m·s/rad) and position gain (N·m/rad) of a joint motor, from MuJoCo's model of the joint.
+
+    ``inertia`` is the joint's own (``dof_M0``). The velocity motor's gain is ``4 * inertia / time_step`` (a time
+    constant of a quarter step on the joint alone, kept stable by MuJoCo's implicit integration of actuator damping;
+    measured on the diffbot's wheels, 10x more makes them spin up wildly once the force limit clips), at most what
+    saturates ``max_force`` 0.05 rad/s off the target. The position motor's stiffness keeps
+    ``omega * time_step = 0.5`` on the joint's inertia, at most what saturates ``max_force`` 0.01 rad off target.
+    """
+    force = max_force if max_force > 0 else 1e9
+    kv = min(force / 0.05, 4.0 * inertia / time_step)
+    omega = 0.5 / time_step
+    kp = min(force / 0.01, inertia * omega * omega)
+    return kv, kp
+
+
+def critical_damping(kp: float, inertia: float) -> float:
+    """Damping (N·m·s/rad) that makes a position motor of stiffness ``kp`` on ``inertia`` critically damped."""
+    return 2.0 * math.sqrt(max(kp * inertia, 0.0))
+
+
+class Motors:
+    """The joint motors' settings, kept here and written into the model: a recompile (a body added or removed)
+    builds a fresh model, and :meth:`reapply` puts every motor back as it was."""
+
+    def __init__(self) -> None:
+        self.settings: dict[str, tuple[float, float, float, float, float]] = {}
+        """Actuator name -> (gain, position bias, velocity bias, force limit (0: none), control)."""
+        self.torques: set[str] = set()
+        """Motors in torque mode: their torque lasts one step."""
+
+    def set(self, model: Any, data: Any, name: str, setting: tuple[float, float, float, float, float],
+            torque: bool) -> None:
+        """Store one motor's setting and write it into ``model`` / ``data``."""
+        self.settings[name] = setting
+        (self.torques.add if torque else self.torques.discard)(name)
+        self._write(model, data, name)
+
+    def _write(self, model: Any, data: Any, name: str) -> None:
+        gain, kp, kd, limit, ctrl = self.settings[name]
+        act = model.actuator(name).id
+        model.actuator_gainprm[act, :3] = (gain, 0.0, 0.0)
+        model.actuator_biasprm[act, :3] = (0.0, kp, kd)
+        model.actuator_forcelimited[act] = 1 if limit > 0 else 0
+        model.actuator_forcerange[act] = (-limit, limit)
+        data.ctrl[act] = ctrl
+
+    def reapply(self, model: Any, data: Any, names: Collection[str]) -> None:
+        """Write every stored motor that still exists (``names``: the model's actuators) into a new model."""
+        for name in [n for n in self.settings if n not in names]:
+            del self.settings[name]
+            self.torques.discard(name)
+        for name in self.settings:
+            self._write(model, data, name)
+
+    def after_step(self, model: Any, data: Any) -> None:
+        """Torque commands last one step: zero them."""
+        for name in self.torques:
+            gain, kp, kd, limit, _ = self.settings[name]
+            self.settings[name] = (gain, kp, kd, limit, 0.0)
+            data.ctrl[model.actuator(name).id] = 0.0

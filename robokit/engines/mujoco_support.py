@@ -1,0 +1,71 @@
+"""What the mujoco engine honours of a config, checked before anything is built: a refusal is one line naming the
+key and the engine (a :class:`ConfigError`, exit code 2), never a failure halfway through a run.
+
+Every plugin type runs: plugins and behaviours talk to physics only through the World, which the mujoco engine
+answers whole. What is refused is what the engine cannot build: SDF bodies and a GUI window.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from robokit.errors import ConfigError
+
+if TYPE_CHECKING:  # read by attribute only: the engines sit below robokit.config in the house
+    from robokit.config import BodyConfig, Config
+    from robokit.engines.interface import World
+
+ENGINE = "the mujoco engine"
+
+
+
+def check_config(cfg: Config) -> None:
+    """Refuse, before the run, the first thing in ``cfg`` the mujoco engine cannot honour.
+
+    Raises:
+        ConfigError: One line: the file, the key, what is refused on mujoco and why.
+    """
+    problem = _world(cfg) or _bodies(cfg)
+    if problem is not None:
+        key, why = problem
+        raise ConfigError(f"not supported on {ENGINE}: {why} (--engine pybullet runs it)", key=key, file=cfg.source)
+
+
+def _world(cfg: Config) -> tuple[str, str] | None:
+    if cfg.world.gui:
+        return "world.gui", "no GUI window"
+    return None
+
+
+def _bodies(cfg: Config) -> tuple[str, str] | None:
+    for section, bodies in (("bodies", cfg.bodies), ("robots", cfg.robots)):
+        for name, body in bodies.items():
+            problem = _body(body)
+            if problem is not None:
+                return f"{section}.{name}.{problem[0]}", problem[1]
+    return None
+
+
+def _body(body: BodyConfig) -> tuple[str, str] | None:
+    if body.sdf is not None:
+        return "sdf", "SDF files are not loaded (URDF and primitives are)"
+    return None
+
+
+def open_world(config: Config, *, gui: bool, seed: int) -> World:
+    """A MuJoCo World for ``config`` (its ``[world]`` settings; ``seed`` and ``gui`` as the run overrides them).
+
+    Raises:
+        UserError: MuJoCo is not installed (one line naming the extra).
+        ConfigError: The config asks for something the mujoco engine cannot honour (one line naming the key).
+    """
+    from robokit.engines.interface import World
+
+    engine = World.engine_class("mujoco")  # first: a missing MuJoCo is one line naming the extra
+    check_config(config)
+    if gui:
+        raise ConfigError(f"--gui: no GUI window on {ENGINE} (--engine pybullet has one)", key="world.gui",
+                          file=config.source)
+    wc = config.world
+    return engine(time_step=wc.time_step, gravity=wc.gravity, solver_iterations=wc.solver_iterations, seed=seed,
+                  base_dir=config.base_dir)
