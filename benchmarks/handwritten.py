@@ -814,6 +814,7 @@ def instruction_ratios(job: str, seeds: list[int]) -> None:
     needed), per seed in child processes two at a time; robokit over hand-written per simulated second."""
     from concurrent.futures import ThreadPoolExecutor
 
+    check_scene(job, seeds[0])
     with tempfile.TemporaryDirectory() as tmp, ThreadPoolExecutor(2) as pool:
         runs = {(side, seed): pool.submit(_count_loop, job, side, seed, tmp)
                 for seed in seeds for side in ("robokit", "hand")}
