@@ -729,8 +729,9 @@ class World(ABC):
 
     @abstractmethod
     def jacobian(self, body: int, link: int, positions: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
-        """Linear (3 x n, m/rad) and angular (3 x n) Jacobian of ``link``'s centre-of-mass frame origin, world frame,
-        at the movable joints' ``positions`` (n, index order): columns are the movable joints in index order."""
+        """Linear (3 x n, m/rad) and angular (3 x n) Jacobian of ``link``'s link-frame origin (as :meth:`pose` gives
+        it), world frame, at the movable joints' ``positions`` (n, index order): columns are the movable joints in
+        index order."""
 
     # ----------------------------------------------------------------- contacts, attachments
     @abstractmethod

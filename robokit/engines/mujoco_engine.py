@@ -231,7 +231,7 @@ class MujocoWorld(MujocoBodies):
         return mujoco_kin.kinematic_chain(self, body, link)
 
     def jacobian(self, body: int, link: int, positions: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
-        """MuJoCo's Jacobian of a link's centre of mass (see :mod:`robokit.engines.mujoco_kin`)."""
+        """MuJoCo's Jacobian of a link's frame origin (see :mod:`robokit.engines.mujoco_kin`)."""
         return mujoco_kin.jacobian(self, body, link, positions)
 
     # ----------------------------------------------------------------- cameras
