@@ -379,8 +379,9 @@ class Simulation:
                     self._tracer("randomize")("drawn", **self.randomizer.drawn)
                 if pace:
                     self.scheduler.start_pacing()
-                while self.world.tick < max_ticks and self.outcome is None and not self._halt:
-                    self.scheduler.tick()
+                world, behaviour, tick = self.world, self.behaviour, self.scheduler.tick
+                while world.tick < max_ticks and (behaviour is None or behaviour.outcome is None) and not self._halt:
+                    tick()
                     if pace:
                         self.scheduler.pace()
             except PluginError as exc:
