@@ -294,9 +294,10 @@ class PickPlace(MachineBehaviour):
         self.t = t
         if self.task is None and self.jobs or self._next_due:
             self._start_from_config(readings, t)
-        limit = self.timeouts.get(self.state_name)
+        name = self.state_name
+        limit = self.timeouts.get(name)
         if limit is not None and self.time_in_state > limit:
-            self.on_timeout(self.state_name)
+            self.on_timeout(name)
         handler = self.handler("do")
         if handler is not None and self.outcome is None and not self._entry_due:
             handler(readings, t)

@@ -178,6 +178,8 @@ class Sort(MachineBehaviour):
         except (TypeError, ValueError) as exc:
             raise ConfigError(f"bad pick_place option: {exc}".splitlines()[0], key="pick_place") from None
         self.goal_objects = self._loose_objects(ctx)
+        self._positions: list[tuple[Vec3, str]] = []
+        self._positions_at = -1
         self.seen: set[str] = set()
         self.objects: list[SortedObject] = []
         self.left: list[dict[str, Any]] = []
@@ -314,7 +316,10 @@ class Sort(MachineBehaviour):
     def _attribute(self, position: Vec3) -> str | None:
         """Report only: the loose object (ground truth) a detection or pick was about, marked as seen."""
         world = self.ctx.world
-        near = [(math.dist(world.pose(n)[0][:2], position[:2]), n) for n in self.goal_objects if world.has_body(n)]
+        if self._positions_at != world.tick:  # the loose objects' positions, once a tick (a look attributes several)
+            self._positions = [(world.pose(n)[0], n) for n in self.goal_objects if world.has_body(n)]
+            self._positions_at = world.tick
+        near = [(math.dist(pos[:2], position[:2]), n) for pos, n in self._positions]
         dist, name = min(near, default=(math.inf, None))
         if name is None or dist > self.config.same_object_radius / 2.0:
             return None

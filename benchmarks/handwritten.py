@@ -5,9 +5,13 @@ Two jobs, each on the scene robokit builds from its config for the same seed:
 - **sort** (``configs/sort_robot.toml``): look with the fixed camera (one TinyRenderer frame per look), find the
   red and blue cubes with OpenCV (HSV threshold, opening, connected components, deprojection through the depth
   buffer), pick the one nearest the hand with IK moves along straight lines (``calculateInverseKinematics`` per
-  waypoint, seeded with the previous solution, joint targets interpolated per tick, a convergence check on the
-  measured end-effector pose at the end of each move), grasp with the coupled fingers (settle on the finger width,
-  verify by finger contacts), place it in its colour's tray, look again.
+  waypoint, seeded with the previous solution; every tick's joint targets interpolated once per move, in numpy, so
+  that a tick of the move is one motor command and one step; at the end of each move, one forward-kinematics query
+  a tick until the measured end-effector pose has converged, compared by squared distance and quaternion dot
+  product), grasp with the coupled fingers (settle on the finger width, verify by finger contacts), place it in its
+  colour's tray, look again. The loop is written lean, as a careful author would: no pybullet query it does not
+  need (a move reads the arm once at its start and only the tool pose while it settles; a squeeze reads the two
+  finger joints a tick; contacts only to verify a grasp), nothing recomputed per tick that a move knows up front.
 - **patrol** (``configs/patrol_robot.toml``): a 360-ray lidar at 10 Hz (one ``rayTestBatch``), a differential drive
   at 60 Hz, a 20 Hz navigator (clearance-based avoidance that commits to a side), can discovery from lidar returns
   not explained by the map, a front scoop that stows a can in the bin.
@@ -36,6 +40,12 @@ in instructions (the work done, the same on any load).
     python benchmarks/handwritten.py --seeds 20 --jobs sort     # one job
     python benchmarks/handwritten.py --seeds 20 --job-seeds 10  # more whole-process runs (default 5)
     python benchmarks/handwritten.py --seeds 20 --pairs 3       # best of 3 interleaved pairs a seed (steadier)
+    python benchmarks/handwritten.py --callgrind 3 --jobs sort  # loop instructions under callgrind, seeds 0-2
+
+``--callgrind N`` counts instead of timing: each side's run loop (instrumentation switched on just before the loop
+and off after it) runs under valgrind's callgrind in a child process; the ratio is instructions per simulated
+second. It needs valgrind, takes about a minute a seed, and does not depend on the machine's load: the figure to
+quote on a shared machine without hardware counters.
 """
 
 from __future__ import annotations
@@ -230,13 +240,18 @@ def link_index(p: Any, cid: int, body: int, name: str) -> int:
 
 
 # ============================================================================================ sort, by hand
-def _smooth(x: float) -> float:
-    x = min(1.0, max(0.0, x))
-    return x * x * (3.0 - 2.0 * x)
-
-
 def _quat_angle(a: Any, b: Any) -> float:
     return 2.0 * math.acos(min(1.0, abs(sum(x * y for x, y in zip(a, b, strict=True)))))
+
+
+def _profile(path: np.ndarray, ticks: int, dt: float, duration: float) -> tuple[list[list[float]], list[list[float]]]:
+    """Joint targets and feed-forward velocities for each of ``ticks`` ticks along the waypoints ``path`` (rows),
+    on a smooth (zero end-velocity) time profile: computed once per move, as lists ready to send."""
+    s = np.clip(np.arange(ticks + 1) * dt / duration, 0.0, 1.0)
+    x = s * s * (3.0 - 2.0 * s) * (len(path) - 1)
+    i = np.minimum(x.astype(int), len(path) - 2)
+    q = path[i] + (x - i)[:, None] * (path[i + 1] - path[i])
+    return q[:-1].tolist(), ((q[1:] - q[:-1]) / dt).tolist()
 
 
 HSV = {"red": [((170, 128, 64), (179, 255, 255)), ((0, 128, 64), (10, 255, 255))],
@@ -268,7 +283,8 @@ class HandSort:
         for j, q in zip(self.arm, self.READY, strict=True):
             p.resetJointState(panda, j, q, physicsClientId=cid)
         self.base_com = np.asarray(p.getDynamicsInfo(panda, -1, physicsClientId=cid)[3])
-        self._send(self.READY, [0.0] * 7)
+        self.gains, self.zero, self.damping = ([0.3] * 7, [1.0] * 7), [0.0] * 7, [0.01] * len(self.movable)
+        self._send(self.READY, self.zero)
         for f in self.fingers:  # friction grasp: grippy fingers, coupled by a gear constraint
             p.changeDynamics(panda, f, lateralFriction=1.2, spinningFriction=0.002, frictionAnchor=True,
                              physicsClientId=cid)
@@ -298,8 +314,8 @@ class HandSort:
     # ------------------------------------------------------------------ devices
     def _send(self, q: Any, qd: Any) -> None:
         self.p.setJointMotorControlArray(self.panda, self.arm, self.p.POSITION_CONTROL, targetPositions=q,
-                                         targetVelocities=qd, forces=self.forces, positionGains=[0.3] * 7,
-                                         velocityGains=[1.0] * 7, physicsClientId=self.cid)
+                                         targetVelocities=qd, forces=self.forces, positionGains=self.gains[0],
+                                         velocityGains=self.gains[1], physicsClientId=self.cid)
 
     def _grip(self, width: float, force: float = 20.0) -> None:
         for f in self.fingers:
@@ -320,64 +336,71 @@ class HandSort:
         s = self.p.getLinkState(self.panda, self.ee, computeForwardKinematics=1, physicsClientId=self.cid)
         return s[4], s[5]
 
-    def _step(self) -> None:
-        self.p.stepSimulation(physicsClientId=self.cid)
-        self.ticks += 1
-
     # ------------------------------------------------------------------ motions
     def move(self, pos: tuple[float, float, float], yaw: float, speed: float) -> bool:
-        """Straight Cartesian line to ``pos`` (tool down, ``yaw``): IK per 2.5 cm waypoint, interpolated joint
-        targets each tick, then wait until the measured pose is within 5 mm / 0.05 rad (1 s allowed)."""
-        p, cid = self.p, self.cid
+        """Straight Cartesian line to ``pos`` (tool down, ``yaw``): IK per 2.5 cm waypoint, joint targets for every
+        tick interpolated once (numpy) and sent each tick, then wait until the measured pose is within 5 mm /
+        0.05 rad (1 s allowed)."""
+        p, cid, dt = self.p, self.cid, self.scene.dt
         orn = p.getQuaternionFromEuler((math.pi, 0.0, yaw))
         start, start_orn = self._ee()
         dist, ang = math.dist(start, pos), _quat_angle(start_orn, orn)
         n = max(1, math.ceil(dist / 0.025), math.ceil(ang / 0.15))
-        states = p.getJointStates(self.panda, self.movable, physicsClientId=cid)
-        q = [s[0] for s in states]
-        path = [np.array(q[:7])]
+        q = [s[0] for s in p.getJointStates(self.panda, self.movable, physicsClientId=cid)]
+        path = [q[:7]]
         s_, e_ = np.asarray(start), np.asarray(pos)
         for k in range(1, n + 1):
             s = k / n
-            orn_k = p.getQuaternionSlerp(start_orn, orn, s)
             # pybullet's IK works in the base's inertial frame (5 cm above the Panda's URDF origin): shift the target
             q = list(p.calculateInverseKinematics(self.panda, self.ee, list(s_ + s * (e_ - s_) - self.base_com),
-                                                  orn_k, jointDamping=[0.01] * len(self.movable),
+                                                  p.getQuaternionSlerp(start_orn, orn, s), jointDamping=self.damping,
                                                   maxNumIterations=20, residualThreshold=1e-5, currentPositions=q,
                                                   physicsClientId=cid))
-            path.append(np.array(q[:7]))
+            path.append(q[:7])
         duration = max(1.5 * dist / speed, 1.5 * ang / 3.0, 0.05)
-        ticks = math.ceil(duration / self.scene.dt)
-        last = len(path) - 1
-        for k in range(ticks):
-            x = _smooth(k * self.scene.dt / duration) * last
-            i = min(int(x), last - 1) if last else 0
-            q_now = path[i] + (x - i) * (path[i + 1] - path[i]) if last else path[0]
-            x2 = _smooth((k + 1) * self.scene.dt / duration) * last
-            i2 = min(int(x2), last - 1) if last else 0
-            q_next = path[i2] + (x2 - i2) * (path[i2 + 1] - path[i2]) if last else path[0]
-            self._send(list(q_now), list((q_next - q_now) / self.scene.dt))
-            self._step()
-        self._send(list(path[-1]), [0.0] * 7)
+        targets, velocities = _profile(np.array(path), math.ceil(duration / dt), dt, duration)
+        send, step, control = p.setJointMotorControlArray, p.stepSimulation, p.POSITION_CONTROL
+        panda, arm, forces, (kp, kd) = self.panda, self.arm, self.forces, self.gains
+        for q_k, qd_k in zip(targets, velocities, strict=True):
+            send(panda, arm, control, targetPositions=q_k, targetVelocities=qd_k, forces=forces, positionGains=kp,
+                 velocityGains=kd, physicsClientId=cid)
+            step(physicsClientId=cid)
+        self.ticks += len(targets)
+        self._send(path[-1], self.zero)
+        return self._settle(pos, orn)
+
+    def _settle(self, pos: tuple[float, float, float], orn: Any) -> bool:
+        """Step until the measured tool pose is within 5 mm and 0.05 rad of the target (1 s allowed): one forward-
+        kinematics query a tick, compared without roots or trigonometry (squared distance, quaternion dot product)."""
+        p, cid, panda, ee = self.p, self.cid, self.panda, self.ee
+        x, y, z = pos
+        qx, qy, qz, qw = orn
+        cos_half = math.cos(0.05 / 2.0)  # angle <= 0.05 rad  <=>  |q . q_target| >= cos(0.025)
         for _ in range(round(1.0 / self.scene.dt)):
-            here, here_orn = self._ee()
-            if math.dist(here, pos) <= 0.005 and _quat_angle(here_orn, orn) <= 0.05:
+            s = p.getLinkState(panda, ee, computeForwardKinematics=1, physicsClientId=cid)
+            (hx, hy, hz), (ax, ay, az, aw) = s[4], s[5]
+            if ((hx - x) ** 2 + (hy - y) ** 2 + (hz - z) ** 2 <= 0.005 ** 2
+                    and abs(ax * qx + ay * qy + az * qz + aw * qw) >= cos_half):
                 return True
-            self._step()
+            p.stepSimulation(physicsClientId=cid)
+            self.ticks += 1
         return False
 
     def squeeze(self, width: float, wait_open: float | None = None) -> None:
         """Command the fingers, then step until the width has been still (< 1 cm/s) for 0.04 s (1 s allowed)."""
+        p, cid, panda, fingers, dt = self.p, self.cid, self.panda, self.fingers, self.scene.dt
         self._grip(width)
         last, still = self._width(), 0
-        for k in range(round(1.0 / self.scene.dt)):
-            self._step()
-            w = self._width()
+        for k in range(round(1.0 / dt)):
+            p.stepSimulation(physicsClientId=cid)
+            self.ticks += 1
+            a, b = p.getJointStates(panda, fingers, physicsClientId=cid)
+            w = a[0] + b[0]
             if wait_open is not None and w >= wait_open:
                 return
-            still = still + 1 if abs(w - last) / self.scene.dt <= 0.01 else 0
+            still = still + 1 if abs(w - last) / dt <= 0.01 else 0
             last = w
-            if still * self.scene.dt >= 0.04 and k >= 5:
+            if still * dt >= 0.04 and k >= 5:
                 return
 
     # ------------------------------------------------------------------ perception
@@ -396,6 +419,8 @@ class HandSort:
             mask = np.zeros((self.h, self.w), np.uint8)
             for lo, hi in spans:
                 mask |= cv2.inRange(hsv, np.array(lo, np.uint8), np.array(hi, np.uint8))
+            if not cv2.countNonZero(mask):
+                continue
             mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, self.kernel)
             count, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
             for i in range(1, count):
@@ -745,15 +770,66 @@ def hand_run(job: str, seed: int) -> dict[str, Any]:
     scene = Scene(JOBS[job], seed)
     try:
         runner = HAND_JOBS[job](scene, seed)
+        _callgrind(True)
         t0, c0, k0, i0 = time.perf_counter(), time.process_time(), _cycles(), _instructions()
         result = runner.run()
         wall, cpu, cycles = time.perf_counter() - t0, time.process_time() - c0, _cycles() - k0
         instr = _instructions() - i0
+        _callgrind(False)
     finally:
         scene.close()
     return {"wall": wall, "cpu": cpu, "cycles": cycles, "instr": instr, "sim": result["sim_time"],
             "ok": _hand_ok(job, result),
             "result": result}
+
+
+UNDER_CALLGRIND: list[bool] = []
+"""Set (``--callgrind-child``) when this process runs under valgrind's callgrind with instrumentation off at start."""
+
+
+def _callgrind(on: bool) -> None:
+    """Under callgrind: switch instrumentation on just before a run loop and off just after it (scene building,
+    imports and teardown are not counted). Elsewhere: nothing."""
+    if UNDER_CALLGRIND:
+        subprocess.run(["callgrind_control", "--instr=on" if on else "--instr=off", str(os.getpid())], check=True,
+                       stdout=subprocess.DEVNULL)
+
+
+def _count_loop(job: str, side: str, seed: int, folder: str) -> tuple[int, float, bool]:
+    """One side's run loop for one seed in a child process under callgrind: (instructions, sim seconds, success)."""
+    out = os.path.join(folder, f"callgrind.{side}.{seed}")
+    env = {**os.environ, "PYTHONHASHSEED": "0", "OPENBLAS_NUM_THREADS": "1"}
+    cmd = ["valgrind", "--tool=callgrind", "--instr-atstart=no", f"--callgrind-out-file={out}", sys.executable,
+           str(Path(__file__).resolve()), "--child", job, "--side", side, "--seed", str(seed), "--callgrind-child"]
+    proc = subprocess.run(cmd, capture_output=True, text=True, env=env)
+    found = [line.split()[-1] for line in proc.stderr.splitlines() if "Collected :" in line]
+    if proc.returncode != 0 or not found:
+        raise SystemExit(f"callgrind run of the {side} side failed ({proc.returncode}): {proc.stderr.strip()[-300:]}")
+    data = json.loads(proc.stdout.strip().splitlines()[-1])
+    return int(found[-1].replace(",", "")), float(data["sim"]), bool(data["ok"])
+
+
+def instruction_ratios(job: str, seeds: list[int]) -> None:
+    """Each side's run loop counted by callgrind (instructions executed: the same on any load, no hardware counters
+    needed), per seed in child processes two at a time; robokit over hand-written per simulated second."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    check_scene(job, seeds[0])
+    with tempfile.TemporaryDirectory() as tmp, ThreadPoolExecutor(2) as pool:
+        runs = {(side, seed): pool.submit(_count_loop, job, side, seed, tmp)
+                for seed in seeds for side in ("robokit", "hand")}
+        ratios, ok = [], {"robokit": 0, "hand": 0}
+        for seed in seeds:
+            (rk, rk_sim, rk_ok), (hw, hw_sim, hw_ok) = runs["robokit", seed].result(), runs["hand", seed].result()
+            ratios.append((rk / rk_sim) / (hw / hw_sim))
+            ok["robokit"] += rk_ok
+            ok["hand"] += hw_ok
+            print(f"  {job} seed {seed:3d}: robokit {rk / 1e6:8.1f} M instructions / {rk_sim:6.2f} sim s "
+                  f"= {rk / rk_sim / 1e6:6.1f} M/s {'ok' if rk_ok else 'FAIL'} | hand {hw / 1e6:8.1f} M / "
+                  f"{hw_sim:6.2f} s = {hw / hw_sim / 1e6:6.1f} M/s {'ok' if hw_ok else 'FAIL'} | "
+                  f"ratio {ratios[-1]:.3f}", flush=True)
+    print(f"{job} loop, instructions per sim second (callgrind), robokit / hand-written: {_stats(ratios)}")
+    print(f"{job} success: robokit {ok['robokit']}/{len(seeds)}, hand-written {ok['hand']}/{len(seeds)}", flush=True)
 
 
 _COUNTERS: list[Any] = []
@@ -801,10 +877,12 @@ def robokit_run(job: str, seed: int) -> dict[str, Any]:
     from robokit.testing import make_sim
 
     with make_sim(str(JOBS[job]), seed=seed, overrides=dict(OVERRIDES) or None) as sim:
+        _callgrind(True)
         t0, c0, k0, i0 = time.perf_counter(), time.process_time(), _cycles(), _instructions()
         result = sim.run()
         wall, cpu, cycles = time.perf_counter() - t0, time.process_time() - c0, _cycles() - k0
         instr = _instructions() - i0
+        _callgrind(False)
     r = result.result
     if job == "sort":
         ok = result.outcome == "succeeded" and r.get("red_sorted", 0) + r.get("blue_sorted", 0) == 4
@@ -897,7 +975,8 @@ def loop_ratios(job: str, seeds: list[int], pairs: int = 1) -> None:
 def job_ratios(job: str, seeds: list[int]) -> None:
     """Whole processes, interleaved: ``robokit run`` against this script's hand-written child, per seed."""
     exe = Path(sys.executable).parent / "robokit"
-    ratios, walls = [], {"robokit": [], "hand": []}
+    ratios: list[float] = []
+    walls: dict[str, list[float]] = {"robokit": [], "hand": []}
     # Both sides as a user's machine runs them: bytecode caches written and used (a shell with
     # PYTHONDONTWRITEBYTECODE set would compile robokit's ~50 modules on every start); one warm-up round first.
     env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
@@ -936,15 +1015,25 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--set", type=_override, action="append", default=[], metavar="KEY=VALUE",
                         help="config override on robokit's side of the loop runs (repeatable), e.g. "
                              "sensors.scan.map_in_numpy=false; the whole-job runs use the config as it is")
+    parser.add_argument("--callgrind", type=int, default=0, metavar="N",
+                        help="instead of timing: count each side's loop instructions under valgrind's callgrind on "
+                             "seeds 0..N-1 (load-independent; about a minute a seed)")
     parser.add_argument("--child", choices=sorted(JOBS), help=argparse.SUPPRESS)
+    parser.add_argument("--side", choices=("hand", "robokit"), default="hand", help=argparse.SUPPRESS)
+    parser.add_argument("--callgrind-child", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--seed", type=int, default=0, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.pairs < 1 or args.seeds < 1:
         parser.error("--pairs and --seeds must be at least 1")
     OVERRIDES.update(args.set)
     if args.child:
-        out = hand_run(args.child, args.seed)
+        UNDER_CALLGRIND.extend([True] if args.callgrind_child else [])
+        out = (robokit_run if args.side == "robokit" else hand_run)(args.child, args.seed)
         print(json.dumps({"ok": out["ok"], "sim": out["sim"], "result": out["result"]}, default=str))
+        return
+    if args.callgrind:
+        for job in args.jobs:
+            instruction_ratios(job, list(range(args.callgrind)))
         return
     if OVERRIDES:
         print(f"robokit's loop runs with: {', '.join(f'{k} = {v!r}' for k, v in OVERRIDES.items())}")

@@ -138,6 +138,8 @@ class ColourDetector(Sensor):
         items: list[Detection] = []
         for colour, cls in self.colours.items():
             mask = hsv_mask(hsv, cls)
+            if not cv2.countNonZero(mask):
+                continue  # no pixel of this colour: no blob (opening and labelling an empty mask find none)
             if self.kernel is not None:
                 mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, self.kernel)
             items.extend(self._blobs(colour, mask, frame))

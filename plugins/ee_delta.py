@@ -22,7 +22,6 @@ from robokit_plugins.kinematics import arm_joints
 from robokit import hookimpl
 from robokit.components import Actuator, SetupContext
 from robokit.config import Schema
-from robokit.errors import ConfigError
 from robokit.msgs.arm import Quat, down_quaternion, quat_multiply
 from robokit.msgs.control import EEDelta, EEState
 
@@ -63,20 +62,18 @@ class EEDeltaArm(Actuator):
         super().setup(ctx)
         cfg: EEDeltaConfig = self.config
         w = self.world
-        self.body, self.ee, self.movable, self.arm = arm_joints(ctx, cfg.body, cfg.ee_link)
-        names = [j.name for j in self.movable]
+        joints = arm_joints(ctx, cfg.body, cfg.ee_link)
+        self.body, self.ee, self.movable, self.arm = joints
         for name in cfg.ready_pose:
-            if name not in names:
-                raise ConfigError(f"unknown joint {name!r}; movable joints: {', '.join(names)}",
-                                  key=f"ready_pose.{name}")
-        self.cols = [names.index(j.name) for j in self.arm]
+            joints.column(name, f"ready_pose.{name}")
+        self.cols = joints.columns
         self.arm_index = [j.index for j in self.arm]
         self.lower = np.array([j.lower if j.upper > j.lower else -np.pi for j in self.arm])
         self.upper = np.array([j.upper if j.upper > j.lower else np.pi for j in self.arm])
         states = w.joint_states(self.body, [j.index for j in self.movable])
         self.ready = [cfg.ready_pose.get(j.name, s[0]) for j, s in zip(self.movable, states, strict=True)]
         self.rest = np.array(self.ready)[self.cols]
-        self.forces = [cfg.max_force or (j.max_force if j.max_force > 0 else 100.0) for j in self.arm]
+        self.forces = joints.forces(cfg.max_force)
         self.down = down_quaternion(cfg.yaw)
         self.damping, self.eye = cfg.damping * np.eye(6), np.eye(len(self.cols))
         self.reset()

@@ -16,9 +16,11 @@ With two fingers they are coupled by a gear constraint (ratio from their travel 
 when contact forces push them unevenly; each is position-controlled with a moderate force limit. Finger lateral
 friction is raised (default 1.2) so a squeezed object is held by friction, as on a real robot; nothing is welded.
 
-Readings (:class:`~robokit.msgs.arm.GripperState`): ``width``, ``settled`` (width steady for
-``settle_time``), ``holding`` (both fingers — each finger joint's child link and every link below it, or the links
-named in ``finger_links`` — touch the same body and the width is above ``empty_width``) and the held body's name.
+Readings (:class:`~robokit.msgs.arm.GripperState`): ``width``, ``settled`` (width steady for ``settle_time``,
+watched tick by tick after each command; with ``watch_settling = false``, finger speed below ``settle_speed`` when
+read, and no joint reads between readings), ``holding`` (both fingers — each finger joint's child link and every
+link below it, or the links named in ``finger_links`` — touch the same body and the width is above
+``empty_width``) and the held body's name.
 """
 
 from __future__ import annotations
@@ -57,6 +59,11 @@ class GripperConfig(Schema):
     empty_width: float = Field(0.004, ge=0, description="closed on nothing below this width")
     settle_time: float = Field(0.04, ge=0)
     settle_speed: float = Field(0.01, gt=0, description="width change below this (m/s) counts as still")
+    watch_settling: bool = Field(True, description="after a command, read the finger joints every tick until the "
+                                 "width has been still for settle_time (what 'settled' means); false: no reads "
+                                 "between readings, and 'settled' means the fingers move slower than settle_speed "
+                                 "when read (for learning envs, whose actions move the fingers every step and never "
+                                 "read 'settled')")
     stop_on: str | None = Field(None, description="a contact sensor: a contact (above stop_force) freezes the "
                                 "fingers for the rest of the run")
     stop_force: float = Field(0.0, ge=0, description="contact normal force that triggers stop_on, N")
@@ -147,10 +154,11 @@ class Gripper(Actuator):
         self._indices = [j.index for j in self.fingers]
         self._spans = [o - c for o, c in zip(self.open_q, self.closed_q, strict=True)]
         self._dirty = True  # motor targets to send at the next update
+        self._read_at: tuple[int, float, float] | None = None  # (tick, width, rate) a read measured this tick
         self._last_width = self._width()
         self._still_since: float | None = self.world.time
         self._last_t = self.world.time
-        self._tracking = True  # watching the width every tick until it has been still for settle_time
+        self._tracking = cfg.watch_settling  # watching the width every tick until still for settle_time
 
     def _finger_link_sets(self, ctx: SetupContext) -> list[set[int]]:
         """Link indices of each finger: configured by name, or each finger joint's child link and its subtree."""
@@ -257,13 +265,17 @@ class Gripper(Actuator):
 
     def _watch(self) -> None:
         """Start watching the width every tick again (after a new command, or fingers found moving)."""
-        if not self._tracking:
+        if not self._tracking and self.config.watch_settling:
             self._tracking = True
             self._last_width, self._last_t = self._width(), self.world.time
 
     def _track_settling(self) -> None:
         cfg: GripperConfig = self.config
-        now, width = self.world.time, self._width()
+        now, read = self.world.time, self._read_at
+        # A read earlier in this tick (the behaviour's, before the actuators update) measured the same joints: no
+        # physics step has run since, so its width is this tick's width.
+        width = read[1] if read is not None and read[0] == self.world.tick else self._width()
+        self._read_at = None
         dt = max(now - self._last_t, self.world.time_step)
         moving = abs(width - self._last_width) / dt > cfg.settle_speed
         if moving:
@@ -291,6 +303,7 @@ class Gripper(Actuator):
         """Width, settling, and whether (and what) the fingers hold."""
         cfg: GripperConfig = self.config
         width, rate = self._width_and_rate()
+        self._read_at = (self.world.tick, width, rate)
         if not self._tracking and abs(rate) > cfg.settle_speed:
             self._still_since = None  # settled fingers pushed open or shut: moving again
             self._watch()
@@ -302,7 +315,10 @@ class Gripper(Actuator):
             first = min(common)
             held = self.world.body_name(first) or f"body{first}"
         since = self._still_since
-        settled = since is not None and self.world.time - since >= cfg.settle_time
+        if cfg.watch_settling:
+            settled = since is not None and self.world.time - since >= cfg.settle_time
+        else:
+            settled = abs(rate) <= cfg.settle_speed
         return GripperState(width=width, target_width=self.target, action=self.action, settled=settled,
                             holding=holding, held=held, finger_contacts=total, stopped=self.stopped)
 

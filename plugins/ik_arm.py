@@ -114,6 +114,11 @@ def _angles_between(quats: np.ndarray, rotations: np.ndarray) -> np.ndarray:
     return np.arctan2(np.linalg.norm(axis, axis=1), rel[:, 0, 0] + rel[:, 1, 1] + rel[:, 2, 2] - 1.0)
 
 
+def _where(pos: np.ndarray) -> str:
+    """A position for a message, millimetre precision (formatted only when a message needs it)."""
+    return f"({pos[0]:.3f}, {pos[1]:.3f}, {pos[2]:.3f})"
+
+
 def _slerp(a: Quat, b: Quat, s: float) -> Quat:
     """Spherical interpolation from ``a`` (s = 0) to ``b`` (s = 1), the short way round (plain floats: called
     once per waypoint)."""
@@ -147,17 +152,17 @@ class IkArm(Actuator):
         super().setup(ctx)
         cfg: IkArmConfig = self.config
         w = self.world
-        self.body, self.ee, self.movable, self.arm = arm_joints(ctx, cfg.body, cfg.ee_link)
+        self._joints = arm_joints(ctx, cfg.body, cfg.ee_link)
+        self.body, self.ee, self.movable, self.arm = self._joints
         self._movable_indices = [j.index for j in self.movable]
         self._limits()
-        names = [j.name for j in self.movable]
         self.ready = self._pose_vector(cfg.ready_pose, "ready_pose", self._measured_all())
         self.rest = self._pose_vector(cfg.rest_pose, "rest_pose", self.ready) if cfg.rest_pose else self.ready
-        self.arm_cols = [names.index(j.name) for j in self.arm]
+        self.arm_cols = self._joints.columns
         for j, q in zip(self.movable, self.ready, strict=True):
             if j in self.arm or j.name in cfg.ready_pose:
                 w.reset_joint(self.body, j.index, float(q))
-        self.forces = [cfg.max_force or (j.max_force if j.max_force > 0 else 100.0) for j in self.arm]
+        self.forces = self._joints.forces(cfg.max_force)
         self.q_cmd = self.ready[self.arm_cols].copy()
         self.path: list[np.ndarray] | None = None
         self.status, self.reason, self.command_id = "idle", "", 0
@@ -169,9 +174,10 @@ class IkArm(Actuator):
         self._has_tool = any(cfg.ee_offset) or any(cfg.ee_rpy_deg)
         self.chain = Chain(w, self.body, self.ee, {j.index: k for k, j in enumerate(self.movable)}, tool=self._tool)
         self._indices = [j.index for j in self.arm]
-        self._names = [j.name for j in self.movable]
+        self._names = self._joints.names
         self._ik_options: dict[str, Any] = {"damping": [0.01] * len(self.movable), "iterations": cfg.ik_iterations,
                                             "tolerance": cfg.ik_tolerance / 10.0}
+        self._rest_list = self.rest.tolist()
         self._gains = ([cfg.position_gain] * len(self.arm), [cfg.velocity_gain] * len(self.arm))
         self._zero = [0.0] * len(self.arm)
         self._holding = False  # the last target sent was a hold (zero velocity): nothing to resend
@@ -184,10 +190,8 @@ class IkArm(Actuator):
 
     def _limits(self) -> None:
         cfg: IkArmConfig = self.config
-        names = [j.name for j in self.movable]
         for name in cfg.limits:
-            if name not in names:
-                raise ConfigError(f"unknown joint {name!r}; movable joints: {', '.join(names)}", key="limits")
+            self._joints.column(name, "limits")
         lo, hi = [], []
         for j in self.movable:
             low, high = cfg.limits.get(j.name, (j.lower, j.upper))
@@ -198,12 +202,9 @@ class IkArm(Actuator):
         self.lower, self.upper = np.array(lo), np.array(hi)
 
     def _pose_vector(self, pose: dict[str, float], key: str, default: np.ndarray) -> np.ndarray:
-        names = [j.name for j in self.movable]
         out = np.array(default, float)
         for name, value in pose.items():
-            if name not in names:
-                raise ConfigError(f"unknown joint {name!r}; movable joints: {', '.join(names)}", key=key)
-            out[names.index(name)] = value
+            out[self._joints.column(name, key)] = value
         return np.clip(out, self.lower, self.upper)
 
     # ------------------------------------------------------------------ kinematics
@@ -215,19 +216,21 @@ class IkArm(Actuator):
         """The engine's IK answer for one pose (PyBullet: C, a few tens of microseconds), seeded from ``q_all`` moved a
         little towards the rest pose (a null-space pull). Not checked: see :meth:`_solve` and :meth:`_solve_path`.
         An engine without IK of its own answers ``q_all`` itself (the check then hands the pose to numpy)."""
-        cols = self.arm_cols
-        seed = q_all.copy()
-        seed[cols] += 0.05 * (self.rest[cols] - q_all[cols])
+        # In plain floats (the same arithmetic as numpy's, element by element): one waypoint is a handful of
+        # values, where each numpy call would cost more than its work.
+        q, rest, cols = q_all.tolist(), self._rest_list, self.arm_cols
+        seed = list(q)
+        for c in cols:
+            seed[c] = q[c] + 0.05 * (rest[c] - q[c])
         w = self.world
         link_pos, link_orn = pos.tolist(), orn
         if self._has_tool:  # the engine solves for the link's frame: the target tool pose times the inverse tool
             link_pos, link_orn = w.multiply_transforms(link_pos, link_orn, *self._tool_inv)
-        found = w.inverse_kinematics(self.body, self.ee, link_pos, link_orn, seed=seed.tolist(), **self._ik_options)
-        if found is None:
-            return q_all.copy()
-        q = q_all.copy()
-        q[cols] = np.asarray(found)[cols]
-        return q
+        found = w.inverse_kinematics(self.body, self.ee, link_pos, link_orn, seed=seed, **self._ik_options)
+        if found is not None:
+            for c in cols:
+                q[c] = found[c]
+        return np.array(q)
 
     def _check(self, qs: np.ndarray, poses: list[tuple[np.ndarray, Quat]]
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -366,11 +369,10 @@ class IkArm(Actuator):
         waypoint: (the arm's joint positions per waypoint, starting with the current ones; "" or the reason it is
         unreachable; its length in metres; its turn in radians). What a move does, and what validate checks."""
         cfg: IkArmConfig = self.config
-        where = f"({pos[0]:.3f}, {pos[1]:.3f}, {pos[2]:.3f})"
         dist_base = float(np.linalg.norm(pos - self.base_pos))
         if cfg.reach is not None and dist_base > cfg.reach:
-            return [], f"unreachable: target {where} is {dist_base:.3f} m from the base, reach is {cfg.reach:g} m", \
-                0.0, 0.0
+            return [], (f"unreachable: target {_where(pos)} is {dist_base:.3f} m from the base, reach is "
+                        f"{cfg.reach:g} m"), 0.0, 0.0
         start_pos, start_orn = self.chain.fk(q_all)
         dist, ang = float(np.linalg.norm(pos - start_pos)), quat_angle(start_orn, orn)
         n = max(1, math.ceil(dist / cfg.waypoint_spacing), math.ceil(ang / cfg.waypoint_angle))
@@ -380,8 +382,8 @@ class IkArm(Actuator):
         poses = [(p_k, _slerp(start_orn, orn, float(s))) for p_k, s in zip(positions, fractions, strict=True)]
         for k, (q_k, ep, eo) in enumerate(self._solve_path(q_all, poses), start=1):
             if ep > max(cfg.ik_tolerance, 1e-3) or eo > cfg.orientation_tolerance / 2:
-                return qs, (f"unreachable: IK residual {ep * 1000:.1f} mm / {math.degrees(eo):.1f} deg at "
-                            f"waypoint {k}/{n} towards {where} (tolerance {cfg.ik_tolerance * 1000:g} mm)"), dist, ang
+                return qs, (f"unreachable: IK residual {ep * 1000:.1f} mm / {math.degrees(eo):.1f} deg at waypoint "
+                            f"{k}/{n} towards {_where(pos)} (tolerance {cfg.ik_tolerance * 1000:g} mm)"), dist, ang
             qs.append(q_k[self.arm_cols].copy())
         return qs, "", dist, ang
 

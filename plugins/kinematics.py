@@ -3,7 +3,8 @@
 Built once from the World's kinematic chain (:meth:`World.kinematic_chain
 <robokit.engines.interface.World.kinematic_chain>`, :class:`Chain`), then evaluated for any joint vector without
 touching the simulation: no joint state is written and read back, so IK can try candidate configurations between
-physics steps for the price of a few 4x4 products. Used by ``ik_arm``.
+physics steps for the price of a few 4x4 products. Used by ``ik_arm``; :func:`arm_joints` sets up the joints
+of both arm actuators (``ik_arm``, ``ee_delta``).
 
 The engine describes the chain as fixed frames and joint motions in order (how it arrives at them, e.g. PyBullet's
 inertial frames, is its own business). Positions in metres, world frame; quaternions ``(x, y, z, w)``.
@@ -13,11 +14,11 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
-from robokit.engines.interface import ChainFrame
+from robokit.engines.interface import ChainFrame, JointInfo
 from robokit.errors import ConfigError
 
 
@@ -76,7 +77,50 @@ def links_to(world: Any, body: int, link: int) -> list[int]:
     return path
 
 
-def arm_joints(ctx: Any, body_name: str, ee_link: str) -> tuple[int, int, list[Any], list[Any]]:
+class ArmJoints(NamedTuple):
+    """An arm actuator's joints, found once at setup (:func:`arm_joints`): what ``ik_arm`` and ``ee_delta`` share.
+
+    Joint vectors over :attr:`movable` (index order) are how both plugins hold a configuration; :attr:`columns`
+    picks the arm's joints out of them.
+    """
+
+    body: int
+    """Body id of the arm."""
+    ee: int
+    """Link index of the end effector."""
+    movable: list[JointInfo]
+    """The body's movable joints, index order (a gripper's fingers included)."""
+    arm: list[JointInfo]
+    """The movable joints on the chain from the base to the end effector, base first."""
+
+    @property
+    def names(self) -> list[str]:
+        """Names of the :attr:`movable` joints, in order."""
+        return [j.name for j in self.movable]
+
+    @property
+    def columns(self) -> list[int]:
+        """Where each :attr:`arm` joint stands in a joint vector over the :attr:`movable` joints."""
+        names = self.names
+        return [names.index(j.name) for j in self.arm]
+
+    def column(self, name: str, key: str) -> int:
+        """Where the movable joint ``name`` (a config's joint name) stands in a joint vector.
+
+        Raises:
+            ConfigError: At ``key``: no movable joint has that name (the message lists them).
+        """
+        names = self.names
+        if name not in names:
+            raise ConfigError(f"unknown joint {name!r}; movable joints: {', '.join(names)}", key=key)
+        return names.index(name)
+
+    def forces(self, max_force: float | None) -> list[float]:
+        """Motor force (N·m or N) per :attr:`arm` joint: ``max_force``, else the URDF's (100 where it gives none)."""
+        return [max_force or (j.max_force if j.max_force > 0 else 100.0) for j in self.arm]
+
+
+def arm_joints(ctx: Any, body_name: str, ee_link: str) -> ArmJoints:
     """For an arm actuator's setup: body id, end-effector link index, the body's movable joints and those on the
     chain from the base to the end effector (base first). Config errors (at ``body`` / ``ee_link``) for an unknown
     body or link, the base link as end effector, or no movable joint on the chain."""
@@ -89,7 +133,7 @@ def arm_joints(ctx: Any, body_name: str, ee_link: str) -> tuple[int, int, list[A
     arm = [j for j in movable if j.index in chain]
     if not arm:
         raise ConfigError(f"no movable joint between the base and {ee_link!r}", key="ee_link")
-    return body, ee, movable, arm
+    return ArmJoints(body, ee, movable, arm)
 
 
 class Chain:

@@ -89,7 +89,7 @@ class MachineBehaviour(Behaviour):
         self.timeouts: dict[str, float] = {**self.TIMEOUTS, **configured}
         self._trace: Any = None
         self._trigger = ""
-        self._handlers: dict[str, dict[Any, Any]] = {"do": {}, "enter": {}}
+        self._handlers: dict[str, dict[str, Any]] = {"do": {}, "enter": {}}
         self._named_state: Any = None  # the state whose name is cached in _state_name (read every tick)
         self._state_name = ""
         self.machine = Machine(
@@ -150,15 +150,16 @@ class MachineBehaviour(Behaviour):
                         dest_state=self.state_name)
 
     def handler(self, prefix: str = "do") -> Any:
-        """The current state's method ``<prefix>_<state name lower-case>`` or None (looked up once per state)."""
+        """The current state's method ``<prefix>_<state name lower-case>`` or None (looked up once per state; the
+        tables are keyed by state name, a string: an ``Enum`` member's hash is a Python-level call)."""
         table = self._handlers.get(prefix)
         if table is None:
             table = self._handlers[prefix] = {}
-        state = self.state
+        name = self.state_name
         try:
-            return table[state]
+            return table[name]
         except KeyError:
-            found = table[state] = getattr(self, f"{prefix}_{self.state_name.lower()}", None)
+            found = table[name] = getattr(self, f"{prefix}_{name.lower()}", None)
             return found
 
     @property
@@ -180,14 +181,15 @@ class MachineBehaviour(Behaviour):
     @property
     def time_in_state(self) -> float:
         """Sim seconds since the current state was entered."""
-        return self.t - self.entered_at
+        return self._t - self.entered_at
 
     def step(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any] | None:
         """Check the state's timeout, then call ``do_<state>(readings, t)`` and return its commands."""
         self.t = t
-        limit = self.timeouts.get(self.state_name)
-        if limit is not None and self.time_in_state > limit:
-            self.on_timeout(self.state_name)
+        name = self.state_name
+        limit = self.timeouts.get(name)
+        if limit is not None and t - self.entered_at > limit:
+            self.on_timeout(name)
             if self.outcome is not None:
                 return None
         handler = self.handler("do")

@@ -55,3 +55,22 @@ def test_both_arm_types_refuse_the_base_link_as_end_effector(arm_type: str) -> N
     with pytest.raises(ConfigError, match="end-effector link must not be the base link 'panda_link0'") as err:
         make_sim(scene).close()
     assert err.value.key.endswith("ee_link")
+
+
+@pytest.mark.parametrize(("arm_type", "setting", "key"), [
+    ("ik_arm", {"ready_pose": {"elbow": 0.1}}, "ready_pose"),
+    ("ik_arm", {"rest_pose": {"elbow": 0.1}}, "rest_pose"),
+    ("ik_arm", {"limits": {"elbow": [-1.0, 1.0]}}, "limits"),
+    ("ee_delta", {"ready_pose": {"elbow": 0.1}}, "ready_pose.elbow"),
+])
+def test_an_unknown_joint_name_is_refused_at_its_key(arm_type: str, setting: dict[str, object], key: str) -> None:
+    from robokit.errors import ConfigError
+    from robokit.testing import make_sim
+
+    scene = {"robots": {"panda": {"urdf": "franka_panda/panda.urdf", "position": [0, 0, 0], "fixed_base": True}},
+             "actuators": {"arm": {"type": arm_type, "body": "panda", "ee_link": "panda_grasptarget", **setting}}}
+    with pytest.raises(ConfigError) as err:
+        make_sim(scene).close()
+    movable = ", ".join([f"panda_joint{k}" for k in range(1, 8)] + ["panda_finger_joint1", "panda_finger_joint2"])
+    assert err.value.key == f"actuators.arm.{key}"
+    assert err.value.message == f"unknown joint 'elbow'; movable joints: {movable}"

@@ -14,7 +14,7 @@ pytest.importorskip("mujoco")
 from robokit.cli import main  # noqa: E402
 from robokit.config import load_config  # noqa: E402
 from robokit.core.simulation import Simulation  # noqa: E402
-from robokit.engines.mujoco_support import check_config  # noqa: E402
+from robokit.engines.interface import World  # noqa: E402
 from robokit.errors import ConfigError  # noqa: E402
 from robokit.plugin_api.plugins import load_plugins  # noqa: E402
 
@@ -36,7 +36,7 @@ def plugins():  # type: ignore[no-untyped-def]
 def test_config_runs_or_is_refused_in_one_line(path: Path, plugins) -> None:  # type: ignore[no-untyped-def]
     cfg = load_config(path, plugins, {"world.engine": "mujoco"})
     try:
-        check_config(cfg)
+        World.engine_class("mujoco").check_config(cfg)  # the engine's hook, as Simulation calls it
     except ConfigError as exc:
         text = str(exc)
         assert path.stem not in RUNS_ON_MUJOCO, text
@@ -65,6 +65,23 @@ def test_the_cli_refuses_with_exit_code_2_before_anything_runs(capsys, tmp_path,
     assert err == [f"robokit: error: {config}: robots.kuka.sdf: not supported on the mujoco engine: SDF files are "
                    "not loaded (URDF and primitives are) (--engine pybullet runs it)"]
     assert not [p for p in tmp_path.rglob("*") if p.is_file()]  # nothing was run, nothing kept
+
+
+
+def test_a_gui_override_is_refused_before_the_world_is_built(plugins) -> None:  # type: ignore[no-untyped-def]
+    cfg = load_config(ROOT / "configs" / "drop_test.toml", plugins, {"world.engine": "mujoco"})
+    with pytest.raises(ConfigError) as info:
+        Simulation(cfg, plugins, gui=True)
+    assert str(info.value) == (f"{cfg.source}: world.gui: --gui: no GUI window on the mujoco engine "
+                               "(--engine pybullet has one)")
+    World.engine_class("mujoco").check_config(cfg, gui=False)  # headless: accepted
+
+
+def test_pybullet_accepts_what_mujoco_refuses(plugins) -> None:  # type: ignore[no-untyped-def]
+    cfg = load_config(ROOT / "configs" / "sort_kuka.toml", plugins, {"world.engine": "mujoco"})
+    with pytest.raises(ConfigError, match="robots.kuka.sdf: not supported on the mujoco engine"):
+        World.engine_class("mujoco").check_config(cfg)
+    assert World.engine_class("pybullet").check_config(cfg, gui=True) is None  # the default hook: no refusal
 
 
 HIDE_MUJOCO = """

@@ -116,7 +116,7 @@ def test_fields_are_checked_in_declaration_order_then_unknown_keys_then_cross_fi
     assert refusal(BodyConfig, {"shape": "box", "urdf": "a.urdf"}) == \
         "x: give exactly one of 'shape' (box, sphere, cylinder), 'urdf', 'sdf' or 'mjcf', not shape and urdf"
     assert refusal(WorldConfig, {"gravty": [0, 0, -9.81]}).startswith(
-        "x.gravty: unknown key 'gravty' (did you mean 'gravity'?); valid keys: gravity, gui,")
+        "x.gravty: unknown key 'gravty' (did you mean 'gravity'?); valid keys: engine, gravity, gui,")
 
 
 def test_nested_mount() -> None:

@@ -146,7 +146,7 @@ class TickScheduler:
             slot.stale = True  # actuator state is cheap; recomputed on read each tick
         behaviour = self.behaviour
         if behaviour is not None and k % self.behaviour_period == 0 and behaviour.outcome is None:
-            self._step_behaviour()
+            self._step_behaviour(behaviour, self.world.time)
         for slot in self._actuator_list:
             if k % slot.period == 0:
                 try:
@@ -158,10 +158,10 @@ class TickScheduler:
                 action()
         self.world.step()
 
-    def _step_behaviour(self) -> None:
-        assert self.behaviour is not None
+    def _step_behaviour(self, behaviour: Any, t: float) -> None:
+        """Step the behaviour at sim time ``t`` (the world's clock) and hand its commands to the actuators."""
         try:
-            commands = self.behaviour.step(self.readings, self.world.time)
+            commands = behaviour.step(self.readings, t)
         except (PluginError, Interrupted):
             raise
         except BaseException as exc:
@@ -169,7 +169,9 @@ class TickScheduler:
                 f"behaviour ({self.behaviour_origin}) raised during step: {plugin_fault(exc)}",
                 type_name=self.behaviour_origin,
             ) from exc
-        for name, cmd in (commands or {}).items():
+        if not commands:
+            return
+        for name, cmd in commands.items():
             slot = self.actuators.get(name)
             if slot is None:
                 raise PluginError(

@@ -52,19 +52,16 @@ class Simulation:
         self.plugins = plugins
         wc = config.world
         self.seed = wc.seed if seed is None else int(seed)
-        if wc.engine == "mujoco":  # checks the config first: what mujoco cannot honour is refused before the run
-            from robokit.engines.mujoco_support import open_world
-
-            self.world: World = open_world(config, gui=bool(gui), seed=self.seed)
-        else:
-            self.world = World.create(
-                gui=wc.gui if gui is None else gui,
-                time_step=wc.time_step,
-                gravity=wc.gravity,
-                solver_iterations=wc.solver_iterations,
-                seed=self.seed,
-                base_dir=config.base_dir,
-            )
+        engine = World.engine_class(wc.engine)  # first: a missing engine is one line naming its extra
+        engine.check_config(config, gui=gui)  # what the engine cannot honour is refused before the run
+        self.world: World = engine(
+            gui=wc.gui if gui is None else gui,
+            time_step=wc.time_step,
+            gravity=wc.gravity,
+            solver_iterations=wc.solver_iterations,
+            seed=self.seed,
+            base_dir=config.base_dir,
+        )
         self.trace: list[dict[str, Any]] = []
         self.trace_listeners: list[Callable[[dict[str, Any]], None]] = []
         self.components: dict[str, Any] = {}
@@ -382,8 +379,9 @@ class Simulation:
                     self._tracer("randomize")("drawn", **self.randomizer.drawn)
                 if pace:
                     self.scheduler.start_pacing()
-                while self.world.tick < max_ticks and self.outcome is None and not self._halt:
-                    self.scheduler.tick()
+                world, behaviour, tick = self.world, self.behaviour, self.scheduler.tick
+                while world.tick < max_ticks and (behaviour is None or behaviour.outcome is None) and not self._halt:
+                    tick()
                     if pace:
                         self.scheduler.pace()
             except PluginError as exc:

@@ -29,11 +29,14 @@ from collections.abc import Callable, Collection, Iterable, Iterator, Mapping, S
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, ClassVar, Literal, NamedTuple, Protocol
+from typing import TYPE_CHECKING, Any, ClassVar, Literal, NamedTuple, Protocol
 
 import numpy as np
 
 from robokit.errors import LookupNameError, UserError
+
+if TYPE_CHECKING:  # read by attribute only
+    from robokit.config import Config
 
 DATA_DIR = Path(__file__).resolve().parents[1] / "data"
 """URDFs and meshes bundled with robokit (searched after the config's folder and ``pybullet_data``)."""
@@ -251,6 +254,18 @@ class World(ABC):
         except KeyError:
             raise LookupNameError("engine", name, sorted(World.engines)) from None
         return loader()
+
+    @classmethod
+    def check_config(cls, config: Config, *, gui: bool | None = None) -> None:
+        """Refuse, before anything is built, the first thing in ``config`` this engine cannot honour.
+
+        ``gui`` is the run's override of ``world.gui`` (None: the config's). This default accepts everything; an
+        engine that cannot honour a setting overrides it (``World.engine_class(name).check_config(config)``).
+
+        Raises:
+            ConfigError: One line naming the file, the key and the engine.
+        """
+        return None  # this engine honours every setting
 
     def __init__(
         self,
@@ -729,8 +744,9 @@ class World(ABC):
 
     @abstractmethod
     def jacobian(self, body: int, link: int, positions: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
-        """Linear (3 x n, m/rad) and angular (3 x n) Jacobian of ``link``'s centre-of-mass frame origin, world frame,
-        at the movable joints' ``positions`` (n, index order): columns are the movable joints in index order."""
+        """Linear (3 x n, m/rad) and angular (3 x n) Jacobian of ``link``'s link-frame origin (as :meth:`pose` gives
+        it), world frame, at the movable joints' ``positions`` (n, index order): columns are the movable joints in
+        index order."""
 
     # ----------------------------------------------------------------- contacts, attachments
     @abstractmethod

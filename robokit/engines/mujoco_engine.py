@@ -11,11 +11,11 @@ from __future__ import annotations
 
 from collections.abc import Collection, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from robokit.engines import mujoco_attach, mujoco_kin, mujoco_render
+from robokit.engines import mujoco_attach, mujoco_kin, mujoco_render, mujoco_support
 from robokit.engines.interface import ChainFrame, ChainJoint, Contact, JointState, MotorMode, RayCaster, RenderedImage
 from robokit.engines.mujoco_bodies import MujocoBodies, _vec
 from robokit.engines.mujoco_gl import mujoco
@@ -23,12 +23,20 @@ from robokit.engines.mujoco_links import Motors, critical_damping, motor_gains
 from robokit.engines.mujoco_render import Cameras
 from robokit.errors import UserError
 
+if TYPE_CHECKING:  # read by attribute only
+    from robokit.config import Config
+
 
 class MujocoWorld(MujocoBodies):
     """The World on MuJoCo. Takes the World's keyword arguments; ``gui`` is refused (robokit runs MuJoCo headless).
     """
 
     engine = "mujoco"
+
+    @classmethod
+    def check_config(cls, config: Config, *, gui: bool | None = None) -> None:
+        """Refuse what MuJoCo cannot build (SDF bodies, a GUI window): see :mod:`robokit.engines.mujoco_support`."""
+        mujoco_support.check_config(config, gui=gui)
 
     def __init__(self, *, gui: bool = False, time_step: float = 1.0 / 240.0,
                  gravity: Sequence[float] = (0.0, 0.0, -9.81), solver_iterations: int = 50, seed: int = 0,
@@ -231,7 +239,7 @@ class MujocoWorld(MujocoBodies):
         return mujoco_kin.kinematic_chain(self, body, link)
 
     def jacobian(self, body: int, link: int, positions: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
-        """MuJoCo's Jacobian of a link's centre of mass (see :mod:`robokit.engines.mujoco_kin`)."""
+        """MuJoCo's Jacobian of a link's frame origin (see :mod:`robokit.engines.mujoco_kin`)."""
         return mujoco_kin.jacobian(self, body, link, positions)
 
     # ----------------------------------------------------------------- cameras

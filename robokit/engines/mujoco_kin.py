@@ -51,8 +51,9 @@ def kinematic_chain(world: MujocoWorld, body: int, link: int) -> list[ChainFrame
 
 
 def jacobian(world: MujocoWorld, body: int, link: int, positions: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
-    """Linear and angular Jacobian (3 x n each) of ``link``'s centre of mass at the movable joints' ``positions``,
-    columns in joint index order; computed on a copy of the state (the world does not move)."""
+    """Linear and angular Jacobian (3 x n each) of ``link``'s link-frame origin (its MuJoCo body's frame, as
+    ``World.pose`` gives it) at the movable joints' ``positions``, columns in joint index order; computed on a copy
+    of the state (the world does not move)."""
     m, d = world.compiled()
     movable = [j.index for j in world.joints(body) if j.movable]
     scratch = mujoco.MjData(m)
@@ -65,7 +66,8 @@ def jacobian(world: MujocoWorld, body: int, link: int, positions: Sequence[float
     mujoco.mj_kinematics(m, scratch)
     mujoco.mj_comPos(m, scratch)
     jacp, jacr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
-    mujoco.mj_jacBodyCom(m, scratch, jacp, jacr, world.mj_body(body, link))
+    target = world.mj_body(body, link)
+    mujoco.mj_jac(m, scratch, jacp, jacr, scratch.xpos[target], target)
     return jacp[:, dofs], jacr[:, dofs]
 
 

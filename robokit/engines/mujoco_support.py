@@ -11,16 +11,15 @@ from typing import TYPE_CHECKING
 
 from robokit.errors import ConfigError
 
-if TYPE_CHECKING:  # read by attribute only: the engines sit below robokit.config in the house
+if TYPE_CHECKING:  # read by attribute only
     from robokit.config import BodyConfig, Config
-    from robokit.engines.interface import World
 
 ENGINE = "the mujoco engine"
 
 
-
-def check_config(cfg: Config) -> None:
-    """Refuse, before the run, the first thing in ``cfg`` the mujoco engine cannot honour.
+def check_config(cfg: Config, *, gui: bool | None = None) -> None:
+    """Refuse, before the run, the first thing in ``cfg`` the mujoco engine cannot honour (the mujoco engine's
+    :meth:`~robokit.engines.interface.World.check_config`). ``gui``: the run's ``--gui`` override (None: none).
 
     Raises:
         ConfigError: One line: the file, the key, what is refused on mujoco and why.
@@ -29,6 +28,9 @@ def check_config(cfg: Config) -> None:
     if problem is not None:
         key, why = problem
         raise ConfigError(f"not supported on {ENGINE}: {why} (--engine pybullet runs it)", key=key, file=cfg.source)
+    if gui:
+        raise ConfigError(f"--gui: no GUI window on {ENGINE} (--engine pybullet has one)", key="world.gui",
+                          file=cfg.source)
 
 
 def _world(cfg: Config) -> tuple[str, str] | None:
@@ -50,22 +52,3 @@ def _body(body: BodyConfig) -> tuple[str, str] | None:
     if body.sdf is not None:
         return "sdf", "SDF files are not loaded (URDF and primitives are)"
     return None
-
-
-def open_world(config: Config, *, gui: bool, seed: int) -> World:
-    """A MuJoCo World for ``config`` (its ``[world]`` settings; ``seed`` and ``gui`` as the run overrides them).
-
-    Raises:
-        UserError: MuJoCo is not installed (one line naming the extra).
-        ConfigError: The config asks for something the mujoco engine cannot honour (one line naming the key).
-    """
-    from robokit.engines.interface import World
-
-    engine = World.engine_class("mujoco")  # first: a missing MuJoCo is one line naming the extra
-    check_config(config)
-    if gui:
-        raise ConfigError(f"--gui: no GUI window on {ENGINE} (--engine pybullet has one)", key="world.gui",
-                          file=config.source)
-    wc = config.world
-    return engine(time_step=wc.time_step, gravity=wc.gravity, solver_iterations=wc.solver_iterations, seed=seed,
-                  base_dir=config.base_dir)

@@ -198,7 +198,8 @@ class GripperState:
         width: Distance between the fingers, metres.
         target_width: Commanded width, metres.
         action: Last action (``open``, ``close`` or ``width``).
-        settled: The fingers have stopped moving (width steady for the settle time).
+        settled: The fingers have stopped moving (width steady for the settle time; with the gripper's
+            ``watch_settling = false``, slower than its settle speed when read).
         holding: Both fingers touch the same body and the width is above the empty-closed width.
         held: Name of the held body (None when not holding).
         finger_contacts: Number of finger contact points with bodies other than the robot.
