@@ -165,6 +165,7 @@ def test_the_jacobian_predicts_a_small_joint_motion(world: World) -> None:
     assert moved == pytest.approx(linear @ dq, abs=2e-7)
 
 
+@pytest.mark.skip_allowed("the contract lets an engine without IK of its own answer None (ik_arm then solves in numpy)")
 def test_inverse_kinematics_answers_reach_the_target_or_say_none(world: World) -> None:
     kuka = _kuka(world)
     ee = world.link(kuka, "lbr_iiwa_link_7")
