@@ -4,9 +4,9 @@ The scene is rebuilt in a DIRECT world (:mod:`robokit.record.scene`), posed fram
 physics), rendered with ``getCameraImage`` (TinyRenderer), labelled with the sim time and each state machine's
 current state, and encoded by the ffmpeg that ``imageio-ffmpeg`` ships (OpenCV's PyPI wheels cannot write H.264).
 
-Rendering is CPU-only here, so frames are spread over processes (one per core by default): this one and helper
-processes each rebuild the scene from the record in their own DIRECT client and render whole chunks of frames;
-the chunks go in order to the one encoder. A frame depends only on its pose sample, so the frames are the
+Rendering is CPU-only here, so frames are spread over worker processes (one per core by default): each worker
+rebuilds the scene from the record in its own DIRECT client and renders every frame of the chunks it is handed;
+the chunks come back in order to the one encoder. A frame depends only on its pose sample, so the frames are the
 serial renderer's, byte for byte.
 """
 
@@ -15,11 +15,9 @@ from __future__ import annotations
 import json
 import os
 import time
-from collections import deque
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -175,12 +173,10 @@ def default_workers() -> int:
 
 def frame_bytes(rec: RunRecord, *, fps: float, size: tuple[int, int], view: str | None,
                 workers: int) -> Iterator[bytes]:
-    """Every video frame of a record as RGB bytes, in order; ``workers`` > 1 renders them in that many processes:
-    this one and ``workers - 1`` helpers.
+    """Every video frame of a record as RGB bytes, in order; ``workers`` > 1 renders them in that many processes.
 
-    Helpers are started with ``spawn`` (a pybullet client must never cross a process boundary) and each rebuilds
-    the scene once; this process renders too instead of waiting for them (see :func:`_shared_chunks`). Errors in a
-    helper (a URDF missing here) come back as the same exception.
+    Workers are started with ``spawn`` (a pybullet client must never cross a process boundary) and each rebuilds
+    the scene once. Errors in a worker (a URDF missing here) come back as the same exception.
     """
     jobs = list(enumerate(frame_indices(rec.poses["t"], fps)))
     if workers <= 1 or len(jobs) < 2 * CHUNK:
@@ -191,61 +187,9 @@ def frame_bytes(rec: RunRecord, *, fps: float, size: tuple[int, int], view: str 
 
     chunks = [jobs[a:a + CHUNK] for a in range(0, len(jobs), CHUNK)]
     ctx = multiprocessing.get_context("spawn")
-    with ctx.Pool(min(workers, len(chunks)) - 1, _worker_init, (str(rec.folder), view, size, fps)) as pool, \
-            rebuild(rec) as scene:
-        renderer = Renderer(scene, choose_view(scene, view, size[0] / size[1]), size)
-        own = _OwnFrames(rec, scene, renderer, fps)
-        yield from _shared_chunks(pool, chunks, own.render, ahead=2 * (min(workers, len(chunks)) - 1))
-
-
-@dataclass
-class _OwnFrames:
-    """This process's own renderer for :func:`_shared_chunks` (the same steps as a helper's)."""
-
-    rec: RunRecord
-    scene: Scene
-    renderer: Renderer
-    rate: float
-
-    def __post_init__(self) -> None:
-        self.spans = self.rec.spans()
-
-    def render(self, job: list[tuple[int, int]]) -> list[bytes]:
-        out = []
-        for k, i in job:
-            self.scene.set_frame(i)
-            now = k / self.rate
-            out.append(overlay(self.renderer.render(), now, self.rec.state_at(self.spans, now)).tobytes())
-        return out
-
-
-def _shared_chunks(pool: Any, chunks: list[list[tuple[int, int]]], render: Callable[[list[tuple[int, int]]],
-                   list[bytes]], *, ahead: int) -> Iterator[bytes]:
-    """The chunks' frames in order, rendered by the pool's helpers and by ``render`` in this process.
-
-    The helpers are kept ``ahead`` chunks busy (what they finished waits here); whenever the oldest chunk is not
-    back yet, this process renders the next unclaimed chunk itself rather than wait: it is busy while the helpers
-    start up, and the last chunks are shared out, not left to one process. A few rendered chunks at most wait here
-    for their turn.
-    """
-    pending: deque[Any] = deque()  # in chunk order: a helper's AsyncResult, or frames rendered here
-    claimed = 0
-    while claimed < len(chunks) or pending:
-        while claimed < len(chunks) and _busy(pending) < ahead:
-            pending.append(pool.apply_async(_worker_render, (chunks[claimed],)))
-            claimed += 1
-        head = pending[0]
-        if isinstance(head, list) or head.ready() or claimed == len(chunks):
-            pending.popleft()
-            yield from head if isinstance(head, list) else head.get()
-            continue
-        pending.append(render(chunks[claimed]))
-        claimed += 1
-
-
-def _busy(pending: deque[Any]) -> int:
-    """Chunks handed to the helpers and not back yet."""
-    return sum(not isinstance(p, list) and not p.ready() for p in pending)
+    with ctx.Pool(min(workers, len(chunks)), _worker_init, (str(rec.folder), view, size, fps)) as pool:
+        for chunk in pool.imap(_worker_render, chunks):
+            yield from chunk
 
 
 def render_video(rec: RunRecord, out: Path, *, fps: float | None = None, size: tuple[int, int] = DEFAULT_SIZE,
