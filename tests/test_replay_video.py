@@ -9,7 +9,8 @@ import pytest
 
 from robokit.cli import main
 from robokit.record.format import find_run
-from robokit.record.video import frame_bytes, frame_indices, frames
+from robokit.record.scene import choose_view, rebuild
+from robokit.record.video import Renderer, frame_bytes, frame_indices, frames
 
 SCENE = """
 [world]
@@ -75,3 +76,61 @@ def test_video_command_with_workers_writes_every_frame(record: Path, capsys: pyt
     assert meta["size"] == (96, 72) and sum(1 for _ in reader) == 37
     assert main(["video", "last", "--workers", "0"]) == 2
     assert "--workers must be at least 1, got 0" in capsys.readouterr().err
+
+
+def test_layered_frames_are_the_whole_scene_frames_byte_for_byte(record: Path) -> None:
+    """The still plane drawn once under the moving arm and box gives the pixels of drawing every body each frame."""
+    rec = find_run(str(record))
+    for view in (None, "top"):
+        whole = [f for _, f in frames(rec, fps=30.0, size=(160, 120), view=view, layered=False)]
+        layered = [f for _, f in frames(rec, fps=30.0, size=(160, 120), view=view)]
+        assert len(whole) == len(layered) == 37
+        assert [k for k, (a, b) in enumerate(zip(whole, layered, strict=True)) if not np.array_equal(a, b)] == []
+    with rebuild(rec) as scene:
+        renderer = Renderer(scene, choose_view(scene, None, 4 / 3), (160, 120))
+        assert renderer.still == ["plane"] and renderer.moving == ["box", "kuka"]
+
+
+TIE = """
+[world]
+max_time = 1.0
+
+[bodies.slab]
+shape = "box"
+size = [0.3, 0.3, 0.3]
+position = [0, 0, 0.15]
+mass = 0
+rgba = [0.1, 0.8, 0.1, 1]
+
+[bodies.cube]
+shape = "box"
+size = [0.3, 0.3, 0.3]
+position = [0, 0, 0.6]
+rgba = [0.9, 0.1, 0.1, 1]
+
+[behaviour]
+type = "record"
+components = []
+duration = 0.5
+"""
+
+
+def test_layers_equally_near_show_the_body_the_whole_scene_shows(tmp_path: Path,
+                                                                  monkeypatch: pytest.MonkeyPatch) -> None:
+    """A moving cube put exactly where a still slab of another colour is: every pixel of the two ties in depth, and
+    the layered frame still shows what drawing both bodies together shows."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "tie.toml").write_text(TIE)
+    assert main(["run", "tie.toml", "--quiet"]) == 0
+    rec = find_run("last")
+    cube, slab = rec.poses["base/cube"], rec.poses["base/slab"]
+    cube[::2] = slab[::2]  # every other sample: the cube inside the slab, face on face; between, falling above it
+    whole = [f for _, f in frames(rec, fps=30.0, size=(64, 48), layered=False)]
+    layered = [f for _, f in frames(rec, fps=30.0, size=(64, 48))]
+    assert [k for k, (a, b) in enumerate(zip(whole, layered, strict=True)) if not np.array_equal(a, b)] == []
+    with rebuild(rec) as scene:
+        renderer = Renderer(scene, choose_view(scene, None, 4 / 3), (64, 48))
+        assert renderer.still == ["slab"]
+        for i in range(0, len(rec.poses["t"]), 2):
+            renderer.frame(i)
+        assert renderer.ties == len(range(0, len(rec.poses["t"]), 2))

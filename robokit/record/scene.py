@@ -33,17 +33,19 @@ class Scene:
     light_direction: list[float] | None = None
     """The light every camera of the run used when ``[randomize]`` drew one (None: the renderer's default)."""
 
-    def set_frame(self, i: int) -> None:
-        """Put every body in the pose of pose-log sample ``i``."""
+    def set_frame(self, i: int, names: list[str] | None = None) -> None:
+        """Put every body (or only ``names``) in the pose of pose-log sample ``i``."""
         poses, world = self.rec.poses, self.world
         for name, indices in self.joints.items():
+            if names is not None and name not in names:
+                continue
             bid = self.world.body(name)
             base = poses.get(f"base/{name}")
             if base is None:
                 continue
             row = base[i]
             if np.isnan(row[0]):
-                world.set_com_pose(bid, FAR_AWAY, (0, 0, 0, 1))
+                self.park([name])
                 continue
             position = row[:3].tolist()
             position[2] -= self.lowered.get(name, 0.0)
@@ -52,6 +54,21 @@ class Scene:
             if q is not None:
                 for idx, value in zip(indices, q[i].tolist(), strict=True):
                     world.reset_joint(bid, idx, value)
+
+    def still_bodies(self) -> list[str]:
+        """The logged bodies whose base pose and joint positions are the same in every pose sample."""
+        poses, still = self.rec.poses, []
+        for name in self.joints:
+            logs = [poses[k] for k in (f"base/{name}", f"joints/{name}") if k in poses]
+            if logs and all(np.array_equal(log, np.broadcast_to(log[:1], log.shape), equal_nan=True) for log in logs):
+                still.append(name)
+        return still
+
+    def park(self, names: list[str]) -> None:
+        """Move these bodies out of every view (as a body removed during the run is): the renderer draws nothing
+        of them until :meth:`set_frame` poses them again."""
+        for name in names:
+            self.world.set_com_pose(self.world.body(name), FAR_AWAY, (0, 0, 0, 1))
 
     def close(self) -> None:
         self.world.close()
