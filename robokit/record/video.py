@@ -116,12 +116,10 @@ class Renderer:
         if not self.still:
             scene.set_frame(i)
             return self.render()
-        if self.backdrop is None:
-            back_rgb, back_depth, _ = self.in_copy(i, self.still)
-            self.backdrop = back_rgb, back_depth
-            scene.park(self.still)
+        self.prepare(i)
         scene.set_frame(i, self.moving)
         rgb, depth, _ = self.camera()
+        assert self.backdrop is not None
         back_rgb, back_depth = self.backdrop
         front = depth < back_depth
         tie = (depth == back_depth) & (rgb != back_rgb).any(axis=2)
@@ -131,6 +129,13 @@ class Renderer:
             assert bodies is not None  # the copy is built like this scene: its bodies have the same ids
             front |= tie & np.isin(bodies, [scene.world.body(name) for name in self.moving])
         return np.where(front[:, :, None], rgb, back_rgb)
+
+    def prepare(self, i: int = 0) -> None:
+        """Draw the still layer (once; any pose sample ``i`` shows the still bodies where they always are)."""
+        if self.still and self.backdrop is None:
+            back_rgb, back_depth, _ = self.in_copy(i, self.still)
+            self.backdrop = back_rgb, back_depth
+            self.scene.park(self.still)
 
     def in_copy(self, i: int, names: list[str], *, mask: bool = False) -> Image:
         """:meth:`camera` of a second copy of the scene with only ``names`` in the pose of sample ``i``."""
