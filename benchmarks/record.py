@@ -4,13 +4,13 @@
    with the recorder's pose log at 30 Hz (plus the trace file) and without any record, alternating, ``--repeats``
    pairs. Prints each pair and the ratio of the medians (target: <= 1.03). Both runs must end identically.
 2. **Video render rate**: frames per second of ``robokit video``'s renderer for the recorded run (rebuild the
-   scene, set the poses, render each frame with TinyRenderer and draw the overlay; no encoding), on the same run,
-   wall time and CPU time (a parallel figure includes its workers' CPU and their start-up):
-   A ``--size`` serial drawing every body each frame (the renderer before the still layer), B the same drawing the
-   still bodies once (today's serial renderer; its frames are compared with A's byte for byte), C B in ``--workers``
-   processes (today's default command), D the default command when issue 31 was filed: 640x480, serial, every body
-   each frame. Printed ratios: B/A (per-frame drawing), C/B (workers at the same size), C/A, and D/C ("default
-   command before/after"); then, in CPU time, the best speed-up of C over B two cores allow given the serial parts.
+   scene, set the poses, render each frame with TinyRenderer and draw the overlay; no encoding), on the same run:
+   at ``--size`` serial (one process) and parallel (``--workers``, default one per core: today's default command),
+   and the default command when issue 31 was filed (640x480, one process; the per-frame code is the same), with
+   wall time and CPU time (a parallel figure includes its workers' CPU and their start-up). Two labelled ratios:
+   serial vs workers at the same size, and the default command before/after (smaller default frame + workers).
+   Then, in CPU time, the best speed-up two cores allow at the same size given the serial parts (scene rebuild, a
+   helper's start-up).
 
     python benchmarks/record.py [--repeats 7] [--size 480x360] [--video-frames 0 (= all)] [--workers N]
     python benchmarks/record.py --video-only     # skip the recording overhead part (one run, then the video)
@@ -34,6 +34,8 @@ from robokit.record.format import RunRecord
 from robokit.runner import run_config
 
 CONFIG = Path(__file__).resolve().parent.parent / "configs" / "sort_robot.toml"
+OLD_SIZE = (640, 480)
+"""``robokit video``'s default frame size when issue 31 was filed (rendered in one process then)."""
 
 
 def one_run(plugins: Any, record: bool, folder: Path) -> tuple[float, dict]:
@@ -86,74 +88,50 @@ def sample_cost(samples: int = 2000) -> float:
     return cost
 
 
-def _cpu() -> float:
-    """CPU seconds of this process and its finished children."""
+def render_rate(run: Path, size: tuple[int, int], limit: int, workers: int) -> None:
     import resource
-
-    own, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
-    return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
-
-
-def timed_video(rec: RunRecord, size: tuple[int, int], workers: int,
-                layered: bool) -> tuple[int, float, float, list[bytes]]:
-    """Render every frame (no encoding): count, wall s, CPU s, and a digest of each frame (to compare pixels)."""
-    import hashlib
 
     from robokit.record.video import frame_bytes
 
-    start, cpu0 = time.perf_counter(), _cpu()
-    digests = [hashlib.blake2b(data, digest_size=16).digest()
-               for data in frame_bytes(rec, fps=30.0, size=size, view=None, workers=workers, layered=layered)]
-    return len(digests), time.perf_counter() - start, _cpu() - cpu0, digests
-
-
-def render_rate(run: Path, size: tuple[int, int], limit: int, workers: int) -> None:
     rec = RunRecord(run)
     if limit:
         keep = limit / 30.0 - 1e-9
         n = int((rec.poses["t"] <= keep).sum())
         for k in list(rec.poses):
             rec.poses[k] = rec.poses[k][:n]
-    old = (640, 480)
-    cases = [("A", "serial, every body drawn each frame", size, 1, False),
-             ("B", "serial, still bodies drawn once (layers)", size, 1, True),
-             ("C", f"{workers} workers, layers", size, workers, True),
-             ("D", "old default: serial, every body each frame", old, 1, False)]
-    rows: dict[str, tuple[str, tuple[int, int], int, float, float, list[bytes]]] = {}
-    for key, label, at, w, layered in cases:
-        count, wall, spent, digests = timed_video(rec, at, w, layered)
-        rows[key] = (label, at, count, wall, spent, digests)
-    print(f"video render rate, {rows['A'][2]} frames (scene rebuild + pose + render + overlay, no encoding):")
-    for key, (label, at, count, wall, spent, _) in rows.items():
-        print(f"  {key} {at[0]}x{at[1]} {label:<44} {count / wall:6.1f} frames/s wall  {wall:6.2f} s wall  "
-              f"{spent:6.2f} s CPU")
-    same = sum(a == b for a, b in zip(rows["A"][5], rows["B"][5], strict=True))
-    secs = {key: row[3] for key, row in rows.items()}
-    print(f"  same pixels: layers B vs every body A, {same}/{rows['A'][2]} frames byte for byte; "
-          f"workers C vs B, {sum(a == b for a, b in zip(rows['B'][5], rows['C'][5], strict=True))}/{rows['A'][2]}")
-    print(f"  per-frame drawing, same size, serial (B vs A, same pixels):            {secs['A'] / secs['B']:.2f}x")
-    print(f"  same size, serial vs {workers} workers (C vs B, both layered):             {secs['B'] / secs['C']:.2f}x")
-    print(f"  both, same size (C vs A):                                             {secs['A'] / secs['C']:.2f}x")
-    print(f"  default command before/after (smaller default frame + workers + layers; D {old[0]}x{old[1]} serial at "
-          f"issue 31's filing vs C {size[0]}x{size[1]} today): {secs['D'] / secs['C']:.2f}x")
+    def cpu() -> float:
+        own, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+        return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
+
+    rows = []
+    for label, at, w in ((f"{size[0]}x{size[1]} serial", size, 1),
+                         (f"{size[0]}x{size[1]} {workers} workers", size, workers),
+                         (f"{OLD_SIZE[0]}x{OLD_SIZE[1]} serial", OLD_SIZE, 1)):
+        start, cpu0 = time.perf_counter(), cpu()
+        count = sum(1 for _ in frame_bytes(rec, fps=30.0, size=at, view=None, workers=w))
+        rows.append((label, count, time.perf_counter() - start, cpu() - cpu0))
+    print(f"video render rate, {rows[0][1]} frames (scene rebuild + pose + render + overlay, no encoding):")
+    for label, count, wall, spent in rows:
+        print(f"  {label:<20} {count / wall:6.1f} frames/s wall   {wall:6.2f} s wall   {spent:6.2f} s CPU")
+    (_, _, serial, _), (_, _, parallel, _), (_, _, old, _) = rows
+    print(f"  same size, serial vs {workers} workers ({size[0]}x{size[1]}): {serial / parallel:.2f}x (wall)")
+    print(f"  default command before/after (smaller default frame + workers; {OLD_SIZE[0]}x{OLD_SIZE[1]} serial when "
+          f"issue 31 was filed vs {size[0]}x{size[1]} with {workers} workers now): {old / parallel:.2f}x (wall)")
     print(f"  load average now: {' '.join(f'{v:.2f}' for v in os.getloadavg())}")
 
 
-def _helper_start(folder: str, size: tuple[int, int]) -> None:
-    from robokit.record.video import _WORKER, Renderer, _worker_init
+def _helper_start(folder: str) -> None:
+    from robokit.record.video import _worker_init
 
-    _worker_init(folder, None, size, 30.0)
-    renderer = _WORKER["renderer"]
-    assert isinstance(renderer, Renderer)
-    renderer.prepare()
+    _worker_init(folder, None, (480, 360), 30.0)
 
 
 def parallel_bound(run: Path, size: tuple[int, int], limit: int) -> None:
     """What limits the parallel speed-up on 2 cores, in CPU seconds (a loaded machine inflates wall time, not
-    these): what every process does before its first frame R (scene rebuild and the still layer), a helper's
-    start-up S (interpreter, imports, its own R; spawned, so it starts S after this process), and the render of one
-    frame f. This process renders from R on and the helper from S on, so with no other overhead the N frames are
-    done at T = (R + S + N f) / 2 against R + N f serially: 2 (R + N f) / (R + S + N f) < 2 since S > R."""
+    these): the scene rebuild R every process does before its first frame, a helper's start-up S (interpreter,
+    imports, its own rebuild; spawned, so it starts S after this process), and the render of one frame f.
+    This process renders from R on and the helper from S on, so with no other overhead the N frames are done at
+    T = (R + S + N f) / 2 against R + N f serially: 2 (R + N f) / (R + S + N f) < 2 since S > R."""
     import multiprocessing
     import resource
 
@@ -164,26 +142,26 @@ def parallel_bound(run: Path, size: tuple[int, int], limit: int) -> None:
     frames = limit or len(frame_indices(rec.poses["t"], 30.0))
     start = time.process_time()
     scene = rebuild(rec)
-    renderer = Renderer(scene, choose_view(scene, None, size[0] / size[1]), size)
-    renderer.prepare()
     r = time.process_time() - start
+    renderer = Renderer(scene, choose_view(scene, None, size[0] / size[1]), size)
     samples = frame_indices(rec.poses["t"], 30.0)[: max(1, min(frames, 40))]
     spans = rec.spans()
     start = time.process_time()
     for k, i in enumerate(samples):
-        overlay(renderer.frame(i), k / 30, rec.state_at(spans, k / 30)).tobytes()
+        scene.set_frame(i)
+        overlay(renderer.render(), k / 30, rec.state_at(spans, k / 30)).tobytes()
     f = (time.process_time() - start) / len(samples)
     scene.close()
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    helper = multiprocessing.get_context("spawn").Process(target=_helper_start, args=(str(run), size))
+    helper = multiprocessing.get_context("spawn").Process(target=_helper_start, args=(str(run),))
     helper.start()
     helper.join()
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     s = (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
     bound = 2 * (r + frames * f) / (r + s + frames * f)
-    print(f"  CPU: rebuild + still layer R = {r:.3f} s, helper start-up S = {s:.3f} s, frame f = {1000 * f:.1f} ms x "
-          f"{frames}: best 2-core speed-up of C over B 2(R+Nf)/(R+S+Nf) = {bound:.3f}x (a fork after the rebuild, "
-          f"S = R: {2 * (r + frames * f) / (2 * r + frames * f):.3f}x)")
+    print(f"  CPU: rebuild R = {r:.3f} s, helper start-up S = {s:.3f} s, frame f = {1000 * f:.1f} ms x {frames}: "
+          f"best 2-core speed-up 2(R+Nf)/(R+S+Nf) = {bound:.3f}x (a fork after the rebuild, S = R: "
+          f"{2 * (r + frames * f) / (2 * r + frames * f):.3f}x)")
 
 
 def main() -> None:

@@ -15,6 +15,8 @@ import numpy as np
 import pytest
 
 from robokit.record.format import find_run
+from robokit.record.scene import choose_view, rebuild
+from robokit.record.video import Renderer
 
 ROOT = Path(__file__).resolve().parent.parent
 MB = 1024 * 1024
@@ -109,6 +111,20 @@ def test_the_replay_draws_the_arm_the_cubes_in_their_bins_and_follows_state_clic
             x, y = driver.execute_script("return rkReplay.project(...arguments)", *[float(v) for v in point])
             return int(round(x)), int(round(y))
 
+        # 0. the replay opens on the video's default view: every point is where the video's camera puts it, in
+        # units of the picture's height from its middle (same eye, target and vertical field of view; the pane is
+        # wider than the video, so it shows more at the sides)
+        canvas_box = driver.execute_script("return rkReplay.viewer.renderer.domElement.getBoundingClientRect()")
+        with rebuild(rec) as scene:
+            view = choose_view(scene, None, 4 / 3)
+            video = Renderer(scene, view, (480, 360))
+            for point in [list(view.target), *arm_points(rec.folder, 0), [1.25, 0.5, 0.0], [-0.25, -0.5, 0.0]]:
+                col, row = driver.execute_script("return rkReplay.project(...arguments)", *map(float, point))
+                page_at = ((col - canvas_box["left"] - canvas_box["width"] / 2) / canvas_box["height"],
+                           (row - canvas_box["top"] - canvas_box["height"] / 2) / canvas_box["height"])
+                vcol, vrow = video.project(tuple(point))  # type: ignore[arg-type]
+                assert page_at == pytest.approx(((vcol - 240) / 360, (vrow - 180) / 360), abs=0.01), point
+
         # 1. the arm: pixels where pybullet puts its links change when the arm is hidden
         driver.execute_script("rkReplay.show(0)")
         with_arm = shot()
@@ -142,10 +158,19 @@ def test_the_replay_draws_the_arm_the_cubes_in_their_bins_and_follows_state_clic
             cols, rows = zip(*corners, strict=True)
             return int(colour_mask(picture, colour)[min(rows):max(rows) + 1, min(cols):max(cols) + 1].sum())
 
-        start = {c: in_bin(with_arm, c) for c in ("red", "blue")}
+        # The replay opens on the video's view, from behind the arm, which stands in front of the blue bin at the
+        # end: the bins are looked at with the arm hidden (the arm was checked above); the artifact shows it.
+        hide_arm = ("rkReplay.viewer.scene.getObjectByName('robokit').children"
+                    ".filter(g => g.name.startsWith('panda/')).forEach(g => { g.visible = false; });")
+        driver.execute_script(hide_arm)
+        start = {c: in_bin(shot(), c) for c in ("red", "blue")}
         driver.execute_script("rkReplay.show(rkReplay.duration)")
+        driver.execute_script(hide_arm)
+        bins_shot = shot()
+        end = {c: in_bin(bins_shot, c) for c in ("red", "blue")}
+        driver.execute_script("rkReplay.viewer.scene.getObjectByName('robokit').children"
+                              ".forEach(g => { g.visible = true; });")
         end_shot = shot()
-        end = {c: in_bin(end_shot, c) for c in ("red", "blue")}
         assert rec.result["result"]["red_sorted"] == rec.result["result"]["blue_sorted"] == 2
         assert end["red"] > 40 and end["blue"] > 40, end
         assert start["red"] < end["red"] / 4 and start["blue"] < end["blue"] / 4, (start, end)

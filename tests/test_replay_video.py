@@ -78,59 +78,50 @@ def test_video_command_with_workers_writes_every_frame(record: Path, capsys: pyt
     assert "--workers must be at least 1, got 0" in capsys.readouterr().err
 
 
-def test_layered_frames_are_the_whole_scene_frames_byte_for_byte(record: Path) -> None:
-    """The still plane drawn once under the moving arm and box gives the pixels of drawing every body each frame."""
-    rec = find_run(str(record))
-    for view in (None, "top"):
-        whole = [f for _, f in frames(rec, fps=30.0, size=(160, 120), view=view, layered=False)]
-        layered = [f for _, f in frames(rec, fps=30.0, size=(160, 120), view=view)]
-        assert len(whole) == len(layered) == 37
-        assert [k for k, (a, b) in enumerate(zip(whole, layered, strict=True)) if not np.array_equal(a, b)] == []
-    with rebuild(rec) as scene:
-        renderer = Renderer(scene, choose_view(scene, None, 4 / 3), (160, 120))
-        assert renderer.still == ["plane"] and renderer.moving == ["box", "kuka"]
-
-
-TIE = """
+SUNK = """
 [world]
 max_time = 1.0
 
-[bodies.slab]
-shape = "box"
-size = [0.3, 0.3, 0.3]
-position = [0, 0, 0.15]
-mass = 0
-rgba = [0.1, 0.8, 0.1, 1]
+[bodies.plane]
+urdf = "plane.urdf"
+position = [0, 0, 0]
 
-[bodies.cube]
+[bodies.table]
 shape = "box"
-size = [0.3, 0.3, 0.3]
-position = [0, 0, 0.6]
-rgba = [0.9, 0.1, 0.1, 1]
+size = [1.2, 0.8, 0.1]
+position = [0, 0, -0.05]
+mass = 0
+rgba = [0.8, 0.5, 0.1, 1]
+
+[robots.kuka]
+urdf = "kuka_iiwa/model.urdf"
+position = [0, 0, 0]
+fixed_base = true
 
 [behaviour]
 type = "record"
 components = []
-duration = 0.5
+duration = 0.2
 """
+"""A table sunk to put its top at z = 0, in the floor's plane, with a 1.3 m arm standing on it."""
 
 
-def test_layers_equally_near_show_the_body_the_whole_scene_shows(tmp_path: Path,
-                                                                  monkeypatch: pytest.MonkeyPatch) -> None:
-    """A moving cube put exactly where a still slab of another colour is: every pixel of the two ties in depth, and
-    the layered frame still shows what drawing both bodies together shows."""
+def test_the_default_view_shows_every_body_whole_and_a_table_in_the_floor_s_plane(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.chdir(tmp_path)
-    (tmp_path / "tie.toml").write_text(TIE)
-    assert main(["run", "tie.toml", "--quiet"]) == 0
+    (tmp_path / "sunk.toml").write_text(SUNK)
+    assert main(["run", "sunk.toml", "--quiet"]) == 0
     rec = find_run("last")
-    cube, slab = rec.poses["base/cube"], rec.poses["base/slab"]
-    cube[::2] = slab[::2]  # every other sample: the cube inside the slab, face on face; between, falling above it
-    whole = [f for _, f in frames(rec, fps=30.0, size=(64, 48), layered=False)]
-    layered = [f for _, f in frames(rec, fps=30.0, size=(64, 48))]
-    assert [k for k, (a, b) in enumerate(zip(whole, layered, strict=True)) if not np.array_equal(a, b)] == []
+    size = (160, 120)
+    _, first = next(frames(rec, fps=30.0, size=size))
     with rebuild(rec) as scene:
-        renderer = Renderer(scene, choose_view(scene, None, 4 / 3), (64, 48))
-        assert renderer.still == ["slab"]
-        for i in range(0, len(rec.poses["t"]), 2):
-            renderer.frame(i)
-        assert renderer.ties == len(range(0, len(rec.poses["t"]), 2))
+        renderer = Renderer(scene, choose_view(scene, None, size[0] / size[1]), size)
+        assert scene.lowered["plane"] > 0.05  # drawn under the table's bottom, not in its top's plane
+        for name in ("table", "kuka"):  # every corner of each body's box inside the picture: the arm's top too
+            lo, hi = scene.world.body_aabb(name)
+            for corner in [(x, y, z) for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]:
+                col, row = renderer.project(corner)
+                assert 0 <= col < size[0] and 0 <= row < size[1], (name, corner, col, row)
+        col, row = (int(v) for v in renderer.project((0.45, 0.3, 0.0)))  # the table's top, off the arm
+    r, g, b = (int(v) for v in first[row, col])
+    assert r > g > b and r - b > 60, (r, g, b)  # the table's orange, not the floor's blue and white

@@ -111,60 +111,20 @@
     }
     viewer.set_dirty();
   }
-  // The default view looks at the middle of the scene's bounding box from 30 degrees above, far enough back for the
-  // whole box to fit the picture, from the front right (+x, -y: across from a robot facing +x, as robokit's arms
-  // do), so that an arm never stands between the camera and the table it works on. (The video's "iso" looks from
-  // behind the robot, -x +y; from there the main job's arm hides the blue bin at the end.)
-  const FRONT = [0.6124, -0.6124, 0.5]; // scene axes (z up)
-  const MARGIN = 0.9; // the box fills at most 90 % of the narrower side of the picture
-
-  // The box of every body smaller than 5 m (ground planes excluded), in the scene's z-up axes, as the video's
-  // scene_box: bodies sunk below the floor do not pull it lower than 5 cm under it.
-  function sceneBox() {
-    root.updateMatrixWorld(true);
-    const toScene = new THREE.Matrix4().copy(root.parent.matrixWorld).invert(); // three.js y-up -> MeshCat z-up
-    const bodies = new Map();
-    groups.forEach((g, k) => {
-      if (!g.visible) return;
-      const b = new THREE.Box3().setFromObject(g);
-      if (b.isEmpty()) return;
-      const body = D.links[k].split("/")[0];
-      bodies.set(body, (bodies.get(body) || new THREE.Box3()).union(b.applyMatrix4(toScene)));
-    });
-    const out = new THREE.Box3();
-    for (const b of bodies.values()) {
-      const size = b.getSize(new THREE.Vector3());
-      if (Math.max(size.x, size.y, size.z) < 5) out.union(b);
-    }
-    if (out.isEmpty()) return new THREE.Box3(new THREE.Vector3(0, 0, 0), new THREE.Vector3(1, 1, 1));
-    out.min.z = Math.min(Math.max(out.min.z, -0.05), out.max.z);
-    return out;
-  }
-
-  // How far from the box's middle along `dir` the camera must be for every corner to fall inside the picture:
-  // a corner at c (from the middle) is at depth d - c.dir, sideways c.right and up c.up in the camera's frame.
-  function distanceToFit(box, dir, cam) {
-    const up = new THREE.Vector3(0, 0, 1);
-    const back = new THREE.Vector3(...dir).normalize();
-    const right = new THREE.Vector3().crossVectors(up, back).normalize();
-    const camUp = new THREE.Vector3().crossVectors(back, right);
-    const tanV = Math.tan(cam.fov * Math.PI / 360) * MARGIN, tanH = tanV * cam.aspect;
-    const centre = box.getCenter(new THREE.Vector3()), half = box.getSize(new THREE.Vector3()).multiplyScalar(0.5);
-    let d = 0;
-    for (const sx of [-1, 1]) for (const sy of [-1, 1]) for (const sz of [-1, 1]) {
-      const c = new THREE.Vector3(sx * half.x, sy * half.y, sz * half.z);
-      d = Math.max(d, c.dot(back) + Math.max(Math.abs(c.dot(right)) / tanH, Math.abs(c.dot(camUp)) / tanV));
-    }
-    return { centre, back, d: Math.max(d, 0.3) };
-  }
-
+  // The first view is the video's: D.view is the camera `robokit video` looks through by default (its "iso" view of
+  // this scene: behind the robot and to its left, 30 degrees above the middle of the scene's box, with the same
+  // vertical field of view), so the replay opens on the picture the video shows; a wider pane shows more at the sides.
+  // MeshCat's orbit controls turn about the origin: the scene (z up, under MeshCat's rotated scene) is shifted to put
+  // the view's target there. The camera sits in three.js's y-up frame: scene (x, y, z) is (x, z, -y) there.
   function frame() {
     show(0);
-    const view = distanceToFit(sceneBox(), FRONT, viewer.camera);
-    // MeshCat's orbit controls turn about the origin: the scene (z up, under MeshCat's rotated scene) is shifted to
-    // put the box's middle there. The camera sits in three.js's y-up frame: scene (x, y, z) is (x, z, -y) there.
-    root.position.set(-view.centre.x, -view.centre.y, -view.centre.z);
-    const eye = view.back.multiplyScalar(view.d);
+    const v = D.view;
+    if (!v) return;
+    const target = new THREE.Vector3(...v.target);
+    const eye = new THREE.Vector3(...v.eye).sub(target);
+    root.position.set(-target.x, -target.y, -target.z);
+    viewer.camera.fov = v.fov;
+    viewer.camera.updateProjectionMatrix();
     viewer.set_property(["Cameras", "default", "rotated", "<object>"], "position", [eye.x, eye.z, -eye.y]);
     viewer.set_dirty();
   }

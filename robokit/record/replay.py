@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from robokit.record.format import FRAMES_DIR, RunRecord
-from robokit.record.scene import Scene, rebuild
+from robokit.record.scene import Scene, View, choose_view, rebuild
 
 GEOMETRY = {2: "sphere", 3: "box", 4: "cylinder", 5: "mesh", 6: "plane", 7: "capsule"}
 """PyBullet's visual geometry type numbers (``GEOM_SPHERE`` ...), by name."""
@@ -56,12 +56,14 @@ class Shape:
 @dataclass
 class Replay:
     """Everything a viewer needs: ``links``, ``shapes``, sample times ``t`` (N,) and ``poses`` (N, links, 7): each
-    link frame's world position (x, y, z, metres) and quaternion (x, y, z, w); NaN once its body was removed."""
+    link frame's world position (x, y, z, metres) and quaternion (x, y, z, w); NaN once its body was removed; and
+    ``view``, the camera ``robokit video`` looks through by default (its ``iso`` view of this scene)."""
 
     links: list[Link]
     shapes: list[Shape]
     t: np.ndarray
     poses: np.ndarray
+    view: View | None = None
 
 
 def _base_frame(client: Any, bid: int) -> tuple[Any, Any]:
@@ -117,6 +119,9 @@ def replay_of(rec: RunRecord, every: int = 1) -> Replay:
     t = rec.poses["t"]
     samples = sorted(set(range(0, len(t), max(1, every))) | ({len(t) - 1} if len(t) else set()))
     with rebuild(rec) as scene:
+        from robokit.record.video import DEFAULT_SIZE
+
+        view = choose_view(scene, None, DEFAULT_SIZE[0] / DEFAULT_SIZE[1])  # as the video: before any pose is set
         links, shapes = _links(scene)
         poses = np.empty((len(samples), len(links), 7))
         for n, i in enumerate(samples):
@@ -126,7 +131,7 @@ def replay_of(rec: RunRecord, every: int = 1) -> Replay:
                 base = rec.poses.get(f"base/{link.body}")
                 if base is not None and np.isnan(base[i, 0]):
                     poses[n, k] = np.nan
-    return Replay(links, shapes, t[samples].astype(float), poses)
+    return Replay(links, shapes, t[samples].astype(float), poses, view)
 
 
 # ----------------------------------------------------------------- the page's interactive replay
@@ -185,6 +190,8 @@ def payload(rec: RunRecord, replay: Replay | None = None) -> dict[str, Any]:
     spans = rec.spans()
     return {"links": [link.path for link in replay.links], "shapes": shapes, "meshes": mesh_data,
             "frames": _camera_frames(rec),
+            "view": None if replay.view is None else {"eye": replay.view.eye, "target": replay.view.target,
+                                                      "up": replay.view.up, "fov": replay.view.fov},
             "t": _b64(replay.t.astype(np.float32)), "poses": _b64(replay.poses.astype(np.float32)),
             "duration": float(max(rec.sim_time, float(replay.t[-1]) if len(replay.t) else 0.0)),
             "machines": [{"name": name, "spans": [[s.state, s.start, s.end] for s in stays]}

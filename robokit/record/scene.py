@@ -33,19 +33,17 @@ class Scene:
     light_direction: list[float] | None = None
     """The light every camera of the run used when ``[randomize]`` drew one (None: the renderer's default)."""
 
-    def set_frame(self, i: int, names: list[str] | None = None) -> None:
-        """Put every body (or only ``names``) in the pose of pose-log sample ``i``."""
+    def set_frame(self, i: int) -> None:
+        """Put every body in the pose of pose-log sample ``i``."""
         poses, world = self.rec.poses, self.world
         for name, indices in self.joints.items():
-            if names is not None and name not in names:
-                continue
             bid = self.world.body(name)
             base = poses.get(f"base/{name}")
             if base is None:
                 continue
             row = base[i]
             if np.isnan(row[0]):
-                self.park([name])
+                world.set_com_pose(bid, FAR_AWAY, (0, 0, 0, 1))
                 continue
             position = row[:3].tolist()
             position[2] -= self.lowered.get(name, 0.0)
@@ -54,21 +52,6 @@ class Scene:
             if q is not None:
                 for idx, value in zip(indices, q[i].tolist(), strict=True):
                     world.reset_joint(bid, idx, value)
-
-    def still_bodies(self) -> list[str]:
-        """The logged bodies whose base pose and joint positions are the same in every pose sample."""
-        poses, still = self.rec.poses, []
-        for name in self.joints:
-            logs = [poses[k] for k in (f"base/{name}", f"joints/{name}") if k in poses]
-            if logs and all(np.array_equal(log, np.broadcast_to(log[:1], log.shape), equal_nan=True) for log in logs):
-                still.append(name)
-        return still
-
-    def park(self, names: list[str]) -> None:
-        """Move these bodies out of every view (as a body removed during the run is): the renderer draws nothing
-        of them until :meth:`set_frame` poses them again."""
-        for name in names:
-            self.world.set_com_pose(self.world.body(name), FAR_AWAY, (0, 0, 0, 1))
 
     def close(self) -> None:
         self.world.close()
@@ -126,12 +109,13 @@ def apply_drawn_looks(world: Any, rec: RunRecord) -> list[float] | None:
 
 
 def floor_drops(world: Any) -> dict[str, float]:
-    """How far to lower each ground plane (a body over 5 m across, under 0.1 m thick) so that it lies under every
-    other body: a table sunk to put its top at z = 0 has its top exactly in the floor's plane, and the renderer
-    draws the two surfaces in the same place (z-fighting: the table vanishes). Drawing only; the run is unchanged.
+    """How far to lower each ground plane (a body over 5 m across, however thick: ``plane.urdf``'s collision box is
+    10 m deep) so that it lies under every other body: a table sunk to put its top at z = 0 has its top exactly in
+    the floor's plane, and the renderer draws the two surfaces in the same place (z-fighting: the table vanishes).
+    Drawing only; the run is unchanged.
     """
     boxes = {name: world.body_aabb(name) for name in world.body_names}
-    ground = {n for n, (lo, hi) in boxes.items() if max(hi[0] - lo[0], hi[1] - lo[1]) > 5.0 and hi[2] - lo[2] < 0.1}
+    ground = {n for n, (lo, hi) in boxes.items() if max(hi[0] - lo[0], hi[1] - lo[1]) > 5.0}
     others = [lo[2] for n, (lo, _) in boxes.items() if n not in ground]
     if not ground or not others:
         return {}
@@ -155,23 +139,30 @@ class View:
     fov: float = 50.0
 
 
-def scene_box(world: Any) -> tuple[np.ndarray, np.ndarray]:
-    """Bounding box of every body smaller than 5 m across (ground planes excluded), metres."""
-    los, his = [], []
+def body_boxes(world: Any) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Bounding box of every body smaller than 5 m across (ground planes excluded), metres; tables sunk below the
+    floor do not reach lower than 5 cm under it."""
+    boxes = []
     for name in world.body_names:
-        lo, hi = world.body_aabb(name)
-        if max(h - low for h, low in zip(hi, lo, strict=True)) < 5.0:
-            los.append(lo)
-            his.append(hi)
-    if not los:
+        lo, hi = (np.asarray(v, float) for v in world.body_aabb(name))
+        if max(hi - lo) < 5.0:
+            lo[2] = min(max(lo[2], -0.05), hi[2])
+            boxes.append((lo, hi))
+    return boxes
+
+
+def scene_box(world: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Bounding box of :func:`body_boxes` (the unit cube when there is none), metres."""
+    boxes = body_boxes(world)
+    if not boxes:
         return np.zeros(3), np.ones(3)
-    lo, hi = np.min(los, axis=0), np.max(his, axis=0)
-    lo[2] = max(lo[2], -0.05)  # tables sunk below the floor do not pull the view down
-    return lo, hi
+    return np.min([lo for lo, _ in boxes], axis=0), np.max([hi for _, hi in boxes], axis=0)
 
 
 def choose_view(scene: Scene, spec: str | None, aspect: float) -> View:
     """A view from ``--view``: a named view, a camera sensor's name, ``ex,ey,ez,tx,ty,tz``, or None (iso).
+
+    A named view frames the bodies as they are at the first pose sample: it leaves the scene in that pose.
 
     Raises:
         UserError: An unknown name or a malformed list of numbers (the message lists the choices).
@@ -194,22 +185,37 @@ def choose_view(scene: Scene, spec: str | None, aspect: float) -> View:
         cams = [n for n, c in sensors.items() if isinstance(c, dict) and c.get("type") == "camera"]
         raise UserError(f"--view: unknown view {spec!r}; choose one of {', '.join([*NAMED_VIEWS, *cams])} or "
                         f"'ex,ey,ez,tx,ty,tz'")
+    if len(scene.rec.poses["t"]):
+        scene.set_frame(0)  # the scene as the video starts (a robot spawned upright may start lower, at its ready pose)
     lo, hi = scene_box(scene.world)
-    return orbit_view(lo, hi, *NAMED_VIEWS[spec], aspect=aspect)
+    corners = [np.array([x, y, z]) for blo, bhi in body_boxes(scene.world)
+               for x in (blo[0], bhi[0]) for y in (blo[1], bhi[1]) for z in (blo[2], bhi[2])]
+    return orbit_view((lo + hi) / 2, corners or [lo, hi], *NAMED_VIEWS[spec], aspect=aspect)
 
 
-def orbit_view(lo: Any, hi: Any, yaw: float, pitch: float, *, aspect: float,
-               fov: float = 50.0) -> View:
-    """A camera at ``yaw``/``pitch`` (degrees) around a box's centre, far enough back for the whole box to fit."""
-    lo_, hi_ = np.asarray(lo, float), np.asarray(hi, float)
-    centre = (lo_ + hi_) / 2
-    radius = max(float(np.linalg.norm(hi_ - lo_)) / 2, 0.2)
-    half = math.radians(fov) / 2
-    half = min(half, math.atan(math.tan(half) * aspect))
-    dist = radius / math.sin(half) * 0.6
+FIT_MARGIN = 0.95
+"""A named view keeps every body's box within this share of the picture's half-width and half-height from its
+middle."""
+
+
+def orbit_view(centre: Any, points: Any, yaw: float, pitch: float, *, aspect: float, fov: float = 50.0) -> View:
+    """A camera at ``yaw``/``pitch`` (degrees) around ``centre``, just far enough back for every one of ``points``
+    (the corners of each body's box) to fall inside the picture: a tall robot from its base to its top. The run
+    page's replay opens on this view of the scene too."""
+    centre = np.asarray(centre, float)
     y, p = math.radians(yaw), math.radians(pitch)
-    direction = np.array([math.cos(p) * math.cos(y + math.pi / 2), math.cos(p) * math.sin(y + math.pi / 2),
-                          -math.sin(p)])
-    eye = centre + direction * dist
+    back = np.array([math.cos(p) * math.cos(y + math.pi / 2), math.cos(p) * math.sin(y + math.pi / 2),
+                     -math.sin(p)])
+    right = np.cross([0.0, 0.0, 1.0], back)
+    right /= np.linalg.norm(right)
+    cam_up = np.cross(back, right)
+    tan_v = math.tan(math.radians(fov) / 2) * FIT_MARGIN
+    tan_h = tan_v * aspect
+    dist = 0.3
+    for point in points:
+        # a point at c from the centre is at depth dist - c.back, sideways c.right and up c.up in the camera
+        c = np.asarray(point, float) - centre
+        dist = max(dist, c @ back + max(abs(c @ right) / tan_h, abs(c @ cam_up) / tan_v))
+    eye = centre + back * dist
     up = (0.0, 0.0, 1.0) if pitch > -85 else (math.cos(y), math.sin(y), 0.0)
     return View(tuple(eye.tolist()), tuple(centre.tolist()), up, fov)  # type: ignore[arg-type]

@@ -6,9 +6,8 @@ current state, and encoded by the ffmpeg that ``imageio-ffmpeg`` ships (OpenCV's
 
 Rendering is CPU-only here, so frames are spread over worker processes (one per core by default): each worker
 rebuilds the scene from the record in its own DIRECT client and renders every frame of the chunks it is handed;
-the chunks come back in order to the one encoder. A frame depends on its pose sample (and, see ``CHUNK``, on how many
-draws came before it in that client), so the frames are the serial renderer's, byte for byte. Each frame draws only
-the moving bodies over the still ones drawn once (:class:`Renderer`), with the pixels of drawing every body.
+the chunks come back in order to the one encoder. A frame depends only on its pose sample, so the frames are the
+serial renderer's, byte for byte.
 """
 
 from __future__ import annotations
@@ -28,14 +27,11 @@ from robokit.record.format import RunRecord
 from robokit.record.scene import Scene, View, choose_view, rebuild
 
 DEFAULT_SIZE = (480, 360)
-"""Default frame size. On the main job a 480x360 frame costs ~36 ms of CPU drawn in layers (~84 ms drawing every
-body; ~48 ms and ~130 ms at 640x480), so its 239 frames (8 s at the pose log's 30 Hz) take a few seconds on two
-cores; ``--size 640x480`` for a sharper one."""
+"""Default frame size. TinyRenderer costs ~100 ms of CPU per 480x360 frame (~140 ms at 640x480), so the main job's
+239 frames (8 s at the pose log's 30 Hz) take ~12 s on two cores: ready in well under 20 s with start-up and
+encoding; ``--size 640x480`` for a sharper one."""
 CHUNK = 8
-"""Frames per job handed to a worker: large enough to keep the pipe quiet, small enough to balance two cores. Even:
-TinyRenderer re-normalises a mesh's stored normals in place each time it draws it, which can alternate a pixel's
-shading by one level from one draw to the next, so each frame must come after as many draws (mod 2) as in the
-serial renderer."""
+"""Frames per job handed to a worker: large enough to keep the pipe quiet, small enough to balance two cores."""
 
 
 @dataclass
@@ -58,91 +54,26 @@ def frame_indices(t: np.ndarray, fps: float) -> list[int]:
     return np.clip(np.searchsorted(t, times + 1e-9, side="right") - 1, 0, len(t) - 1).tolist()  # type: ignore[no-any-return]
 
 
-Image = tuple[np.ndarray, np.ndarray, "np.ndarray | None"]
-"""RGB, depth and (when asked for) the segmentation mask of one draw."""
-
-
 class Renderer:
-    """Renders one posed scene through one camera at one size (TinyRenderer: no display or GPU needed).
+    """Renders one posed scene through one camera at one size (TinyRenderer: no display or GPU needed)."""
 
-    :meth:`frame` draws a pose sample in two layers, with the pixels of drawing the whole scene: the bodies that
-    never move (floor, table, bins) are drawn once, colour and depth; each frame then draws only the moving bodies
-    and keeps, pixel by pixel, the nearer layer. TinyRenderer shades each fragment from its own body and the light
-    alone (no shadows here) and keeps the nearest fragment, so where the moving layer is nearer the whole scene
-    shows its pixel, and where it is farther the still layer's. Where the two are equally near (to the depth
-    buffer's float precision) and differ, the drawing order decides: the whole scene is drawn once in a second copy
-    with its segmentation mask, which names the body in front there.
-
-    The still layer and the tie-breaker are drawn in a second copy of the scene because TinyRenderer re-normalises
-    a mesh's stored normals each time it draws the mesh, so a body's shading can change by one level on a pixel
-    from one draw to the next: this scene draws each moving body exactly once per frame, as the whole-scene
-    renderer does.
-    """
-
-    def __init__(self, scene: Scene, view: View, size: tuple[int, int], *, layered: bool = True) -> None:
+    def __init__(self, scene: Scene, view: View, size: tuple[int, int]) -> None:
         self.scene, self.view, self.size = scene, view, size
         client = scene.world.client
         w, h = size
         self.view_matrix = client.computeViewMatrix(list(view.eye), list(view.target), list(view.up))
         self.projection = client.computeProjectionMatrixFOV(fov=view.fov, aspect=w / h, nearVal=0.02, farVal=50.0)
-        still = scene.still_bodies() if layered else []
-        self.still = still if 0 < len(still) < len(scene.joints) else []
-        self.moving = [name for name in scene.joints if name not in self.still]
-        self.backdrop: tuple[np.ndarray, np.ndarray] | None = None
-        self.ties = 0
-        """Frames where :meth:`frame` asked the segmentation mask which layer is in front."""
 
-    def camera(self, *, mask: bool = False) -> Image:
-        """The current scene: RGB (height, width, 3) uint8, depth (height, width) float32 in [0, 1] and, with
-        ``mask``, the body id in front at each pixel (-1: none)."""
+    def render(self) -> np.ndarray:
+        """The current scene as an RGB array (height, width, 3), uint8."""
         import pybullet as p
 
         w, h = self.size
         light = {} if self.scene.light_direction is None else {"lightDirection": self.scene.light_direction}
-        _, _, rgba, depth, seg = self.scene.world.client.getCameraImage(
+        _, _, rgba, _, _ = self.scene.world.client.getCameraImage(
             w, h, viewMatrix=self.view_matrix, projectionMatrix=self.projection, renderer=p.ER_TINY_RENDERER,
-            flags=0 if mask else p.ER_NO_SEGMENTATION_MASK, shadow=0, **light)
-        rgb = np.asarray(rgba, dtype=np.uint8).reshape(h, w, 4)[:, :, :3].copy()
-        bodies = np.asarray(seg, dtype=np.int64).reshape(h, w) if mask else None
-        return rgb, np.asarray(depth, dtype=np.float32).reshape(h, w), bodies
-
-    def render(self) -> np.ndarray:
-        """The current scene as an RGB array (height, width, 3), uint8."""
-        return self.camera()[0]
-
-    def frame(self, i: int) -> np.ndarray:
-        """Pose sample ``i`` as an RGB array: the pixels of ``scene.set_frame(i)`` then :meth:`render`."""
-        scene = self.scene
-        if not self.still:
-            scene.set_frame(i)
-            return self.render()
-        self.prepare(i)
-        scene.set_frame(i, self.moving)
-        rgb, depth, _ = self.camera()
-        assert self.backdrop is not None
-        back_rgb, back_depth = self.backdrop
-        front = depth < back_depth
-        tie = (depth == back_depth) & (rgb != back_rgb).any(axis=2)
-        if tie.any():
-            self.ties += 1
-            _, _, bodies = self.in_copy(i, list(scene.joints), mask=True)
-            assert bodies is not None  # the copy is built like this scene: its bodies have the same ids
-            front |= tie & np.isin(bodies, [scene.world.body(name) for name in self.moving])
-        return np.where(front[:, :, None], rgb, back_rgb)
-
-    def prepare(self, i: int = 0) -> None:
-        """Draw the still layer (once; any pose sample ``i`` shows the still bodies where they always are)."""
-        if self.still and self.backdrop is None:
-            back_rgb, back_depth, _ = self.in_copy(i, self.still)
-            self.backdrop = back_rgb, back_depth
-            self.scene.park(self.still)
-
-    def in_copy(self, i: int, names: list[str], *, mask: bool = False) -> Image:
-        """:meth:`camera` of a second copy of the scene with only ``names`` in the pose of sample ``i``."""
-        with rebuild(self.scene.rec) as other:
-            other.set_frame(i, names)
-            other.park([name for name in other.joints if name not in names])
-            return Renderer(other, self.view, self.size, layered=False).camera(mask=mask)
+            flags=p.ER_NO_SEGMENTATION_MASK, shadow=0, **light)
+        return np.asarray(rgba, dtype=np.uint8).reshape(h, w, 4)[:, :, :3].copy()
 
     def project(self, point: tuple[float, float, float]) -> tuple[float, float]:
         """Pixel (column, row) where a world point appears in this renderer's frames."""
@@ -171,20 +102,19 @@ def overlay(frame: np.ndarray, t: float, states: dict[str, str]) -> np.ndarray:
 
 
 def frames(rec: RunRecord, *, fps: float | None = None, size: tuple[int, int] = DEFAULT_SIZE,
-           view: str | None = None, scene: Scene | None = None,
-           layered: bool = True) -> Iterator[tuple[float, np.ndarray]]:
-    """Yield ``(sim time, RGB frame with overlay)`` for every video frame of a record (``layered``: see
-    :class:`Renderer`; False draws every body in every frame, the same pixels, more slowly)."""
+           view: str | None = None, scene: Scene | None = None) -> Iterator[tuple[float, np.ndarray]]:
+    """Yield ``(sim time, RGB frame with overlay)`` for every video frame of a record."""
     own = scene is None
     scene = scene or rebuild(rec)
     try:
         t = rec.poses["t"]
         rate = fps or float(rec.header.get("pose_hz") or 30.0)
-        renderer = Renderer(scene, choose_view(scene, view, size[0] / size[1]), size, layered=layered)
+        renderer = Renderer(scene, choose_view(scene, view, size[0] / size[1]), size)
         spans = rec.spans()
         for k, i in enumerate(frame_indices(t, rate)):
+            scene.set_frame(i)
             now = k / rate
-            yield now, overlay(renderer.frame(i), now, rec.state_at(spans, now))
+            yield now, overlay(renderer.render(), now, rec.state_at(spans, now))
     finally:
         if own:
             scene.close()
@@ -201,8 +131,8 @@ def render_still(rec: RunRecord, out: Path, *, at: float, size: tuple[int, int] 
     t = rec.poses["t"]
     i = int(np.clip(np.searchsorted(t, at + 1e-9, side="right") - 1, 0, len(t) - 1))
     with rebuild(rec) as scene:
+        renderer = Renderer(scene, choose_view(scene, view, size[0] / size[1]), size)  # poses the scene at sample 0
         scene.set_frame(i)
-        renderer = Renderer(scene, choose_view(scene, view, size[0] / size[1]), size)
         now = float(t[i])
         image = overlay(renderer.render(), now, rec.state_at(rec.spans(), now))
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -216,22 +146,23 @@ _WORKER: dict[str, object] = {}
 """The scene a worker process rebuilt once, with its renderer (one per process; never pickled)."""
 
 
-def _worker_init(folder: str, view: str | None, size: tuple[int, int], rate: float, layered: bool = True) -> None:
+def _worker_init(folder: str, view: str | None, size: tuple[int, int], rate: float) -> None:
     rec = RunRecord(Path(folder))
     scene = rebuild(rec)
-    _WORKER.update(rec=rec, spans=rec.spans(), rate=rate,
-                   renderer=Renderer(scene, choose_view(scene, view, size[0] / size[1]), size, layered=layered))
+    _WORKER.update(rec=rec, scene=scene, spans=rec.spans(), rate=rate,
+                   renderer=Renderer(scene, choose_view(scene, view, size[0] / size[1]), size))
 
 
 def _worker_render(job: list[tuple[int, int]]) -> list[bytes]:
     """Render the frames ``(video frame k, pose sample i)`` of one chunk; RGB bytes, in order."""
-    rec, renderer = _WORKER["rec"], _WORKER["renderer"]
-    assert isinstance(rec, RunRecord) and isinstance(renderer, Renderer)
+    rec, scene, renderer = _WORKER["rec"], _WORKER["scene"], _WORKER["renderer"]
+    assert isinstance(rec, RunRecord) and isinstance(scene, Scene) and isinstance(renderer, Renderer)
     rate, spans = float(_WORKER["rate"]), _WORKER["spans"]  # type: ignore[arg-type]
     out = []
     for k, i in job:
+        scene.set_frame(i)
         now = k / rate
-        out.append(overlay(renderer.frame(i), now, rec.state_at(spans, now)).tobytes())  # type: ignore[arg-type]
+        out.append(overlay(renderer.render(), now, rec.state_at(spans, now)).tobytes())  # type: ignore[arg-type]
     return out
 
 
@@ -241,7 +172,7 @@ def default_workers() -> int:
 
 
 def frame_bytes(rec: RunRecord, *, fps: float, size: tuple[int, int], view: str | None,
-                workers: int, layered: bool = True) -> Iterator[bytes]:
+                workers: int) -> Iterator[bytes]:
     """Every video frame of a record as RGB bytes, in order; ``workers`` > 1 renders them in that many processes.
 
     Workers are started with ``spawn`` (a pybullet client must never cross a process boundary) and each rebuilds
@@ -249,14 +180,14 @@ def frame_bytes(rec: RunRecord, *, fps: float, size: tuple[int, int], view: str 
     """
     jobs = list(enumerate(frame_indices(rec.poses["t"], fps)))
     if workers <= 1 or len(jobs) < 2 * CHUNK:
-        for _, frame in frames(rec, fps=fps, size=size, view=view, layered=layered):
+        for _, frame in frames(rec, fps=fps, size=size, view=view):
             yield np.ascontiguousarray(frame).tobytes()
         return
     import multiprocessing
 
     chunks = [jobs[a:a + CHUNK] for a in range(0, len(jobs), CHUNK)]
     ctx = multiprocessing.get_context("spawn")
-    with ctx.Pool(min(workers, len(chunks)), _worker_init, (str(rec.folder), view, size, fps, layered)) as pool:
+    with ctx.Pool(min(workers, len(chunks)), _worker_init, (str(rec.folder), view, size, fps)) as pool:
         for chunk in pool.imap(_worker_render, chunks):
             yield from chunk
 
