@@ -6,8 +6,8 @@ current state, and encoded by the ffmpeg that ``imageio-ffmpeg`` ships (OpenCV's
 
 Rendering is CPU-only here, so frames are spread over worker processes (one per core by default): each worker
 rebuilds the scene from the record in its own DIRECT client and renders every frame of the chunks it is handed;
-the chunks come back in order to the one encoder. A frame depends only on its pose sample, so the frames are the
-serial renderer's, byte for byte.
+the chunks come back in order to the one encoder. A frame depends on its pose sample (and on whether an even or odd
+number of draws came before it in its client: see ``CHUNK``), so the frames are the serial renderer's, byte for byte.
 """
 
 from __future__ import annotations
@@ -27,11 +27,14 @@ from robokit.record.format import RunRecord
 from robokit.record.scene import Scene, View, choose_view, rebuild
 
 DEFAULT_SIZE = (480, 360)
-"""Default frame size. TinyRenderer costs ~100 ms of CPU per 480x360 frame (~140 ms at 640x480), so the main job's
-239 frames (8 s at the pose log's 30 Hz) take ~12 s on two cores: ready in well under 20 s with start-up and
+"""Default frame size. TinyRenderer costs ~80 ms of CPU per 480x360 frame of the main job (~127 ms at 640x480), so
+its 239 frames (8 s at the pose log's 30 Hz) take ~11 s on two cores: ready in well under 20 s with start-up and
 encoding; ``--size 640x480`` for a sharper one."""
 CHUNK = 8
-"""Frames per job handed to a worker: large enough to keep the pipe quiet, small enough to balance two cores."""
+"""Frames per job handed to a worker: large enough to keep the pipe quiet, small enough to balance two cores. Even:
+TinyRenderer re-normalises a mesh's stored normals in place each time it draws it, which can change a pixel's shading
+by one level from one draw to the next (period two), so each frame must follow as many draws, mod 2, as in one
+process."""
 
 
 @dataclass
