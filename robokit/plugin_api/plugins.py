@@ -9,7 +9,7 @@ import inspect
 import warnings
 from collections.abc import Iterable, Iterator, MutableMapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import pluggy
 
@@ -37,8 +37,7 @@ class PluginLoadWarning(UserWarning):
     """A plugin distribution could not be loaded; the others still are."""
 
 
-@dataclass(frozen=True)
-class PluginType:
+class PluginType(NamedTuple):
     """One registered type: its kind, config name, class, schema and where it came from."""
 
     kind: str
@@ -125,7 +124,7 @@ class KindTypes(MutableMapping[str, PluginType]):
         del self.data[name]
 
 
-@dataclass
+@dataclass(eq=False)
 class Plugins:
     """A loaded plugin manager and the types its plugins registered, by kind then name."""
 
