@@ -50,12 +50,17 @@ def create_submission(**fields: Any) -> Submission:
     return sub
 
 
+def official_overrides(trial_seconds: float) -> dict[str, Any]:
+    """What an official trial sets on top of the submitted config: the assignment's per-trial time limit."""
+    return {"world.max_wall_time": float(trial_seconds)}
+
+
 def trial_tasks(sub: Submission, seeds: list[int]) -> list[Any]:
     from robokit.sweep.trial import TrialTask, trial_run_id
 
-    limit = float(sub.assignment.trial_seconds)
+    overrides = official_overrides(sub.assignment.trial_seconds)
     modules = tuple(sub.plugin_modules or ())  # the student's plugin package, imported in the sandbox
-    return [TrialTask(key=f"seed={s}", cell=CELL, overrides={"world.max_wall_time": limit}, seed=int(s),
+    return [TrialTask(key=f"seed={s}", cell=CELL, overrides=overrides, seed=int(s),
                       run_id=trial_run_id(str(sub.uuid), f"seed={s}"), config_text=sub.config_text,
                       source=f"submission-{sub.pk}.toml", base_dir=".", plugins=modules) for s in seeds]
 
