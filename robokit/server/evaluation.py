@@ -88,15 +88,30 @@ def evaluate_submission(submission_id: int) -> str:
 def run_trials(tasks: list[Any], trial_seconds: float, files: dict[str, str] | None = None) -> Iterator[dict[str, Any]]:
     """The trials' rows: on the Ray cluster at ``ROBOKIT_RAY_ADDRESS`` through ``robokit sweep``'s Ray backend
     (a trial per Ray task, across the cluster's nodes), otherwise in a local sandbox process. ``files``: a
-    student's plugin package, written into the sandbox's scratch folder (evaluated locally only)."""
+    student's plugin package, written into the sandbox's scratch folder, or on Ray into a scratch folder that is
+    the Ray job's ``working_dir`` (Ray uploads it; each worker runs in its copy, where the modules import)."""
     address = os.environ.get("ROBOKIT_RAY_ADDRESS", "").strip()
-    if address and not files:
-        from robokit.sweep.ray_backend import RayBackend
-
-        return RayBackend(address, trial_timeout=trial_seconds + 60).run(tasks)
+    if address:
+        return _run_on_ray(address, tasks, trial_seconds, files or {})
     from robokit.server.sandbox import run_sandboxed
 
     return run_sandboxed(tasks, trial_seconds, files or {})
+
+
+def _run_on_ray(address: str, tasks: list[Any], trial_seconds: float,
+                files: dict[str, str]) -> Iterator[dict[str, Any]]:
+    import shutil
+
+    from robokit.server.sandbox import scratch_folder
+    from robokit.sweep.ray_backend import RayBackend
+
+    folder = scratch_folder(files) if files else None
+    try:
+        yield from RayBackend(address, trial_timeout=trial_seconds + 60,
+                              runtime_env={"working_dir": folder} if folder else None).run(tasks)
+    finally:
+        if folder:
+            shutil.rmtree(folder, ignore_errors=True)
 
 
 def store_trial(sub: Submission, row: dict[str, Any]) -> None:

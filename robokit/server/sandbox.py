@@ -76,7 +76,7 @@ def run_sandboxed(tasks: Sequence[Any], trial_seconds: float,
     the scratch folder, the process's working directory, where the tasks' ``plugins`` modules are imported from."""
     from robokit.sweep.trial import error_row
 
-    scratch = _scratch(files or {})
+    scratch = scratch_folder(files or {})
     sent = [{**{f.name: getattr(t, f.name) for f in dataclasses.fields(t) if f.name not in ("before", "after")},
              "base_dir": scratch} for t in tasks]
     cpu = int(len(tasks) * trial_seconds) + CPU_MARGIN
@@ -110,7 +110,7 @@ def check_sandboxed(config_text: str, source: str, overrides: dict[str, Any], fi
         ``plugin`` when the package could not be imported or the process hit a limit.
     """
     seconds = CHECK_SECONDS if seconds is None else seconds
-    scratch = _scratch(files)
+    scratch = scratch_folder(files)
     child = None
     request = {"check": {"config_text": config_text, "source": source, "base_dir": scratch,
                          "overrides": overrides, "plugins": list(modules)},
@@ -129,8 +129,8 @@ def check_sandboxed(config_text: str, source: str, overrides: dict[str, Any], fi
     return None if problem.get("ok") else (str(problem["field"]), str(problem["message"]))
 
 
-def _scratch(files: dict[str, str]) -> str:
-    """A new empty scratch folder holding ``files``."""
+def scratch_folder(files: dict[str, str]) -> str:
+    """A new scratch folder holding only ``files`` (``{relative path: text}``); the caller deletes it."""
     scratch = tempfile.mkdtemp(prefix="robokit-eval-")
     try:
         _write_files(scratch, files)
