@@ -125,8 +125,11 @@ def check_sandboxed(config_text: str, source: str, overrides: dict[str, Any], fi
         shutil.rmtree(scratch, ignore_errors=True)
     if not answer:
         return "plugin", f"loading your plugin and the config did not finish in {seconds:g} s ({why})"
-    problem = json.loads(answer)
-    return None if problem.get("ok") else (str(problem["field"]), str(problem["message"]))
+    try:
+        problem = json.loads(answer.splitlines()[-1])
+        return None if problem.get("ok") is True else (str(problem["field"]), str(problem["message"]))
+    except (ValueError, KeyError, AttributeError):  # the student's code wrote to the answer's stream
+        return "plugin", f"the check of your plugin gave no readable answer ({why})"
 
 
 def scratch_folder(files: dict[str, str]) -> str:
