@@ -4,6 +4,10 @@ The parent (a queue worker) starts ``python -m robokit.server.sandbox`` with the
 its resource limits before it imports robokit, runs each trial with :func:`robokit.sweep.trial.run_trial_safely`
 (the sweep's code: config text + seed -> one row) and writes one JSON row per finished trial to stdout.
 
+At submit time the web process starts the same child to check a config that names a student's plugin types
+(:func:`check_sandboxed`): the child imports the student's modules as extra plugins, loads the config as a trial
+would, and writes one JSON line (valid, or the key and message), within :data:`CHECK_SECONDS`.
+
 What isolation there is (said plainly in docs/server.md):
 
 - a separate process, started fresh for each submission, in a new empty scratch folder (its working directory,
