@@ -29,7 +29,7 @@ EXIT_RECORD_INCOMPLETE = 6
 full (a full disk, a file-size limit): each failure is a one-line warning naming the file and the reason."""
 
 
-@dataclass
+@dataclass(eq=False)
 class RunOutput:
     """A finished run: its result, the payload delivered, what each reporter did, and the exit code.
 
@@ -87,12 +87,11 @@ def make_reporters(cfg: Config, plugins: Plugins) -> list[Any]:
     return reporters
 
 
-@dataclass
 class _UnbuiltReporter:
     """Stands in for a reporter that could not be built: delivers nothing and says why."""
 
-    name: str
-    message: str
+    def __init__(self, name: str, message: str) -> None:
+        self.name, self.message = name, message
 
     def report(self, payload: dict[str, Any]) -> Delivery:
         return Delivery(False, None, self.message)

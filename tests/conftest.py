@@ -11,6 +11,7 @@ from __future__ import annotations
 import os
 import shutil
 import subprocess
+import tempfile
 from collections.abc import Iterator
 from typing import Any
 
@@ -25,6 +26,8 @@ def strict() -> bool:
 
 
 def pytest_configure(config: pytest.Config) -> None:
+    # the remembered entry points (robokit.plugin_api.entry_points) of test runs stay out of the user's own cache
+    os.environ.setdefault("ROBOKIT_CACHE_DIR", os.path.join(tempfile.gettempdir(), f"robokit-test-cache-{os.getuid()}"))
     config.addinivalue_line("markers", "skip_allowed(reason): this test may skip even with ROBOKIT_NO_SKIP=1")
 
 

@@ -30,7 +30,7 @@ def period_ticks(rate_hz: float | None, physics_hz: float) -> int:
     return max(1, round(physics_hz / rate_hz))
 
 
-@dataclass
+@dataclass(eq=False)
 class Slot:
     """One sensor or actuator in the loop: its period, staleness and latest reading.
 
@@ -107,7 +107,7 @@ class Readings(Mapping[str, Any]):
         return self._slots[name].computed
 
 
-@dataclass
+@dataclass(eq=False)
 class TickScheduler:
     """Runs sensors, the behaviour, actuators, events and physics in the documented order, one tick at a time."""
 

@@ -9,21 +9,13 @@ import inspect
 import warnings
 from collections.abc import Iterable, Iterator, MutableMapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import Any, NamedTuple
 
 import pluggy
 
 from robokit.errors import Interrupted, LookupNameError, PluginError, UserError, plugin_fault
 from robokit.plugin_api import hookspecs
-
-if TYPE_CHECKING:
-    import importlib.metadata as md
-
-    from robokit.plugin_api import discovery
-
-    EntryPointLike = md.EntryPoint | discovery.EntryPoint
-    """An entry point as importlib.metadata or robokit.plugin_api.discovery gives it (name, value, group, dist,
-    load())."""
+from robokit.plugin_api.entry_points import EntryPoint
 
 ENTRY_POINT_GROUP = "robokit"
 BUILTIN = "robokit"
@@ -45,8 +37,7 @@ class PluginLoadWarning(UserWarning):
     """A plugin distribution could not be loaded; the others still are."""
 
 
-@dataclass(frozen=True)
-class PluginType:
+class PluginType(NamedTuple):
     """One registered type: its kind, config name, class, schema and where it came from."""
 
     kind: str
@@ -133,7 +124,7 @@ class KindTypes(MutableMapping[str, PluginType]):
         del self.data[name]
 
 
-@dataclass
+@dataclass(eq=False)
 class Plugins:
     """A loaded plugin manager and the types its plugins registered, by kind then name."""
 
@@ -144,7 +135,7 @@ class Plugins:
 
     def __post_init__(self) -> None:
         self.types = {k: KindTypes(k, self) for k in KINDS}
-        self._pending: dict[str, EntryPointLike] = {}  # entry points not imported yet, by module
+        self._pending: dict[str, EntryPoint] = {}  # entry points not imported yet, by module
         self._index: dict[tuple[str, str], str] = {}  # (kind, type name) -> module that registers it
         self._origins: dict[str, tuple[str, str]] = {}
         self._collected: set[tuple[str, str]] = set()  # (kind, plugin name) whose registration hook was called
@@ -240,63 +231,20 @@ class Plugins:
                                   type_name=hook_name, distribution=impl.plugin_name) from exc
 
 
-_LABELS: dict[str, tuple[str, str]] = {}
-"""``(name, version)`` by distribution folder: a distribution's metadata is read once per process, not once per
-entry point or per plugin load (a sweep worker loads plugins for every trial)."""
-
-
-def _dist_label(dist: md.Distribution | discovery.Distribution | None) -> tuple[str, str]:
-    """``(name, version)`` of a distribution. Only robokit's own reader names a distribution's folder; one from
-    ``importlib.metadata`` (the reader's rare fallback) is read each time it is asked."""
-    if dist is None:
-        return ("<local>", "")
-    folder = getattr(dist, "path", None)
-    label = _LABELS.get(folder) if isinstance(folder, str) else None
-    if label is None:
-        meta = dist.metadata
-        label = (_header(meta, "Name") or "<unknown>", _header(meta, "Version"))
-        if isinstance(folder, str):
-            _LABELS[folder] = label
-    return label
-
-
-def _header(meta: Any, key: str) -> str:
-    """A metadata field, "" when missing (importlib.metadata gives None or raises KeyError, by version)."""
-    try:
-        return str(meta[key] or "")
-    except KeyError:
-        return ""
-
-
-def _read_entry_points(groups: tuple[str, ...]) -> list[EntryPointLike]:
-    """The entry points of ``groups``: read from the distributions' folders by :mod:`robokit.plugin_api.discovery`
-    (public APIs only: a folder listing and each ``entry_points.txt``, as the entry-point specification describes
-    them), or by ``importlib.metadata`` where that reader steps aside (zip or egg files on ``sys.path``, import hooks
-    with distributions of their own). Importing and running ``importlib.metadata`` instead costs a trivial run ~98 M
-    instructions (~30 ms here, a fifth of its start-up); tests/test_discovery.py checks both find the same."""
-    from robokit.plugin_api import discovery
-
-    found = discovery.entry_points(groups)
-    if found is not None:
-        return list(found)
-    import importlib.metadata as md
-
-    every = md.entry_points()
-    return [ep for group in groups for ep in every.select(group=group)]
-
-
-def _entry_points() -> tuple[list[EntryPointLike], dict[tuple[str, str], str] | None]:
+def _entry_points() -> tuple[list[EntryPoint], dict[tuple[str, str], str] | None]:
     """The ``robokit`` entry points (sorted by distribution, then name) and the ``robokit.types`` index.
 
     The index maps ``(kind, type name)`` to the module that registers it (entry point ``"KIND.TYPE" = "module"``).
     It is None when two entries claim one type (a full load then reports the clash).
     """
-    every = _read_entry_points((ENTRY_POINT_GROUP, INDEX_GROUP))
-    seen: dict[tuple[str, str], EntryPointLike] = {}
+    from robokit.plugin_api.entry_points import entry_points
+
+    every = entry_points((ENTRY_POINT_GROUP, INDEX_GROUP))
+    seen: dict[tuple[str, str], EntryPoint] = {}
     for ep in every:  # a distribution can be visible twice (editable + path)
         if ep.group == ENTRY_POINT_GROUP:
             seen.setdefault((ep.name, ep.value), ep)
-    eps = sorted(seen.values(), key=lambda e: (_dist_label(e.dist)[0] if e.dist else "", e.name))
+    eps = sorted(seen.values(), key=lambda e: (e.distribution, e.name))
     index: dict[tuple[str, str], str] | None = {}
     for ep in (e for e in every if e.group == INDEX_GROUP):
         kind, _, name = ep.name.partition(".")
@@ -365,9 +313,9 @@ def load_plugins(extra: Iterable[object] = (), *, entry_points: bool = True, laz
     return plugins
 
 
-def _load_entry_point(plugins: Plugins, ep: EntryPointLike, *, collect: bool = True) -> None:
+def _load_entry_point(plugins: Plugins, ep: EntryPoint, *, collect: bool = True) -> None:
     """Import one entry point, register it and collect the types it registers (or record why not)."""
-    dist, version = _dist_label(ep.dist)
+    dist, version = ep.distribution, ep.version
     label = f"{dist} (entry point {ep.name!r})"
     try:
         obj = ep.load()

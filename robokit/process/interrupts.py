@@ -39,9 +39,8 @@ import sys
 import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass
 from types import FrameType
-from typing import Any
+from typing import Any, NamedTuple
 
 from robokit.errors import Interrupted
 
@@ -60,8 +59,9 @@ def exit_code_for(signal_name: str | None) -> int:
     return SIGNAL_EXIT_CODES.get(signal_name or "SIGINT", 130)
 
 
-@dataclass
-class _Phase:
+class _Phase(NamedTuple):
+    """One phase of a command and what a signal does in it (immutable: a changed phase is a new one)."""
+
     ident: int
     on_signal: Callable[[str], None] | None  # None: deferred (only noted)
     grace: float

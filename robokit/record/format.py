@@ -1,4 +1,5 @@
-"""The run record's format (``docs/records.md``): file names, the schema version, and reading a record back.
+"""Reading a run record back (``docs/records.md``); the file names and schema version are in
+:mod:`robokit.record.layout`.
 
 A run folder ``<dir>/<run_id>/`` holds ``result.json`` (the RunResult), ``trace.jsonl`` (a header line, then one
 record per event) and ``poses.npz`` (the pose log). Nothing here imports pybullet.
@@ -6,9 +7,7 @@ record per event) and ``poses.npz`` (the pose log). Nothing here imports pybulle
 
 from __future__ import annotations
 
-import enum
 import json
-import sys
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -17,54 +16,12 @@ from typing import Any
 import numpy as np
 
 from robokit.errors import UserError
-
-RECORD_SCHEMA = "robokit.record/1"
-RESULT_FILE = "result.json"
-TRACE_FILE = "trace.jsonl"
-POSES_FILE = "poses.npz"
-FRAMES_DIR = "frames"
-
-
-def machines_of(behaviour: Any) -> list[dict[str, Any]]:
-    """The structure of every state machine in a behaviour (itself and machines it holds, e.g. sort's pick_place).
-
-    Each: ``name``, ``type`` (class name), ``initial``, ``states``, ``transitions`` (trigger, source, dest) and
-    ``timeouts`` (sim seconds per state).
-    """
-    fsm = sys.modules.get("robokit.fsm")
-    if fsm is None:  # no state machine exists before robokit.fsm is imported (transitions costs ~10 ms to import)
-        return []
-    machine_type = fsm.MachineBehaviour
-    out: list[dict[str, Any]] = []
-    seen: set[int] = set()
-
-    def visit(b: Any) -> None:
-        if not isinstance(b, machine_type) or id(b) in seen:
-            return
-        seen.add(id(b))
-        timeouts = getattr(b, "timeouts", None) or b.TIMEOUTS
-        out.append({
-            "name": b.name,
-            "type": type(b).__name__,
-            "initial": b.INITIAL.name,
-            "states": [s.name for s in b.STATES],
-            "transitions": [_transition(t) for t in b.TRANSITIONS],
-            "timeouts": {str(k): float(v) for k, v in timeouts.items()},
-        })
-        for value in vars(b).values():
-            visit(value)
-
-    visit(behaviour)
-    return out
-
-
-def _transition(t: dict[str, Any]) -> dict[str, Any]:
-    def name(s: Any) -> Any:
-        if isinstance(s, (list, tuple)):
-            return [name(x) for x in s]
-        return s.name if isinstance(s, enum.Enum) else str(s)
-
-    return {"trigger": t["trigger"], "source": name(t["source"]), "dest": name(t["dest"])}
+from robokit.record.layout import FRAMES_DIR as FRAMES_DIR  # the layout's names, re-exported for the readers
+from robokit.record.layout import POSES_FILE as POSES_FILE
+from robokit.record.layout import RECORD_SCHEMA as RECORD_SCHEMA
+from robokit.record.layout import RESULT_FILE as RESULT_FILE
+from robokit.record.layout import TRACE_FILE as TRACE_FILE
+from robokit.record.layout import machines_of as machines_of
 
 
 @dataclass
@@ -76,7 +33,7 @@ class Span:
     end: float
 
 
-@dataclass
+@dataclass(eq=False)
 class RunRecord:
     """A run folder read back. Loads lazily: the header and events on first use, poses only when asked."""
 

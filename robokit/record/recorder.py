@@ -24,7 +24,7 @@ import pybullet as p
 
 from robokit import __version__
 from robokit.core.result import jsonable
-from robokit.record.format import POSES_FILE, RECORD_SCHEMA, TRACE_FILE, machines_of
+from robokit.record.layout import POSES_FILE, RECORD_SCHEMA, TRACE_FILE, machines_of
 
 
 class Recorder:

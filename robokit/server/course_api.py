@@ -4,7 +4,9 @@
 201 with the submission (queued for official evaluation); 400 naming the key a config may not change or that
 robokit's validation refuses; 403 before the assignment opens or after it is due when late work is refused. With
 ``"plugin_files": {"path.py": "source", ...}`` (the assignment must allow it, else 403): the student's own plugin
-package, checked by :mod:`robokit.server.plugin_upload` and imported only in the evaluation's sandbox.
+package, checked by :mod:`robokit.server.plugin_upload` and imported only in a sandbox process: the config is
+loaded with it there before the submission is accepted (400 naming the key, as for any config), and the trials run
+with it there.
 
 ``POST /api/robotics/training/`` ``{"name": "...", "run_id": "...", "log": "<JSON lines>"}`` with the token: a
 training run (one object per line with ``steps`` and any of ``episodes``, ``return``, ``success_rate``; or
@@ -29,10 +31,11 @@ from django.views.decorators.csrf import csrf_exempt
 from robokit.server import tokens
 from robokit.server.api import NO_TOKEN, _token, _unauthorized, error
 from robokit.server.assignments import Assignment, Submission, TrainingRun
+from robokit.server.evaluation import create_submission, official_overrides
 from robokit.server.models import Token
 from robokit.server.payload import RUN_ID, PayloadError, parse
 from robokit.server.plugin_upload import MAX_BYTES as MAX_PLUGIN_BYTES
-from robokit.server.plugin_upload import check_plugin_files
+from robokit.server.plugin_upload import check_plugin_config, check_plugin_files
 from robokit.server.submitted import SubmissionError, check_submission
 
 MAX_TRAINING_POINTS = 20_000
@@ -99,10 +102,11 @@ def submit(request: HttpRequest, name: str) -> JsonResponse:
                      f"late submissions are refused")
     try:
         modules = check_plugin_files(plugin_files) if plugin_files else []
-        check_submission(assignment, text, validate=not modules)  # types of the student's plugin: in the sandbox
+        check_submission(assignment, text, validate=not modules)
+        if modules and isinstance(plugin_files, dict):  # its types: checked in a sandbox process, not here
+            check_plugin_config(text, plugin_files, modules, official_overrides(assignment.trial_seconds))
     except SubmissionError as exc:
         return error(400, exc.field, exc.message)
-    from robokit.server.evaluation import create_submission
 
     Token.objects.filter(pk=token.pk).update(last_used_at=now)
     sub = create_submission(assignment=assignment, student=token.student, config_text=text, late=late,

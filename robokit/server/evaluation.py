@@ -50,12 +50,17 @@ def create_submission(**fields: Any) -> Submission:
     return sub
 
 
+def official_overrides(trial_seconds: float) -> dict[str, Any]:
+    """What an official trial sets on top of the submitted config: the assignment's per-trial time limit."""
+    return {"world.max_wall_time": float(trial_seconds)}
+
+
 def trial_tasks(sub: Submission, seeds: list[int]) -> list[Any]:
     from robokit.sweep.trial import TrialTask, trial_run_id
 
-    limit = float(sub.assignment.trial_seconds)
+    overrides = official_overrides(sub.assignment.trial_seconds)
     modules = tuple(sub.plugin_modules or ())  # the student's plugin package, imported in the sandbox
-    return [TrialTask(key=f"seed={s}", cell=CELL, overrides={"world.max_wall_time": limit}, seed=int(s),
+    return [TrialTask(key=f"seed={s}", cell=CELL, overrides=overrides, seed=int(s),
                       run_id=trial_run_id(str(sub.uuid), f"seed={s}"), config_text=sub.config_text,
                       source=f"submission-{sub.pk}.toml", base_dir=".", plugins=modules) for s in seeds]
 
@@ -83,15 +88,30 @@ def evaluate_submission(submission_id: int) -> str:
 def run_trials(tasks: list[Any], trial_seconds: float, files: dict[str, str] | None = None) -> Iterator[dict[str, Any]]:
     """The trials' rows: on the Ray cluster at ``ROBOKIT_RAY_ADDRESS`` through ``robokit sweep``'s Ray backend
     (a trial per Ray task, across the cluster's nodes), otherwise in a local sandbox process. ``files``: a
-    student's plugin package, written into the sandbox's scratch folder (evaluated locally only)."""
+    student's plugin package, written into the sandbox's scratch folder, or on Ray into a scratch folder that is
+    the Ray job's ``working_dir`` (Ray uploads it; each worker runs in its copy, where the modules import)."""
     address = os.environ.get("ROBOKIT_RAY_ADDRESS", "").strip()
-    if address and not files:
-        from robokit.sweep.ray_backend import RayBackend
-
-        return RayBackend(address, trial_timeout=trial_seconds + 60).run(tasks)
+    if address:
+        return _run_on_ray(address, tasks, trial_seconds, files or {})
     from robokit.server.sandbox import run_sandboxed
 
     return run_sandboxed(tasks, trial_seconds, files or {})
+
+
+def _run_on_ray(address: str, tasks: list[Any], trial_seconds: float,
+                files: dict[str, str]) -> Iterator[dict[str, Any]]:
+    import shutil
+
+    from robokit.server.sandbox import scratch_folder
+    from robokit.sweep.ray_backend import RayBackend
+
+    folder = scratch_folder(files) if files else None
+    try:
+        yield from RayBackend(address, trial_timeout=trial_seconds + 60,
+                              runtime_env={"working_dir": folder} if folder else None).run(tasks)
+    finally:
+        if folder:
+            shutil.rmtree(folder, ignore_errors=True)
 
 
 def store_trial(sub: Submission, row: dict[str, Any]) -> None:

@@ -2,15 +2,17 @@
 
 The package travels as ``{"plugin_files": {"my_sensor.py": "<source>", "pkg/__init__.py": "...", ...}}`` (what
 ``robokit submit … --plugin PATH`` sends). The server never imports it: it checks the file names, the sizes and
-that every file compiles, and keeps the files with the submission. The evaluation writes them into the sandbox's
-scratch folder and imports the top-level modules there as extra plugins (as ``robokit sweep --plugin`` does), so a
-student's code runs only inside the limited evaluation process.
+that every file compiles (:func:`check_plugin_files`), then has the config checked with the package in a fresh
+sandbox process (:func:`check_plugin_config`), and keeps the files with the submission. The evaluation writes them
+into the sandbox's scratch folder (or ships them to the Ray workers) and imports the top-level modules there as
+extra plugins (as ``robokit sweep --plugin`` does), so a student's code runs only inside an evaluation process.
 """
 
 from __future__ import annotations
 
 import importlib.util
 import re
+from collections.abc import Sequence
 from typing import Any
 
 from robokit.server.submitted import SubmissionError
@@ -53,3 +55,18 @@ def check_plugin_files(files: Any) -> list[str]:
             raise SubmissionError("plugin", f"{name!r} is the name of a module installed on the server: rename "
                                   "your package")
     return sorted(tops)
+
+
+def check_plugin_config(text: str, files: dict[str, str], modules: Sequence[str], overrides: dict[str, Any],
+                        source: str = "submitted config") -> None:
+    """Load the config with the student's package as a trial will (in the sandbox, never in this process).
+
+    Raises:
+        SubmissionError: naming the key the check refuses (``behaviour.speed``), or ``plugin`` when the package
+            cannot be imported or the check overran its time limit.
+    """
+    from robokit.server.sandbox import check_sandboxed
+
+    problem = check_sandboxed(text, source, overrides, files, modules)
+    if problem is not None:
+        raise SubmissionError(*problem)

@@ -70,15 +70,32 @@ def validate_config(text: str, source: str = "submitted config") -> None:
     """robokit's own config validation (the plugins' schemas included), as ``robokit validate`` does it."""
     import tempfile
 
+    with tempfile.TemporaryDirectory(prefix="robokit-validate-") as scratch:
+        problem = config_problem(text, source, scratch, {})
+    if problem is not None:
+        raise SubmissionError(*problem)
+
+
+def config_problem(text: str, source: str, base_dir: str, overrides: dict[str, Any],
+                   modules: tuple[str, ...] = ()) -> tuple[str, str] | None:
+    """The first problem robokit's config check finds, as ``(field, one-line message)``; None for a config that
+    loads. ``modules``: a student's plugin modules, imported as extra plugins first (only ever in the sandbox's
+    process, :func:`robokit.server.sandbox.check_sandboxed`); their failures are field ``plugin``."""
     from robokit.errors import UserError
     from robokit.sweep.trial import build_trial_config, plugins_for
 
-    with tempfile.TemporaryDirectory(prefix="robokit-validate-") as scratch:
-        try:
-            build_trial_config(text, source, scratch, {}, plugins_for(()))
-        except UserError as exc:
-            key = getattr(exc, "key", None) or "config"
-            raise SubmissionError(str(key), one_line(getattr(exc, "message", None) or str(exc))) from None
+    try:
+        plugins = plugins_for(modules)
+        build_trial_config(text, source, base_dir, overrides, plugins)
+    except UserError as exc:
+        key = getattr(exc, "key", None) or "config"
+        return str(key), one_line(getattr(exc, "message", None) or str(exc))
+    except Exception as exc:
+        if not modules:
+            raise  # robokit's own plugins failing is a bug, not the student's
+        return "plugin", one_line(f"your plugin {', '.join(modules)} failed while loading the config: "
+                                  f"{type(exc).__name__}: {exc}")
+    return None
 
 
 def one_line(text: str) -> str:

@@ -69,11 +69,17 @@ class RayBackend:
         address: ``HOST:PORT`` of a running cluster's head, ``"auto"`` for the cluster this machine belongs to, or
             None to start a private single-machine Ray for the sweep.
         trial_timeout: Wall seconds a trial may take from submission; then it is cancelled and recorded as an error.
+        runtime_env: Ray's runtime environment for this run's job (e.g. ``{"working_dir": folder}``: the folder
+            is uploaded to the cluster and is each worker's working directory and first ``sys.path`` entry, so
+            extra plugin modules in it import there). Ray accepts local folders only for a whole job, so the run
+            must be the one that connects (Ray not already initialised in this process).
     """
 
-    def __init__(self, address: str | None = None, *, trial_timeout: float | None = None) -> None:
+    def __init__(self, address: str | None = None, *, trial_timeout: float | None = None,
+                 runtime_env: dict[str, Any] | None = None) -> None:
         self.address = address
         self.timeout = trial_timeout
+        self.runtime_env = runtime_env
         self.ray: Any = None
 
     def _connect(self) -> bool:
@@ -83,10 +89,14 @@ class RayBackend:
             raise UserError("--backend ray needs Ray: pip install 'robokit[ray]'") from None
         self.ray = ray
         if ray.is_initialized():
+            if self.runtime_env:
+                raise RuntimeError("Ray is already initialised in this process: a runtime_env with local files "
+                                   "can only be given to the run that connects")
             return False
         _probe(self.address)
         try:
-            ray.init(address=self.address, log_to_driver=False, logging_level=logging.ERROR, include_dashboard=False)
+            ray.init(address=self.address, log_to_driver=False, logging_level=logging.ERROR, include_dashboard=False,
+                     runtime_env=self.runtime_env)
         except (ConnectionError, getattr(ray.exceptions, "AuthenticationError", ConnectionError)):  # older Rays: none
             raise UserError(connect_error(self.address)) from None
         return True
