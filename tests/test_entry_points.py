@@ -40,14 +40,20 @@ def cache_files(cache: Path) -> list[Path]:
     return sorted(cache.glob("entry-points-*.json")) if cache.exists() else []
 
 
-def test_the_answer_is_importlibs_asked_then_remembered(cache: Path) -> None:
+def test_the_answer_is_importlibs_asked_then_remembered(cache: Path, tmp_path: Path,
+                                                        monkeypatch: pytest.MonkeyPatch) -> None:
     first = by_robokit()
     assert first == by_importlib()
     assert ("robokit", "local_report", "robokit_plugins.local_report", "robokit") in [m[:4] for m in first]
     assert len(cache_files(cache)) == 1
     stamp = cache_files(cache)[0].stat().st_mtime_ns
     assert by_robokit() == first  # from the file: not rewritten
-    assert cache_files(cache)[0].stat().st_mtime_ns == stamp
+    # a folder without distributions first on sys.path (a script's folder, `python -m` in another folder): the same
+    (tmp_path / "elsewhere").mkdir()
+    (tmp_path / "elsewhere" / "script.py").write_text("")
+    monkeypatch.syspath_prepend(str(tmp_path / "elsewhere"))
+    assert by_robokit() == first
+    assert len(cache_files(cache)) == 1 and cache_files(cache)[0].stat().st_mtime_ns == stamp
 
 
 def test_an_installed_removed_or_reinstalled_distribution_is_seen(tmp_path: Path, cache: Path,

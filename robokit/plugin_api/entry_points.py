@@ -75,9 +75,11 @@ def entry_points(groups: Iterable[str]) -> list[EntryPoint]:
 
 
 def _key(groups: list[str]) -> list[Any] | None:
-    """What the answer depends on: each ``sys.path`` entry with, for a folder, its distributions that have an
-    ``entry_points.txt`` (the file's modification time and size), for a file (a zip) its own. None when an import hook
-    can find distributions no folder listing sees: then nothing is remembered."""
+    """What the answer depends on: each ``sys.path`` entry that holds distributions, with those of them that have an
+    ``entry_points.txt`` (the file's modification time and size), and each zip on ``sys.path`` (its own). Entries
+    without distributions (a script's folder, the working folder of ``python -m``) are left out, so runs from any
+    folder share one answer. None when an import hook can find distributions no folder listing sees: then nothing is
+    remembered."""
     from importlib.machinery import PathFinder
 
     if any(getattr(f, "find_distributions", None) is not None and f is not PathFinder for f in sys.meta_path):
@@ -85,19 +87,20 @@ def _key(groups: list[str]) -> list[Any] | None:
     folders: list[str] = []
     seen: list[Any] = []
     for entry in sys.path:
-        folder = os.path.abspath(entry or ".") if os.path.exists(entry or ".") else entry  # "" is the working folder
-        folders.append(folder)
+        folder = os.path.abspath(entry or ".")  # "" is the working folder
         try:
             listing = os.scandir(folder)
         except NotADirectoryError:  # a zip
+            folders.append(folder)
             seen.append(_stamp(folder))
             continue
-        except OSError:  # missing, or the marker of an import hook
-            seen.append(None)
+        except OSError:  # missing, or the marker of an import hook: no distributions there
             continue
         with listing:
-            seen.append([[item.name, _stamp(os.path.join(item.path, "entry_points.txt"))] for item in listing
-                         if item.name.lower().endswith(_INFO_SUFFIXES)])
+            infos = [item for item in listing if item.name.lower().endswith(_INFO_SUFFIXES)]
+        if infos:
+            folders.append(folder)
+            seen.append([[item.name, _stamp(os.path.join(item.path, "entry_points.txt"))] for item in infos])
     return [[FORMAT, sys.version, *groups], folders, seen]
 
 
