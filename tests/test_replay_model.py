@@ -113,3 +113,23 @@ def test_the_page_payload_carries_meshes_and_poses_as_arrays(record: Path, tmp_p
     got = read_obj(obj)
     assert got is not None
     assert got[1].tolist() == [[0, 1, 2], [0, 2, 3], [0, 2, 3]]  # a quad fanned into two; negative indices
+
+
+def test_a_textured_mesh_is_drawn_in_its_textures_mean_colour(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import cv2
+    import pybullet_data
+
+    (tmp_path / "table.toml").write_text('[world]\nmax_time = 0.05\n\n[bodies.table]\nurdf = "table/table.urdf"\n'
+                                         'position = [0, 0, 0]\nfixed_base = true\n\n[bodies.box]\nshape = "box"\n'
+                                         'size = [0.1, 0.1, 0.1]\nposition = [0, 0, 1]\nrgba = [0.1, 0.8, 0.2, 1]\n')
+    monkeypatch.chdir(tmp_path)
+    assert main(["run", "table.toml", "--quiet"]) == 0
+    replay = replay_of(find_run("last", tmp_path / "results"))
+    texture = cv2.imread(str(Path(pybullet_data.getDataPath()) / "table" / "table.png"))
+    assert texture is not None
+    mean_rgb = texture.reshape(-1, 3).mean(axis=0)[::-1] / 255  # OpenCV reads BGR
+    table = [s for s in replay.shapes if replay.links[s.frame].body == "table"]
+    assert table and all(np.allclose(s.rgba[:3], mean_rgb, atol=1e-6) for s in table)  # the URDF says white
+    assert not np.allclose(mean_rgb, 1.0, atol=0.05)  # a texture that is not white: the test can fail
+    box = [s for s in replay.shapes if replay.links[s.frame].body == "box"]
+    assert len(box) == 1 and np.allclose(box[0].rgba, (0.1, 0.8, 0.2, 1.0), atol=1e-6)  # a plain colour is kept

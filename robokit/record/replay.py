@@ -78,6 +78,7 @@ def _links(scene: Scene) -> tuple[list[Link], list[Shape]]:
     client, world = scene.world.client, scene.world
     links: list[Link] = []
     shapes: list[Shape] = []
+    tints: dict[str, tuple[float, float, float] | None] = {}
     for name in scene.joints:
         bid = world.body(name)
         frame_of: dict[int, int] = {}
@@ -91,9 +92,51 @@ def _links(scene: Scene) -> tuple[list[Link], list[Shape]]:
                 frame_of[index] = len(links)
                 links.append(Link(name, link, index))
             mesh = s[4].decode(errors="replace") if kind == "mesh" else ""
+            rgba = tuple(float(v) for v in s[7])
+            if mesh:
+                if mesh not in tints:
+                    tints[mesh] = texture_tint(Path(mesh))
+                tint = tints[mesh]
+                if tint is not None:  # PyBullet draws the texture times the colour: one colour stands for both
+                    rgba = (rgba[0] * tint[0], rgba[1] * tint[1], rgba[2] * tint[2], rgba[3])
             shapes.append(Shape(frame_of[index], kind, tuple(float(v) for v in s[3]), mesh,
-                                tuple(float(v) for v in s[7]), tuple(s[5]), tuple(s[6])))  # type: ignore[arg-type]
+                                rgba, tuple(s[5]), tuple(s[6])))  # type: ignore[arg-type]
     return links, shapes
+
+
+def texture_tint(mesh: Path) -> tuple[float, float, float] | None:
+    """The mean colour (RGB, 0..1) of the texture a Wavefront OBJ's material file names (``mtllib`` ... ``map_Kd``),
+    which PyBullet draws the mesh with; None for a mesh without one (or one that cannot be read).
+
+    Viewers draw meshes in one colour, so a textured mesh (the sort scene's table and trays) is drawn in its
+    texture's mean colour instead of the white its URDF gives."""
+    if mesh.suffix.lower() != ".obj":
+        return None
+    library = None
+    try:
+        with mesh.open(encoding="utf-8", errors="replace") as fh:
+            for line in fh:
+                if line.startswith("mtllib "):
+                    library = line.split(None, 1)[1].strip()
+                    break
+                if line.startswith(("v ", "f ")):  # the material library comes before the geometry
+                    break
+        if library is None:
+            return None
+        materials = (mesh.parent / library).read_text(encoding="utf-8", errors="replace").splitlines()
+    except OSError:
+        return None
+    texture = next((line.split(None, 1)[1].strip() for line in materials
+                    if line.strip().startswith("map_Kd ") and len(line.split()) > 1), None)
+    if texture is None:
+        return None
+    import cv2
+
+    image = cv2.imread(str(mesh.parent / texture), cv2.IMREAD_COLOR)
+    if image is None:
+        return None
+    blue, green, red = image.reshape(-1, 3).mean(axis=0) / 255.0
+    return float(red), float(green), float(blue)
 
 
 def _pose_row(scene: Scene, links: list[Link]) -> np.ndarray:
