@@ -56,10 +56,10 @@ def apply_view(world: Any, gui: Any) -> None:
 
 def hold(world: Any, *, fps: float = 30.0) -> None:
     """Keep the GUI window open (the scene frozen as the run left it) until it is closed or Ctrl-C is pressed."""
-    print("robokit: the run is over; the window stays open until you close it (or press Ctrl-C)", file=sys.stderr,
-          flush=True)
     client = world.client
-    try:
+    try:  # the message inside: a Ctrl-C the moment it appears (before the loop starts) only ends the hold too
+        print("robokit: the run is over; the window stays open until you close it (or press Ctrl-C)",
+              file=sys.stderr, flush=True)
         while client is not None and client.isConnected():
             client.getDebugVisualizerCamera()  # keeps the window responsive (camera moves, redraws)
             time.sleep(1.0 / fps)  # GUI pacing only
