@@ -160,6 +160,13 @@ def test_a_plugin_that_never_finishes_loading_is_refused_after_the_check_time_li
     assert not Submission.objects.exists()
 
 
+def write_package(folder: Path) -> None:
+    """The student's plugin package as files in ``folder`` (what ``robokit submit --plugin`` reads)."""
+    for rel, source in PLUGIN.items():
+        (folder / rel).parent.mkdir(parents=True, exist_ok=True)
+        (folder / rel).write_text(source, encoding="utf-8")
+
+
 def test_robokit_submit_sends_a_package_folder(live_server: Any, course: Course, tmp_path: Path,
                                                monkeypatch: pytest.MonkeyPatch,
                                                capsys: pytest.CaptureFixture[str]) -> None:
@@ -167,9 +174,7 @@ def test_robokit_submit_sends_a_package_folder(live_server: Any, course: Course,
     from robokit.server.models import Submission
 
     a = make_assignment(course.room, "plugins", allowed_keys=["behaviour.*"], allow_plugins=True, seeds=(0,))
-    for rel, source in PLUGIN.items():
-        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
-        (tmp_path / rel).write_text(source, encoding="utf-8")
+    write_package(tmp_path)
     (tmp_path / "careful_drop" / "__pycache__").mkdir()
     (tmp_path / "careful_drop" / "__pycache__" / "x.py").write_text("not sent", encoding="utf-8")
     (tmp_path / "mine.toml").write_text(MINE, encoding="utf-8")
@@ -188,9 +193,7 @@ def test_robokit_submit_shows_a_refused_plugin_config_and_fails(live_server: Any
     from robokit.server.models import Submission
 
     a = make_assignment(course.room, "plugins", allowed_keys=["behaviour.*"], allow_plugins=True, seeds=(0,))
-    for rel, source in PLUGIN.items():
-        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
-        (tmp_path / rel).write_text(source, encoding="utf-8")
+    write_package(tmp_path)
     (tmp_path / "mine.toml").write_text(MINE.replace("[behaviour]\n", "[behaviour]\ncare = 0\n"), encoding="utf-8")
     monkeypatch.setenv("ROBOKIT_TOKEN", course.kim_token)
     code = main(["submit", a.name, str(tmp_path / "mine.toml"), "--url", live_server.url + "/", "--plugin",

@@ -15,7 +15,7 @@ import pluggy
 
 from robokit.errors import Interrupted, LookupNameError, PluginError, UserError, plugin_fault
 from robokit.plugin_api import hookspecs
-from robokit.plugin_api.entry_points import EntryPoint
+from robokit.plugin_api.entry_points import EntryPoint, entry_points
 
 ENTRY_POINT_GROUP = "robokit"
 BUILTIN = "robokit"
@@ -237,8 +237,6 @@ def _entry_points() -> tuple[list[EntryPoint], dict[tuple[str, str], str] | None
     The index maps ``(kind, type name)`` to the module that registers it (entry point ``"KIND.TYPE" = "module"``).
     It is None when two entries claim one type (a full load then reports the clash).
     """
-    from robokit.plugin_api.entry_points import entry_points
-
     every = entry_points((ENTRY_POINT_GROUP, INDEX_GROUP))
     seen: dict[tuple[str, str], EntryPoint] = {}
     for ep in every:  # a distribution can be visible twice (editable + path)
