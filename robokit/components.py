@@ -66,9 +66,10 @@ class GoalCheck:
     details: Mapping[str, Any] = field(default_factory=dict)
 
 
-@dataclass
+@dataclass(eq=False, repr=False)
 class SetupContext:
-    """What a component receives in ``setup``.
+    """What a component receives in ``setup``: one per component, compared by identity (``dataclasses.replace``
+    makes a changed copy, as composites do for their children).
 
     Attributes:
         world: The World, the one interface to physics (bodies by name, joints, contacts, rays, the clock; see

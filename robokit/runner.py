@@ -8,7 +8,6 @@ import json
 import uuid
 import warnings
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
 
@@ -29,7 +28,6 @@ EXIT_RECORD_INCOMPLETE = 6
 full (a full disk, a file-size limit): each failure is a one-line warning naming the file and the reason."""
 
 
-@dataclass(eq=False)
 class RunOutput:
     """A finished run: its result, the payload delivered, what each reporter did, and the exit code.
 
@@ -39,14 +37,21 @@ class RunOutput:
     that could not be written, one line each (the result itself is kept).
     """
 
-    result: RunResult
-    payload: dict[str, Any]
-    deliveries: list[tuple[str, Delivery]] = field(default_factory=list)
-    interrupted: bool = False
-    error: BaseException | None = None
-    signal: str | None = None
-    record_failures: list[str] = field(default_factory=list)
-    before_send_error: Exception | None = None
+    def __init__(self, result: RunResult, payload: dict[str, Any],
+                 deliveries: list[tuple[str, Delivery]] | None = None, interrupted: bool = False,
+                 error: BaseException | None = None, signal: str | None = None,
+                 record_failures: list[str] | None = None, before_send_error: Exception | None = None) -> None:
+        self.result = result
+        self.payload = payload
+        self.deliveries: list[tuple[str, Delivery]] = [] if deliveries is None else deliveries
+        self.interrupted = interrupted
+        self.error = error
+        self.signal = signal
+        self.record_failures: list[str] = [] if record_failures is None else record_failures
+        self.before_send_error = before_send_error
+
+    def __repr__(self) -> str:
+        return f"RunOutput(outcome={self.result.outcome!r}, exit_code={self.exit_code})"
 
     @property
     def stored(self) -> bool:

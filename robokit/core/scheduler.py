@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Iterator, Mapping
-from dataclasses import dataclass, field
 from typing import Any
 
 from robokit.errors import Interrupted, PluginError, plugin_fault
@@ -30,25 +29,28 @@ def period_ticks(rate_hz: float | None, physics_hz: float) -> int:
     return max(1, round(physics_hz / rate_hz))
 
 
-@dataclass(eq=False)
 class Slot:
     """One sensor or actuator in the loop: its period, staleness and latest reading.
 
-    ``origin`` names the type and distribution for error messages.
+    ``origin`` names the type and distribution for error messages; ``check`` is called after each computed reading
+    (sensors: flags non-finite values, refuses non-serialisable ones). A slot is a piece of the loop's state,
+    compared by identity: a plain class (a dataclass would compile an ``__init__`` and a ``__repr__`` at every
+    start-up for nothing).
     """
 
-    name: str
-    component: Any
-    period: int
-    origin: str
-    clock: Callable[[], int]
-    lazy: bool = True
-    stale: bool = True
-    value: Any = None
-    stamp: int = -1
-    computed: int = 0
-    check: Callable[[Slot], None] | None = None
-    """Called after each computed reading (sensors: flags non-finite values, refuses non-serialisable ones)."""
+    def __init__(self, name: str, component: Any, period: int, origin: str, clock: Callable[[], int],
+                 lazy: bool = True, check: Callable[[Slot], None] | None = None) -> None:
+        self.name = name
+        self.component = component
+        self.period = period
+        self.origin = origin
+        self.clock = clock
+        self.lazy = lazy
+        self.check = check
+        self.stale = True
+        self.value: Any = None
+        self.stamp = -1
+        self.computed = 0
 
     def get(self) -> Any:
         """The latest reading, computing it first if the slot is stale."""
@@ -107,25 +109,30 @@ class Readings(Mapping[str, Any]):
         return self._slots[name].computed
 
 
-@dataclass(eq=False)
 class TickScheduler:
-    """Runs sensors, the behaviour, actuators, events and physics in the documented order, one tick at a time."""
+    """Runs sensors, the behaviour, actuators, events and physics in the documented order, one tick at a time.
 
-    world: Any
-    sensors: dict[str, Slot]
-    actuators: dict[str, Slot]
-    behaviour: Any | None
-    behaviour_period: int
-    behaviour_origin: str
-    events: dict[int, list[Callable[[], None]]] = field(default_factory=dict)
-    monitors: list[Any] = field(default_factory=list)
-    """Observers with ``period`` (ticks) and ``sample(tick)``; they read the world and never change it."""
-    _wall_start: float | None = None
-    wall_clock: Callable[[], float] = time.perf_counter
-    """GUI pacing's clock (seconds); replaceable so pacing can be tested without waiting."""
-    sleep: Callable[[float], None] = time.sleep
+    ``events`` are actions by tick; ``monitors`` are observers with ``period`` (ticks) and ``sample(tick)``, which
+    read the world and never change it. ``wall_clock`` (seconds) and ``sleep`` are GUI pacing's, replaceable so
+    pacing can be tested without waiting.
+    """
 
-    def __post_init__(self) -> None:
+    def __init__(self, world: Any, sensors: dict[str, Slot], actuators: dict[str, Slot], behaviour: Any | None,
+                 behaviour_period: int, behaviour_origin: str,
+                 events: dict[int, list[Callable[[], None]]] | None = None, monitors: list[Any] | None = None,
+                 wall_clock: Callable[[], float] = time.perf_counter,
+                 sleep: Callable[[float], None] = time.sleep) -> None:
+        self.world = world
+        self.sensors = sensors
+        self.actuators = actuators
+        self.behaviour = behaviour
+        self.behaviour_period = behaviour_period
+        self.behaviour_origin = behaviour_origin
+        self.events: dict[int, list[Callable[[], None]]] = {} if events is None else events
+        self.monitors: list[Any] = [] if monitors is None else monitors
+        self.wall_clock = wall_clock
+        self.sleep = sleep
+        self._wall_start: float | None = None
         self.slots: dict[str, Slot] = {**self.sensors, **self.actuators}
         self.readings = Readings(self.slots)
         self._sensor_list = list(self.sensors.values())

@@ -8,7 +8,6 @@ from __future__ import annotations
 import inspect
 import warnings
 from collections.abc import Iterable, Iterator, MutableMapping
-from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
 import pluggy
@@ -124,16 +123,15 @@ class KindTypes(MutableMapping[str, PluginType]):
         del self.data[name]
 
 
-@dataclass(eq=False)
 class Plugins:
-    """A loaded plugin manager and the types its plugins registered, by kind then name."""
+    """A loaded plugin manager and the types its plugins registered, by kind then name.
 
-    pm: pluggy.PluginManager
-    types: dict[str, KindTypes] = field(init=False)
-    broken: dict[str, str] = field(default_factory=dict)
-    """Distributions (or plugins) that failed to load, with the reason."""
+    ``broken`` holds the distributions (or plugins) that failed to load, with the reason.
+    """
 
-    def __post_init__(self) -> None:
+    def __init__(self, pm: pluggy.PluginManager, broken: dict[str, str] | None = None) -> None:
+        self.pm = pm
+        self.broken: dict[str, str] = {} if broken is None else broken
         self.types = {k: KindTypes(k, self) for k in KINDS}
         self._pending: dict[str, EntryPoint] = {}  # entry points not imported yet, by module
         self._index: dict[tuple[str, str], str] = {}  # (kind, type name) -> module that registers it

@@ -135,7 +135,7 @@ class CapturedOutput:
         if not messages:
             return None
         kinds = Counter(_stem(m) for m in messages)
-        top, n = kinds.most_common(1)[0]
+        top, n = max(kinds.items(), key=lambda kind: kind[1])  # the first most frequent, as most_common(1)
         said = sorted({m for m in messages if _stem(m) == top}, key=messages.index)
         text = said[0] if len(said) == 1 else f"{top} ... ({_names([m[len(top):].strip() for m in said])})"
         text = text if len(text) <= 160 else text[:157] + "..."
