@@ -22,9 +22,13 @@ figures compare like with like; ``--blas-threads`` shows the floor with OpenBLAS
 Children run with bytecode caching on (``PYTHONDONTWRITEBYTECODE`` removed) after one warm-up round, as an
 installed robokit runs: ``pip install`` compiles the package, an editable install caches on its first run.
 
+Instructions — the issue's yardstick, the same on any load — come from the hardware counters where the host gives
+them (``benchmarks/_counters.py``), else from ``valgrind --tool=callgrind`` (one run of each case, with
+``PYTHONHASHSEED=0``; about 10 s a case): the job by hand, the trivial run, and the first run after an install.
+
 Then, in fresh processes, where a trivial run's process time goes, stage by stage (median over the repeats).
 
-    python benchmarks/startup.py [--repeats 15] [--against 71958b6] [--blas-threads]
+    python benchmarks/startup.py [--repeats 15] [--against 71958b6] [--blas-threads] [--no-callgrind]
 """
 
 from __future__ import annotations
@@ -32,7 +36,9 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
 import resource
+import shutil
 import statistics
 import subprocess
 import sys
@@ -165,6 +171,19 @@ def measure(cmd: list[str], cwd: str, env: dict[str, str]) -> tuple[float, float
     return cpu, wall, instructions
 
 
+def callgrind(cmd: list[str], cwd: str, env: dict[str, str]) -> float | None:
+    """Instructions of one run of ``cmd`` as valgrind's callgrind counts them (None without valgrind)."""
+    valgrind = shutil.which("valgrind")
+    if valgrind is None:
+        return None
+    proc = subprocess.run([valgrind, "--tool=callgrind", "--callgrind-out-file=/dev/null", *cmd], cwd=cwd,
+                          capture_output=True, text=True, env={**env, "PYTHONHASHSEED": "0"})
+    found = re.search(r"Collected : (\d+)", proc.stderr)
+    if proc.returncode not in (0, 1) or found is None:
+        raise SystemExit(f"callgrind of {' '.join(cmd)} failed ({proc.returncode}): {proc.stderr.strip()[-400:]}")
+    return float(found.group(1))
+
+
 def stages(config: Path, repeats: int, cwd: str, env: dict[str, str]) -> None:
     """Where a trivial run's process time (and user-mode instructions) go: each stage of what ``robokit run`` does,
     in fresh processes. The counter is opened before the first mark: its small cost lands in no stage."""
@@ -198,6 +217,8 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=15)
     parser.add_argument("--blas-threads", action="store_true",
                         help="also measure the numpy + pybullet floor with OpenBLAS's default thread count")
+    parser.add_argument("--no-callgrind", action="store_true",
+                        help="where the host has no hardware counters, skip counting instructions under valgrind")
     parser.add_argument("--against", metavar="REV",
                         help="also run the trivial config with robokit/ as it was at git revision REV (its "
                              "package from `git archive`, plugins from this checkout), interleaved; prints the ratio")
@@ -270,6 +291,17 @@ def main() -> None:
             print(f"trivial run in user-mode instructions: {run_i / hand_i:.2f}x the same job by hand "
                   f"({run_i / 1e6:.0f} M against {hand_i / 1e6:.0f} M); at the by-hand job's measured process time "
                   f"that would be {by_hand * run_i / hand_i * 1e3:.0f} ms")
+        if hand_i == 0 and not args.no_callgrind:
+            counted = {name: callgrind(cases[name][0], tmp, cases[name][1]) for name in (
+                "the same job by hand (pybullet, numpy rng, json)", "robokit run trivial.toml",
+                "  the same, entry points not remembered")}
+            hand_c, run_c, cold_c = counted.values()
+            if hand_c and run_c and cold_c:
+                print(f"trivial run in instructions (callgrind, no hardware counters here): {run_c / hand_c:.3f}x the "
+                      f"same job by hand ({run_c / 1e6:.1f} M against {hand_c / 1e6:.1f} M; target <= 1.20); the first "
+                      f"run after an install {cold_c / hand_c:.3f}x ({cold_c / 1e6:.1f} M)")
+            else:
+                print("instructions: no hardware counters and no valgrind here (apt-get install valgrind)")
         if args.against:
             before = medians[f"robokit run trivial.toml at {args.against}"]
             now = medians["robokit run trivial.toml (python -m)"]
