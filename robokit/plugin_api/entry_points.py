@@ -89,18 +89,17 @@ def _key(groups: list[str]) -> list[Any] | None:
     for entry in sys.path:
         folder = os.path.abspath(entry or ".")  # "" is the working folder
         try:
-            listing = os.scandir(folder)
+            names = os.listdir(folder)  # names only: cheaper than scandir's entries in a folder of hundreds
         except NotADirectoryError:  # a zip
             folders.append(folder)
             seen.append(_stamp(folder))
             continue
         except OSError:  # missing, or the marker of an import hook: no distributions there
             continue
-        with listing:
-            infos = [item for item in listing if item.name.lower().endswith(_INFO_SUFFIXES)]
+        infos = [name for name in names if name.lower().endswith(_INFO_SUFFIXES)]
         if infos:
             folders.append(folder)
-            seen.append([[item.name, _stamp(os.path.join(item.path, "entry_points.txt"))] for item in infos])
+            seen.append([[name, _stamp(os.path.join(folder, name, "entry_points.txt"))] for name in infos])
     return [[FORMAT, sys.version, *groups], folders, seen]
 
 
