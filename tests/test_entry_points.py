@@ -76,6 +76,23 @@ def test_an_installed_removed_or_reinstalled_distribution_is_seen(tmp_path: Path
     assert by_robokit() == by_importlib()
 
 
+def test_an_egg_info_distribution_installed_later_is_seen(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The legacy layout (``NAME.egg-info``, ``PKG-INFO``; any case of the suffix, as importlib.metadata reads it)
+    counts as a distribution in the remembered answer's key too."""
+    site = tmp_path / "site"
+    make_dist(site, "robokit-first", "1.0", FAULTY_SENSORS)  # the folder already holds a distribution
+    monkeypatch.syspath_prepend(str(site))
+    assert not [m for m in by_robokit(("robokit",)) if m[3] == "legacy-plugin"]
+    (site / "legacy_plugin_mod.py").write_text(FAULTY_SENSORS)
+    info = site / "legacy_plugin.EGG-INFO"
+    info.mkdir()
+    (info / "PKG-INFO").write_text("Metadata-Version: 1.1\nName: legacy-plugin\nVersion: 0.3\n")
+    (info / "entry_points.txt").write_text("[robokit]\nlegacy = legacy_plugin_mod\n")
+    assert [m for m in by_robokit(("robokit",)) if m[3] == "legacy-plugin"] == [
+        ("robokit", "legacy", "legacy_plugin_mod", "legacy-plugin", "0.3")]
+    assert by_robokit() == by_importlib()
+
+
 def test_the_first_distribution_of_a_name_on_sys_path_wins(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     first = make_dist(tmp_path / "a", "robokit-extra", "1.0", FAULTY_SENSORS)
     make_dist(tmp_path / "b", "robokit_extra", "2.0", FAULTY_SENSORS)  # the same name, normalised: shadowed

@@ -15,7 +15,7 @@ import tomllib
 from pybullet_utils.bullet_client import BulletClient
 
 from robokit.cli import main
-from robokit.process.quiet import capture_c_stdout
+from robokit.process.quiet import CapturedOutput, capture_c_stdout
 from robokit.testing import make_sim
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -60,6 +60,20 @@ def test_the_pybullet_warning_summary_says_what_the_warning_says() -> None:
     assert note is not None and ".cpp" not in note and "b3Warning" not in note
     assert "printed 8 message(s)" in note and "(8x): urdfdom: no axis element for Joint" in note
     assert "chest" in note
+
+
+def test_the_summary_names_the_most_frequent_kind_and_a_tie_goes_to_the_first_seen() -> None:
+    """Kinds are messages without their last word; the summary quotes the most frequent one, and of two as frequent
+    the one pybullet printed first."""
+    often = CapturedOutput("warning: no inertia for link a\nwarning: no mesh b\nwarning: no inertia for link c\n")
+    note = often.summary()
+    assert note is not None and "3 message(s) of its own (2 kind(s))" in note
+    assert note.endswith("most often (2x): warning: no inertia for link ... (a, c)")
+    tie = CapturedOutput("warning: no mesh b\nwarning: no inertia for link a\n")
+    assert str(tie.summary()).endswith("most often (1x): warning: no mesh b")
+    tie_reversed = CapturedOutput("warning: no inertia for link a\nwarning: no mesh b\n")
+    assert str(tie_reversed.summary()).endswith("most often (1x): warning: no inertia for link a")
+    assert CapturedOutput("argv[0]=\n").summary() is None
 
 
 def _sort_scene() -> dict[str, Any]:
