@@ -208,6 +208,8 @@ class BodyConfig(Section):
 
 
 _MODEL_KEYS = {".urdf": "urdf", ".sdf": "sdf", ".xml": "mjcf", ".mjcf": "mjcf"}
+MODEL_FILE_KEYS = ("urdf", "sdf", "mjcf")
+"""The keys of a body or robot that name a file (what a course submission may set only to a packaged model)."""
 
 
 class EventConfig(Section):
@@ -275,6 +277,12 @@ class ComponentSpec:
     ``abort`` (the run ends aborted, actuators brought to a protective stop) or ``recover`` (the task is halted,
     actuators stopped, and the ``[recoveries.NAME]`` behaviour named by ``recovery`` takes over)."""
     recovery: str | None = None
+    watch_recovery: bool = True
+    """Monitors only: after pre-empting the task (``action = "recover"``), a fresh instance of the monitor keeps
+    watching the recovery; if it trips too, the run ends ``aborted`` with a protective stop in that tick."""
+    must_last: bool = False
+    """Children of composites only: the child's goal, judged when it ended, is asked of the world again when the
+    run ends (the last step of a sequence, and the child that decided any other composite, always are)."""
     children: tuple["ComponentSpec", ...] = ()
     """The children of a composite behaviour (a sequence's ``[[behaviour.steps]]``, a fallback's
     ``[[behaviour.children]]``, a retry's ``[behaviour.child]``...), each a behaviour section of its own."""
@@ -596,10 +604,16 @@ def _monitor(name: str, data: Any, plugins: Any, physics_hz: float,
     """A ``[monitors.NAME]`` section: a behaviour section plus ``action`` and ``recovery`` (read by the core)."""
     key = f"monitors.{name}"
     own = dict(data) if isinstance(data, Mapping) else data
-    action, recovery = "observe", None
+    action, recovery, watch = "observe", None, True
     if isinstance(own, dict):
         action = own.pop("action", "observe")
         recovery = own.pop("recovery", None)
+        watch = own.pop("watch_recovery", True)
+        if not isinstance(watch, bool):
+            raise ConfigError(f"expected true or false, got {_describe(watch)}", key=f"{key}.watch_recovery")
+        if not watch and action != "recover":
+            raise ConfigError(f"watch_recovery is used with action = 'recover' only (action is {action!r})",
+                              key=f"{key}.watch_recovery")
         if action not in MONITOR_ACTIONS:
             raise ConfigError(f"expected one of {', '.join(repr(a) for a in MONITOR_ACTIONS)}, got "
                               f"{_describe(action)}", key=f"{key}.action")
@@ -617,7 +631,7 @@ def _monitor(name: str, data: Any, plugins: Any, physics_hz: float,
                               f"{', '.join(recoveries) or '(none: add a [recoveries.NAME] section)'}",
                               key=f"{key}.recovery")
     spec = _component("behaviour", name, own, key, plugins, physics_hz)
-    return dataclasses.replace(spec, action=action, recovery=recovery)
+    return dataclasses.replace(spec, action=action, recovery=recovery, watch_recovery=watch)
 
 
 def _children_key(type_name: Any, plugins: Any) -> tuple[str, tuple[int, int | None]] | None:
@@ -656,8 +670,12 @@ def _behaviour(data: Any, plugins: Any, physics_hz: float, key: str = "behaviour
         if names.count(child_name) > 1:
             raise ConfigError(f"two steps are named {child_name!r}; give each a distinct name",
                               key=f"{child_key}.name")
-        own = {k: v for k, v in step.items() if k != "name"}
-        children.append(_behaviour(own, plugins, physics_hz, child_key, child_name))
+        own = {k: v for k, v in step.items() if k not in ("name", "must_last")}
+        must_last = step.get("must_last", False)
+        if not isinstance(must_last, bool):
+            raise ConfigError(f"expected true or false, got {_describe(must_last)}", key=f"{child_key}.must_last")
+        child = _behaviour(own, plugins, physics_hz, child_key, child_name)
+        children.append(dataclasses.replace(child, must_last=must_last))
     spec = _component("behaviour", name, {k: v for k, v in data.items() if k != ckey}, key, plugins, physics_hz)
     return dataclasses.replace(spec, children=tuple(children))
 

@@ -128,13 +128,39 @@ class Composite(Behaviour):
             return None
         return call(member, self.ROLE, "step", member.behaviour.step, readings, t)  # type: ignore[no-any-return]
 
-    def end(self, member: Member, outcome: Outcome, t: float, index: int) -> None:
-        """Book a child's end (its outcome) in the result and the trace."""
+    def end(self, member: Member, outcome: Outcome, t: float, index: int) -> Outcome:
+        """Book a child's end in the result and the trace, its goal judged on the world now (:meth:`judge`).
+
+        Returns the judged outcome: the one the composite's rule goes by."""
+        outcome = self.judge(member, outcome)
         member.record.update(outcome=outcome.status, reason=outcome.reason,
                              sim_time=round(t - member.record["started_at"], 6))
         self.runs.append(member.record)
         self._trace(self._kind("end"), composite=self.name, **{self._label(): member.name}, index=index,
                     outcome=outcome.status, reason=outcome.reason)
+        return outcome
+
+    def judge(self, member: Member, outcome: Outcome) -> Outcome:
+        """A child's goal, judged on the world the moment the child ends, as a run's goal is when the run ends.
+
+        A child that states a goal (its ``check_goal(world)``) has it recorded in its record (``goal``: met,
+        reason, details). For a child that ended ``succeeded`` or ``failed`` the world decides: met is
+        ``succeeded``, not met is ``failed``, and the child's own claim is kept under ``claimed``. ``aborted`` stands.
+        """
+        hook = getattr(member.behaviour, "check_goal", None)
+        check = call(member, self.ROLE, "check_goal", hook, self.ctx.world) if hook is not None else None
+        if check is None:
+            return outcome
+        met = bool(check.met)
+        member.record["goal"] = {"met": met, "reason": check.reason, **dict(check.details)}
+        self._trace("goal", composite=self.name, child=member.name, met=met, reason=check.reason)
+        if outcome.status not in ("succeeded", "failed") or met == (outcome.status == "succeeded"):
+            return outcome
+        member.record["claimed"] = {"outcome": outcome.status, "reason": outcome.reason}
+        claim = f" ({member.name} reported {outcome.status}: {outcome.reason})"
+        if met:
+            return Outcome("succeeded", f"goal met: {check.reason}{claim}")
+        return Outcome("failed", f"goal not met: {check.reason}{claim}")
 
     def halt_child(self, member: Member, t: float, reason: str) -> Mapping[str, Any] | None:
         """Stop a running child before it ended: its ``halt(t)`` runs (its commands are returned), it is booked
@@ -177,20 +203,33 @@ class Composite(Behaviour):
 
     def _with_result(self, record: dict[str, Any]) -> dict[str, Any]:
         member = next((m for m in self.children if m.name == record["name"]), None)
-        own: dict[str, Any] = {}
-        if member is not None and record["outcome"] != "not started":
+        own: dict[str, Any] = record.get("result", {})
+        if "result" not in record and member is not None and record["outcome"] != "not started":
             try:
                 own = dict(member.behaviour.result())
             except Exception as exc:  # noqa: BLE001 - the run's result must survive a faulty child
                 own = {"result_error": f"{type(exc).__name__}: {exc}"}
         return {**record, "result": own}
 
+    def final(self) -> list[Member]:
+        """The children whose goals must still hold when the run ends (a composite that succeeded): each child
+        that succeeded, and any child whose section says ``must_last = true``. A sequence narrows this to its last
+        step (:class:`robokit.core.composites.Sequence`)."""
+        return [m for m in self.children if m.record.get("outcome") == "succeeded"]
+
     def check_goal(self, world: Any) -> GoalCheck | None:
-        """The goals of the children that ran (those that state one): met only if all are."""
+        """The run's final verdict on a composite: the goals that must still hold at the end (:meth:`final`, and
+        every child marked ``must_last``), asked of the world now; met only if all are. None when the composite
+        did not succeed (its children's goals were judged as they ended, and its outcome stands) or no such child
+        states a goal."""
+        if self.outcome is None or self.outcome.status != "succeeded":
+            return None
+        lasting = [m for m in self.children if getattr(m.spec, "must_last", False)
+                   and m.record.get("outcome") == "succeeded"]
+        final = self.final()
+        members = [*final, *(m for m in lasting if all(m is not f for f in final))]
         checks = []
-        for member in self.children:
-            if member.record.get("outcome") in (None, "not started", "halted"):
-                continue
+        for member in members:
             hook = getattr(member.behaviour, "check_goal", None)
             check = call(member, self.ROLE, "check_goal", hook, world) if hook else None
             if check is not None:
@@ -247,8 +286,7 @@ class Ordered(Composite):
         commands = self.tick_child(member, readings, t)
         outcome = member.behaviour.outcome
         if outcome is not None:
-            self.end(member, outcome, t, self.index)
-            self._after(member, outcome)
+            self._after(member, self.end(member, outcome, t, self.index))
         return commands
 
     def _after(self, member: Member, outcome: Outcome) -> None:

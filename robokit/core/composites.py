@@ -69,6 +69,11 @@ class Sequence(Ordered):
     def _exhausted(self) -> tuple[str, str]:
         return "succeeded", f"all {len(self.children)} steps succeeded"
 
+    def final(self) -> list[Member]:
+        """The last step: what must still hold when the run ends (each earlier step's goal was judged when it
+        ended; a step with ``must_last = true`` is checked again at the end too)."""
+        return self.children[-1:] if self.children and self.children[-1].record.get("outcome") == "succeeded" else []
+
     def result(self) -> dict[str, Any]:
         """Per step: name, type, outcome, reason, start and duration (sim s) and the step's own result."""
         steps = [self._with_result(r) for r in self._records()]
@@ -132,7 +137,7 @@ class Retry(Composite):
         outcome = member.behaviour.outcome
         if outcome is None:
             return commands
-        self.end(member, outcome, t, self.attempt - 1)
+        outcome = self.end(member, outcome, t, self.attempt - 1)
         if outcome.status == "succeeded":
             self.finish("succeeded", f"attempt {self.attempt} of {self.config.attempts} succeeded: {outcome.reason}")
         elif self.attempt >= self.config.attempts:
@@ -142,6 +147,7 @@ class Retry(Composite):
         return commands
 
     def _fresh(self, member: Member) -> None:
+        member.record["result"] = self._with_result(member.record)["result"]  # the attempt's own, kept
         try:
             member.behaviour.close()
         except Exception:  # noqa: BLE001, S110 - the next attempt must start
@@ -160,7 +166,7 @@ class Retry(Composite):
 class TimeoutConfig(Section):
     """``type = "timeout"``: the child is ``[behaviour.child]``."""
 
-    seconds: float = setting(ge=0.0, description="sim seconds the child may run, from its start")
+    seconds: float = setting(gt=0.0, description="sim seconds the child may run, from its start (more than 0)")
 
 
 class Timeout(Composite):
@@ -184,7 +190,7 @@ class Timeout(Composite):
         commands = self.tick_child(member, readings, t)
         outcome = member.behaviour.outcome
         if outcome is not None:
-            self.end(member, outcome, t, 0)
+            outcome = self.end(member, outcome, t, 0)
             self.finish(outcome.status, outcome.reason)
         return commands
 
