@@ -1,7 +1,7 @@
 """Batched ray casts through the World: :func:`RayCaster` makes the world's own caster.
 
 Which rays an engine answers and how (PyBullet: ``rayTestBatch``, with static mesh boxes intersected in numpy to
-the same answers; see :mod:`robokit.engines.pybullet_rays`) is the engine's business: a plugin asks the World.
+the same answers; see :mod:`robokit.engines.pybullet.rays`) is the engine's business: a plugin asks the World.
 """
 
 from __future__ import annotations

@@ -14,7 +14,7 @@ pytest.importorskip("mujoco")
 
 from robokit.config import load_config  # noqa: E402
 from robokit.core.simulation import spawn_bodies  # noqa: E402
-from robokit.engines.mujoco_engine import MujocoWorld  # noqa: E402
+from robokit.engines.mujoco.world import MujocoWorld  # noqa: E402
 from robokit.plugin_api.plugins import load_plugins  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]

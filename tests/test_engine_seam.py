@@ -23,9 +23,10 @@ from robokit.engines.interface import World as Interface
 
 ROOT = Path(__file__).resolve().parents[1]
 ENGINE_PACKAGES = ("pybullet", "pybullet_data", "pybullet_utils", "mujoco")
-ENGINE_MODULES = tuple(f"robokit.engines.{p.stem}" for p in sorted((ROOT / "robokit" / "engines").glob("*.py"))
-                       if p.stem not in ("__init__", "interface"))
-"""Every module of robokit's engines but the interface (a new engine file is banned as soon as it exists)."""
+ENGINE_MODULES = tuple(f"robokit.engines.{p.stem}" for p in sorted((ROOT / "robokit" / "engines").iterdir())
+                       if p.stem not in ("__init__", "interface", "__pycache__") and (p.suffix == ".py" or p.is_dir()))
+"""Every engine package (and module) of robokit's engines but the interface: a new engine is banned as soon as it
+exists, and a ban covers the package's modules (``robokit.engines.mujoco.world`` is ``robokit.engines.mujoco``'s)."""
 ENGINES = ENGINE_PACKAGES + ENGINE_MODULES
 ENGINE_HANDLES = ("client", "cid")
 
@@ -52,7 +53,7 @@ def _is_engine(module: str) -> bool:
 def test_the_walk_sees_the_plugins_and_behaviours() -> None:
     names = {p.name for p in _sources()}
     assert {"gripper.py", "ik_arm.py", "lidar.py", "camera.py", "sort.py", "patrol.py"} <= names
-    assert {"robokit.engines.pybullet", "robokit.engines.pybullet_rays"} <= set(ENGINE_MODULES)
+    assert set(ENGINE_MODULES) == {"robokit.engines.pybullet", "robokit.engines.mujoco"}
 
 
 def test_no_plugin_or_behaviour_imports_an_engine() -> None:
@@ -77,7 +78,8 @@ def test_no_plugin_or_behaviour_touches_the_engine_handles() -> None:
     "import mujoco.viewer\n",
     "from robokit.engines.pybullet import PyBulletWorld\n",
     "from robokit.engines import pybullet\n",
-    "import robokit.engines.pybullet_rays as rays\n",
+    "import robokit.engines.pybullet.rays as rays\n",
+    "from robokit.engines.mujoco.world import MujocoWorld\n",
 ])
 def test_the_check_catches_each_way_of_importing_an_engine(source: str) -> None:
     assert any(_is_engine(module) for _, module in _imported(ast.parse(source)))

@@ -3,8 +3,10 @@
 - :mod:`robokit.engines.interface` — :class:`~robokit.engines.interface.World`, the one interface to physics that
   plugins and behaviours use (abstract methods with units and frames), and its engine-neutral half (names, clock,
   random generator). It imports no engine.
-- :mod:`robokit.engines.pybullet` — the PyBullet engine (``engine = "pybullet"``, the default), with
-  :mod:`robokit.engines.pybullet_rays` (its batched ray caster).
+- :mod:`robokit.engines.pybullet` — the PyBullet engine (``engine = "pybullet"``, the default): a package whose
+  world sits on its batched ray caster.
+- :mod:`robokit.engines.mujoco` — the MuJoCo engine (``engine = "mujoco"``): a package whose world sits on its
+  parts (attachments, kinematics, rays, cameras), they on its bodies, and those on the scene's building blocks.
 
 An engine registers here, by name, a function that imports and returns its World class: ``World(engine=NAME)``
 builds it, and nothing imports an engine until a World of it is made.
@@ -18,7 +20,7 @@ from robokit.engines.interface import World
 
 
 def _pybullet() -> type[World]:
-    from robokit.engines.pybullet import PyBulletWorld
+    from robokit.engines.pybullet.world import PyBulletWorld
 
     return PyBulletWorld
 
@@ -33,7 +35,7 @@ def _mujoco() -> type[World]:
 
     os.environ.setdefault("MUJOCO_GL", "egl")  # headless (Mesa's EGL): MuJoCo picks its backend when first imported
     require("mujoco", 'world.engine = "mujoco"')
-    from robokit.engines.mujoco_engine import MujocoWorld
+    from robokit.engines.mujoco.world import MujocoWorld
 
     return MujocoWorld
 

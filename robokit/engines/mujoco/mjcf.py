@@ -7,9 +7,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
-from robokit.engines import mujoco_math as mm
-from robokit.engines.mujoco_gl import mujoco
-from robokit.engines.mujoco_scene import Scene, add_motor, mj_quat, scale_spec
+from robokit.engines.mujoco import spatial as mm
+from robokit.engines.mujoco.gl import mujoco
+from robokit.engines.mujoco.scene import Scene, add_motor, mj_quat, scale_spec
 from robokit.errors import UserError
 
 

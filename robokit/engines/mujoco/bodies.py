@@ -1,6 +1,6 @@
 """The mujoco engine's bodies: :class:`MujocoBodies`, the half of the World on MuJoCo that builds the scene with
 :class:`mujoco.MjSpec`, compiles it, and answers where bodies and links are (the devices' half is
-:class:`~robokit.engines.mujoco_engine.MujocoWorld`).
+:class:`~robokit.engines.mujoco.world.MujocoWorld`).
 
 Bodies are added to the spec and compiled when the world is first stepped or looked at (again after a body is
 added or removed: the others keep their state). A body id is robokit's, handed out in creation order and stable for
@@ -18,10 +18,10 @@ from typing import Any
 import numpy as np
 
 from robokit.engines.interface import JointInfo, Pose, Quat, Vec3, World
-from robokit.engines.mujoco_gl import mujoco
-from robokit.engines.mujoco_links import joint_table, urdf_joints
-from robokit.engines.mujoco_more import MujocoExtras
-from robokit.engines.mujoco_scene import Scene, add_primitive, load_urdf, mj_quat, mujoco_joints
+from robokit.engines.mujoco.extras import MujocoExtras
+from robokit.engines.mujoco.gl import mujoco
+from robokit.engines.mujoco.links import joint_table, urdf_joints
+from robokit.engines.mujoco.scene import Scene, add_primitive, load_urdf, mj_quat, mujoco_joints
 from robokit.errors import UserError
 
 
@@ -113,6 +113,11 @@ class MujocoBodies(MujocoExtras, World):
     def _after_compile(self, model: Any) -> None:
         """What a subclass puts back into a freshly compiled model (nothing here)."""
 
+    def owners(self) -> dict[int, tuple[int, int]]:
+        """MuJoCo body id -> (robokit body id, link), for the scene as compiled now."""
+        self.compiled()
+        return self._owner
+
     def link_body_name(self, body: str | int, link: int) -> str:
         """MuJoCo's name of a body's base (``-1``) or link."""
         rid = self.body(body)
@@ -190,10 +195,10 @@ class MujocoBodies(MujocoExtras, World):
     def load_model(self, name: str, path: str, kind: str, *, position: Sequence[float] = (0.0, 0.0, 0.0),
                    orientation: Sequence[float] = (0.0, 0.0, 0.0, 1.0), fixed_base: bool = False,
                    scale: float = 1.0) -> list[int]:
-        """Load an MJCF file (see :mod:`robokit.engines.mujoco_mjcf`); SDF is PyBullet's only."""
+        """Load an MJCF file (see :mod:`robokit.engines.mujoco.mjcf`); SDF is PyBullet's only."""
         if kind != "mjcf":
             raise UserError(f"{kind.upper()} {path!r}: the mujoco engine loads URDF and MJCF files, not {kind.upper()}")
-        from robokit.engines.mujoco_mjcf import load_mjcf
+        from robokit.engines.mujoco.mjcf import load_mjcf
 
         resolved = Path(self.resolve_urdf(path))
         names = [name] + [f"{name}_{k}" for k in range(1, 64)]
@@ -210,7 +215,7 @@ class MujocoBodies(MujocoExtras, World):
         return ids
 
     def set_dynamics(self, body: int | str, link: int = -1, **params: float | None) -> None:
-        """Contact and damping parameters of a body's base or link (see :mod:`robokit.engines.mujoco_scene`)."""
+        """Contact and damping parameters of a body's base or link (see :mod:`robokit.engines.mujoco.scene`)."""
         values = {k: float(v) for k, v in params.items() if v is not None}
         if not values:
             return
@@ -317,7 +322,7 @@ class MujocoBodies(MujocoExtras, World):
         ipos, iquat = self.model.body_ipos[bid], self.model.body_iquat[bid]
         if np.abs(ipos).max() < 1e-12 and abs(abs(iquat[0]) - 1.0) < 1e-12:
             return None
-        from robokit.engines.mujoco_math import invert
+        from robokit.engines.mujoco.spatial import invert
 
         return invert(_vec(ipos), _xyzw(iquat))
 
@@ -373,7 +378,7 @@ class MujocoBodies(MujocoExtras, World):
 
     def set_com_pose(self, body: str | int, position: Sequence[float], orientation: Sequence[float]) -> None:
         """Teleport a free body so that its centre-of-mass frame is at ``position`` / ``orientation``; velocity kept."""
-        from robokit.engines.mujoco_math import multiply
+        from robokit.engines.mujoco.spatial import multiply
 
         offset = self.link_offset(body)
         pos, orn = (position, orientation) if offset is None else multiply(position, orientation, *offset)

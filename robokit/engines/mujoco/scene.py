@@ -24,8 +24,8 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from robokit.engines.mujoco_gl import mujoco
-from robokit.engines.mujoco_links import UrdfJoint
+from robokit.engines.mujoco.gl import mujoco
+from robokit.engines.mujoco.links import UrdfJoint
 from robokit.errors import UserError
 
 DEFAULT_TIMECONST = 0.02

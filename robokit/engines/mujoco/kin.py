@@ -8,13 +8,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from robokit.engines.interface import ChainFrame, ChainJoint
-from robokit.engines.mujoco_gl import mujoco
+from robokit.engines.mujoco.gl import mujoco
 from robokit.errors import UserError
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
 
-    from robokit.engines.mujoco_engine import MujocoWorld
+    from robokit.engines.mujoco.bodies import MujocoBodies
 
 TYPES = {int(mujoco.mjtJoint.mjJNT_HINGE): "revolute", int(mujoco.mjtJoint.mjJNT_SLIDE): "prismatic"}
 
@@ -27,7 +27,7 @@ def _vec(v: Any) -> tuple[float, float, float]:
     return (float(v[0]), float(v[1]), float(v[2]))
 
 
-def kinematic_chain(world: MujocoWorld, body: int, link: int) -> list[ChainFrame | ChainJoint]:
+def kinematic_chain(world: MujocoBodies, body: int, link: int) -> list[ChainFrame | ChainJoint]:
     """The base's pose now, then per body down to ``link``: its fixed placement in its parent and its joint's motion
     (MuJoCo's URDF import puts each joint at its child body's origin)."""
     m, d = world.compiled()
@@ -50,7 +50,7 @@ def kinematic_chain(world: MujocoWorld, body: int, link: int) -> list[ChainFrame
     return steps
 
 
-def jacobian(world: MujocoWorld, body: int, link: int, positions: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
+def jacobian(world: MujocoBodies, body: int, link: int, positions: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
     """Linear and angular Jacobian (3 x n each) of ``link``'s link-frame origin (its MuJoCo body's frame, as
     ``World.pose`` gives it) at the movable joints' ``positions``, columns in joint index order; computed on a copy
     of the state (the world does not move)."""

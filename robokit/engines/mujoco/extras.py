@@ -1,14 +1,14 @@
 """The rest of the World interface on the mujoco engine: pose arithmetic and camera matrices (numpy), and what is
 not built yet, each refused with one line naming the engine (configs that need them are refused before the run by
-:mod:`robokit.engines.mujoco_support`)."""
+:mod:`robokit.engines.mujoco.support`)."""
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from typing import Any, NoReturn
 
-from robokit.engines import mujoco_math as mm
 from robokit.engines.interface import Pose, Quat, Vec3
+from robokit.engines.mujoco import spatial as mm
 from robokit.errors import UserError
 
 
@@ -17,7 +17,7 @@ def _not_yet(what: str) -> NoReturn:
 
 
 class MujocoExtras:
-    """Mixed into :class:`~robokit.engines.mujoco_engine.MujocoWorld` before the World interface."""
+    """Mixed into :class:`~robokit.engines.mujoco.world.MujocoWorld` before the World interface."""
 
     # ----------------------------------------------------------------- pose arithmetic
     def multiply_transforms(self, position_a: Sequence[float], orientation_a: Sequence[float],

@@ -1,8 +1,8 @@
 """Ray casting on the mujoco engine: :class:`MujocoRayCaster` answers the World's ray batches with MuJoCo's own
 ``mj_multiRay`` (rays from one point, as a lidar casts from outside its robot) or ``mj_ray`` per segment.
 
-Bodies hidden from rays (:meth:`MujocoWorld.hide_from_rays`) have their geoms in geom group :data:`HIDDEN_GROUP`,
-which a caster made with ``see_hidden=False`` leaves out; collisions do not look at geom groups.
+Bodies hidden from rays (``MujocoWorld.hide_from_rays``) have their geoms in geom group :data:`HIDDEN_GROUP`, which
+a caster made with ``see_hidden=False`` leaves out; collisions do not look at geom groups.
 """
 
 from __future__ import annotations
@@ -13,10 +13,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from robokit.engines.interface import RayHits
-from robokit.engines.mujoco_gl import mujoco
+from robokit.engines.mujoco.gl import mujoco
 
 if TYPE_CHECKING:
-    from robokit.engines.mujoco_engine import MujocoWorld
+    from robokit.engines.mujoco.bodies import MujocoBodies
 
 HIDDEN_GROUP = 5
 """The geom group of bodies hidden from rays."""
@@ -25,7 +25,7 @@ HIDDEN_GROUP = 5
 class MujocoRayCaster:
     """Casts batches of segments in one MuJoCo world (see :class:`robokit.engines.interface.RayCaster`)."""
 
-    def __init__(self, world: MujocoWorld, skip: Collection[int], see_hidden: bool) -> None:
+    def __init__(self, world: MujocoBodies, skip: Collection[int], see_hidden: bool) -> None:
         self.world = world
         self.skip = set(skip)
         self.groups = np.ones(6, dtype=np.uint8)

@@ -10,12 +10,12 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
-from robokit.engines import mujoco_math as mm
-from robokit.engines.mujoco_gl import mujoco
-from robokit.engines.mujoco_scene import mj_quat
+from robokit.engines.mujoco import spatial as mm
+from robokit.engines.mujoco.gl import mujoco
+from robokit.engines.mujoco.scene import mj_quat
 
 if TYPE_CHECKING:
-    from robokit.engines.mujoco_engine import MujocoWorld
+    from robokit.engines.mujoco.bodies import MujocoBodies
 
 
 EQ_DATA = 12
@@ -39,7 +39,7 @@ class Joins:
         return self.count, f"attachment/{self.count}"
 
 
-def attach(world: MujocoWorld, parent: int, parent_link: int, child: int, *,
+def attach(world: MujocoBodies, joins: Joins, parent: int, parent_link: int, child: int, *,
            position: Sequence[float] | None = None, max_force: float | None = None) -> int:
     """Weld ``child``'s base to ``parent``'s ``parent_link``: as they are now, or with the child's centre of
     mass at ``position`` (m) in the parent link's centre-of-mass frame, orientations aligned."""
@@ -52,51 +52,51 @@ def attach(world: MujocoWorld, parent: int, parent_link: int, child: int, *,
         offset = world.link_offset(child)
         child_pose = held if offset is None else mm.multiply(*held, *offset)
     rel_pos, rel_orn = mm.multiply(*mm.invert(*parent_pose), *child_pose)
-    return weld(world, parent, parent_link, child, rel_pos, rel_orn)
+    return weld(world, joins, parent, parent_link, child, rel_pos, rel_orn)
 
 
-def weld(world: MujocoWorld, parent: int, parent_link: int, child: int, rel_pos: Sequence[float],
+def weld(world: MujocoBodies, joins: Joins, parent: int, parent_link: int, child: int, rel_pos: Sequence[float],
          rel_orn: Sequence[float]) -> int:
     """A weld holding ``child``'s base link frame at ``rel_pos`` / ``rel_orn`` in ``parent_link``'s link frame."""
     names = (world.link_body_name(parent, parent_link), world.link_body_name(child, -1))
-    attachment, name = world.joins.new()
+    attachment, name = joins.new()
     world.scene.spec.add_equality(name=name, type=mujoco.mjtEq.mjEQ_WELD, objtype=mujoco.mjtObj.mjOBJ_BODY,
                                  name1=names[0], name2=names[1],
                                  data=_padded([0.0, 0.0, 0.0, *rel_pos, *mj_quat(rel_orn), 1.0]))
-    world.joins.held[attachment] = (world.body(parent), world.body(child), name)
+    joins.held[attachment] = (world.body(parent), world.body(child), name)
     world.changed()
     return attachment
 
 
-def couple_joints(world: MujocoWorld, body: int, leader: int, follower: int, ratio: float, *, erp: float,
+def couple_joints(world: MujocoBodies, joins: Joins, body: int, leader: int, follower: int, ratio: float, *, erp: float,
                   max_force: float) -> int:
     """A joint equality: ``follower = ratio * leader`` (MuJoCo's own stiffness; ``erp`` and ``max_force`` are
     PyBullet's and not applied)."""
     m, _ = world.compiled()
     names = [m.joint(int(m.body_jntadr[world.mj_body(body, j)])).name for j in (follower, leader)]
-    attachment, name = world.joins.new()
+    attachment, name = joins.new()
     world.scene.spec.add_equality(name=name, type=mujoco.mjtEq.mjEQ_JOINT, objtype=mujoco.mjtObj.mjOBJ_JOINT,
                                  name1=names[0], name2=names[1], data=_padded([0.0, ratio]))
-    world.joins.held[attachment] = (world.body(body), world.body(body), name)
+    joins.held[attachment] = (world.body(body), world.body(body), name)
     world.changed()
     return attachment
 
 
-def detach(world: MujocoWorld, attachment: int) -> None:
+def detach(world: MujocoBodies, joins: Joins, attachment: int) -> None:
     """Remove an attachment (recompiled at the next look; nothing else changes)."""
-    join = world.joins.held.pop(attachment, None)
+    join = joins.held.pop(attachment, None)
     if join is None or world.client is None:
         return
     world.scene.spec.delete(world.scene.spec.equality(join[2]))
     world.changed()
 
 
-def joined(world: MujocoWorld, a: int, b: int) -> bool:
+def joined(world: MujocoBodies, joins: Joins, a: int, b: int) -> bool:
     """True if an attachment joins ``a`` and ``b`` directly."""
-    return any({p, c} == {a, b} for p, c, _ in world.joins.held.values())
+    return any({p, c} == {a, b} for p, c, _ in joins.held.values())
 
 
-def disable_collisions(world: MujocoWorld, body: int) -> None:
+def disable_collisions(world: MujocoBodies, body: int) -> None:
     """Take every link of a body out of contact (and out of restitution pairs)."""
     root = world.scene.spec.body(world.link_body_name(body, -1))
     for geom in world.scene.geoms_of(root):
@@ -105,7 +105,7 @@ def disable_collisions(world: MujocoWorld, body: int) -> None:
     world.changed()
 
 
-def mount(world: MujocoWorld, child: str, parent: str, link: int, position: Sequence[float],
+def mount(world: MujocoBodies, joins: Joins, child: str, parent: str, link: int, position: Sequence[float],
           orientation: Sequence[float]) -> int:
     """Move ``child``'s base to ``position`` / ``orientation`` in ``parent``'s ``link`` frame and weld it there; the
     two never collide."""
@@ -113,4 +113,4 @@ def mount(world: MujocoWorld, child: str, parent: str, link: int, position: Sequ
     world.set_pose(cid, *mm.multiply(*world.pose(pid, link), position, orientation))
     world.scene.spec.add_exclude(bodyname1=world.link_body_name(pid, link), bodyname2=world.link_body_name(cid, -1))
     world.mounts[cid] = pid
-    return weld(world, pid, link, cid, position, orientation)
+    return weld(world, joins, pid, link, cid, position, orientation)

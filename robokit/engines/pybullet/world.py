@@ -1,7 +1,7 @@
 """The PyBullet engine: :class:`PyBulletWorld`, the World on one ``BulletClient`` (DIRECT by default, GUI on
 request). Never the module-global ``pybullet`` connection: two worlds live side by side in one process.
 
-Everything PyBullet-specific lives here (and in :mod:`robokit.engines.pybullet_rays`): its tuple layouts, its
+Everything PyBullet-specific lives here (and in :mod:`robokit.engines.pybullet.rays`): its tuple layouts, its
 centre-of-mass frames, its constants. The methods' contracts (units, frames) are the interface's
 (:class:`robokit.engines.interface.World`).
 """
@@ -715,9 +715,9 @@ class PyBulletWorld(World):
     # ----------------------------------------------------------------- interface additions: rays, cameras
     def ray_caster(self, *, skip: Collection[int] = (), see_hidden: bool = True, mask: int = -1,
                    num_threads: int = 1, analytic: bool = True) -> RayCaster:
-        """A :class:`~robokit.engines.pybullet_rays.PyBulletRayCaster` (``rayTestBatch``, static mesh boxes in
+        """A :class:`~robokit.engines.pybullet.rays.PyBulletRayCaster` (``rayTestBatch``, static mesh boxes in
         numpy); ``see_hidden=False`` leaves group :data:`OWN_BODY_GROUP` out of ``mask``."""
-        from robokit.engines.pybullet_rays import PyBulletRayCaster
+        from robokit.engines.pybullet.rays import PyBulletRayCaster
 
         if not see_hidden:
             mask &= -1 ^ OWN_BODY_GROUP

@@ -13,11 +13,11 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from robokit.engines.interface import RenderedImage
-from robokit.engines.mujoco_gl import mujoco
+from robokit.engines.mujoco.gl import mujoco
 from robokit.errors import UserError
 
 if TYPE_CHECKING:
-    from robokit.engines.mujoco_engine import MujocoWorld
+    from robokit.engines.mujoco.bodies import MujocoBodies
 
 
 class Cameras:
@@ -66,11 +66,11 @@ def _place(renderer: Any, data: Any, view: Sequence[float], projection: Sequence
         cam.orthographic = 0
 
 
-def render(world: MujocoWorld, width: int, height: int, view: Sequence[float], projection: Sequence[float], *,
-           near: float, far: float, segmentation: bool = True) -> RenderedImage:
+def render(world: MujocoBodies, cameras: Cameras, width: int, height: int, view: Sequence[float],
+           projection: Sequence[float], *, near: float, far: float, segmentation: bool = True) -> RenderedImage:
     """RGB, depth (m) and segmentation (body ids) of one camera."""
     model, data = world.compiled()
-    renderer = world.cameras.get(model, width, height)
+    renderer = cameras.get(model, width, height)
     extent = float(model.stat.extent)
     model.vis.map.znear, model.vis.map.zfar = near / extent, far / extent
     _place(renderer, data, view, projection, near, far)

@@ -1,5 +1,5 @@
 """The mujoco engine: :class:`MujocoWorld`, the World on one MuJoCo model. Its bodies (building, compiling, poses)
-are :class:`~robokit.engines.mujoco_bodies.MujocoBodies`; here are the devices: stepping with forces, joint motors
+are :class:`~robokit.engines.mujoco.bodies.MujocoBodies`; here are the devices: stepping with forces, joint motors
 and wrenches, rays, attachments, kinematics, cameras, contacts and episodes.
 
 The state after :meth:`MujocoWorld.step` is consistent: ``mj_step2`` integrates, then ``mj_step1`` computes the
@@ -15,12 +15,14 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from robokit.engines import mujoco_attach, mujoco_kin, mujoco_render, mujoco_support
 from robokit.engines.interface import ChainFrame, ChainJoint, Contact, JointState, MotorMode, RayCaster, RenderedImage
-from robokit.engines.mujoco_bodies import MujocoBodies, _vec
-from robokit.engines.mujoco_gl import mujoco
-from robokit.engines.mujoco_links import Motors, critical_damping, motor_gains
-from robokit.engines.mujoco_render import Cameras
+from robokit.engines.mujoco import attach as attachments
+from robokit.engines.mujoco import kin, support
+from robokit.engines.mujoco import render as rendering
+from robokit.engines.mujoco.bodies import MujocoBodies, _vec
+from robokit.engines.mujoco.gl import mujoco
+from robokit.engines.mujoco.links import Motors, critical_damping, motor_gains
+from robokit.engines.mujoco.rays import HIDDEN_GROUP, MujocoRayCaster
 from robokit.errors import UserError
 
 if TYPE_CHECKING:  # read by attribute only
@@ -35,8 +37,8 @@ class MujocoWorld(MujocoBodies):
 
     @classmethod
     def check_config(cls, config: Config, *, gui: bool | None = None) -> None:
-        """Refuse what MuJoCo cannot build (SDF bodies, a GUI window): see :mod:`robokit.engines.mujoco_support`."""
-        mujoco_support.check_config(config, gui=gui)
+        """Refuse what MuJoCo cannot build (SDF bodies, a GUI window): see :mod:`robokit.engines.mujoco.support`."""
+        support.check_config(config, gui=gui)
 
     def __init__(self, *, gui: bool = False, time_step: float = 1.0 / 240.0,
                  gravity: Sequence[float] = (0.0, 0.0, -9.81), solver_iterations: int = 50, seed: int = 0,
@@ -45,8 +47,8 @@ class MujocoWorld(MujocoBodies):
                          seed=seed, base_dir=base_dir, engine=engine)
         self._forces: list[tuple[int, np.ndarray, np.ndarray]] = []
         self.motors = Motors()
-        self.joins = mujoco_attach.Joins()
-        self.cameras = Cameras()
+        self.joins = attachments.Joins()
+        self.cameras = rendering.Cameras()
         self._wrenches: dict[tuple[int, int], tuple[tuple[float, ...], tuple[float, ...]]] = {}
         """(body, joint) -> reaction wrench of the last step (child frame) and that frame's rotation."""
 
@@ -142,7 +144,7 @@ class MujocoWorld(MujocoBodies):
         m, d = self.model, self.data
         mujoco.mj_rnePostConstraint(m, d)
         for (rid, joint) in self._wrenches:
-            self._wrenches[(rid, joint)] = mujoco_kin.joint_wrench(m, d, self._mj(rid, joint))
+            self._wrenches[(rid, joint)] = kin.joint_wrench(m, d, self._mj(rid, joint))
 
     def reset_joint(self, body: int, joint: int, position: float, velocity: float | None = None) -> None:
         """Set a joint's position and velocity at once (set-up and resets)."""
@@ -155,7 +157,7 @@ class MujocoWorld(MujocoBodies):
                         target_velocity: float | None = None, force: float | None = None,
                         max_velocity: float | None = None, position_gain: float | None = None) -> None:
         """Drive one joint with its MuJoCo motor; gains come from MuJoCo's model of the joint
-        (:func:`~robokit.engines.mujoco_links.motor_gains`), not from PyBullet's."""
+        (:func:`~robokit.engines.mujoco.links.motor_gains`), not from PyBullet's."""
         jid, _, dadr = self._joint(body, joint)
         m, d = self.model, self.data
         info = self.joints(body)[joint]
@@ -185,22 +187,13 @@ class MujocoWorld(MujocoBodies):
                                  force=None if forces is None else forces[i])
 
     # ----------------------------------------------------------------- rays
-    def owners(self) -> dict[int, tuple[int, int]]:
-        """MuJoCo body id -> (robokit body id, link), for the scene as compiled now."""
-        self.compiled()
-        return self._owner
-
     def ray_caster(self, *, skip: Collection[int] = (), see_hidden: bool = True, mask: int = -1,
                    num_threads: int = 1, analytic: bool = True) -> RayCaster:
         """A caster on MuJoCo's ``mj_multiRay`` / ``mj_ray`` (``mask``, ``num_threads``, ``analytic`` do not apply)."""
-        from robokit.engines.mujoco_rays import MujocoRayCaster
-
         return MujocoRayCaster(self, skip, see_hidden)
 
     def hide_from_rays(self, body: int) -> None:
         """Put the body's geoms in the geom group rays of ``see_hidden=False`` casters leave out."""
-        from robokit.engines.mujoco_rays import HIDDEN_GROUP
-
         for geom in self.scene.geoms_of(self.scene.spec.body(self._root[self.body(body)])):
             geom.group = HIDDEN_GROUP
         self._dirty = True
@@ -208,45 +201,45 @@ class MujocoWorld(MujocoBodies):
     # ----------------------------------------------------------------- attachments
     def attach(self, parent: int, parent_link: int, child: int, *, position: Sequence[float] | None = None,
                max_force: float | None = None) -> int:
-        """A weld (see :mod:`robokit.engines.mujoco_attach`)."""
-        return mujoco_attach.attach(self, parent, parent_link, child, position=position, max_force=max_force)
+        """A weld (see :mod:`robokit.engines.mujoco.attach`)."""
+        return attachments.attach(self, self.joins, parent, parent_link, child, position=position, max_force=max_force)
 
     def mount(self, child: str, parent: str, link: int, *, position: Sequence[float] = (0.0, 0.0, 0.0),
               orientation: Sequence[float] = (0.0, 0.0, 0.0, 1.0), max_force: float = 10_000.0) -> int:
         """A tool on a flange: a weld, the two bodies out of each other's contacts (MuJoCo's stiffness)."""
-        return mujoco_attach.mount(self, child, parent, link, position, orientation)
+        return attachments.mount(self, self.joins, child, parent, link, position, orientation)
 
     def couple_joints(self, body: int, leader: int, follower: int, ratio: float, *, erp: float,
                       max_force: float) -> int:
-        """A joint equality (see :mod:`robokit.engines.mujoco_attach`)."""
-        return mujoco_attach.couple_joints(self, body, leader, follower, ratio, erp=erp, max_force=max_force)
+        """A joint equality (see :mod:`robokit.engines.mujoco.attach`)."""
+        return attachments.couple_joints(self, self.joins, body, leader, follower, ratio, erp=erp, max_force=max_force)
 
     def detach(self, attachment: int) -> None:
         """Remove an attachment."""
-        mujoco_attach.detach(self, attachment)
+        attachments.detach(self, self.joins, attachment)
 
     def joined(self, a: int, b: int) -> bool:
         """True if an attachment joins ``a`` and ``b`` directly."""
-        return mujoco_attach.joined(self, a, b)
+        return attachments.joined(self, self.joins, a, b)
 
     def disable_collisions(self, body: int) -> None:
         """Take a body's base out of contact."""
-        mujoco_attach.disable_collisions(self, body)
+        attachments.disable_collisions(self, body)
 
     # ----------------------------------------------------------------- kinematics
     def kinematic_chain(self, body: int, link: int) -> list[ChainFrame | ChainJoint]:
-        """The frames from the world to a link (see :mod:`robokit.engines.mujoco_kin`)."""
-        return mujoco_kin.kinematic_chain(self, body, link)
+        """The frames from the world to a link (see :mod:`robokit.engines.mujoco.kin`)."""
+        return kin.kinematic_chain(self, body, link)
 
     def jacobian(self, body: int, link: int, positions: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
-        """MuJoCo's Jacobian of a link's frame origin (see :mod:`robokit.engines.mujoco_kin`)."""
-        return mujoco_kin.jacobian(self, body, link, positions)
+        """MuJoCo's Jacobian of a link's frame origin (see :mod:`robokit.engines.mujoco.kin`)."""
+        return kin.jacobian(self, body, link, positions)
 
     # ----------------------------------------------------------------- cameras
     def render(self, width: int, height: int, view: Sequence[float], projection: Sequence[float], *, near: float,
                far: float, segmentation: bool = True, renderer: str = "tiny") -> RenderedImage:
         """One image from MuJoCo's OpenGL renderer (``renderer`` does not apply: there is one)."""
-        return mujoco_render.render(self, width, height, view, projection, near=near, far=far,
+        return rendering.render(self, self.cameras, width, height, view, projection, near=near, far=far,
                                     segmentation=segmentation)
 
     # ----------------------------------------------------------------- contacts
