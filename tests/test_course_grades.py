@@ -161,7 +161,7 @@ def test_an_assignment_made_in_the_admin_gets_its_project(client: Any, course: C
     resp = client.post("/admin/course/assignment/add/", {
         "classroom": course.room.pk, "name": "admin-made", "kind": "drop_test", "config_text": OFFICIAL,
         "allowed_keys": '["behaviour.duration"]', "seeds": "[0, 1, 2]", "ranking": "-success_rate",
-        "trial_seconds": "30", "late_policy": "accept"})
+        "trial_seconds": "30", "late_policy": "accept", "max_waiting": "1", "max_per_day": "10"})
     assert resp.status_code == 302, resp.content.decode()[:3000]
     a = Assignment.objects.get(name="admin-made")
     assert a.project.name == "admin-made" and a.project.classroom == course.room and a.seeds == [0, 1, 2]
@@ -169,7 +169,7 @@ def test_an_assignment_made_in_the_admin_gets_its_project(client: Any, course: C
         "classroom": course.room.pk, "name": "admin-made", "config_text": OFFICIAL.replace("duration = 0.5",
                                                                                           "duration = -2"),
         "allowed_keys": "[]", "seeds": "[0]", "ranking": "-success_rate", "trial_seconds": "30",
-        "late_policy": "accept"})
+        "late_policy": "accept", "max_waiting": "1", "max_per_day": "10"})
     assert bad.status_code == 200 and "behaviour.duration: input should be greater than 0" in bad.content.decode()
 
 

@@ -34,6 +34,10 @@ class Assignment(models.Model):
                                    choices=[(ACCEPT, "accept and mark late"), (REFUSE, "refuse")])
     allow_plugins = models.BooleanField(default=False, help_text="students may send their own plugin package "
                                         "(Python code, run only in the evaluation sandbox)")
+    max_waiting = models.PositiveIntegerField(default=1, help_text="submissions a student may have queued or "
+                                              "being evaluated at once")
+    max_per_day = models.PositiveIntegerField(default=10, help_text="submissions a student may make in any 24 "
+                                              "hours (0: no limit)")
     project = models.OneToOneField("course.Project", on_delete=models.PROTECT, related_name="assignment")
     created_at = models.DateTimeField(auto_now_add=True)
 
@@ -62,8 +66,36 @@ class Assignment(models.Model):
         """Whether students may change the dotted ``key`` (``a.b.c``); ``a.*`` allows everything under ``a``."""
         return any(fnmatch.fnmatchcase(key, pattern) for pattern in self.allowed_keys)
 
+    def check_config(self, text: str, *, validate: bool = True) -> None:
+        """Refuse a submitted config that changes a key students may not change, names a file it does not bring,
+        or that robokit's config check refuses (``validate``; off for a config that uses types of the student's
+        own plugin: the sandbox checks it then).
+
+        Raises:
+            SubmissionError: naming the first such key.
+        """
+        from robokit.server.submitted import SubmissionError, changed_keys, check_paths, parse_toml, validate_config
+
+        submitted = parse_toml(text)
+        official = parse_toml(self.config_text, "official config")
+        for key in changed_keys(official, submitted):
+            if key == "world.seed":
+                continue  # the official seeds replace it anyway
+            if not self.may_change(key):
+                allowed = ", ".join(self.allowed_keys) or "none"
+                raise SubmissionError(key, f"students may not change this key in {self.name!r} "
+                                           f"(keys you may change: {allowed})")
+        check_paths(submitted)
+        if validate:
+            validate_config(text)
+
 
 class Submission(models.Model):
+    """A student's config for an assignment. ``idempotency_key`` (the ``Idempotency-Key`` header) is unique per
+    student, so a repeated post, even two at once, is one row. ``claim`` is the queue task (ticket) evaluating it:
+    a task evaluates the fairest waiting submission (:mod:`robokit.server.fair_queue`), and one that comes back
+    after its worker died resumes the submission it claimed."""
+
     QUEUED, RUNNING, DONE, ERROR = "queued", "running", "done", "error"
     uuid = models.UUIDField(default=uuid.uuid4, unique=True, editable=False)
     assignment = models.ForeignKey(Assignment, on_delete=models.CASCADE, related_name="submissions")
@@ -85,9 +117,16 @@ class Submission(models.Model):
     summary = models.JSONField(default=dict, blank=True)
     finished_at = models.DateTimeField(null=True, blank=True)
     excluded = models.BooleanField(default=False, help_text="left out of the boards and grades (moderation log)")
+    idempotency_key = models.CharField(max_length=64, null=True, blank=True,
+                                       help_text="the post's Idempotency-Key: the same key is the same submission")
+    claim = models.BigIntegerField(null=True, blank=True, db_index=True,
+                                   help_text="the queue task evaluating it (see robokit.server.fair_queue)")
+    claimed_at = models.DateTimeField(null=True, blank=True, help_text="when a worker took it up")
 
     class Meta:
         ordering = ["-submitted_at", "-id"]
+        constraints = [models.UniqueConstraint(fields=["student", "idempotency_key"],
+                                               name="submission_key_unique_per_student")]
 
     def __str__(self) -> str:
         return f"{self.student.name} / {self.assignment.name} / {self.submitted_at:%Y-%m-%d %H:%M}"
@@ -111,16 +150,18 @@ class Submission(models.Model):
 
 
 class ModerationEvent(models.Model):
-    """The audit log: a teacher excluded a run or a submission from the boards (or put it back), with the reason."""
+    """The audit log: a teacher excluded a run or a submission from the boards (or put it back), or had a
+    submission evaluated again, with the reason."""
 
-    EXCLUDE, INCLUDE = "exclude", "include"
+    EXCLUDE, INCLUDE, REEVALUATE = "exclude", "include", "reevaluate"
     classroom = models.ForeignKey("course.Classroom", on_delete=models.CASCADE, related_name="moderation")
     result = models.ForeignKey("course.Result", on_delete=models.SET_NULL, null=True, blank=True,
                                related_name="moderation")
     submission = models.ForeignKey(Submission, on_delete=models.SET_NULL, null=True, blank=True,
                                    related_name="moderation")
     what = models.CharField(max_length=200, help_text="the run or submission, as text (kept if it is deleted)")
-    action = models.CharField(max_length=10, choices=[(EXCLUDE, EXCLUDE), (INCLUDE, INCLUDE)])
+    action = models.CharField(max_length=10, choices=[(EXCLUDE, EXCLUDE), (INCLUDE, INCLUDE),
+                                                      (REEVALUATE, REEVALUATE)])
     reason = models.TextField()
     teacher = models.ForeignKey(settings.AUTH_USER_MODEL, on_delete=models.PROTECT, related_name="moderation")
     at = models.DateTimeField(auto_now_add=True)

@@ -32,11 +32,12 @@ from robokit.server import tokens
 from robokit.server.api import NO_TOKEN, _token, _unauthorized, error
 from robokit.server.assignments import Assignment, Submission, TrainingRun
 from robokit.server.evaluation import create_submission, official_overrides
+from robokit.server.fair_queue import LimitReached, Repeated, admit
 from robokit.server.models import Token
 from robokit.server.payload import RUN_ID, PayloadError, parse
 from robokit.server.plugin_upload import MAX_BYTES as MAX_PLUGIN_BYTES
 from robokit.server.plugin_upload import check_plugin_config, check_plugin_files
-from robokit.server.submitted import SubmissionError, check_submission
+from robokit.server.submitted import SubmissionError, scrub
 
 MAX_TRAINING_POINTS = 20_000
 
@@ -83,10 +84,14 @@ def submit(request: HttpRequest, name: str) -> JsonResponse:
         return error(404, "assignment", f"no assignment {name!r} in class {token.classroom.name!r} "
                      f"(assignments: {known})")
     try:
+        key = idempotency_key(request)
         body = _body(request, settings.MAX_CONFIG_BYTES + MAX_PLUGIN_BYTES + 8192)
         text = body.get("config")
         if not isinstance(text, str) or not text.strip():
             raise PayloadError("config", "expected the config file's text (a string)")
+        size = len(text.encode("utf-8"))
+        if size > settings.MAX_CONFIG_BYTES:
+            raise PayloadError("config", f"the config is {size} bytes; the limit is {settings.MAX_CONFIG_BYTES}")
     except PayloadError as exc:
         return error(413 if "limit" in exc.message else 400, exc.field, exc.message)
     plugin_files = body.get("plugin_files")
@@ -102,16 +107,57 @@ def submit(request: HttpRequest, name: str) -> JsonResponse:
                      f"late submissions are refused")
     try:
         modules = check_plugin_files(plugin_files) if plugin_files else []
-        check_submission(assignment, text, validate=not modules)
+        assignment.check_config(text, validate=not modules)
+        with transaction.atomic():  # before the sandbox's check; counted again when stored
+            admit(assignment, token.student_id, key)
         if modules and isinstance(plugin_files, dict):  # its types: checked in a sandbox process, not here
             check_plugin_config(text, plugin_files, modules, official_overrides(assignment.trial_seconds))
     except SubmissionError as exc:
-        return error(400, exc.field, exc.message)
+        return error(400, exc.field, scrub(exc.message))
+    except LimitReached as exc:
+        return error(429, exc.field, exc.message, **{"Retry-After": str(exc.retry_after)})
+    except Repeated as exc:
+        return _repeated(exc.pk, assignment, text)
 
     Token.objects.filter(pk=token.pk).update(last_used_at=now)
-    sub = create_submission(assignment=assignment, student=token.student, config_text=text, late=late,
-                            plugin_files=plugin_files or {}, plugin_modules=modules)
+    try:
+        sub = create_submission(admit=lambda: admit(assignment, token.student_id, key),
+                                assignment=assignment, student=token.student, config_text=text, late=late,
+                                plugin_files=plugin_files or {}, plugin_modules=modules, idempotency_key=key)
+    except LimitReached as exc:
+        return error(429, exc.field, exc.message, **{"Retry-After": str(exc.retry_after)})
+    except Repeated as exc:
+        return _repeated(exc.pk, assignment, text)
+    except IntegrityError:  # the unique (student, key) pair: the same key stored by a request at the same moment
+        stored = Submission.objects.filter(student=token.student, idempotency_key=key).values_list("pk", flat=True)
+        if key is None or not stored:
+            raise
+        return _repeated(stored[0], assignment, text)
     return JsonResponse(sub.to_dict(), status=201, json_dumps_params={"ensure_ascii": False})
+
+
+def idempotency_key(request: HttpRequest) -> str | None:
+    """The ``Idempotency-Key`` header (None without one).
+
+    Raises:
+        PayloadError: a key that is not 1-64 letters, digits, '.', '_', ':' or '-'.
+    """
+    key = request.headers.get("Idempotency-Key")
+    if key is None:
+        return None
+    if not RUN_ID.match(key):
+        raise PayloadError("Idempotency-Key", "expected 1-64 letters, digits, '.', '_', ':' or '-'")
+    return key
+
+
+def _repeated(pk: int, assignment: Assignment, text: str) -> JsonResponse:
+    """The answer to a post whose ``Idempotency-Key`` is already stored: the same submission (200), or 409 when
+    the key came with another assignment or config."""
+    sub = Submission.objects.select_related("assignment", "student").get(pk=pk)
+    if sub.assignment_id != assignment.pk or sub.config_text != text:
+        return error(409, "Idempotency-Key", f"this key was already used for submission {sub.pk} with another "
+                     "assignment or config: send a new key for a new submission")
+    return JsonResponse(sub.to_dict(), status=200, json_dumps_params={"ensure_ascii": False})
 
 
 @csrf_exempt
@@ -197,4 +243,14 @@ def submission_status(request: HttpRequest, pk: int) -> JsonResponse:
                                                             and token.classroom_id == sub.assignment.classroom_id)))
     if not allowed or sub is None:
         return error(404, "submission", "no such submission for this token")
-    return JsonResponse(sub.to_dict(), json_dumps_params={"ensure_ascii": False})
+    return JsonResponse(submission_detail(sub), json_dumps_params={"ensure_ascii": False})
+
+
+def submission_detail(sub: Submission) -> dict[str, Any]:
+    """A submission as its student sees it: its state, and each official trial's seed, outcome and reason (the
+    server's paths taken out), seed by seed."""
+    trials = [{"seed": r.seed, "outcome": r.outcome, "reason": scrub(r.reason), "sim_time": r.sim_time,
+               "figures": r.figures, "run_id": r.run_id}
+              for r in sub.results.filter(official=True).order_by("seed")]
+    return {**sub.to_dict(), "error": scrub(sub.error) or None, "succeeded": sub.succeeded,
+            "trials": trials, "finished_at": sub.finished_at.isoformat() if sub.finished_at else None}

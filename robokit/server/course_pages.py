@@ -8,17 +8,21 @@ from collections import Counter
 from collections.abc import Callable, Iterable
 from typing import Any
 
+from django.conf import settings
 from django.contrib.auth.decorators import login_required
 from django.db import transaction
 from django.http import Http404, HttpRequest, HttpResponse, HttpResponseRedirect
 from django.shortcuts import get_object_or_404, render
 from django.urls import path, reverse
 from django.views.decorators.http import require_POST
+from django_q.tasks import async_task
 
 from robokit.server import charts
 from robokit.server.assignments import Assignment, ModerationEvent, Submission, TrainingRun
+from robokit.server.evaluation import TASK
 from robokit.server.models import Result, Student
 from robokit.server.pages import _teacher_class, session_student
+from robokit.server.submitted import scrub
 
 NUMBER = re.compile(r"-?\d+(\.\d+)?")
 
@@ -49,7 +53,7 @@ def best_submissions(assignment: Assignment) -> list[Submission]:
 
 def reason_counts(results: Iterable[Result], top: int = 8) -> list[tuple[str, int]]:
     """The most common reasons of runs that did not succeed (numbers replaced by N so alike reasons group)."""
-    counted = Counter(NUMBER.sub("N", r.reason.strip()) or r.outcome for r in results
+    counted = Counter(NUMBER.sub("N", scrub(r.reason.strip())) or r.outcome for r in results
                       if r.outcome not in ("", "succeeded"))
     return counted.most_common(top)
 
@@ -213,6 +217,37 @@ def moderate(request: HttpRequest, pk: int) -> HttpResponse:
 
 
 @login_required
+@require_POST
+def reevaluate(request: HttpRequest, pk: int) -> HttpResponse:
+    """Evaluate a graded submission again on the official seeds (its official trials replaced); the reason is
+    required and kept in the class's moderation log."""
+    sub = get_object_or_404(Submission.objects.select_related("assignment__classroom", "student"), pk=pk)
+    room = _teacher_class(request, sub.assignment.classroom_id)
+    reason = " ".join(request.POST.get("reason", "").split())[:1000]
+    if not reason:
+        return _plain(400, "reason: required (say why the submission is evaluated again)")
+    sync = bool(getattr(settings, "QUEUE_SYNC", False))
+    with transaction.atomic():
+        again = Submission.objects.filter(pk=sub.pk, status__in=[Submission.DONE, Submission.ERROR]).update(
+            status=Submission.QUEUED, claim=None, error="", trials=0, succeeded=0, success_rate=None,
+            wilson_low=None, wilson_high=None, summary={}, finished_at=None)
+        if not again:
+            return _plain(409, f"submission {sub.pk} is {sub.status}: evaluate it again once it is graded")
+        Result.objects.filter(submission=sub, official=True).delete()
+        ModerationEvent.objects.create(classroom=room, submission=sub, action=ModerationEvent.REEVALUATE,
+                                       reason=reason, teacher=request.user, what=f"submission {sub}")
+        if not sync:
+            async_task(TASK, sub.pk, task_name=f"evaluate submission {sub.pk} again")
+    if sync:
+        async_task(TASK, sub.pk, sync=True, task_name=f"evaluate submission {sub.pk} again")
+    return HttpResponseRedirect(reverse("submission", args=[sub.pk]))
+
+
+def _plain(status: int, text: str) -> HttpResponse:
+    return HttpResponse(text, status=status, content_type="text/plain; charset=utf-8")
+
+
+@login_required
 def moderation_log(request: HttpRequest, pk: int) -> HttpResponse:
     room = _teacher_class(request, pk)
     events = ModerationEvent.objects.filter(classroom=room).select_related("teacher", "result", "submission")
@@ -228,5 +263,6 @@ urlpatterns = [
     path("classes/<int:pk>/moderate/", moderate, name="moderate"),
     path("classes/<int:pk>/moderation/", moderation_log, name="moderation"),
     path("submissions/<int:pk>/", submission_page, name="submission"),
+    path("submissions/<int:pk>/reevaluate/", reevaluate, name="reevaluate"),
     path("me/training.svg", my_training_chart, name="my-training-chart"),
 ]

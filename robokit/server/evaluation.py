@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import logging
 import os
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from typing import Any
 
 from django.db import IntegrityError, transaction
@@ -24,13 +24,14 @@ from django.db.models import F
 from django.utils import timezone
 
 from robokit.server.assignments import Submission
+from robokit.server.fair_queue import claim
 
 log = logging.getLogger("robokit.server.evaluation")
 TASK = "robokit.server.evaluation.evaluate_submission"
 CELL = "official"
 
 
-def create_submission(**fields: Any) -> Submission:
+def create_submission(admit: Callable[[], None] | None = None, **fields: Any) -> Submission:
     """Store a submission and queue its evaluation in one transaction (never one without the other).
 
     With ``settings.QUEUE_SYNC`` (tests, ``ROBOKIT_QUEUE_SYNC=1``) the task runs right after, in this process,
@@ -41,6 +42,8 @@ def create_submission(**fields: Any) -> Submission:
 
     sync = bool(getattr(settings, "QUEUE_SYNC", False))
     with transaction.atomic():
+        if admit is not None:  # the per-student limits, counted in this transaction
+            admit()
         sub = Submission.objects.create(**fields)
         if not sync:
             async_task(TASK, sub.pk, task_name=f"evaluate submission {sub.pk}")
@@ -66,8 +69,9 @@ def trial_tasks(sub: Submission, seeds: list[int]) -> list[Any]:
 
 
 def evaluate_submission(submission_id: int) -> str:
-    """The queue task: run the trials not stored yet, store each as it ends, then the summary. Idempotent."""
-    sub = Submission.objects.select_related("assignment", "student").filter(pk=submission_id).first()
+    """The queue task: run the trials not stored yet, store each as it ends, then the summary. Idempotent.
+    ``submission_id`` is the task's ticket: it evaluates the fairest waiting submission (see :func:`claim`)."""
+    sub = Submission.objects.select_related("assignment", "student").filter(pk=claim(submission_id)).first()
     if sub is None or sub.status in (Submission.DONE, Submission.ERROR):
         return "nothing to do"
     Submission.objects.filter(pk=sub.pk).update(status=Submission.RUNNING, attempts=F("attempts") + 1)

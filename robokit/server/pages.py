@@ -311,8 +311,12 @@ def me(request: HttpRequest) -> HttpResponse:
         return render(request, "course/me_login.html", {"error": error}, status=401 if error else 200)
     runs = (Result.objects.filter(student=student, verified=True, official=False)
             .select_related("project"))
-    subs = student.submissions.select_related("assignment")[:100]
-    return render(request, "course/me.html", {"student": student, "runs": _history(runs), "subs": subs,
+    subs = list(student.submissions.select_related("assignment")[:100])
+    trials: dict[int, list[Result]] = {}
+    for r in Result.objects.filter(submission__in=subs, official=True).order_by("seed"):
+        trials.setdefault(r.submission_id or 0, []).append(r)
+    mine = [{"s": s, "trials": trials.get(s.pk, [])} for s in subs]
+    return render(request, "course/me.html", {"student": student, "runs": _history(runs), "subs": mine,
                                               "training": list(student.training_runs.all()[:20])})
 
 

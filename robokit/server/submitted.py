@@ -1,13 +1,20 @@
-"""Checking a submitted config against its assignment: only the keys students may change, and robokit's own
-validation. Every refusal is one line naming the key."""
+"""What a submitted config is checked with (by :meth:`robokit.server.assignments.Assignment.check_config`): the
+keys it changes, the files it names, and robokit's own validation. Every refusal is one line naming the key.
+
+A submission brings a config (and, where allowed, plugin modules), never model files: a model key (``urdf``,
+``sdf``, ``mjcf`` of a body or robot) may name only robokit's bundled models or ``pybullet_data``'s, by a relative
+name. :func:`scrub` takes the server's own paths out of any text shown to people.
+"""
 
 from __future__ import annotations
 
+import os
+import re
+import sys
+import tempfile
 from collections.abc import Iterator
-from typing import TYPE_CHECKING, Any
-
-if TYPE_CHECKING:
-    from robokit.server.assignments import Assignment
+from pathlib import Path, PurePosixPath, PureWindowsPath
+from typing import Any
 
 
 class SubmissionError(Exception):
@@ -46,26 +53,6 @@ def parse_toml(text: str, field: str = "config") -> dict[str, Any]:
         raise SubmissionError(field, f"TOML syntax error: {exc}") from None
 
 
-def check_submission(assignment: Assignment, text: str, *, validate: bool = True) -> None:
-    """Refuse a config that changes a key students may not change, or that robokit's config check refuses
-    (``validate``; off for a config that uses types of the student's own plugin: the sandbox checks it then).
-
-    Raises:
-        SubmissionError: naming the first such key.
-    """
-    submitted = parse_toml(text)
-    official = parse_toml(assignment.config_text, "official config")
-    for key in changed_keys(official, submitted):
-        if key == "world.seed":
-            continue  # the official seeds replace it anyway
-        if not assignment.may_change(key):
-            allowed = ", ".join(assignment.allowed_keys) or "none"
-            raise SubmissionError(key, f"students may not change this key in {assignment.name!r} "
-                                       f"(keys you may change: {allowed})")
-    if validate:
-        validate_config(text)
-
-
 def validate_config(text: str, source: str = "submitted config") -> None:
     """robokit's own config validation (the plugins' schemas included), as ``robokit validate`` does it."""
     import tempfile
@@ -100,3 +87,93 @@ def config_problem(text: str, source: str, base_dir: str, overrides: dict[str, A
 
 def one_line(text: str) -> str:
     return " ".join(text.split())[:500]
+
+
+MODEL_SECTIONS = ("bodies", "robots")
+
+
+def check_paths(tree: dict[str, Any]) -> None:
+    """Refuse a model file a submission does not bring: an absolute path, ``..``, a device, or a name that is
+    neither robokit's bundled model nor ``pybullet_data``'s.
+
+    Raises:
+        SubmissionError: naming the key (``bodies.arm.urdf``); the message holds no path of the server.
+    """
+    from robokit.config import MODEL_FILE_KEYS
+
+    for section in MODEL_SECTIONS:
+        tables = tree.get(section)
+        if not isinstance(tables, dict):
+            continue
+        for name, table in tables.items():
+            if not isinstance(table, dict):
+                continue
+            for key in MODEL_FILE_KEYS:
+                value = table.get(key)
+                if isinstance(value, str):
+                    problem = model_path_problem(value)
+                    if problem is not None:
+                        raise SubmissionError(f"{section}.{name}.{key}", problem)
+
+
+def model_roots() -> list[Path]:
+    """Where a submission's model names are looked up: robokit's bundled data, then ``pybullet_data``."""
+    import pybullet_data
+
+    from robokit.engines.interface import DATA_DIR
+
+    return [DATA_DIR.resolve(), Path(pybullet_data.getDataPath()).resolve()]
+
+
+def model_path_problem(value: str) -> str | None:
+    """Why a submission may not name ``value`` as a model file (None: it is a packaged model)."""
+    only = "a submission may name only robokit's bundled models and pybullet_data's, by a relative name " \
+           "(e.g. 'franka_panda/panda.urdf')"
+    if not value.strip() or any(ord(c) < 32 for c in value):
+        return f"{value!r} is not a file name"
+    posix, windows = PurePosixPath(value), PureWindowsPath(value)
+    if posix.is_absolute() or windows.is_absolute() or windows.drive or value.startswith(("~", "\\")):
+        return f"{value!r} is an absolute path: {only}"
+    if ".." in posix.parts or ".." in windows.parts:
+        return f"{value!r} leaves the submission ('..'): {only}"
+    for root in model_roots():
+        candidate = (root / value).resolve()
+        if candidate.is_relative_to(root) and candidate.is_file():
+            return None
+    return f"{value!r} is not one of robokit's bundled models nor pybullet_data's: {only}"
+
+
+_PATH = re.compile(r"(?<![\w.~-])(?:[A-Za-z]:)?(?:[/\\][^\s/\\'\"():,;<>|]+)+[/\\]?")
+
+
+def _roots() -> list[tuple[str, str]]:
+    """Server folders and the label each is shown as, longest first."""
+    import robokit
+
+    pairs = [(str(Path(robokit.__file__).resolve().parent), "robokit"), (sys.prefix, "<python>"),
+             (sys.base_prefix, "<python>"), (tempfile.gettempdir(), "<scratch>"), (os.path.expanduser("~"), "~")]
+    try:
+        import pybullet_data
+
+        pairs.append((str(Path(pybullet_data.getDataPath()).resolve()), "pybullet_data"))
+    except ImportError:
+        pass
+    return sorted({(p.rstrip("/\\"), label) for p, label in pairs if len(p) > 1}, key=lambda x: -len(x[0]))
+
+
+def scrub(text: str) -> str:
+    """``text`` without the server's paths: robokit's and pybullet_data's own files by their packaged name
+    (``robokit/data/arm.urdf``), any other absolute path by its last part (``.../secret_key``)."""
+    if not text or ("/" not in text and "\\" not in text):
+        return text
+    roots = _roots()
+
+    def short(match: re.Match[str]) -> str:
+        path = match.group(0)
+        for root, label in roots:
+            if label in ("robokit", "pybullet_data") and (path == root or path.startswith(root + os.sep)):
+                return label + path[len(root):]
+        name = PurePosixPath(path.replace("\\", "/")).name
+        return f".../{name}" if name else "..."
+
+    return _PATH.sub(short, text)
