@@ -278,8 +278,15 @@ def _video_before_send(cfg: Any, args: argparse.Namespace) -> Any:
     from robokit.record.cli import video_after_run
 
     def render(out: Any) -> None:
-        if not out.result.interrupted:
-            video_after_run(cfg, out.result.run_id, args.video, quiet=args.quiet)
+        if out.result.interrupted:
+            return
+        try:
+            failure = video_after_run(cfg, out.result.run_id, args.video, quiet=args.quiet)
+        except KeyboardInterrupt as exc:
+            out.record_failures.append(getattr(exc, "robokit_detail", f"video {args.video} not written"))
+            raise
+        if failure is not None:
+            out.record_failures.append(failure)
     return render
 
 
@@ -598,8 +605,8 @@ def _dispatch(args: argparse.Namespace) -> int:
         code: int = args.func(args)
         if guard is not None and guard.signalled and code != guard.exit_code:  # else the command said so itself
             return _interrupted(None)
-    except KeyboardInterrupt:
-        return _interrupted(None)
+    except KeyboardInterrupt as exc:
+        return _interrupted(getattr(exc, "robokit_detail", None))
     except BaseException as exc:
         if guard is not None and guard.signalled:  # whatever a signal broke (a half-done import) is not a bug
             return _interrupted(f"stopped at {describe(exc)}" if not isinstance(exc, UserError) else None)
@@ -612,6 +619,11 @@ def _dispatch_error(args: argparse.Namespace, exc: BaseException) -> int:
     if isinstance(exc, UserError):
         print(f"robokit: error: {one_line(exc, 2000)}", file=sys.stderr)
         return EXIT_USAGE
+    from robokit.record.atomic import OutputFailed
+
+    if isinstance(exc, OutputFailed):  # an output (a video, a page, an export) could not be made: nothing is left
+        print(f"robokit: warning: {one_line(exc, 2000)}", file=sys.stderr)
+        return EXIT_RECORD_INCOMPLETE
     if isinstance(exc, PluginError):
         _report_crash(args, exc, f"robokit: error: {one_line(exc, 2000)}")
         return EXIT_PLUGIN

@@ -124,7 +124,12 @@ def cmd_video(args: argparse.Namespace) -> int:
     out = Path(args.output) if args.output else rec.folder / "video.mp4"
     if args.workers is not None and args.workers < 1:
         raise UserError(f"--workers must be at least 1, got {args.workers}")
-    stats = render_video(rec, out, fps=args.fps, size=size, view=args.view, workers=args.workers, progress=None)
+    try:
+        stats = render_video(rec, out, fps=args.fps, size=size, view=args.view, workers=args.workers,
+                             progress=None)
+    except KeyboardInterrupt as exc:
+        exc.robokit_detail = f"{out} not written; its partial file was removed"  # type: ignore[attr-defined]
+        raise
     print(f"{out}: {stats.frames} frames, {stats.width}x{stats.height}, {stats.fps:g} fps, H.264 "
           f"(rendered and encoded at {stats.render_fps:.1f} frames/s)")
     return 0
@@ -176,12 +181,23 @@ def cmd_export(args: argparse.Namespace) -> int:
     return 0
 
 
-def video_after_run(cfg: Any, run_id: str, output: str, *, quiet: bool = False) -> None:
-    """``robokit run --video FILE``: render the run just finished."""
+def video_after_run(cfg: Any, run_id: str, output: str, *, quiet: bool = False) -> str | None:
+    """``robokit run --video FILE``: render the run just finished. Returns None when the video was made, else one
+    line naming the file and why it was not (a full disk; an interrupt, passed on after the line is noted in
+    ``KeyboardInterrupt.robokit_detail``): the run's record failure, exit code 6."""
     from robokit.config import results_root
+    from robokit.record.atomic import OutputFailed
     from robokit.record.format import RunRecord
     from robokit.record.video import render_video
 
-    stats = render_video(RunRecord(results_root(cfg) / run_id), Path(output), progress=None if not quiet else False)
+    try:
+        stats = render_video(RunRecord(results_root(cfg) / run_id), Path(output),
+                             progress=None if not quiet else False)
+    except OutputFailed as exc:
+        return f"video {exc}"
+    except KeyboardInterrupt as exc:
+        exc.robokit_detail = f"video {output} not written; its partial file was removed"  # type: ignore[attr-defined]
+        raise
     if not quiet:
         print(f"video: {output}: {stats.frames} frames at {stats.fps:g} fps", file=sys.stderr)
+    return None

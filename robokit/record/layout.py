@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import enum
 import sys
+from pathlib import Path
 from typing import Any
 
 RECORD_SCHEMA = "robokit.record/1"
@@ -14,6 +15,32 @@ RESULT_FILE = "result.json"
 TRACE_FILE = "trace.jsonl"
 POSES_FILE = "poses.npz"
 FRAMES_DIR = "frames"
+VIDEO_NOTE = "video.json"
+"""Written into the run folder when a video of the run is made: its file, sha256 digest and frame count."""
+
+
+def noted_video(folder: Path, *, undigested: bool = False) -> Path | None:
+    """The MP4 the run folder's ``video.json`` names (a path relative to the folder, or absolute), when it still
+    holds the bytes whose digest was noted when it was made: a video another run wrote over the same name since is
+    not this run's. ``undigested``: also accept a note without a digest (written by older versions)."""
+    import json
+
+    from robokit.record.atomic import file_digest
+
+    try:
+        note = json.loads((folder / VIDEO_NOTE).read_text(encoding="utf-8"))
+        path = folder / str(note["path"])
+        digest = note.get("sha256")
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+    if path.suffix.lower() != ".mp4" or not path.is_file():
+        return None
+    if digest is None:
+        return path if undigested else None
+    try:
+        return path if file_digest(path) == digest else None
+    except OSError:
+        return None
 
 
 def machines_of(behaviour: Any) -> list[dict[str, Any]]:

@@ -16,10 +16,8 @@ from typing import Any
 
 from robokit.record.diagram import machine_svg, mermaid_text
 from robokit.record.format import RunRecord
+from robokit.record.layout import noted_video
 from robokit.record.replay import REPLAY_CSS
-
-VIDEO_NOTE = "video.json"
-"""Written into the run folder by ``robokit video``: where the latest video of the run is."""
 
 CSS = """
 body { font-family: system-ui, "Noto Sans KR", "NanumGothic", "Nanum Gothic", "Apple SD Gothic Neo", sans-serif;
@@ -41,12 +39,12 @@ def _data_uri(path: Path, mime: str) -> str:
 
 
 def find_video(rec: RunRecord) -> Path | None:
-    """The run's video: the one ``robokit video`` last wrote for it, else ``<run folder>/video.mp4``."""
-    note = rec.folder / VIDEO_NOTE
-    if note.is_file():
-        path = Path(json.loads(note.read_text(encoding="utf-8")).get("path", ""))
-        if path.is_file():
-            return path
+    """The run's own video, or None (the page then renders one): the video last made for the run (``video.json``)
+    while the file still has the digest noted when it was made (a later run's video written over the same name is
+    not this run's), else the run folder's own ``video.mp4``, which only this run's videos are written to."""
+    noted = noted_video(rec.folder)
+    if noted is not None:
+        return noted
     own = rec.folder / "video.mp4"
     return own if own.is_file() else None
 
@@ -136,8 +134,8 @@ def write_page(rec: RunRecord, out: Path, *, video: bool = True, replay: bool = 
     if replay and rec.has_poses:
         from robokit.record.replay import replay_html
 
-        scene = replay_html(rec) or ("<p class='meta'>The 3D replay needs MeshCat's viewer: pip install "
-                                     "meshcat</p>")
+        scene = replay_html(rec) or ("<p class='meta'>The 3D replay's viewer (robokit/data/three.min.js) is "
+                                     "missing from this install: reinstall robokit</p>")
 
     clip = find_video(rec) if video else None
     if video and clip is None and rec.has_poses:
@@ -151,6 +149,6 @@ def write_page(rec: RunRecord, out: Path, *, video: bool = True, replay: bool = 
         if not plots:
             plots = make_plots(rec, Path(tmp))
         html = build_page(rec, clip, plots, scene)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(html, encoding="utf-8")
-    return out
+    from robokit.record.atomic import write_text
+
+    return write_text(out, html)

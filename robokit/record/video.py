@@ -12,18 +12,24 @@ number of draws came before it in its client: see ``CHUNK``), so the frames are 
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
+import subprocess
+import tempfile
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from robokit.errors import UserError
 from robokit.extras import require
+from robokit.record.atomic import OutputFailed, atomic_output
 from robokit.record.format import RunRecord
+from robokit.record.layout import VIDEO_NOTE
 from robokit.record.scene import Scene, View, choose_view, rebuild
 
 DEFAULT_SIZE = (480, 360)
@@ -138,9 +144,12 @@ def render_still(rec: RunRecord, out: Path, *, at: float, size: tuple[int, int] 
         scene.set_frame(i)
         now = float(t[i])
         image = overlay(renderer.render(), now, rec.state_at(rec.spans(), now))
-    out.parent.mkdir(parents=True, exist_ok=True)
-    if not cv2.imwrite(str(out), cv2.cvtColor(image, cv2.COLOR_RGB2BGR), [cv2.IMWRITE_PNG_COMPRESSION, 9]):
+    ok, png = cv2.imencode(".png", cv2.cvtColor(image, cv2.COLOR_RGB2BGR), [cv2.IMWRITE_PNG_COMPRESSION, 9])
+    if not ok or out.suffix.lower() != ".png":
         raise UserError(f"could not write {out} (give a .png file name)")
+    from robokit.record.atomic import write_bytes
+
+    write_bytes(out, png.tobytes())
     return now
 
 
@@ -150,6 +159,24 @@ _WORKER: dict[str, object] = {}
 
 
 def _worker_init(folder: str, view: str | None, size: tuple[int, int], rate: float) -> None:
+    """A render worker's start: it ignores Ctrl-C (the parent stops the pool), writes nothing to the terminal (its
+    errors come back to the parent as exceptions), and rebuilds the scene when its first job comes (an exception
+    in a pool's initializer would only restart the worker)."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    for fd in (1, 2):
+        os.dup2(devnull, fd)
+    os.close(devnull)
+    _WORKER.update(args=(folder, view, size, rate))
+
+
+def _worker_scene() -> None:
+    if "scene" in _WORKER:
+        return
+    args: tuple[str, str | None, tuple[int, int], float] = _WORKER["args"]  # type: ignore[assignment]
+    folder, view, size, rate = args
     rec = RunRecord(Path(folder))
     scene = rebuild(rec)
     _WORKER.update(rec=rec, scene=scene, spans=rec.spans(), rate=rate,
@@ -158,6 +185,7 @@ def _worker_init(folder: str, view: str | None, size: tuple[int, int], rate: flo
 
 def _worker_render(job: list[tuple[int, int]]) -> list[bytes]:
     """Render the frames ``(video frame k, pose sample i)`` of one chunk; RGB bytes, in order."""
+    _worker_scene()
     rec, scene, renderer = _WORKER["rec"], _WORKER["scene"], _WORKER["renderer"]
     assert isinstance(rec, RunRecord) and isinstance(scene, Scene) and isinstance(renderer, Renderer)
     rate, spans = float(_WORKER["rate"]), _WORKER["spans"]  # type: ignore[arg-type]
@@ -199,14 +227,19 @@ def render_video(rec: RunRecord, out: Path, *, fps: float | None = None, size: t
                  view: str | None = None, workers: int | None = None, progress: bool | None = False) -> VideoStats:
     """Write the record's video to ``out`` (H.264, yuv420p, ``+faststart`` so browsers start playing at once).
 
+    The video is encoded under a temporary name beside ``out`` (:mod:`robokit.record.atomic`), checked (ffmpeg's
+    exit status, and the frame count read back from the file) and only then renamed onto ``out``; its digest goes
+    into the run folder's ``video.json``, so ``robokit view`` embeds it only while it is this run's video.
     ``workers``: render processes (default one per core; 1 renders in this process). ``progress``: a tqdm bar on
     stderr (``None``: only when stderr is a terminal).
 
     Raises:
         UserError: imageio-ffmpeg is not installed, the record has no pose log, or a bad ``fps``/``view``.
+        OutputFailed: ffmpeg could not finish the file (a full disk, a file-size limit): nothing is left at ``out``
+            but what was there before.
+        KeyboardInterrupt: an interrupt; the partial file is removed first.
     """
     require("video", "robokit video", ("imageio_ffmpeg",))
-    import imageio_ffmpeg
     from tqdm import tqdm
 
     rate = fps or float(rec.header.get("pose_hz") or 30.0)
@@ -216,30 +249,100 @@ def render_video(rec: RunRecord, out: Path, *, fps: float | None = None, size: t
     if total and view is not None:  # a bad --view is one line here, not a traceback from a worker
         with rebuild(rec) as scene:
             choose_view(scene, view, size[0] / size[1])
-    out.parent.mkdir(parents=True, exist_ok=True)
     w, h = size
-    writer = imageio_ffmpeg.write_frames(
-        str(out), (w, h), fps=rate, codec="libx264", pix_fmt_in="rgb24", pix_fmt_out="yuv420p", macro_block_size=1,
-        quality=None, bitrate=None, ffmpeg_log_level="error",
-        output_params=["-crf", "23", "-preset", "veryfast", "-movflags", "+faststart"])
-    writer.send(None)
-    count = 0
     start = time.perf_counter()  # measures the render rate only; no logic depends on it
     bar = tqdm(total=total, unit="frame", desc="video", disable=None if progress is None else not progress,
                leave=False)
     try:
-        for data in frame_bytes(rec, fps=rate, size=size, view=view, workers=workers or default_workers()):
-            writer.send(data)
-            count += 1
-            bar.update()
+        with atomic_output(out) as tmp:
+            count = _encode(frame_bytes(rec, fps=rate, size=size, view=view, workers=workers or default_workers()),
+                            tmp, out, size, rate, bar.update)
+            _check_frames(tmp, out, count)
     finally:
         bar.close()
-        writer.close()
     busy = time.perf_counter() - start
     stats = VideoStats(count, w, h, rate, count / busy if busy > 0 else 0.0)
-    note = {"path": str(out.resolve()), "frames": count, "width": w, "height": h, "fps": rate}
-    try:  # lets `robokit view` embed this video instead of rendering another one
-        (rec.folder / "video.json").write_text(json.dumps(note), encoding="utf-8")
-    except OSError:
-        pass
+    write_video_note(rec, out, stats)
     return stats
+
+
+def write_video_note(rec: RunRecord, out: Path, stats: VideoStats) -> None:
+    """Note the video just made in ``<run folder>/video.json``: the file's name (relative to the run folder when
+    inside it), its sha256 digest and its size in frames; a note that cannot be written is only a lost shortcut."""
+    from robokit.record.atomic import file_digest, write_text
+
+    try:
+        where = out.resolve()
+        name = where.relative_to(rec.folder.resolve()).as_posix() if where.is_relative_to(rec.folder.resolve()) \
+            else str(where)
+        note = {"path": name, "sha256": file_digest(out), "bytes": out.stat().st_size, "frames": stats.frames,
+                "width": stats.width, "height": stats.height, "fps": stats.fps}
+        write_text(rec.folder / VIDEO_NOTE, json.dumps(note))
+    except (OSError, OutputFailed):
+        pass
+
+
+def _ffmpeg_command(path: Path, size: tuple[int, int], rate: float) -> list[str]:
+    import imageio_ffmpeg
+
+    w, h = size
+    return [imageio_ffmpeg.get_ffmpeg_exe(), "-hide_banner", "-nostdin", "-loglevel", "error", "-y",
+            "-f", "rawvideo", "-pix_fmt", "rgb24", "-s", f"{w}x{h}", "-r", f"{rate:g}", "-i", "pipe:0", "-an",
+            "-c:v", "libx264", "-pix_fmt", "yuv420p", "-crf", "23", "-preset", "veryfast",
+            "-movflags", "+faststart", "-f", "mp4", str(path)]
+
+
+def _encode(data: Iterator[bytes], tmp: Path, out: Path, size: tuple[int, int], rate: float,
+            tick: Any) -> int:
+    """Feed every frame to ffmpeg writing ``tmp``; the frame count. ffmpeg runs in its own session (a Ctrl-C at the
+    terminal reaches robokit only, which stops it) and its messages are kept, not printed: a failure is
+    :class:`OutputFailed` naming ``out`` with ffmpeg's last line."""
+    with tempfile.TemporaryFile() as log:
+        proc = subprocess.Popen(_ffmpeg_command(tmp, size, rate), stdin=subprocess.PIPE,
+                                stdout=subprocess.DEVNULL, stderr=log, start_new_session=True)
+        assert proc.stdin is not None
+        count, broken = 0, False
+        try:
+            for frame in data:
+                try:
+                    proc.stdin.write(frame)
+                except (BrokenPipeError, OSError):
+                    broken = True  # ffmpeg stopped (a full disk, a file-size limit): its exit status says why
+                    break
+                count += 1
+                tick()
+            with contextlib.suppress(OSError):
+                proc.stdin.close()
+            code = proc.wait()
+        except BaseException:
+            proc.kill()
+            proc.wait()
+            raise
+        if code != 0 or broken:
+            log.seek(0)
+            lines = [ln.strip() for ln in log.read().decode("utf-8", "replace").splitlines() if ln.strip()]
+            why = lines[-1] if lines else _status(code)
+            raise OutputFailed(out, f"ffmpeg could not finish the video after {count} frame(s): {why}")
+    return count
+
+
+def _status(code: int) -> str:
+    """ffmpeg's exit status in words (a negative one is the signal that ended it, e.g. a file-size limit)."""
+    import signal
+
+    if code < 0:
+        with contextlib.suppress(ValueError):
+            return f"ffmpeg was stopped by {signal.Signals(-code).name} ({signal.strsignal(-code)})"
+    return f"ffmpeg exited with status {code}"
+
+
+def _check_frames(tmp: Path, out: Path, expected: int) -> None:
+    """Read the frame count back from the finished file; a mismatch is :class:`OutputFailed`."""
+    import imageio_ffmpeg
+
+    try:
+        found, _ = imageio_ffmpeg.count_frames_and_secs(str(tmp))
+    except (RuntimeError, OSError) as exc:
+        raise OutputFailed(out, f"the video written cannot be read back: {str(exc).splitlines()[0]}") from None
+    if found != expected:
+        raise OutputFailed(out, f"the video written holds {found} frame(s), {expected} were sent")

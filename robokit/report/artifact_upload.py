@@ -33,15 +33,10 @@ def find_artifacts(run_dir: str | Path, config: Any = None) -> list[tuple[str, P
 
 
 def _noted_video(folder: Path) -> Path | None:
-    """The MP4 the run folder's ``video.json`` names, when it still exists."""
-    import json
+    """The MP4 the run folder's ``video.json`` names, when it still exists and is still this run's video."""
+    from robokit.record.layout import noted_video
 
-    try:
-        note = json.loads((folder / "video.json").read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return None
-    path = Path(str(note.get("path", ""))) if isinstance(note, dict) else None
-    return path if path is not None and path.suffix.lower() == ".mp4" and path.is_file() else None
+    return noted_video(folder, undigested=True)
 
 
 REPLAY_FILE = "replay.json"

@@ -1,0 +1,154 @@
+"""Outputs exist completely or not at all, under the name asked for, and a run page shows its own run.
+
+A video that ffmpeg cannot finish (a file-size limit) or that an interrupt cuts leaves nothing under the name asked
+for (an older complete file stays as it was), says so in one line naming the file, and exits 6 (130 / 143 for a
+signal). Two runs rendered to the same ``-o sort.mp4``: the first run's page embeds the first run's video, judged by
+its frame count against the first run's own pose log.
+"""
+
+from __future__ import annotations
+
+import base64
+import hashlib
+import os
+import re
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from robokit.record.format import RunRecord
+
+ROOT = Path(__file__).resolve().parents[1]
+ROBOKIT = [sys.executable, "-c", "import sys; from robokit.cli import main; sys.exit(main())"]
+
+SCENE = """
+[world]
+max_time = {max_time}
+
+[bodies.plane]
+urdf = "plane.urdf"
+position = [0, 0, 0]
+
+[bodies.box]
+shape = "box"
+size = [0.2, 0.2, 0.2]
+position = [0.3, 0, 0.6]
+rgba = [0.9, 0.1, 0.1, 1]
+
+[behaviour]
+type = "record"
+components = []
+duration = {duration}
+"""
+
+
+def _robokit(cwd: Path, *args: str, limit: int | None = None, timeout: float = 120) -> subprocess.CompletedProcess:
+    prefix = ["prlimit", f"--fsize={limit}"] if limit is not None else []
+    return subprocess.run(prefix + ROBOKIT + list(args), cwd=cwd, capture_output=True, text=True, timeout=timeout)
+
+
+def _sha(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _frames_of(path: Path) -> int:
+    """Frames in an MP4, counted by decoding it (imageio-ffmpeg's reader)."""
+    import imageio_ffmpeg
+
+    reader = imageio_ffmpeg.read_frames(str(path))
+    next(reader)
+    return sum(1 for _ in reader)
+
+
+def _expected_frames(run: Path) -> int:
+    """One frame per 1/30 s of the pose log, both ends (the oracle: the record's own sample times)."""
+    t = RunRecord(run).poses["t"]
+    return int(np.floor(t[-1] * 30 + 1e-6)) + 1
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, Path]:
+    """Two runs of different lengths in one folder: (folder, first run, second run)."""
+    folder = tmp_path_factory.mktemp("outputs")
+    made = []
+    for duration in (0.5, 1.0):
+        (folder / "scene.toml").write_text(SCENE.format(max_time=duration + 1, duration=duration))
+        done = _robokit(folder, "run", "scene.toml", "--quiet")
+        assert done.returncode == 0, done.stderr
+        made.append(max((folder / "results").iterdir(), key=lambda p: p.stat().st_mtime_ns))
+    assert made[0] != made[1]
+    return folder, made[0], made[1]
+
+
+def test_a_video_ffmpeg_cannot_finish_leaves_the_old_file_and_exits_6(runs: tuple[Path, Path, Path]) -> None:
+    folder, first, _ = runs
+    old = folder / "limited.mp4"
+    made = _robokit(folder, "video", str(first), "-o", old.name, "--size", "64x48")
+    assert made.returncode == 0, made.stderr
+    before = _sha(old)
+    assert old.stat().st_size < 12_000  # a complete small video fits under the limit; a larger one will not
+    cut = _robokit(folder, "video", str(first), "-o", old.name, "--size", "320x240", limit=12_000)
+    assert cut.returncode == 6, (cut.stdout, cut.stderr)
+    lines = cut.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("robokit: warning: limited.mp4: not written"), cut.stderr
+    assert "SIGXFSZ" in lines[0] and "frames," not in cut.stdout  # the reason, and no success line
+    assert _sha(old) == before and _frames_of(old) == _expected_frames(first)  # the old video, whole
+    assert [p.name for p in folder.glob(".*part*")] == []
+
+
+def test_an_interrupted_render_removes_its_partial_file_and_says_so(runs: tuple[Path, Path, Path]) -> None:
+    folder, _, second = runs
+    out = folder / "cut.mp4"
+    proc = subprocess.Popen(ROBOKIT + ["video", str(second), "-o", out.name, "--size", "640x480", "--workers", "1"],
+                            cwd=folder, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 60
+    while not list(folder.glob(".cut.mp4.part*")) and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.01)  # waits for a condition: ffmpeg has opened its temporary file
+    assert proc.poll() is None, "the render ended before it could be interrupted"
+    proc.send_signal(signal.SIGINT)
+    stdout, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 130, stderr
+    assert stderr.strip().splitlines() == [
+        "robokit: interrupted (SIGINT); cut.mp4 not written; its partial file was removed"]
+    assert not out.exists() and list(folder.glob(".*part*")) == [] and stdout == ""
+
+
+def test_a_run_page_embeds_its_own_video_when_a_later_run_took_the_name(runs: tuple[Path, Path, Path]) -> None:
+    folder, first, second = runs
+    for run in (first, second):  # the README's flow: every run rendered to the same -o sort.mp4
+        done = _robokit(folder, "video", str(run), "-o", "sort.mp4", "--size", "64x48")
+        assert done.returncode == 0, done.stderr
+    shared = folder / "sort.mp4"
+    assert _frames_of(shared) == _expected_frames(second) != _expected_frames(first)
+    page = folder / "first.html"
+    done = _robokit(folder, "view", str(first), "-o", page.name, "--no-replay")
+    assert done.returncode == 0, done.stderr
+    src = re.search(r"id='run-video'[^>]*src='data:video/mp4;base64,([^']+)'", page.read_text(encoding="utf-8"))
+    assert src is not None
+    embedded = folder / "embedded.mp4"
+    embedded.write_bytes(base64.b64decode(src.group(1)))
+    assert _frames_of(embedded) == _expected_frames(first)  # the first run's video, rendered for its page
+    assert _sha(embedded) != _sha(shared)
+    again = _robokit(folder, "view", str(second), "-o", "second.html", "--no-replay")
+    assert again.returncode == 0 and base64.b64encode(shared.read_bytes()).decode() in (
+        folder / "second.html").read_text(encoding="utf-8")  # the second run's page embeds sort.mp4 as made
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(shutil.which("prlimit") is None, reason="needs prlimit (util-linux)")
+def test_the_sort_video_under_a_file_size_limit_is_a_warning_and_exit_6(tmp_path: Path) -> None:
+    """The real command: ``prlimit --fsize=60000 robokit run configs/sort_robot.toml --video out.mp4``."""
+    env = dict(os.environ)
+    done = subprocess.run(["prlimit", "--fsize=60000", *ROBOKIT, "run", str(ROOT / "configs" / "sort_robot.toml"),
+                           "--video", "out.mp4"], cwd=tmp_path, capture_output=True, text=True, timeout=600, env=env)
+    assert done.returncode == 6, (done.stdout[-2000:], done.stderr)
+    assert "warning: video out.mp4: not written: ffmpeg could not finish the video" in done.stdout
+    assert "video: out.mp4:" not in done.stderr and "printed" not in done.stderr
+    assert not (tmp_path / "out.mp4").exists() and list(tmp_path.glob(".*part*")) == []
+    assert len(list((tmp_path / "results").glob("*/result.json"))) == 1
