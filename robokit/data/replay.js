@@ -1,17 +1,42 @@
-// robokit's replay of a run record, drawn client-side with MeshCat's viewer (three.js + orbit controls), which the
-// page embeds from the `meshcat` package. RK_REPLAY (written by robokit/record/replay.py) holds the link paths, the
-// visual shapes, the sample times and each link's world pose per sample, and each state machine's stays.
+// robokit's replay of a run record, drawn client-side with three.js (robokit/data/three.min.js: three.js and its
+// orbit controls as one script defining THREE, which the page loads first). RK_REPLAY (written by
+// robokit/record/replay.py) holds the link paths, the visual shapes, the sample times and each link's world pose per
+// sample, and each state machine's stays.
 (function () {
   "use strict";
   const D = RK_REPLAY;
-  const THREE = MeshCat.THREE;
   const pane = document.getElementById("rk-pane");
-  const viewer = new MeshCat.Viewer(pane);
-  const fit = () => viewer.set_3d_pane_size(pane.clientWidth, pane.clientHeight);
+  // The viewer: a renderer in the pane, a scene lit from the sky and from above, a camera with orbit controls.
+  // The scene keeps the record's frame (metres, z up); the camera's up is the view's.
+  const renderer = new THREE.WebGLRenderer({ antialias: true });
+  renderer.setPixelRatio(window.devicePixelRatio || 1);
+  pane.appendChild(renderer.domElement);
+  const scene = new THREE.Scene();
+  scene.background = new THREE.Color(0xfafbfc);
+  const sky = new THREE.HemisphereLight(0xffffff, 0x8a8a80, 2.2);
+  sky.position.set(0, 0, 1);
+  scene.add(sky);
+  const sun = new THREE.DirectionalLight(0xffffff, 1.6);
+  sun.position.set(1.5, -1, 3);
+  scene.add(sun);
+  const camera = new THREE.PerspectiveCamera(50, 1, 0.01, 200);
+  camera.up.set(...(D.view && D.view.up ? D.view.up : [0, 0, 1])); // before the controls: they orbit about it
+  camera.position.set(2.5, -2.5, 1.8);
+  const controls = new THREE.OrbitControls(camera, renderer.domElement);
+  let dirty = true;
+  controls.addEventListener("change", () => { dirty = true; });
+  const viewer = {
+    scene, camera, renderer, controls,
+    render() { renderer.render(scene, camera); dirty = false; },
+  };
+  const fit = () => {
+    renderer.setSize(pane.clientWidth, pane.clientHeight);
+    camera.aspect = pane.clientWidth / Math.max(1, pane.clientHeight);
+    camera.updateProjectionMatrix();
+    dirty = true;
+  };
   window.addEventListener("resize", fit);
   fit();
-  viewer.set_property(["Grid"], "visible", false);
-  viewer.set_property(["Axes"], "visible", false);
 
   function bytes(b64) {
     const bin = atob(b64);
@@ -24,7 +49,7 @@
   const L = D.links.length;
   const root = new THREE.Group();
   root.name = "robokit";
-  viewer.scene.add(root);
+  scene.add(root);
   const groups = D.links.map((path) => {
     const g = new THREE.Group();
     g.name = path;
@@ -55,7 +80,7 @@
     if (g === null) continue;
     const c = s.rgba;
     const material = new THREE.MeshPhongMaterial({
-      color: new THREE.Color(c[0], c[1], c[2]), opacity: c[3], transparent: c[3] < 1, side: THREE.DoubleSide,
+      color: new THREE.Color().setRGB(c[0], c[1], c[2], THREE.SRGBColorSpace), opacity: c[3], transparent: c[3] < 1, side: THREE.DoubleSide,
     });
     const mesh = new THREE.Mesh(g, material);
     if (s.kind === "mesh") mesh.scale.set(s.size[0], s.size[1], s.size[2]);
@@ -63,7 +88,7 @@
     const extent = new THREE.Vector3();
     g.boundingBox.getSize(extent);
     if (Math.max(extent.x * s.size[0], extent.y * s.size[1]) > 5 && c[0] + c[1] + c[2] > 2.9) {
-      material.color.setRGB(0.72, 0.76, 0.8); // a white ground plane (its texture is not drawn): grey, under white robots
+      material.color.setRGB(0.72, 0.76, 0.8, THREE.SRGBColorSpace); // a white ground plane (its texture is not drawn): grey, under white robots
     }
     mesh.position.set(s.position[0], s.position[1], s.position[2]);
     mesh.quaternion.set(s.quaternion[0], s.quaternion[1], s.quaternion[2], s.quaternion[3]);
@@ -109,24 +134,22 @@
     for (const cursor of document.querySelectorAll(".rk-cursor")) {
       cursor.style.left = (100 * now / (D.duration || 1)) + "%";
     }
-    viewer.set_dirty();
+    dirty = true;
   }
   // The first view is the video's: D.view is the camera `robokit video` looks through by default (its "iso" view of
   // this scene: behind the robot and to its left, 30 degrees above the middle of the scene's box, with the same
   // vertical field of view), so the replay opens on the picture the video shows; a wider pane shows more at the sides.
-  // MeshCat's orbit controls turn about the origin: the scene (z up, under MeshCat's rotated scene) is shifted to put
-  // the view's target there. The camera sits in three.js's y-up frame: scene (x, y, z) is (x, z, -y) there.
+  // The orbit controls turn about the view's target.
   function frame() {
     show(0);
     const v = D.view;
     if (!v) return;
-    const target = new THREE.Vector3(...v.target);
-    const eye = new THREE.Vector3(...v.eye).sub(target);
-    root.position.set(-target.x, -target.y, -target.z);
-    viewer.camera.fov = v.fov;
-    viewer.camera.updateProjectionMatrix();
-    viewer.set_property(["Cameras", "default", "rotated", "<object>"], "position", [eye.x, eye.z, -eye.y]);
-    viewer.set_dirty();
+    camera.position.set(...v.eye);
+    camera.fov = v.fov;
+    camera.updateProjectionMatrix();
+    controls.target.set(...v.target);
+    controls.update();
+    dirty = true;
   }
 
   // What the robot's camera saw (frames saved with --save-frames): the latest one at or before the time shown.
@@ -200,12 +223,14 @@
   speedSel.addEventListener("change", () => { last = null; });
   slider.addEventListener("input", () => { show((Number(slider.value) / 1000) * D.duration); });
   function tick(ts) {
-    if (viewer.renderer.domElement.clientHeight !== pane.clientHeight) fit(); // MeshCat sizes to the window
+    const canvas = renderer.domElement;
+    if (canvas.clientWidth !== pane.clientWidth || canvas.clientHeight !== pane.clientHeight) fit();
     if (playing && last !== null) {
       show(now + ((ts - last) / 1000) * Number(speedSel.value));
       if (now >= D.duration) { playing = false; button.textContent = "play"; }
     }
     last = ts;
+    if (dirty) viewer.render();
     requestAnimationFrame(tick);
   }
   frame();

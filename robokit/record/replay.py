@@ -8,7 +8,6 @@ render cost: one forward kinematics pass per pose sample, no image is rendered h
 from __future__ import annotations
 
 import base64
-import importlib.util
 import json
 from dataclasses import dataclass
 from pathlib import Path
@@ -270,12 +269,9 @@ def _camera_frames(rec: RunRecord) -> list[dict[str, Any]]:
 
 
 def viewer_path() -> Path | None:
-    """MeshCat's bundled browser viewer (three.js with orbit controls) in the installed ``meshcat`` package; None
-    when it is not installed."""
-    spec = importlib.util.find_spec("meshcat")
-    if spec is None or not spec.submodule_search_locations:
-        return None
-    path = Path(list(spec.submodule_search_locations)[0]) / "viewer" / "dist" / "main.min.js"
+    """The replay's browser viewer: three.js with its orbit controls as one script (``robokit/data/three.min.js``,
+    made from the pinned npm package by ``tools/fetch-three.sh``); None if the file is missing."""
+    path = Path(__file__).resolve().parent.parent / "data" / "three.min.js"
     return path if path.is_file() else None
 
 
@@ -303,7 +299,7 @@ REPLAY_CSS = """
 """The replay's styles (the run page offline and the server's run page)."""
 
 REPLAY_SCRIPT = Path(__file__).resolve().parent.parent / "data" / "replay.js"
-"""robokit's replay script: draws ``RK_REPLAY`` (a :func:`payload`) with MeshCat's viewer."""
+"""robokit's replay script: draws ``RK_REPLAY`` (a :func:`payload`) with three.js (:func:`viewer_path`)."""
 
 
 def replay_markup(attrs: str = "") -> str:
@@ -321,8 +317,8 @@ def replay_markup(attrs: str = "") -> str:
 
 
 def replay_html(rec: RunRecord, replay: Replay | None = None) -> str | None:
-    """The replay for a page that opens offline: :func:`replay_markup`, then MeshCat's viewer, the data and the
-    script inline; None without MeshCat (the page then says how to get it)."""
+    """The replay for a page that opens offline: :func:`replay_markup`, then the viewer (three.js), the data and the
+    script inline; None if the viewer's file is missing (the page then says so)."""
     viewer = viewer_script()
     if viewer is None:
         return None

@@ -1,9 +1,9 @@
 """The 3D replay on the server's run page, drawn from the run's uploaded ``replay.json`` (the data ``robokit view``
 embeds in its offline page, made from the run record by the student's robokit when it uploads the run's files).
 
-The scripts are served from the installed packages, never copied into the repository: MeshCat's browser viewer
-from the ``meshcat`` package and robokit's replay script from ``robokit/data``. The page's policy allows scripts
-from this server only, so a small static script (``course/replay_boot.js``) fetches the data and then loads the
+The scripts are robokit's package data, served as files: the viewer (three.js with its orbit controls,
+``robokit/data/three.min.js``) and robokit's replay script (``robokit/data/replay.js``). The page's policy allows
+scripts from this server only, so a small static script (``course/replay_boot.js``) fetches the data and then loads the
 replay script. The server never rebuilds a scene: nothing of a student's URDFs or meshes is loaded here.
 """
 
@@ -22,14 +22,14 @@ from robokit.record.replay import REPLAY_CSS, REPLAY_SCRIPT, replay_markup, view
 
 def _script(path: Path | None) -> HttpResponse:
     if path is None or not path.is_file():
-        raise Http404("the replay's viewer is not installed on this server (pip install meshcat)")
+        raise Http404("the replay's viewer is missing from this server's robokit install (reinstall robokit)")
     response = FileResponse(path.open("rb"), content_type="text/javascript; charset=utf-8")
     response["Cache-Control"] = "public, max-age=3600"
     return response
 
 
 def viewer_js(request: HttpRequest) -> HttpResponse:
-    """MeshCat's viewer (three.js and orbit controls), from the installed ``meshcat`` package."""
+    """The replay's viewer: three.js with its orbit controls (``robokit/data/three.min.js``)."""
     return _script(viewer_path())
 
 

@@ -1,5 +1,5 @@
 // The run page's 3D replay: fetch the run's replay.json (same origin), hand it to robokit's replay script as
-// RK_REPLAY, then load that script (MeshCat's viewer is loaded before this file, both deferred, in order).
+// RK_REPLAY, then load that script (the viewer, three.js, is loaded before this file, both deferred, in order).
 (function () {
   "use strict";
   const box = document.getElementById("rk-replay");
