@@ -25,7 +25,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 from pydantic import Field
@@ -292,6 +292,8 @@ class Navigating:
 
     :meth:`move_towards` runs the avoider and fires the motion triggers when the situation changes.
     """
+    COMMANDS: ClassVar[tuple[str, ...]] = ("drive",)
+    """The config fields naming the actuators it commands (``robokit validate`` checks who commands what)."""
 
     config: Any
     state_name: str

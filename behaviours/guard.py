@@ -21,7 +21,7 @@ Readings in, an outcome out: it never commands anything.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, ClassVar
 
 from pydantic import Field
 
@@ -44,6 +44,7 @@ class GuardConfig(Schema):
 
 class Guard(Behaviour):
     """Trips (``aborted``, with the force, what was touched and when) when a force limit is crossed."""
+    COMMANDS: ClassVar[tuple[str, ...]] = ()
 
     def setup(self, ctx: SetupContext) -> None:
         super().setup(ctx)
@@ -57,6 +58,8 @@ class Guard(Behaviour):
         self.zero: tuple[float, float, float] | None = None
         self.peak = 0.0
         self.tripped_at: float | None = None
+        self.held: float | None = None
+        """While watching a recovery: the force that tripped the guard, until the force is back within the limit."""
 
     def step(self, readings: Mapping[str, Any], t: float) -> None:
         reading = readings[self.config.sensor]
@@ -68,10 +71,27 @@ class Guard(Behaviour):
                                                 f"({reading.normal_force:.1f} N)"
             touching = reading.in_contact and force > self.config.max_force
         self.peak = max(self.peak, force)
+        limit = self.config.max_force
+        if self.held is not None and force > limit:  # the stop has not relieved the force yet: no worse than that
+            limit = self.held + self.config.max_force
+            touching = touching and force > limit
+        elif self.held is not None:
+            self.held = None  # relieved: the limit holds again
         if touching:
             self.tripped_at = t
-            self.finish("aborted", f"{what} at t = {t:.3f} s (limit {self.config.max_force:g} N)")
+            self.finish("aborted", f"{what} at t = {t:.3f} s (limit {limit:g} N)")
         return None
+
+    def can_succeed(self) -> bool:
+        """A guard never succeeds: it trips (``aborted``) or watches until the run ends."""
+        return False
+
+    def take_over(self, previous: Guard) -> None:
+        """Watch on after ``previous`` tripped (a recovery runs): measure from its force baseline; until the force
+        is back within ``max_force``, trip only above the force that tripped it plus ``max_force`` (the recovery may
+        relieve the contact, not press harder)."""
+        self.zero = previous.zero
+        self.held = previous.peak
 
     def _wrench_force(self, w: Wrench) -> float:
         if self.config.baseline and self.zero is None:

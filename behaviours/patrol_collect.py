@@ -18,7 +18,7 @@ import enum
 import math
 import statistics
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, ClassVar
 
 from pydantic import Field
 from robokit_behaviours.avoidance import MOTION_STATES
@@ -73,6 +73,7 @@ class PatrolCollectConfig(PatrolConfig):
 
 class PatrolCollect(Patrol):
     """Patrol waypoints; find unknown objects on the lidar, log and collect each, resume (lesson 08B)."""
+    COMMANDS: ClassVar[tuple[str, ...]] = ("drive", "collector")
 
     STATES = Phase
     TRANSITIONS = TRANSITIONS

@@ -148,6 +148,7 @@ class PickPlaceConfig(Schema):
 
 class PickPlace(MachineBehaviour):
     """Picks an object and places it at a spot: approach, descend, grasp, lift, transport, lower, release, retreat."""
+    COMMANDS: ClassVar[tuple[str, ...]] = ("arm", "gripper")
 
     STATES = Phase
     TRANSITIONS = TRANSITIONS

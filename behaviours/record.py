@@ -25,7 +25,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, ClassVar
 
 from pydantic import Field
 
@@ -71,6 +71,7 @@ def to_jsonable(value: Any, max_array: int = 64) -> Any:
 
 class Record(Behaviour):
     """Writes readings of named sensors/actuators into the trace at its rate, then succeeds after `duration`."""
+    COMMANDS: ClassVar[tuple[str, ...]] = ()
 
     def setup(self, ctx: SetupContext) -> None:
         super().setup(ctx)
@@ -93,6 +94,10 @@ class Record(Behaviour):
         if 0 < self.config.duration <= self.elapsed(t):
             self.finish("succeeded", f"recorded {sum(self.counts.values())} readings in {self.elapsed(t):g} s")
         return None
+
+    def can_succeed(self) -> bool:
+        """With ``duration = 0`` it records until the run ends and never succeeds."""
+        return bool(self.config.duration > 0)
 
     def result(self) -> dict[str, Any]:
         return {"recorded": dict(self.counts), "last": dict(self.last)}

@@ -27,7 +27,7 @@ import enum
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, ClassVar
 
 from pydantic import Field
 from robokit_behaviours.pick_place import PickPlace, PickPlaceTask
@@ -153,6 +153,7 @@ class SortedObject:
 
 class Sort(MachineBehaviour):
     """Colour sorting: look, pick the nearest sortable object with pick_place, drop it in its bin, look again."""
+    COMMANDS: ClassVar[tuple[str, ...]] = ("arm", "gripper")
 
     STATES = Phase
     TRANSITIONS = TRANSITIONS

@@ -41,6 +41,7 @@ class JointTeleopConfig(Schema):
 
 class JointTeleop(Behaviour):
     """Lesson 03: select a joint with keys 1-9 and turn it with the left/right arrows."""
+    COMMANDS: ClassVar[tuple[str, ...]] = ("actuator",)
 
     open_ended: ClassVar[bool] = True
 
@@ -108,6 +109,8 @@ class DriveTeleopConfig(Schema):
 
 class DriveTeleop(Behaviour):
     """Lesson 07: drive a differential-drive robot with the arrow keys."""
+
+    COMMANDS: ClassVar[tuple[str, ...]] = ("actuator",)
 
     open_ended: ClassVar[bool] = True
 

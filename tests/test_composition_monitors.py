@@ -106,7 +106,9 @@ BOT: dict[str, Any] = {
 
 
 def test_a_guard_pre_empts_the_task_into_its_named_recovery() -> None:
-    with make_sim(BOT) as sim:
+    raw = copy.deepcopy(BOT)
+    raw["monitors"]["guard"]["watch_recovery"] = False  # turning away, the robot brushes the wall again
+    with make_sim(raw) as sim:
         result = sim.run()
         trace = sim.trace
         x, y, _ = sim.readings["drive"].pose
@@ -122,6 +124,25 @@ def test_a_guard_pre_empts_the_task_into_its_named_recovery() -> None:
     assert min(r["tick"] for r in trace if r.get("machine") == "back_off") >= preempt["tick"] + 1
     assert max((r["tick"] for r in trace if r.get("machine") == "behaviour"), default=-1) <= preempt["tick"]
     assert math.hypot(x, y) <= 0.1 + 0.02  # back where it started (the recovery's tolerance)
+
+
+def test_the_guard_watching_the_recovery_stops_it_when_it_touches_the_wall_again() -> None:
+    with make_sim(BOT) as sim:
+        touching = []
+        while sim.outcome is None and sim.world.tick < 4800:
+            sim.step()
+            points = sim.world.client.getContactPoints(bodyA=sim.world.body("robot"), bodyB=sim.world.body("wall"))
+            touching.append(any(p[9] > 0 for p in points))  # a normal force: pushing, not just near
+        result = sim.run()
+        trace = sim.trace
+    preempt = next(r["tick"] for r in trace if r["kind"] == "monitor_preempt")
+    # pybullet's own contact list: the first tick after the pre-emption's release with the wall touched again
+    released = next(k for k in range(preempt + 1, len(touching)) if not touching[k - 1])
+    again = next(k for k in range(released, len(touching)) if touching[k - 1])
+    assert [r["tick"] for r in trace if r["kind"] == "monitor_abort"] == [again]
+    assert result.outcome == "aborted" and "recovery 'back_off' aborted by monitor 'guard' (guard): contact " \
+        "with wall" in result.reason
+    assert result.result["monitors"]["guard"]["recovery"]["outcome"] == "halted"
 
 
 @pytest.mark.parametrize("monitor,recoveries,expected", [

@@ -47,11 +47,18 @@ class Monitored:
     """The task plus its monitors, stepped as one behaviour by the scheduler (every tick; each at its own rate).
 
     ``outcome`` is the task's: the run ends when the task ends, whatever the monitors are doing. A monitor with
-    ``action = "abort"`` or ``"recover"`` that ends ``failed`` or ``aborted`` acts in the tick it ends, before the
-    actuators run and before the physics step: the task is halted (its ``halt(t)``, if any), its commands of that
-    tick are dropped, and every actuator with a ``protective_stop(reason)`` is stopped. ``abort`` then ends the task
-    (``aborted``, the monitor's reason); ``recover`` steps the named recovery from the next tick until it ends, and
-    the task ends with ``aborted`` (the recovery succeeded) or the recovery's ``failed``/``aborted``.
+    ``action = "abort"`` or ``"recover"`` that ends ``failed`` or ``aborted`` acts in the tick it ends, after every
+    monitor due in that tick was stepped, before the actuators run and before the physics step: the task is halted
+    (its ``halt(t)``, if any), its commands of that tick are dropped, and every actuator with a
+    ``protective_stop(reason)`` is stopped. ``abort`` then ends the task (``aborted``, the monitor's reason);
+    ``recover`` steps the named recovery from the next tick until it ends, and the task ends with ``aborted`` (the
+    recovery succeeded) or the recovery's ``failed``/``aborted``.
+
+    **Guards keep guarding**: while the recovery runs, a fresh instance of the monitor that pre-empted the task
+    (``watchers``, built before the run; its optional ``take_over(previous)`` receives the instance that tripped,
+    so a guard keeps its force baseline) watches it, unless the monitor says ``watch_recovery = false``; every other
+    monitor goes on as before. One that acts during the recovery halts it, stops the actuators in that tick, and
+    the run ends ``aborted``.
     """
 
     open_ended = False
@@ -67,6 +74,11 @@ class Monitored:
         self.fired: tuple[Member, Any, float] | None = None
         """The monitor that acted, its outcome and the sim time it acted at."""
         self.recovery: Member | None = None
+        self.watchers: dict[str, Member] = {}
+        """Spare instances of the monitors that pre-empt into a recovery and watch it, by monitor name."""
+        self.watching: Member | None = None
+        self.stopped: tuple[Member, Any, float] | None = None
+        """The monitor that stopped the recovery, its outcome and the sim time."""
 
     @property
     def outcome(self) -> Any:
@@ -83,22 +95,29 @@ class Monitored:
             commands = self._step_recovery(readings, t)
         elif task is not None and k % task.period == 0 and self.fired is None:
             commands = task.behaviour.step(readings, t)
-        for m in self.monitors:
+        acting = None
+        for m in self.monitors if self.watching is None else [*self.monitors, self.watching]:
             if m.behaviour.outcome is None and k % m.period == 0:
                 sent = call(m, "monitor", "step", m.behaviour.step, readings, t)
                 if sent:
                     raise PluginError(f"monitor {m.name!r} ({m.origin}) sent commands to {', '.join(sent)}: monitors "
                                       "observe; only the task ([behaviour]) commands actuators", type_name=m.type)
-                if self._acts(m):
-                    self._act(m, t)
-                    return None
+                if acting is None and self._acts(m):
+                    acting = m
+        if acting is not None:
+            if self.recovery is None:
+                self._act(acting, t)
+            else:
+                self._stop_recovery(acting, t)
+            return None
         return commands
 
     def _acts(self, m: Member) -> bool:
         outcome = m.behaviour.outcome
         action = getattr(m.spec, "action", "observe")
         return (outcome is not None and outcome.status != "succeeded" and action != "observe"
-                and self.fired is None and self.task is not None and self.task.behaviour.outcome is None)
+                and (self.fired is None or self.recovery is not None)
+                and self.task is not None and self.task.behaviour.outcome is None)
 
     def _act(self, m: Member, t: float) -> None:
         """A monitor acts: halt the task, stop the actuators, then abort or start the recovery (next tick)."""
@@ -118,6 +137,29 @@ class Monitored:
         self.trace("monitor_preempt", monitor=m.name, reason=outcome.reason, recovery=self.recovery.name)
         self.recovery.behaviour.started_at = t + self.clock.time_step  # its first step is the next tick
         self.recovery.start_tick = self.clock.tick + 1
+        self.watching = self.watchers.get(m.name)
+        if self.watching is not None:
+            take_over = getattr(self.watching.behaviour, "take_over", None)
+            if take_over is not None:
+                call(self.watching, "monitor", "take_over", take_over, m.behaviour)
+            self.watching.behaviour.started_at = t + self.clock.time_step
+            self.trace("monitor_watch", monitor=m.name, recovery=self.recovery.name)
+
+    def _stop_recovery(self, m: Member, t: float) -> None:
+        """A monitor acts while the recovery runs: halt the recovery, stop the actuators, end the run aborted."""
+        rec, fired = self.recovery, self.fired
+        assert rec is not None and fired is not None and self.task is not None
+        outcome = m.behaviour.outcome
+        self.stopped = (m, outcome, t)
+        halt = getattr(rec.behaviour, "halt", None)
+        if halt is not None:
+            call(rec, "recovery", "halt", halt, t)
+        why = f"monitor {m.name!r} ({m.type}): {outcome.reason}"
+        self.stop_actuators(why)
+        self.trace("monitor_abort", monitor=m.name, reason=outcome.reason, recovery=rec.name)
+        first, first_outcome, at = fired
+        self.task.behaviour.finish("aborted", f"pre-empted at t = {at:.3f} s by monitor {first.name!r} ({first.type}): "
+                                              f"{first_outcome.reason}; recovery {rec.name!r} aborted by {why}")
 
     def stop_actuators(self, reason: str) -> list[str]:
         """Bring every actuator that can to a protective stop now; returns their names."""
@@ -156,11 +198,21 @@ class Monitored:
             if self.fired is not None and self.fired[0] is m:
                 out[m.name]["acted_at"] = round(self.fired[2], 6)
                 if self.recovery is not None:
-                    done = self.recovery.behaviour.outcome
-                    out[m.name]["recovery"] = {"name": self.recovery.name, "type": self.recovery.type,
-                                               "outcome": done.status if done else "running",
-                                               "reason": done.reason if done else "", "result": _own(self.recovery)}
+                    out[m.name]["recovery"] = self._recovery_record(self.recovery)
+                if self.watching is not None:
+                    w = self.watching
+                    done = w.behaviour.outcome
+                    out[m.name]["watch"] = {"outcome": done.status if done else "running",
+                                            "reason": done.reason if done else "", **_own(w)}
         return out
+
+    def _recovery_record(self, rec: Member) -> dict[str, Any]:
+        done = rec.behaviour.outcome
+        status, reason = (done.status, done.reason) if done else ("running", "")
+        if self.stopped is not None:
+            m, outcome, at = self.stopped
+            status, reason = "halted", f"at t = {at:.3f} s by monitor {m.name!r} ({m.type}): {outcome.reason}"
+        return {"name": rec.name, "type": rec.type, "outcome": status, "reason": reason, "result": _own(rec)}
 
 
 def _own(m: Member) -> dict[str, Any]:

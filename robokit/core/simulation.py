@@ -136,6 +136,9 @@ class Simulation:
             self._setup_tree(cfg.behaviour)
         for spec in cfg.monitors:
             self._setup(spec)
+        if self.monitors:  # a spare of each monitor that pre-empts into a recovery, to watch it (guards keep guarding)
+            self._monitored.watchers = {spec.name: self._fresh(spec) for spec in cfg.monitors
+                                        if spec.action == "recover" and spec.watch_recovery}
         for spec in cfg.recoveries.values():
             if spec.name in self.recoveries:
                 self._setup_tree(spec)
@@ -307,9 +310,10 @@ class Simulation:
         """What can be checked without running: the core's checks (bodies spawned overlapping), then every
         component's and the behaviour's ``preflight(ctx)``. Each problem is a ConfigError naming file and key.
         """
-        from robokit.core.preflight import overlapping_bodies
+        from robokit.core.preflight import composition_problems, overlapping_bodies
 
         problems = overlapping_bodies(self.world, self.body_keys)
+        problems += composition_problems(self.behaviour_specs(), self._instances)
         specs = list(self.config.sensors + self.config.actuators) + self.behaviour_specs()
         for spec in specs:
             comp = self._instances[spec.key]
@@ -526,7 +530,9 @@ class Simulation:
     # ----------------------------------------------------------------- lifetime
     def close(self) -> None:
         """Close every component, then the World. Safe to call twice."""
-        monitors = [m.behaviour for m in [*self.monitors, *getattr(self, "recoveries", {}).values()]]
+        watchers = getattr(getattr(self, "_monitored", None), "watchers", {})
+        monitors = [m.behaviour for m in [*self.monitors, *getattr(self, "recoveries", {}).values(),
+                                          *watchers.values()]]
         for comp in list(self.components.values()) + ([self.behaviour] if self.behaviour else []) + monitors:
             try:
                 comp.close()
@@ -609,6 +615,16 @@ def _orientation(world: World, body: BodyConfig) -> tuple[float, float, float, f
     return to_quaternion(body.rpy_deg, body.quaternion)
 
 
+def _urdf_path(world: World, body: BodyConfig) -> str:
+    """The URDF a body loads: a xacro file (``robot.urdf.xacro``) is expanded first, with its ``xacro_args``."""
+    assert body.urdf is not None
+    if not body.urdf.lower().endswith(".xacro"):
+        return body.urdf
+    from robokit.robot.expand import expand_xacro
+
+    return str(expand_xacro(world.resolve_urdf(body.urdf), body.xacro_args))
+
+
 def _spawn_one(world: World, key: str, name: str, body: BodyConfig, position: Any) -> None:
     orn = _orientation(world, body)
     pos = tuple(float(v) for v in np.asarray(position, float))
@@ -623,7 +639,8 @@ def _spawn_one(world: World, key: str, name: str, body: BodyConfig, position: An
             )
         else:
             if body.urdf is not None:
-                world.load_urdf(name, body.urdf, position=pos, orientation=orn, fixed_base=body.fixed_base,
+                world.load_urdf(name, _urdf_path(world, body), position=pos, orientation=orn,
+                                fixed_base=body.fixed_base,
                                 scale=body.scale, self_collision=body.self_collision)
             else:
                 kind, path = ("sdf", body.sdf) if body.sdf is not None else ("mjcf", body.mjcf)
