@@ -1,8 +1,11 @@
-"""``robokit submit ASSIGNMENT CONFIG [--plugin PATH]``: send a config (and, where the assignment allows it, the
-student's own plugin package) to the course server for official evaluation.
+"""``robokit submit ASSIGNMENT CONFIG [--plugin PATH] [--wait]``: send a config (and, where the assignment allows
+it, the student's own plugin package) to the course server for official evaluation.
 
-The server checks it (only the keys the assignment lets students change, then robokit's own validation) and queues
-it; its answer is printed in one line. Needs only ``requests`` (no Django).
+The server checks it (only the keys the assignment lets students change, the files it names, then robokit's own
+validation) and queues it; its answer is printed in one line. Each submit sends a fresh ``Idempotency-Key`` and
+sends it again if the connection fails before the answer: however often it is resent, it is one submission.
+``--wait`` then follows the submission to its grade and prints each official trial's outcome and reason. Needs
+only ``requests`` (no Django).
 """
 
 from __future__ import annotations
@@ -10,13 +13,18 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import time
+import uuid
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 from urllib.parse import quote, urlsplit
 
 from robokit.errors import UserError
 
-EXIT_REFUSED, EXIT_UNREACHABLE = 2, 4
+EXIT_NOT_GRADED, EXIT_REFUSED, EXIT_UNREACHABLE, EXIT_STILL_WAITING = 1, 2, 4, 5
+SENDS = 3
+"""Times a submission is sent when the connection fails before the server answers (same key each time)."""
 
 
 def add_submit_command(sub: Any) -> None:
@@ -29,6 +37,10 @@ def add_submit_command(sub: Any) -> None:
                    help="environment variable holding your token (default ROBOKIT_TOKEN)")
     p.add_argument("--plugin", metavar="PATH", help="your own plugin, sent with the config: a module (.py) or a "
                    "package folder (only for assignments that allow students' plugins)")
+    p.add_argument("--wait", action="store_true", help="follow the submission until it is graded and print each "
+                   "official trial's outcome and reason")
+    p.add_argument("--wait-seconds", type=float, default=3600.0, metavar="S",
+                   help="with --wait: give up following after S seconds (default 3600; the evaluation goes on)")
     p.set_defaults(func=cmd_submit)
 
 
@@ -75,21 +87,75 @@ def cmd_submit(args: argparse.Namespace) -> int:
     if args.plugin:
         body["plugin_files"] = plugin_files(args.plugin)
     url = submit_url(args.url, args.assignment)
-    try:
-        resp = requests.post(url, json=body, headers={"Authorization": f"Bearer {token}"}, timeout=60)
-    except requests.RequestException as exc:
-        print(f"robokit: error: cannot reach {url}: {type(exc).__name__}", file=sys.stderr)
-        return EXIT_UNREACHABLE
+    headers = {"Authorization": f"Bearer {token}", "Idempotency-Key": uuid.uuid4().hex}
+    resp = None
+    for attempt in range(SENDS):
+        try:
+            resp = requests.post(url, json=body, headers=headers, timeout=60)
+            break
+        except requests.RequestException as exc:
+            if attempt == SENDS - 1:
+                print(f"robokit: error: cannot reach {url}: {type(exc).__name__}", file=sys.stderr)
+                return EXIT_UNREACHABLE
+            time.sleep(1.0 + attempt)
+    assert resp is not None
     try:
         answer = resp.json()
     except ValueError:
         answer = {"error": f"HTTP {resp.status_code} (not JSON)"}
-    if resp.status_code != 201:
+    if resp.status_code not in (200, 201):
         where = args.plugin if answer.get("field") == "plugin" else args.config
         print(f"robokit: error: {where}: {answer.get('error') or resp.status_code}", file=sys.stderr)
         return EXIT_REFUSED
     late = " (late)" if answer.get("late") else ""
     plugins = f" with your plugin {', '.join(answer['plugins'])}" if answer.get("plugins") else ""
     print(f"submitted{late}: submission {answer['id']} of {answer['assignment']!r} for {answer['student']}{plugins}, "
-          f"queued for official evaluation on {answer['seeds']} seeds")
+          f"queued for official evaluation on {answer['seeds']} seeds", flush=True)
+    if not args.wait:
+        return 0
+    status_url = f"{url.split('/api/robotics/')[0]}/api/robotics/submissions/{answer['id']}/"
+    return follow(status_url, {"Authorization": headers["Authorization"]}, args.wait_seconds)
+
+
+def follow(url: str, headers: dict[str, str], limit: float, sleep: Callable[[float], None] = time.sleep) -> int:
+    """Poll a submission's state until it is graded (or fails, or ``limit`` seconds pass); print its trials and
+    grade. Polls back off from 0.5 s to 10 s; a lost connection is retried until the limit."""
+    import requests
+
+    deadline, pause, last = time.monotonic() + limit, 0.5, ""
+    while True:
+        try:
+            resp = requests.get(url, headers=headers, timeout=30)
+            state = resp.json() if resp.status_code == 200 else None
+        except (requests.RequestException, ValueError):
+            state = None
+        if state is not None:
+            if state["status"] != last:
+                last = state["status"]
+                if last in ("queued", "running"):
+                    print(f"{last}...", flush=True)
+            if last in ("done", "error"):
+                return report(state)
+        if time.monotonic() + pause > deadline:
+            print(f"robokit: error: submission still {last or 'unknown'} after {limit:g} s; it stays queued: see "
+                  f"'/me/' or run with --wait again later", file=sys.stderr)
+            return EXIT_STILL_WAITING
+        sleep(pause)
+        pause = min(pause * 2, 10.0)
+
+
+def report(state: dict[str, Any]) -> int:
+    """Print a finished submission: one line per official trial, then its grade."""
+    for t in state.get("trials") or []:
+        reason = f" - {t['reason']}" if t.get("reason") else ""
+        print(f"  seed {t['seed']}: {t['outcome']}{reason}")
+    if state["status"] == "error":
+        print(f"robokit: error: submission {state['id']} could not be evaluated: {state.get('error') or 'error'}",
+              file=sys.stderr)
+        return EXIT_NOT_GRADED
+    low, high = state.get("wilson95") or (None, None)
+    rate = state.get("success_rate")
+    bounds = f", 95 % {low:.2f}-{high:.2f}" if low is not None and high is not None else ""
+    print(f"graded: {state.get('succeeded')}/{len(state.get('trials') or [])} official trials succeeded "
+          f"(success rate {rate if rate is None else f'{rate:.2f}'}{bounds})")
     return 0

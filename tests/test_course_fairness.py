@@ -1,0 +1,195 @@
+"""A fair share of the evaluation queue, against a real server on loopback: the same Idempotency-Key is the same
+submission (also when two identical posts race), the per-assignment limits refuse in one line saying when to try
+again, and the queue's tasks serve the student with the least in progress and least recently served first."""
+
+from __future__ import annotations
+
+import datetime as dt
+import os
+import subprocess
+import sys
+import threading
+import uuid
+from pathlib import Path
+from typing import Any
+
+import pytest
+import requests
+from course_helpers import Course
+from course_work import OFFICIAL, changed, make_assignment
+
+pytest_plugins = ["course_fixtures"]
+pytestmark = pytest.mark.django_db(transaction=True)
+
+
+@pytest.fixture(autouse=True)
+def queued(settings: Any) -> None:
+    settings.QUEUE_SYNC = False  # submissions wait in the queue's table; the tests play the workers
+
+
+def post(url: str, name: str, token: str, config: str, key: str | None = None) -> requests.Response:
+    headers = {"Authorization": f"Bearer {token}"}
+    if key is not None:
+        headers["Idempotency-Key"] = key
+    return requests.post(f"{url}/api/robotics/assignments/{name}/submissions/", json={"config": config},
+                         headers=headers, timeout=60)
+
+
+def graded(pk: int) -> None:
+    """What a worker leaves behind when it has graded a submission (its evaluation is test_course_evaluation's)."""
+    from django.utils import timezone
+
+    from robokit.server.models import Submission
+
+    Submission.objects.filter(pk=pk).update(status=Submission.DONE, finished_at=timezone.now())
+
+
+def test_two_identical_posts_at_once_make_one_submission(live_server: Any, course: Course) -> None:
+    from django_q.models import OrmQ
+
+    from robokit.server.models import Submission
+
+    a = make_assignment(course.room, max_waiting=100, max_per_day=0)
+    rounds, answers = 12, []
+    for i in range(rounds):
+        key, config = uuid.uuid4().hex, changed(OFFICIAL, duration=f"0.{i + 1:02d}")
+        start = threading.Barrier(2)
+        got: list[requests.Response] = []
+
+        def send(key: str = key, config: str = config, start: threading.Barrier = start,
+                 got: list[requests.Response] = got) -> None:
+            start.wait()
+            got.append(post(live_server.url, a.name, course.kim_token, config, key))
+
+        threads = [threading.Thread(target=send) for _ in range(2)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+        assert sorted(r.status_code for r in got) == [200, 201], [r.text for r in got]
+        assert got[0].json()["id"] == got[1].json()["id"]
+        answers.append(got[0].json()["id"])
+        again = post(live_server.url, a.name, course.kim_token, config, key)  # a client's resend, later
+        assert again.status_code == 200 and again.json()["id"] == answers[-1]
+    assert Submission.objects.count() == rounds == len(set(answers))
+    assert OrmQ.objects.count() == rounds  # one evaluation task each
+    other = post(live_server.url, a.name, course.kim_token, OFFICIAL, key)  # the key with another config
+    assert other.status_code == 409 and other.json()["field"] == "Idempotency-Key"
+    lee = post(live_server.url, a.name, course.lee_token, config, key)  # keys are per student
+    assert lee.status_code == 201 and lee.json()["student"] == course.lee.name
+
+
+def test_limits_refuse_in_one_line_saying_when_to_submit_again(live_server: Any, course: Course) -> None:
+    from robokit.server.models import Submission
+
+    a = make_assignment(course.room, max_waiting=1, max_per_day=3)
+    make_assignment(course.room, "other", max_waiting=1, max_per_day=3)
+    first = post(live_server.url, a.name, course.kim_token, OFFICIAL)
+    assert first.status_code == 201
+    busy = post(live_server.url, a.name, course.kim_token, changed(OFFICIAL, duration="0.2"))
+    body = busy.json()
+    assert busy.status_code == 429 and body["field"] == "max_waiting" and "\n" not in body["error"]
+    assert f"({first.json()['id']})" in body["error"] and "when it is graded" in body["error"]
+    assert busy.headers["Retry-After"].isdigit()
+    for who, name in ((course.lee_token, a.name), (course.kim_token, "other")):  # others, other assignments
+        assert post(live_server.url, name, who, OFFICIAL).status_code == 201
+        graded(first.json()["id"])
+    for i in range(2):
+        ok = post(live_server.url, a.name, course.kim_token, changed(OFFICIAL, duration=f"0.{i + 2}"))
+        assert ok.status_code == 201, ok.text
+        graded(ok.json()["id"])
+    day = post(live_server.url, a.name, course.kim_token, OFFICIAL)
+    oldest = Submission.objects.filter(assignment=a, student=course.kim).order_by("submitted_at").first()
+    assert oldest is not None
+    again = oldest.submitted_at + dt.timedelta(hours=24)
+    body = day.json()
+    assert day.status_code == 429 and body["field"] == "max_per_day" and "\n" not in body["error"]
+    assert again.isoformat(timespec="seconds") in body["error"]
+    waited = (again - dt.datetime.now(dt.timezone.utc)).total_seconds()
+    assert abs(int(day.headers["Retry-After"]) - waited) < 60
+    assert Submission.objects.filter(assignment=a, student=course.kim).count() == 3
+
+
+def test_robokit_submit_prints_a_refusal_in_one_line(live_server: Any, course: Course, tmp_path: Path) -> None:
+    a = make_assignment(course.room)
+    assert post(live_server.url, a.name, course.kim_token, OFFICIAL).status_code == 201
+    mine = tmp_path / "mine.toml"
+    mine.write_text(changed(OFFICIAL, duration="0.3"), encoding="utf-8")
+    out = subprocess.run([sys.executable, "-m", "robokit.cli", "submit", a.name, str(mine), "--url",
+                          live_server.url], env={**os.environ, "ROBOKIT_TOKEN": course.kim_token},
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 2 and out.stderr.count("\n") == 1, out.stderr
+    assert "max_waiting" in out.stderr and "when it is graded" in out.stderr
+
+
+def test_the_queue_serves_each_student_before_one_students_backlog(live_server: Any, course: Course) -> None:
+    """Kim posts five, then Lee one: the queue's tasks come in posting order (as django-q's broker hands them
+    out); each evaluates the fairest waiting submission, so Lee's comes second (first in, first out would make it
+    sixth). With two workers, Lee's is taken while Kim's first is still running."""
+    from django_q.models import OrmQ
+
+    from robokit.server.fair_queue import claim
+    from robokit.server.models import Submission
+
+    a = make_assignment(course.room, max_waiting=10, max_per_day=0)
+    kim = [post(live_server.url, a.name, course.kim_token, changed(OFFICIAL, duration=f"0.{i + 1}")).json()["id"]
+           for i in range(5)]
+    lee = post(live_server.url, a.name, course.lee_token, OFFICIAL).json()["id"]
+    tickets = [int(t.task["args"][0]) for t in OrmQ.objects.order_by("pk")]  # as the broker hands them out
+    assert tickets == [*kim, lee]
+
+    order = []
+    for ticket in tickets:  # one worker: each task runs to its end before the next
+        pk = claim(ticket)
+        assert pk is not None
+        order.append(pk)
+        graded(pk)
+    assert order == [kim[0], lee, *kim[1:]]
+    assert tickets.index(lee) == 5  # first in, first out would have served it last
+
+    Submission.objects.update(status=Submission.QUEUED, claim=None, claimed_at=None, finished_at=None)
+    first = claim(kim[0])  # worker 1 takes Kim's first ...
+    second = claim(kim[1])  # ... and worker 2, while it runs, Lee's
+    assert (first, second) == (kim[0], lee)
+    assert claim(kim[0]) == kim[0]  # a task that comes back (its worker died) resumes its own claim
+    graded(first)
+    graded(second)
+    rest = [claim(t) for t in kim[2:]]
+    assert rest == kim[1:4] and claim(lee) == kim[4]  # every task evaluates one, none twice
+    assert sorted(Submission.objects.values_list("claim", flat=True)) == sorted(tickets)
+
+
+def test_a_task_evaluates_the_fairest_submission_through_the_sandbox(live_server: Any, course: Course) -> None:
+    """The queue's own task function, as a worker calls it, with Kim's second ticket: it evaluates Lee's
+    submission for real (official rows on Lee's seeds), and Kim's waits."""
+    from robokit.server.evaluation import evaluate_submission
+    from robokit.server.models import Result, Submission
+
+    a = make_assignment(course.room, seeds=(3,), max_waiting=10, max_per_day=0)
+    kim = [post(live_server.url, a.name, course.kim_token, changed(OFFICIAL, duration=f"0.{i + 1}")).json()["id"]
+           for i in range(2)]
+    lee = post(live_server.url, a.name, course.lee_token, OFFICIAL).json()["id"]
+    graded(kim[0])
+    Submission.objects.filter(pk=kim[0]).update(claim=kim[0], claimed_at=dt.datetime.now(dt.timezone.utc))
+    assert evaluate_submission(kim[1]) == "done"
+    done = Submission.objects.get(pk=lee)
+    assert done.status == "done" and done.claim == kim[1] and done.trials == 1
+    assert list(Result.objects.filter(submission=done).values_list("seed", "student_name")) == [
+        (3, course.lee.name)]
+    assert Submission.objects.get(pk=kim[1]).status == "queued"
+
+
+def test_the_database_itself_refuses_a_second_row_with_the_same_key(course: Course) -> None:
+    """The key's uniqueness is the database's (a constraint), not a look-up before the insert."""
+    from django.db import IntegrityError, transaction
+
+    from robokit.server.models import Submission
+
+    a = make_assignment(course.room)
+    Submission.objects.create(assignment=a, student=course.kim, config_text=OFFICIAL, idempotency_key="k1")
+    with pytest.raises(IntegrityError), transaction.atomic():
+        Submission.objects.create(assignment=a, student=course.kim, config_text=OFFICIAL, idempotency_key="k1")
+    Submission.objects.create(assignment=a, student=course.lee, config_text=OFFICIAL, idempotency_key="k1")
+    Submission.objects.create(assignment=a, student=course.kim, config_text=OFFICIAL)  # no key: never a clash
+    Submission.objects.create(assignment=a, student=course.kim, config_text=OFFICIAL)
+    assert Submission.objects.count() == 4
