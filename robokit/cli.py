@@ -468,16 +468,15 @@ def cmd_graph(args: argparse.Namespace) -> int:
 
 
 def cmd_lint(args: argparse.Namespace) -> int:
-    """``robokit lint``: one line per finding (file:line:col: code message); exit 1 if there is any."""
-    from robokit.checks.lint import lint_paths
+    """``robokit lint``: one line per finding (file:line:col: code message), exit 1; clean: what was checked."""
+    from robokit.checks.lint import lint_report
 
     try:
-        findings = lint_paths(args.paths)
+        lines, found = lint_report(args.paths)
     except (FileNotFoundError, SyntaxError) as exc:
         raise UserError(str(exc)) from None
-    for finding in findings:
-        print(finding)
-    return EXIT_FAILED if findings else EXIT_OK
+    print("\n".join(lines))
+    return EXIT_FAILED if found else EXIT_OK
 
 
 CAPTURED_COMMANDS = frozenset({"run", "validate", "inspect", "plugins", "graph", "video", "plot", "view", "results",

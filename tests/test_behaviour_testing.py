@@ -272,12 +272,17 @@ def test_robokit_lint_command(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     good.write_text("def f(t):\n    return t * 2\n")
     bad.parent.mkdir()
     bad.write_text("import time\n\n\ndef f():\n    time.sleep(1)\n")
-    assert main(["lint", str(good)]) == 0 and capsys.readouterr().out == ""
+    assert main(["lint", str(good)]) == 0
+    assert capsys.readouterr().out == f"1 Python file(s) checked ({good}): no wall-clock reads (RK101), sleeps " \
+                                      "(RK102), global random generators (RK103) or unseeded generators (RK104)\n"
     assert main(["lint", str(tmp_path)]) == 1
     assert capsys.readouterr().out.strip() == f"{bad}:5:5: RK102 time.sleep blocks on the wall clock; wait by " \
                                               "staying in a state for sim seconds"
     assert main(["lint", str(tmp_path / "missing")]) == 2
     assert capsys.readouterr().err.strip() == f"robokit: error: {tmp_path / 'missing'}: no such file or folder"
+    (tmp_path / "empty").mkdir()  # nothing to check is not a clean lint
+    assert main(["lint", str(tmp_path / "empty")]) == 2
+    assert capsys.readouterr().err.strip() == f"robokit: error: {tmp_path / 'empty'}: no Python (.py) file to check"
 
 
 def test_hookimpl_is_what_a_test_registers_with() -> None:

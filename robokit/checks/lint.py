@@ -15,7 +15,8 @@ RK104     an unseeded generator: ``numpy.random.default_rng()``, ``random.Random
           with no seed, which differs on every run.
 ========  ==============================================================================================
 
-Run it as ``robokit lint PATH ...`` (files or folders; exit code 1 if anything is found) or from a test::
+Run it as ``robokit lint PATH ...`` (files or folders; one line per finding and exit code 1 if anything is found,
+else one line saying how many files were checked for what) or from a test::
 
     from robokit.testing import lint_paths
 
@@ -169,3 +170,27 @@ def lint_paths(paths: Iterable[str | Path]) -> list[Finding]:
     for file in python_files(paths):
         findings.extend(lint_source(file.read_text(encoding="utf-8"), str(file)))
     return findings
+
+
+CHECKED = ("wall-clock reads (RK101), sleeps (RK102), global random generators (RK103) "
+           "or unseeded generators (RK104)")
+"""What a clean lint says it looked for."""
+
+
+def lint_report(paths: Iterable[str | Path]) -> tuple[list[str], bool]:
+    """What ``robokit lint`` prints, and whether it found anything: a line per finding, or (clean) one line naming
+    how many Python files were checked, and for what.
+
+    Raises:
+        FileNotFoundError: A path does not exist, or holds no Python file.
+        SyntaxError: A file does not parse.
+    """
+    paths = [Path(p) for p in paths]
+    files = list(python_files(paths))
+    if not files:
+        raise FileNotFoundError(f"{', '.join(map(str, paths))}: no Python (.py) file to check")
+    findings = [f for file in files for f in lint_source(file.read_text(encoding="utf-8"), str(file))]
+    if findings:
+        return [str(f) for f in findings], True
+    where = ", ".join(map(str, paths))
+    return [f"{len(files)} Python file(s) checked ({where}): no {CHECKED}"], False
