@@ -77,3 +77,29 @@ def test_without_the_watch_the_same_recovery_presses_on() -> None:
     assert not [r for r in trace if r["kind"] == "monitor_abort"]
     assert outcome.status == "failed"  # the recovery's own failure, seconds later
     assert max(forces[preempt + 1:]) > 3 * forces[preempt]  # far beyond the first trip: what the watch prevents
+
+
+def docs_block(marker: str) -> str:
+    """The ```toml block of docs/behaviours.md holding ``marker``."""
+    text = (Path(__file__).resolve().parents[1] / "docs" / "behaviours.md").read_text(encoding="utf-8")
+    blocks = [b.split("```", 1)[0] for b in text.split("```toml\n")[1:]]
+    return next(b for b in blocks if marker in b)
+
+
+def test_the_docs_worked_tree_with_its_guard_runs_without_tripping_on_the_floor() -> None:
+    import tomllib
+
+    raw = tomllib.loads(docs_block('name = "in_time"'))
+    raw.update({"world": {"max_time": 40.0, "seed": 2},
+                "bodies": {"plane": {"urdf": "plane.urdf", "position": [0, 0, 0]}},
+                "robots": {"robot": {"urdf": "robots/diffbot.urdf", "position": [0, 0, 0.06]}},
+                "actuators": {"drive": {"type": "diff_drive", "rate_hz": 60}}})
+    raw["sensors"]["scan"] = {"type": "lidar", "rays": 36, "rate_hz": 10}
+    with make_sim(raw) as sim:
+        result = sim.run()
+        x, y, _ = sim.readings["drive"].pose
+        wheels_on_floor = sim.world.contacts(sim.world.body("robot"), sim.world.body("plane"))
+    assert wheels_on_floor  # the floor is touched all along: ignored, not absent
+    assert result.outcome == "succeeded", result.reason
+    assert result.result["monitors"]["guard"]["outcome"] == "running"
+    assert math.hypot(x, y) <= 0.2 + 0.02  # home (go_to_goal's default tolerance)
