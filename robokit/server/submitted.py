@@ -89,31 +89,46 @@ def one_line(text: str) -> str:
     return " ".join(text.split())[:500]
 
 
-MODEL_SECTIONS = ("bodies", "robots")
+PATH_KEYS = ("urdf", "sdf", "mjcf", "policy", "dir", "artifacts_dir", "verify")
+"""Keys that name a file or folder, wherever they appear (a body's model, a behaviour's policy file, a reporter's
+folder); tests/test_course_paths.py derives the list from every schema and checks it is all here."""
 
 
-def check_paths(tree: dict[str, Any]) -> None:
-    """Refuse a model file a submission does not bring: an absolute path, ``..``, a device, or a name that is
-    neither robokit's bundled model nor ``pybullet_data``'s.
+def check_paths(tree: Any, where: str = "") -> None:
+    """Refuse a file a submission does not bring: for every path key (:data:`PATH_KEYS`) anywhere in the config, an
+    absolute path, ``..``, or a device; and for a model key, a name that is neither robokit's bundled model nor
+    ``pybullet_data``'s (a submission brings no model files).
 
     Raises:
         SubmissionError: naming the key (``bodies.arm.urdf``); the message holds no path of the server.
     """
     from robokit.config import MODEL_FILE_KEYS
 
-    for section in MODEL_SECTIONS:
-        tables = tree.get(section)
-        if not isinstance(tables, dict):
-            continue
-        for name, table in tables.items():
-            if not isinstance(table, dict):
-                continue
-            for key in MODEL_FILE_KEYS:
-                value = table.get(key)
-                if isinstance(value, str):
-                    problem = model_path_problem(value)
-                    if problem is not None:
-                        raise SubmissionError(f"{section}.{name}.{key}", problem)
+    items = tree.items() if isinstance(tree, dict) else enumerate(tree) if isinstance(tree, list) else ()
+    for key, value in items:
+        dotted = f"{where}[{key}]" if isinstance(key, int) else f"{where}.{key}" if where else str(key)
+        if isinstance(value, (dict, list)):
+            check_paths(value, dotted)
+        elif isinstance(value, str) and key in PATH_KEYS:
+            problem = path_problem(value) or (model_path_problem(value) if key in MODEL_FILE_KEYS else None)
+            if problem is not None:
+                raise SubmissionError(dotted, problem)
+
+
+ONLY = ("a submission may name only robokit's bundled models and pybullet_data's, by a relative name "
+        "(e.g. 'franka_panda/panda.urdf'), and files it brings")
+
+
+def path_problem(value: str) -> str | None:
+    """Why ``value`` cannot name a file inside a submission: empty, control characters, absolute, or ``..``."""
+    if not value.strip() or any(ord(c) < 32 for c in value):
+        return f"{value!r} is not a file name"
+    posix, windows = PurePosixPath(value), PureWindowsPath(value)
+    if posix.is_absolute() or windows.is_absolute() or windows.drive or value.startswith(("~", "\\")):
+        return f"{value!r} is an absolute path: {ONLY}"
+    if ".." in posix.parts or ".." in windows.parts:
+        return f"{value!r} leaves the submission ('..'): {ONLY}"
+    return None
 
 
 def model_roots() -> list[Path]:
@@ -127,20 +142,14 @@ def model_roots() -> list[Path]:
 
 def model_path_problem(value: str) -> str | None:
     """Why a submission may not name ``value`` as a model file (None: it is a packaged model)."""
-    only = "a submission may name only robokit's bundled models and pybullet_data's, by a relative name " \
-           "(e.g. 'franka_panda/panda.urdf')"
-    if not value.strip() or any(ord(c) < 32 for c in value):
-        return f"{value!r} is not a file name"
-    posix, windows = PurePosixPath(value), PureWindowsPath(value)
-    if posix.is_absolute() or windows.is_absolute() or windows.drive or value.startswith(("~", "\\")):
-        return f"{value!r} is an absolute path: {only}"
-    if ".." in posix.parts or ".." in windows.parts:
-        return f"{value!r} leaves the submission ('..'): {only}"
+    problem = path_problem(value)
+    if problem is not None:
+        return problem
     for root in model_roots():
         candidate = (root / value).resolve()
         if candidate.is_relative_to(root) and candidate.is_file():
             return None
-    return f"{value!r} is not one of robokit's bundled models nor pybullet_data's: {only}"
+    return f"{value!r} is not one of robokit's bundled models nor pybullet_data's: {ONLY}"
 
 
 _PATH = re.compile(r"(?<![\w.~-])(?:[A-Za-z]:)?(?:[/\\][^\s/\\'\"():,;<>|]+)+[/\\]?")
