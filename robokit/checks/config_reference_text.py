@@ -42,7 +42,16 @@ TEXT: dict[str, dict[str, str]] = {
                   "unless `[report] keep_local = false`), `[env.task]` a task type. Common keys:"),
         "common": "| key | type | default | bounds | meaning |\n|---|---|---|---|---|\n"
                   "| `type` | string | (required) | | the type's name (`dist:type` when names clash) |\n"
-                  "| `rate_hz` | float (optional) | every tick | > 0, divides the physics rate | Hz of sim time |",
+                  "| `rate_hz` | float (optional) | every tick | > 0, divides the physics rate | Hz of sim time |\n"
+                  "| `action` | string | \"observe\" | observe, abort, recover | `[monitors.NAME]` only: what its "
+                  "ending failed or aborted does to the task |\n"
+                  "| `recovery` | string (optional) | (none) | a `[recoveries.NAME]` | `[monitors.NAME]` with action "
+                  "recover: the behaviour that takes over |\n"
+                  "| `watch_recovery` | bool | true | | `[monitors.NAME]` with action recover: a fresh instance "
+                  "watches the recovery; tripping again ends the run aborted |\n"
+                  "| `name` | string (optional) | the type | | a composite's child: its name in results and traces |\n"
+                  "| `must_last` | bool | false | | a composite's child: its goal, judged when it ended, is asked "
+                  "again when the run ends |",
         "header": "| key | type | default | bounds | meaning |\n|---|---|---|---|---|",
         "sensor": "## Sensor types (`[sensors.NAME]`)",
         "actuator": "## Actuator types (`[actuators.NAME]`)",
@@ -98,7 +107,16 @@ TEXT: dict[str, dict[str, str]] = {
                   "아니면 `local`은 항상 켜짐), `[env.task]`는 태스크 타입을 받습니다. 공통 키:"),
         "common": "| 키 | 타입 | 기본값 | 범위 | 설명 |\n|---|---|---|---|---|\n"
                   "| `type` | string | (필수) | | 타입 이름 (이름이 겹치면 `dist:type`) |\n"
-                  "| `rate_hz` | float (선택) | 매 틱 | > 0, 물리 주기를 나누어떨어지게 | 시뮬레이션 시간 기준 Hz |",
+                  "| `rate_hz` | float (선택) | 매 틱 | > 0, 물리 주기를 나누어떨어지게 | 시뮬레이션 시간 기준 Hz |\n"
+                  "| `action` | string | \"observe\" | observe, abort, recover | `[monitors.NAME]`만: 모니터가 "
+                  "failed 또는 aborted로 끝났을 때 작업에 하는 일 |\n"
+                  "| `recovery` | string (선택) | (없음) | `[recoveries.NAME]` | action recover인 `[monitors.NAME]`: "
+                  "이어받을 행동 |\n"
+                  "| `watch_recovery` | bool | true | | action recover인 `[monitors.NAME]`: 새 인스턴스가 복구를 "
+                  "계속 감시하고, 다시 걸리면 실행은 aborted로 끝남 |\n"
+                  "| `name` | string (선택) | 타입 이름 | | 복합 행동의 자식: 결과와 트레이스에 쓰이는 이름 |\n"
+                  "| `must_last` | bool | false | | 복합 행동의 자식: 끝날 때 판정한 목표를 실행이 끝날 때 "
+                  "다시 확인 |",
         "header": "| 키 | 타입 | 기본값 | 범위 | 설명 |\n|---|---|---|---|---|",
         "sensor": "## 센서 타입 (`[sensors.NAME]`)",
         "actuator": "## 액추에이터 타입 (`[actuators.NAME]`)",
