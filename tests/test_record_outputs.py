@@ -152,3 +152,26 @@ def test_the_sort_video_under_a_file_size_limit_is_a_warning_and_exit_6(tmp_path
     assert "video: out.mp4:" not in done.stderr and "printed" not in done.stderr
     assert not (tmp_path / "out.mp4").exists() and list(tmp_path.glob(".*part*")) == []
     assert len(list((tmp_path / "results").glob("*/result.json"))) == 1
+
+
+def test_a_still_by_frame_number_or_by_sim_time(runs: tuple[Path, Path, Path], tmp_path: Path,
+                                                 capsys: pytest.CaptureFixture) -> None:
+    from robokit.cli import main
+
+    _, first, _ = runs
+    last = _expected_frames(first) - 1
+    shots = {}
+    for name, flags in {"f6": ["--frame", "6"], "t02": ["--time", "0.2"], "fend": ["--frame", "-1"],
+                        "tend": ["--time", "end"], "flast": ["--frame", str(last)]}.items():
+        out = tmp_path / f"{name}.png"
+        assert main(["video", str(first), *flags, "--size", "64x48", "-o", str(out)]) == 0
+        shots[name] = out.read_bytes()
+    printed = capsys.readouterr().out
+    assert "f6.png: frame 6, the scene at t = 0.200 s" in printed  # frame 6 at 30 a second is t = 0.2 s
+    assert shots["f6"] == shots["t02"] and shots["fend"] == shots["tend"] == shots["flast"]
+    assert shots["f6"] != shots["fend"]  # the box is still falling at 0.2 s
+    assert main(["video", str(first), "--frame", str(last + 1)]) == 2
+    assert capsys.readouterr().err.strip() == (f"robokit: error: --frame {last + 1}: this run's video has frames 0 "
+                                               f"to {last} (30 a second; -1 is the last)")
+    assert main(["video", str(first), "--time", "soon"]) == 2
+    assert "--time: expected sim seconds or 'end', got 'soon'" in capsys.readouterr().err

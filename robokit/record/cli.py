@@ -42,8 +42,11 @@ def add_record_commands(sub: Any) -> None:
                      "in this process)")
     vid.add_argument("--view", metavar="NAME|EYE,TARGET", help="a named view (front, side, top, iso, or a camera "
                      "sensor's name) or 'ex,ey,ez,tx,ty,tz' (default: iso)")
-    vid.add_argument("--frame", type=float, metavar="S", help="write one PNG of the scene at sim time S instead of "
-                     "a video (-o defaults to <run folder>/frame_<S>.png)")
+    still = vid.add_mutually_exclusive_group()
+    still.add_argument("--time", metavar="S", help="write one PNG of the scene at sim time S seconds ('end': the "
+                       "last moment) instead of a video (-o defaults to <run folder>/frame_<N>.png)")
+    still.add_argument("--frame", type=int, metavar="N", help="write one PNG of video frame N instead of a video "
+                       "(frames count from 0 at --fps, default the pose log's 30 a second; -1 is the last)")
     _dir(vid)
     vid.set_defaults(func=cmd_video)
 
@@ -107,19 +110,22 @@ def cmd_results_show(args: argparse.Namespace) -> int:
 
 
 def cmd_video(args: argparse.Namespace) -> int:
-    if args.frame is None:
+    still = args.frame is not None or args.time is not None
+    if not still:
         require("video", "robokit video", ("imageio_ffmpeg",))
     from robokit.record.format import find_run
     from robokit.record.video import render_video
 
     size = _parse_size(args.size)
     rec = find_run(args.run, args.dir)
-    if args.frame is not None:
+    if still:
         from robokit.record.video import render_still
 
-        out = Path(args.output) if args.output else rec.folder / f"frame_{args.frame:g}.png"
-        t = render_still(rec, out, at=args.frame, size=size, view=args.view)
-        print(f"{out}: the scene at t = {t:.3f} s, {size[0]}x{size[1]}")
+        k = _still_frame(args, rec)
+        rate = args.fps or float(rec.header.get("pose_hz") or 30.0)
+        out = Path(args.output) if args.output else rec.folder / f"frame_{k}.png"
+        t = render_still(rec, out, at=k / rate, size=size, view=args.view)
+        print(f"{out}: frame {k}, the scene at t = {t:.3f} s, {size[0]}x{size[1]}")
         return 0
     out = Path(args.output) if args.output else rec.folder / "video.mp4"
     if args.workers is not None and args.workers < 1:
@@ -133,6 +139,34 @@ def cmd_video(args: argparse.Namespace) -> int:
     print(f"{out}: {stats.frames} frames, {stats.width}x{stats.height}, {stats.fps:g} fps, H.264 "
           f"(rendered and encoded at {stats.render_fps:.1f} frames/s)")
     return 0
+
+
+def _still_frame(args: argparse.Namespace, rec: Any) -> int:
+    """The video frame ``--frame N`` or ``--time S`` asks for (0-based, at ``--fps``); out of range is one line."""
+    from robokit.record.video import frame_indices
+
+    rate = args.fps or float(rec.header.get("pose_hz") or 30.0)
+    if rate <= 0:
+        raise UserError(f"--fps must be positive, got {rate:g}")
+    total = len(frame_indices(rec.poses["t"], rate))
+    last = total - 1
+    if args.frame is not None:
+        k = args.frame + total if args.frame < 0 else args.frame
+        if not 0 <= k <= last:
+            raise UserError(f"--frame {args.frame}: this run's video has frames 0 to {last} ({rate:g} a second; "
+                            f"-1 is the last)")
+        return k
+    text = str(args.time).strip().lower()
+    if text == "end":
+        return last
+    try:
+        seconds = float(text)
+    except ValueError:
+        raise UserError(f"--time: expected sim seconds or 'end', got {args.time!r}") from None
+    end = last / rate
+    if not 0 <= seconds <= end + 1e-9:
+        raise UserError(f"--time {args.time}: this run's video lasts 0 to {end:.3f} s ('end' is the last moment)")
+    return int(seconds * rate + 1e-6)
 
 
 def cmd_plot(args: argparse.Namespace) -> int:

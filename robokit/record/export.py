@@ -16,6 +16,7 @@ re-cast on the recorded poses, the saved camera frames, and each state change as
 from __future__ import annotations
 
 import base64
+import functools
 import json
 import math
 from collections.abc import Iterator
@@ -25,8 +26,9 @@ from typing import Any
 import numpy as np
 
 from robokit.extras import require
+from robokit.record.atomic import atomic_output
 from robokit.record.format import RunRecord
-from robokit.record.replay import Replay, Shape, camera_frames, replay_of
+from robokit.record.replay import Replay, Shape, camera_frames, read_obj, replay_of
 
 
 def _ns(t: float) -> int:
@@ -73,6 +75,46 @@ def state_changes(rec: RunRecord) -> list[tuple[float, str, str]]:
     return out
 
 
+# ----------------------------------------------------------------- meshes, embedded
+MEDIA_TYPES = {".stl": "model/stl", ".glb": "model/gltf-binary", ".gltf": "model/gltf+json",
+               ".dae": "model/vnd.collada+xml"}
+"""Mesh files embedded as they are, by suffix (Wavefront OBJ is converted: its materials live in other files)."""
+
+
+@functools.lru_cache(maxsize=256)
+def mesh_model(path: str) -> tuple[bytes, str] | None:
+    """A mesh file's geometry as bytes to embed and their media type: a Wavefront OBJ as binary STL (its triangles;
+    the colour comes from the shape), other formats Foxglove and Rerun read as they are; None if unreadable."""
+    mesh = Path(path)
+    if mesh.suffix.lower() == ".obj":
+        got = read_obj(mesh)
+        return None if got is None else (stl_bytes(*got), "model/stl")
+    media = MEDIA_TYPES.get(mesh.suffix.lower())
+    try:
+        return (mesh.read_bytes(), media) if media is not None else None
+    except OSError:
+        return None
+
+
+def stl_bytes(vertices: np.ndarray, triangles: np.ndarray) -> bytes:
+    """Binary STL of a triangle mesh (vertices (n, 3) in the mesh's units, triangles (m, 3) vertex indices)."""
+    corners = vertices[triangles].astype(np.float32)  # (m, 3 corners, 3)
+    normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    length = np.linalg.norm(normals, axis=1, keepdims=True)
+    normals = np.divide(normals, length, out=np.zeros_like(normals), where=length > 0)
+    rows = np.zeros(len(triangles), dtype=np.dtype([("n", "<f4", 3), ("v", "<f4", (3, 3)), ("attr", "<u2")]))
+    rows["n"], rows["v"] = normals, corners
+    return b"robokit mesh".ljust(80, b" ") + np.uint32(len(triangles)).tobytes() + rows.tobytes()
+
+
+def read_stl(data: bytes) -> np.ndarray:
+    """The triangles (m, 3 corners, 3) of a binary STL (what :func:`stl_bytes` writes)."""
+    count = int(np.frombuffer(data[80:84], "<u4")[0])
+    rows = np.frombuffer(data[84:84 + 50 * count], dtype=np.dtype([("n", "<f4", 3), ("v", "<f4", (3, 3)),
+                                                                    ("attr", "<u2")]))
+    return rows["v"].copy()
+
+
 # ----------------------------------------------------------------- Rerun
 def _rerun_shape(rr: Any, shape: Shape) -> Any:
     colour = [int(round(255 * c)) for c in shape.rgba]
@@ -86,8 +128,10 @@ def _rerun_shape(rr: Any, shape: Shape) -> Any:
     if shape.kind in ("cylinder", "capsule"):
         return rr.Cylinders3D(lengths=[shape.size[0]], radii=[shape.size[1]], centers=centre, quaternions=quat,
                               colors=[colour], fill_mode="solid")
-    if shape.kind == "mesh" and Path(shape.mesh).is_file():
-        return rr.Asset3D(path=shape.mesh, albedo_factor=colour)
+    if shape.kind == "mesh":
+        model = mesh_model(shape.mesh)
+        if model is not None:  # the bytes themselves: the file travels without the exporting machine's paths
+            return rr.Asset3D(contents=model[0], media_type=model[1], albedo_factor=colour)
     return None
 
 
@@ -99,11 +143,20 @@ def export_rerun(rec: RunRecord, out: Path, replay: Replay | None = None) -> dic
     """
     require("rerun", "robokit export --rerun", ("rerun",))
     import rerun as rr
+    import rerun.blueprint as rrb
 
     replay = replay or replay_of(rec)
-    stream = rr.RecordingStream("robokit", recording_id=rec.run_id)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    stream.save(str(out))
+    with atomic_output(out) as tmp:
+        stream = rr.RecordingStream("robokit", recording_id=rec.run_id)
+        rr.set_log_time_enabled(False, recording=stream)  # one timeline, the run's: "sim" (sim seconds)
+        stream.save(str(tmp), default_blueprint=rrb.Blueprint(rrb.TimePanel(timeline="sim")))
+        counts = _log_rerun(rr, stream, rec, replay)
+        stream.flush()
+        stream.disconnect()
+    return counts
+
+
+def _log_rerun(rr: Any, stream: Any, rec: RunRecord, replay: Replay) -> dict[str, int]:
     counts = {"shapes": 0, "transforms": 0, "scans": 0, "images": 0, "logs": 0}
     stream.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
     for k, link in enumerate(replay.links):
@@ -136,8 +189,6 @@ def export_rerun(rec: RunRecord, out: Path, replay: Replay | None = None) -> dic
         stream.set_time("sim", duration=t)
         stream.log(f"states/{machine}", rr.TextLog(message, level="INFO"))
         counts["logs"] += 1
-    stream.flush()
-    stream.disconnect()
     return counts
 
 
@@ -202,9 +253,11 @@ def _entity(replay: Replay, k: int) -> dict[str, Any]:
             prims["cylinders"].append({"pose": pose, "size": {"x": d, "y": d, "z": s.size[0]}, "color": colour,
                                        "bottom_scale": 1.0, "top_scale": 1.0})
         elif s.kind == "mesh":
-            prims["models"].append({"pose": pose, "scale": dict(zip("xyz", s.size[:3], strict=True)),
-                                    "color": colour, "override_color": False, "url": Path(s.mesh).resolve().as_uri(),
-                                    "media_type": "", "data": ""})
+            model = mesh_model(s.mesh)
+            if model is not None:  # embedded: no URL into the exporting machine's files
+                prims["models"].append({"pose": pose, "scale": dict(zip("xyz", s.size[:3], strict=True)),
+                                        "color": colour, "override_color": model[1] == "model/stl", "url": "",
+                                        "media_type": model[1], "data": base64.b64encode(model[0]).decode("ascii")})
     return {"timestamp": _stamp(0.0), "frame_id": replay.links[k].path, "id": replay.links[k].path,
             "lifetime": _stamp(0.0), "frame_locked": True, "metadata": [], "arrows": [], "lines": [],
             "triangles": [], "texts": [], **prims}
@@ -220,9 +273,8 @@ def export_mcap(rec: RunRecord, out: Path, replay: Replay | None = None) -> dict
     from mcap.writer import Writer
 
     replay = replay or replay_of(rec)
-    out.parent.mkdir(parents=True, exist_ok=True)
     counts: dict[str, int] = {}
-    with out.open("wb") as stream:
+    with atomic_output(out) as tmp, tmp.open("wb") as stream:
         writer = Writer(stream)
         writer.start(profile="", library="robokit")
         schema_ids = {name: writer.register_schema(name=name, encoding="jsonschema", data=json.dumps(

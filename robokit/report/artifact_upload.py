@@ -27,9 +27,23 @@ def find_artifacts(run_dir: str | Path, config: Any = None) -> list[tuple[str, P
         for path in sorted(folder.glob("*")) + sorted(folder.glob("*/*")):
             if path.is_file() and path.suffix.lower() in SUFFIXES and path.name not in found:
                 found[path.name] = path
-    if isinstance(config, str) and config.endswith(".toml") and Path(config).is_file():
-        found.setdefault("config.toml", Path(config))
+    for source in (config, _recorded_config(folder)):  # a payload names its config relative or by name alone
+        if isinstance(source, str) and source.endswith(".toml") and Path(source).is_file():
+            found.setdefault("config.toml", Path(source))
     return list(found.items())[:MAX_FILES]
+
+
+def _recorded_config(folder: Path) -> str | None:
+    """The config file the run's trace header names (``config_path``), if the record has a header."""
+    import json
+
+    try:
+        with (folder / "trace.jsonl").open(encoding="utf-8") as f:
+            header = json.loads(f.readline())
+    except (OSError, ValueError):
+        return None
+    path = header.get("config_path") if isinstance(header, dict) else None
+    return path if isinstance(path, str) else None
 
 
 def _noted_video(folder: Path) -> Path | None:

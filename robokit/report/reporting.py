@@ -43,8 +43,12 @@ class Refused(Delivery):
 def build_payload(
     result: RunResult, *, student: str | None = None, project: str | None = None
 ) -> dict[str, Any]:
-    """The RunResult as a dict plus the course's top-level fields."""
+    """The RunResult as a dict plus the course's top-level fields. The config is named as the run's folder sees
+    it (relative to the working folder, or its file name alone): a payload carries no path of the machine that
+    made it."""
     payload = result.to_dict()
+    if isinstance(payload.get("config"), str):
+        payload["config"] = portable_path(payload["config"])
     if student is not None:
         payload["student"] = student
     if project is not None:
@@ -53,6 +57,17 @@ def build_payload(
         if key in payload["result"]:
             payload[key] = payload["result"][key]
     return payload
+
+
+def portable_path(path: str) -> str:
+    """``path`` relative to the working folder (forward slashes) when it lies inside it, else its file name."""
+    p = Path(path)
+    if not p.is_absolute():
+        return p.as_posix()
+    try:
+        return p.relative_to(Path.cwd()).as_posix()
+    except (ValueError, OSError):
+        return p.name
 
 
 def deliver(reporters: Iterable[Any], payload: dict[str, Any], *, stop: Any = None) -> list[tuple[str, Delivery]]:
