@@ -251,6 +251,8 @@ def test_graph_draws_a_nested_tree_and_a_monitor_with_its_recovery(tmp_path: Pat
     for line in ('state "task: sequence of 2" as task {', 'state "1. in_time: timeout 30 s of 1" as task_1 {',
                  'state "1. twice: retry x2 of 1" as task_1_1 {', 'state "1. either: fallback of 2" as task_1_1_1 {',
                  'state "1. hopeless (go_to_goal)" as task_1_1_1_1 {', "task_1_1_1_1 --> task_1_1_1_2: failed",
+                 "task_1_1_1_1 --> [*]: succeeded",  # the first alternative succeeded: the fallback ends
+                 "task_1 --> [*]: failed or aborted",  # a step that does not succeed ends the sequence
                  "task_1_1_1 --> task_1_1_1: failed (a fresh attempt)",
                  'state "2. home: parallel success all, failure one of 2" as task_2 {',
                  'state "monitor guard (guard), action recover" as m_guard {',

@@ -293,10 +293,12 @@ def _node(spec: Any, plugins: Any, sid: str, prefix: str, indent: str, title: st
             label_child = f"{i + 1}. {child.name} ({child.type})"
         out += _node(child, plugins, cid, "", inner, title=label_child)
     edge = _EDGE.get(spec.type)
-    if edge is not None:
+    if edge is not None:  # every way out: on to the next child, or the composite ends with this one's outcome
         out.append(f"{inner}[*] --> {ids[0]}")
         for a, b in zip(ids, ids[1:], strict=False):
             out.append(f"{inner}{a} --> {b}: {edge}")
+        ends = "failed or aborted" if spec.type == "sequence" else "succeeded"
+        out += [f"{inner}{a} --> [*]: {ends}" for a in ids[:-1]]
         out.append(f"{inner}{ids[-1]} --> [*]")
     elif spec.type == "retry":
         out += [f"{inner}[*] --> {ids[0]}", f"{inner}{ids[0]} --> {ids[0]}: failed (a fresh attempt)",
