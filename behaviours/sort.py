@@ -190,6 +190,8 @@ class Sort(MachineBehaviour):
         self._view_command: int | None = None
         self.started_at: float | None = None
         self.finished_at: float | None = None
+        self._renders_before: int | None = None
+        """The camera's renders before this sort's first step (a sequence's later step counts its own only)."""
 
     def _detector_colours(self, ctx: SetupContext) -> tuple[str, ...]:
         cfg: SortConfig = self.config
@@ -242,8 +244,7 @@ class Sort(MachineBehaviour):
     # ------------------------------------------------------------------ LOOK
     def do_look(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any] | None:
         """Read one detection frame (fresh: taken after entering LOOK) and decide what to do next."""
-        if self.started_at is None:
-            self.started_at = t
+        self._first_step(t)
         seen: Detections = readings[self.config.detector]
         if seen.time < self.entered_at - 1e-9:
             return None  # the camera has not been due since LOOK began: wait for a fresh frame
@@ -374,8 +375,7 @@ class Sort(MachineBehaviour):
         of it (a ready pose out of the camera's view costs nothing).
         """
         cfg: SortConfig = self.config
-        if self.started_at is None:
-            self.started_at = t
+        self._first_step(t)
         arm = readings[cfg.arm]
         if not isinstance(arm, ArmState):
             return None
@@ -552,11 +552,25 @@ class Sort(MachineBehaviour):
             return "seen by the detector but never picked"
         return f"never seen by detector {self.config.detector!r}"
 
-    def _frames(self) -> int | None:
+    def _first_step(self, t: float) -> None:
+        if self.started_at is None:
+            self.started_at = t
+        if self._renders_before is None:
+            self._renders_before = self._renders() or 0
+
+    def _renders(self) -> int | None:
+        """The camera's renders in the run so far (None when the detector's camera is not known)."""
         camera = getattr(self.ctx.components.get(self.config.detector), "cfg", None)
         computed = getattr(self.ctx.readings, "computed", None)
         name = getattr(camera, "camera", None)
         return int(computed(name)) if computed is not None and name in self.ctx.components else None
+
+    def _frames(self) -> int | None:
+        """Camera frames rendered while this sort ran (from its first step on)."""
+        renders = self._renders()
+        if renders is None:
+            return None
+        return renders - (self._renders_before if self._renders_before is not None else renders)
 
 
 @hookimpl

@@ -126,3 +126,17 @@ def test_a_fallback_is_judged_by_the_alternative_that_succeeded() -> None:
 @pytest.mark.parametrize("seed", [1, 2, 3, 4])
 def test_suction_then_fingers_on_more_seeds(seed: int) -> None:
     fallback_run(seed)
+
+
+def test_a_later_sort_step_counts_only_its_own_camera_frames() -> None:
+    raw = copy.deepcopy(SORT)
+    sort = {"name": "sort", **raw["behaviour"]}
+    look = {"type": "record", "name": "look", "components": ["camera"], "duration": 0.5, "rate_hz": 30}
+    raw["behaviour"] = {"type": "sequence", "steps": [look, sort]}
+    with make_sim(raw, base_dir=CONFIGS, seed=0) as sim:
+        result = sim.run()
+        renders = sim.readings.computed("camera")  # the camera's own count, the whole run
+    recorded, sorted_ = (s["result"] for s in result.result["steps"])
+    assert recorded["recorded"]["camera"] == 16  # 0.5 s at 30 Hz, both ends included
+    assert sorted_["camera_frames"] == sorted_["looks"] == renders - 16
+
