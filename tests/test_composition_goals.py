@@ -9,13 +9,28 @@ compared with the bins' boxes and the place spots by plain geometry (not by the 
 from __future__ import annotations
 
 import copy
+import itertools
 import math
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 import pytest
 
+from robokit.checks.scripted import ScriptedRun
+from robokit.components import Behaviour, GoalCheck
 from robokit.config import read_toml
+from robokit.core.composites import (
+    Fallback,
+    FallbackConfig,
+    Member,
+    Parallel,
+    ParallelConfig,
+    Retry,
+    RetryConfig,
+    Sequence,
+    SequenceConfig,
+)
 from robokit.testing import make_sim
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -139,4 +154,84 @@ def test_a_later_sort_step_counts_only_its_own_camera_frames() -> None:
     recorded, sorted_ = (s["result"] for s in result.result["steps"])
     assert recorded["recorded"]["camera"] == 16  # 0.5 s at 30 Hz, both ends included
     assert sorted_["camera_frames"] == sorted_["looks"] == renders - 16
+
+
+
+# ---------------------------------------------------------------------------------------------- the rule, scripted
+WORLD: dict[str, bool] = {}
+"""The scripted world's truth: is each probe's goal met now (a stand-in for the poses a goal check reads)."""
+
+
+class Claim(Behaviour):
+    """Claims ``succeeded`` or ``failed`` at its first step, as the script says; its goal is ``WORLD[name]``."""
+
+    def __init__(self, name: str, config: Any = None) -> None:
+        super().__init__(name, config)
+        self.claim = "succeeded"
+
+    def step(self, readings: Mapping[str, Any], t: float) -> None:
+        self.finish(readings.get(self.name, self.claim), f"{self.name} claims")
+
+    def check_goal(self, world: Any) -> GoalCheck:
+        return GoalCheck(WORLD[self.name], f"{self.name} {'met' if WORLD[self.name] else 'missed'}")
+
+    def result(self) -> dict[str, Any]:
+        return {"mine": self.name}
+
+
+def scripted(composite: Any, names: list[str], truth: dict[str, bool]) -> tuple[ScriptedRun, Any]:
+    WORLD.clear()
+    WORLD.update(truth)
+    composite.add_children([Member.of(Claim(n)) for n in names])
+    run = ScriptedRun(composite)
+    for _ in range(20):
+        if run.outcome is not None:
+            break
+        run.step({})
+    return run, composite
+
+
+def test_every_combination_of_claims_and_goals_gives_the_rule() -> None:
+    """Sequence and fallback of two, each child claiming succeeded/failed with its goal met or not: the judged
+    outcome of a child is its goal (met: succeeded), and the composite's rule applies to the judged outcomes."""
+    for claims in itertools.product(("succeeded", "failed"), repeat=2):
+        for goals in itertools.product((True, False), repeat=2):
+            truth = dict(zip(("a", "b"), goals, strict=True))
+            for kind, cls, cfg in (("sequence", Sequence, SequenceConfig), ("fallback", Fallback, FallbackConfig)):
+                comp = cls("c", cfg())
+                comp.add_children([Member.of(Claim(n)) for n in "ab"])
+                for m, claim in zip(comp.children, claims, strict=True):
+                    m.behaviour.claim = claim
+                WORLD.clear()
+                WORLD.update(truth)
+                run = ScriptedRun(comp)
+                for _ in range(5):
+                    if run.outcome is None:
+                        run.step({})
+                judged = list(goals)  # by hand: a child's judged outcome is its goal
+                expected = all(judged) if kind == "sequence" else any(judged)
+                assert (run.outcome.status == "succeeded") == expected, (kind, claims, goals)
+                ran = 1 + (judged[0] if kind == "sequence" else not judged[0])
+                records = comp.result()["steps" if kind == "sequence" else "children"]
+                assert [r["outcome"] for r in records[:ran]] == [
+                    "succeeded" if g else "failed" for g in judged[:ran]]
+                assert all(r["goal"]["met"] == g for r, g in zip(records, judged[:ran], strict=False))
+
+
+def test_a_retry_goes_by_its_last_attempt_and_every_attempt_keeps_its_result() -> None:
+    run, comp = scripted(Retry("r", RetryConfig(attempts=3)), ["a"], {"a": False})
+    assert run.outcome.status == "failed" and comp.attempt == 3  # claimed success three times, never met
+    records = comp.result()["children"]
+    assert [r["outcome"] for r in records] == ["failed"] * 3
+    assert [r["result"] for r in records] == [{"mine": "a"}] * 3
+    assert all(r["claimed"]["outcome"] == "succeeded" for r in records)
+
+
+def test_a_parallel_goes_by_its_policy_on_judged_outcomes_and_the_verdict_asks_the_winners() -> None:
+    run, comp = scripted(Parallel("p", ParallelConfig(success="one", failure="all")), ["a", "b"],
+                         {"a": False, "b": True})
+    assert run.outcome.status == "succeeded"
+    WORLD["b"] = False  # b's effect did not last
+    check = comp.check_goal(None)
+    assert check is not None and not check.met and list(check.details["children"]) == ["b"]
 
