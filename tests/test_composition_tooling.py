@@ -162,6 +162,21 @@ def test_check_sensor_catches_a_sensor_that_leaves_a_force_torque_sensor_on(bad:
         check_sensor("leaky_wrist", extra_plugins=[bad])
 
 
+MUJOCO_SCENE = {"world": {"max_time": 2.0, "engine": "mujoco"},
+                "bodies": {"floor": {"shape": "box", "size": [2, 2, 0.1], "mass": 0, "position": [0, 0, -0.05]},
+                           "box": {"shape": "box", "size": [0.1, 0.1, 0.1], "mass": 1.0, "position": [0, 0, 0.3]}},
+                "sensors": {"poses": {"type": "body_pose", "bodies": ["box"]}}}
+
+
+def test_check_behaviour_works_on_mujoco_and_catches_a_teleport_there(bad: Any) -> None:
+    report = check_behaviour("record", {"duration": 0.5}, scene=MUJOCO_SCENE)
+    assert any(line.startswith("changes the world only through its commands") for line in report.checks)
+    scene = {**MUJOCO_SCENE, "world": {**MUJOCO_SCENE["world"], "max_time": 5.0}}
+    with pytest.raises(ConformanceError, match=r"'teleport' .*: readings in, commands out: step\(\) at tick 9 called "
+                                               r"World.set_pose\(\)"):
+        check_behaviour("teleport", {}, scene=scene, extra_plugins=[bad])
+
+
 def test_the_built_in_force_torque_sensor_and_guard_are_not_flagged() -> None:
     check_sensor("force_torque")
     check_behaviour("pick_place")  # moves the cube only through the arm and gripper

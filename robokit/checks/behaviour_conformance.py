@@ -314,23 +314,32 @@ _MUTATORS = ("applyExternalForce", "applyExternalTorque", "setJointMotorControl2
 """The physics engine's functions that change the world: a behaviour's ``step()`` calls none of them."""
 
 
+_WORLD_MUTATORS = ("set_pose", "set_com_pose", "apply_force", "reset_joint", "set_joint_motor", "set_joint_motors",
+                   "set_dynamics", "attach", "detach", "couple_joints", "remove_body", "add_primitive", "load_urdf",
+                   "load_model", "mount", "step")
+"""The World's methods that change the world (every engine has them)."""
+
+
 class _Watcher:
-    """Watches the behaviour's ``step()`` in a real run: the world's state (every body's pose and velocity, every
-    joint's position and velocity) must be the same after it as before it, and it must call no mutating function
-    of the physics client. ``found`` says what it caught first ("" while nothing)."""
+    """Watches the behaviour's ``step()`` in a real run, on any engine: the world's state (every body's pose and
+    velocity, every joint's position and velocity, read through the World) must be the same after it as before
+    it, and it must call no mutating method of the World (nor, on PyBullet, of its client). ``found`` says what it
+    caught first ("" while nothing)."""
 
     def __init__(self, sim: Simulation) -> None:
         self.sim, self.found = sim, ""
         self.behaviour = sim.behaviour
         self.inside = False
-        self.client = sim.world.client
+        world = sim.world
+        client = getattr(world, "client", None)
+        self._wrapped: list[tuple[Any, str]] = []
+        for target, names, engine in ((client, _MUTATORS, True), (world, _WORLD_MUTATORS, False)):
+            for name in names:
+                original = getattr(target, name, None) if target is not None else None
+                if callable(original):
+                    setattr(target, name, self._guard(name, original, engine))
+                    self._wrapped.append((target, name))
         step = self.behaviour.step
-        self._wrapped: list[str] = []
-        for name in _MUTATORS:
-            original = getattr(self.client, name, None)
-            if original is not None:
-                setattr(self.client, name, self._guard(name, original))
-                self._wrapped.append(name)
 
         def watched(readings: Any, t: float) -> Any:
             before = self._state()
@@ -343,24 +352,27 @@ class _Watcher:
 
         self.behaviour.step = watched
 
-    def _guard(self, name: str, original: Any) -> Any:
+    def _guard(self, name: str, original: Any, engine: bool) -> Any:
+        what = f"the physics engine's {name}()" if engine else f"World.{name}()"
+
         def call(*args: Any, **kwargs: Any) -> Any:
+            result = original(*args, **kwargs)  # an engine call inside is named first: it is the more precise
             if self.inside and not self.found:
-                self.found = (f"step() at tick {self.sim.world.tick} called the physics engine's {name}(): a "
-                              "behaviour changes the world only through the commands it returns")
-            return original(*args, **kwargs)
+                self.found = (f"step() at tick {self.sim.world.tick} called {what}: a behaviour changes the world "
+                              "only through the commands it returns")
+            return result
 
         return call
 
     def _state(self) -> dict[str, Any]:
-        world, c = self.sim.world, self.client
+        world = self.sim.world
+        names = list(world.body_names)
+        ids = [world.body(name) for name in names]
         out = {}
-        for name in world.body_names:
-            bid = world.body(name)
-            joints = c.getNumJoints(bid)
-            states = c.getJointStates(bid, list(range(joints))) if joints else []
-            out[name] = (c.getBasePositionAndOrientation(bid), c.getBaseVelocity(bid),
-                         tuple((st[0], st[1]) for st in states or ()))
+        for name, bid, (pos, orn, lin, ang) in zip(names, ids, world.body_states(ids), strict=True):
+            joints = len(world.joints(bid))
+            states = world.joint_states(bid, list(range(joints))) if joints else ()
+            out[name] = (tuple(pos), tuple(orn), tuple(lin), tuple(ang), tuple((st[0], st[1]) for st in states))
         return out
 
     def _compare(self, before: dict[str, Any], after: dict[str, Any]) -> None:
@@ -374,9 +386,9 @@ class _Watcher:
                 return
 
     def remove(self) -> None:
-        for name in self._wrapped:
+        for target, name in self._wrapped:
             try:
-                delattr(self.client, name)
+                delattr(target, name)
             except AttributeError:
                 pass
         vars(self.behaviour).pop("step", None)  # the class's own step again
