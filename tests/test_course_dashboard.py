@@ -143,3 +143,64 @@ def test_a_training_log_over_the_limit_is_413_not_an_error(client: Any, course: 
     body = {"log": line * (settings.MAX_RESULT_BYTES // len(line) + 10)}
     resp = post_training(client, course.kim_token, body)
     assert resp.status_code == 413 and "limit" in resp.json()["error"]
+
+
+HIDE_SYSTEM_KOREAN = """
+import json, sys, warnings
+from matplotlib import font_manager
+
+def korean(entry):
+    try:
+        return font_manager.get_font(entry.fname).get_char_index(ord("한")) != 0
+    except Exception:
+        return False
+
+# a machine without a system Korean font: none in matplotlib's (fresh) font list, none at the usual files
+font_manager.fontManager.ttflist = [f for f in font_manager.fontManager.ttflist if not korean(f)]
+import robokit.record.fonts as fonts
+fonts.SYSTEM_FILES = ()
+if sys.argv[1] == "no-package":
+    sys.modules["pylopdf_fonts_ko"] = None  # nor the packaged font: import fails
+from robokit.server import charts
+with warnings.catch_warnings(record=True) as caught:
+    warnings.simplefilter("always")
+    svgs = [charts.reasons("실패 이유", [("물체를 놓침", 3)]).decode(),
+            charts.distribution("학생별 성공률", [0.5, 1.0], "공식 성공률").decode()]
+path = fonts.korean_font_file()
+print(json.dumps({"svgs": svgs, "warnings": [str(w.message) for w in caught],
+                  "font": str(path) if path else None}))
+"""
+
+
+def _charts_without_system_korean(tmp_path: Any, mode: str) -> tuple[dict[str, Any], str]:
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "MPLCONFIGDIR": str(tmp_path / mode)}  # a fresh matplotlib font cache
+    out = subprocess.run([sys.executable, "-c", HIDE_SYSTEM_KOREAN, mode], env=env, capture_output=True,
+                         text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    return json.loads(out.stdout), out.stderr
+
+
+def test_korean_charts_need_no_system_font_and_no_font_cache(tmp_path: Any) -> None:
+    """With no Korean font on the system and a fresh font cache, charts still draw every Hangul glyph from the
+    packaged Noto Sans KR: each character's glyph (its index looked up in the font file) is in the SVG."""
+    from matplotlib.ft2font import FT2Font
+
+    found, stderr = _charts_without_system_korean(tmp_path, "packaged")
+    assert found["font"] is not None and found["font"].endswith("NotoSansKR-Regular.otf")
+    assert not found["warnings"] and "Korean" not in stderr
+    font = FT2Font(found["font"])
+    for svg, text in zip(found["svgs"], ("실패 이유 물체를 놓침", "학생별 성공률 공식"), strict=True):
+        for char in set(text) - {" "}:
+            index = font.get_char_index(ord(char))
+            assert index != 0 and f'id="NotoSansKR-Regular-{index:x}"' in svg, char
+
+
+def test_without_any_korean_font_one_warning_not_one_per_glyph(tmp_path: Any) -> None:
+    found, stderr = _charts_without_system_korean(tmp_path, "no-package")
+    assert found["font"] is None and all("<svg" in s for s in found["svgs"])
+    assert not [w for w in found["warnings"] if "Glyph" in w]
+    assert stderr.count("no Korean font found") == 1 and "fonts-nanum" in stderr

@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from robokit.record.fonts import korean_font, quiet_missing_glyphs
 from robokit.record.format import RunRecord
 
 
@@ -47,7 +48,9 @@ def make_plots(rec: RunRecord, out: Path, *, fmt: str = "png", scan_at: float | 
     plt = _pyplot()
     written: list[Path] = []
     makers = [plot_states, plot_map, plot_heights, plot_joints]
-    with plt.rc_context(_STYLE):
+    family = korean_font(warn=False)  # names in a config may be Korean: drawn when a Korean font is there
+    style = {**_STYLE, "font.sans-serif": [family, *plt.rcParams["font.sans-serif"]]} if family else _STYLE
+    with plt.rc_context(style), quiet_missing_glyphs(warn=False):
         for maker in makers:
             fig = maker(rec, plt)
             if fig is not None:

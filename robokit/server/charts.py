@@ -1,8 +1,10 @@
 """Charts for the learning dashboard, drawn on the server with matplotlib (Agg) as SVG.
 
-Text is written into the SVG as outlines (``svg.fonttype = "path"``) from a Korean font (NanumGothic or Noto Sans
-CJK KR when installed), so a chart reads the same in any browser, with or without Korean fonts on the teacher's
-machine. The SVG is made here from numbers and names, never from an upload, and is served with the pages' CSP.
+Text is written into the SVG as outlines (``svg.fonttype = "path"``) from a Korean font registered by file
+(:mod:`robokit.record.fonts`: Noto Sans KR from ``robokit[server]``, else a system Korean font), so a chart reads
+the same in any browser, with or without Korean fonts on the teacher's machine, and on a server whose matplotlib
+font cache predates its fonts. The SVG is made here from numbers and names, never from an upload, and is served
+with the pages' CSP.
 """
 
 from __future__ import annotations
@@ -12,6 +14,8 @@ import textwrap
 from collections.abc import Sequence
 from datetime import datetime, timedelta
 from typing import Any
+
+from robokit.record.fonts import korean_font, quiet_missing_glyphs
 
 KOREAN_FONTS = ["NanumGothic", "Noto Sans CJK KR", "Noto Sans KR", "Malgun Gothic", "AppleGothic", "DejaVu Sans"]
 BLUE, GREEN, RED, GREY = "#4c72b0", "#55a868", "#c44e52", "#8c8c8c"
@@ -29,16 +33,19 @@ def _plt() -> Any:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    plt.rcParams.update({"font.family": "sans-serif", "font.sans-serif": KOREAN_FONTS, "svg.fonttype": "path",
-                         "axes.unicode_minus": False, "svg.hashsalt": "robokit"})
+    family = korean_font()
+    plt.rcParams.update({"font.family": "sans-serif", "font.sans-serif": [*([family] if family else []),
+                                                                          *KOREAN_FONTS],
+                         "svg.fonttype": "path", "axes.unicode_minus": False, "svg.hashsalt": "robokit"})
     return plt
 
 
 def _svg(fig: Any) -> bytes:
     plt = _plt()
     buf = io.BytesIO()
-    fig.tight_layout()
-    fig.savefig(buf, format="svg", metadata={"Date": None})
+    with quiet_missing_glyphs():
+        fig.tight_layout()
+        fig.savefig(buf, format="svg", metadata={"Date": None})
     plt.close(fig)
     return buf.getvalue()
 
