@@ -189,3 +189,23 @@ def test_fuzz_course_endpoints_answer_json_never_a_500(client: Any, course: Cour
     if resp.status_code >= 400:
         answer = resp.json()
         assert set(answer) == {"error", "field"} and "\n" not in answer["error"]
+
+
+def test_the_documented_config_limit_is_the_enforced_one(client: Any, course: Course) -> None:
+    """docs/server.md: a config of at most 256 KiB (its UTF-8 bytes). Exactly that is accepted; a byte more is a
+    one-line 413 naming the config and both sizes."""
+    from robokit.server.models import Submission
+
+    limit = 256 * 1024
+    make_assignment(course.room, max_waiting=10)
+    comment = "\n# 설명 "  # Korean padding: bytes, not characters, are counted
+    base = OFFICIAL + comment
+    pad = limit - len(base.encode("utf-8"))
+    exact = base + "x" * pad
+    assert len(exact.encode("utf-8")) == limit
+    assert submit(client, "낙하 실험", exact, course.kim_token).status_code == 201
+    over = submit(client, "낙하 실험", exact + "y", course.kim_token)
+    body = over.json()
+    assert over.status_code == 413 and body["field"] == "config" and "\n" not in body["error"]
+    assert f"{limit + 1} bytes" in body["error"] and f"limit is {limit}" in body["error"]
+    assert Submission.objects.count() == 1
