@@ -1,0 +1,201 @@
+"""Every composite against every combination of child outcomes, judged by the rule table of docs/behaviours.md.
+
+Children are scripted: each instance ends after a generated number of its own steps with a generated outcome
+(``succeeded``, ``failed``, ``aborted``) or never ends; a retry's attempts each take the next entry of the child's
+plan. The expected outcome, the tick it comes, and every child's record (its outcome, or ``halted``, or ``not
+started``) are worked out below by a plain reading of the docs' table ("Composites", section 9) and its shared
+rules: a child that ends at tick k hands over at tick k + 1; a child stopped before its end is halted (its
+``halt(t)`` runs) and never stepped again. Scripted children have no goal, so their judged outcome is the one they
+claim.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from robokit.checks.scripted import ScriptedRun
+from robokit.components import Behaviour
+from robokit.core.composites import (
+    Fallback,
+    FallbackConfig,
+    Member,
+    Parallel,
+    ParallelConfig,
+    Retry,
+    RetryConfig,
+    Sequence,
+    SequenceConfig,
+    Timeout,
+    TimeoutConfig,
+)
+
+DT = 1.0 / 240.0
+HORIZON = 40  # ticks; every generated plan ends well within it, or never
+ENDS = ("succeeded", "failed", "aborted")
+PROPS = settings(max_examples=150, deadline=None, derandomize=True)
+
+
+class Plan:
+    """A child's script: per instance (a retry builds one per attempt) ``(outcome or None, steps before it)``."""
+
+    def __init__(self, entries: list[tuple[str | None, int]]) -> None:
+        self.entries = entries
+        self.built = 0
+        self.steps: list[int] = []  # steps taken, per instance
+        self.halts: list[tuple[int, int]] = []  # (instance, tick) of each halt
+
+
+class Scripted(Behaviour):
+    """Ends on its own step number ``d + 1`` with the plan's outcome; commands ``motor_<name>`` every step."""
+
+    def __init__(self, name: str, config: Plan) -> None:
+        super().__init__(name, config)
+        self.instance = config.built
+        config.built += 1
+        config.steps.append(0)
+        self.outcome_, self.after = config.entries[min(self.instance, len(config.entries) - 1)]
+
+    def step(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any]:
+        plan = self.config
+        plan.steps[self.instance] += 1
+        if self.outcome_ is not None and plan.steps[self.instance] == self.after + 1:
+            self.finish(self.outcome_, f"{self.name} {self.outcome_}")
+        return {f"motor_{self.name}": self.instance}
+
+    def halt(self, t: float) -> Mapping[str, Any]:
+        self.config.halts.append((self.instance, round(t / DT)))
+        return {f"motor_{self.name}": "stopped"}
+
+
+def run_tree(composite: Any, plans: dict[str, Plan]) -> tuple[str | None, int | None, ScriptedRun]:
+    composite.add_children([Member.of(Scripted(name, plan)) for name, plan in plans.items()])
+    run = ScriptedRun(composite)
+    for k in range(HORIZON):
+        run.step({})
+        if run.outcome is not None:
+            return run.outcome.status, k, run
+    return None, None, run
+
+
+def records(run: ScriptedRun, key: str) -> dict[str, str]:
+    return {r["name"]: r["outcome"] for r in run.result()[key]}
+
+
+child = st.tuples(st.sampled_from([*ENDS, None]), st.integers(0, 4))
+
+
+# ------------------------------------------------------------------------------------------ ordered
+def expect_ordered(kind: str, children: list[tuple[str | None, int]]) -> tuple[str | None, int | None, list[str]]:
+    """sequence: in order; the first that does not succeed ends it with its outcome; succeeded when all did.
+    fallback: in order; the first that succeeds ends it (succeeded); failed or aborted hands over; failed when
+    all failed."""
+    tick, seen = 0, []
+    for outcome, d in children:
+        if outcome is None:
+            return None, None, [*seen, "running"] + ["not started"] * (len(children) - len(seen) - 1)
+        end = tick + d
+        seen.append(outcome)
+        rest = ["not started"] * (len(children) - len(seen))
+        if kind == "sequence" and outcome != "succeeded":
+            return outcome, end, seen + rest
+        if kind == "fallback" and outcome == "succeeded":
+            return "succeeded", end, seen + rest
+        tick = end + 1
+    return ("succeeded" if kind == "sequence" else "failed"), tick - 1, seen
+
+
+@PROPS
+@given(st.sampled_from(["sequence", "fallback"]), st.lists(child, min_size=1, max_size=4))
+def test_sequence_and_fallback_against_every_outcome_combination(kind: str, children: list) -> None:
+    plans = {f"c{i}": Plan([c]) for i, c in enumerate(children)}
+    composite = Sequence("seq", SequenceConfig()) if kind == "sequence" else Fallback("fb", FallbackConfig())
+    outcome, tick, run = run_tree(composite, plans)
+    want, want_tick, want_children = expect_ordered(kind, children)
+    assert (outcome, tick) == (want, want_tick)
+    got = records(run, "steps" if kind == "sequence" else "children")
+    assert [got.get(n, "not started") for n in plans] == want_children
+    assert all(not p.halts for p in plans.values())  # an ordered composite ends no child early
+
+
+# ------------------------------------------------------------------------------------------ retry
+@PROPS
+@given(st.lists(child, min_size=1, max_size=5), st.integers(1, 4))
+def test_retry_against_every_sequence_of_attempt_outcomes(attempts_plan: list, attempts: int) -> None:
+    """Runs the child until it succeeds, at most ``attempts`` times, each a fresh instance; its outcome is the last
+    attempt's; the next attempt starts the tick after one ends."""
+    plan = Plan(attempts_plan)
+    outcome, tick, run = run_tree(Retry("retry", RetryConfig(attempts=attempts)), {"c": plan})
+    t, want, want_tick, made = 0, None, None, 0
+    for a in range(attempts):
+        o, d = attempts_plan[min(a, len(attempts_plan) - 1)]
+        made += 1
+        if o is None:
+            break
+        if o == "succeeded" or a == attempts - 1:
+            want, want_tick = o, t + d
+            break
+        t += d + 1
+    assert (outcome, tick) == (want, want_tick)
+    assert plan.built == made  # one fresh instance per attempt, none more
+    if outcome is not None:
+        assert run.result()["attempts"] == made
+
+
+# ------------------------------------------------------------------------------------------ timeout
+@PROPS
+@given(child, st.integers(0, 6))
+def test_timeout_against_every_child_outcome_and_length(c: tuple, limit_ticks: int) -> None:
+    """Runs the child; when it has not ended ``seconds`` after its start, halts it and fails (checked before the
+    child's step of that tick); a child that ends in time gives its own outcome."""
+    plan = Plan([c])
+    seconds = (limit_ticks + 0.5) * DT  # between two ticks: no rounding question
+    outcome, tick, run = run_tree(Timeout("to", TimeoutConfig(seconds=seconds)), {"c": plan})
+    o, d = c
+    first_late = limit_ticks + 1  # the first tick whose elapsed time exceeds the limit
+    if o is not None and d < first_late:
+        assert (outcome, tick) == (o, d) and not plan.halts
+    else:
+        assert (outcome, tick) == ("failed", first_late)
+        assert plan.halts == [(0, first_late)] and plan.steps == [first_late]  # halted, never stepped again
+
+
+# ------------------------------------------------------------------------------------------ parallel
+def expect_parallel(children: list[tuple[str | None, int]], success: str, failure: str
+                    ) -> tuple[str | None, int | None, list[str]]:
+    """Every child stepped each tick from tick 0; success "all"/"one", failure "one"/"all" decide (an aborted child
+    counts as failed); if every child ended and no policy was met it fails; the children still running are halted."""
+    n = len(children)
+    for k in range(HORIZON):
+        ended = [o if (o is not None and d <= k) else None for o, d in children]
+        won = [o for o in ended if o == "succeeded"]
+        lost = [o for o in ended if o in ("failed", "aborted")]
+        decided = None
+        if lost and (failure == "one" or len(lost) == n):
+            decided = "failed"
+        elif won and (success == "one" or len(won) == n):
+            decided = "succeeded"
+        elif len(won) + len(lost) == n:
+            decided = "failed"
+        if decided is not None:
+            return decided, k, [o if o is not None else "halted" for o in ended]
+    return None, None, ["running" if o is None else o for o, _ in children]
+
+
+@PROPS
+@given(st.lists(child, min_size=2, max_size=4), st.sampled_from(["all", "one"]), st.sampled_from(["one", "all"]))
+def test_parallel_against_every_outcome_combination_and_policy(children: list, success: str, failure: str) -> None:
+    plans = {f"c{i}": Plan([c]) for i, c in enumerate(children)}
+    outcome, tick, run = run_tree(Parallel("par", ParallelConfig(success=success, failure=failure)), plans)
+    want, want_tick, want_children = expect_parallel(children, success, failure)
+    assert (outcome, tick) == (want, want_tick)
+    got = records(run, "children")
+    assert [got.get(n, "running") for n in plans] == want_children
+    for name, plan in plans.items():  # a halted child: halted in the deciding tick, never stepped again
+        if got.get(name) == "halted":
+            assert plan.halts == [(0, tick)] and plan.steps == [tick + 1]
+        else:
+            assert not plan.halts
