@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import datetime as dt
 import os
+import re
 import subprocess
 import sys
 import threading
@@ -193,3 +194,48 @@ def test_the_database_itself_refuses_a_second_row_with_the_same_key(course: Cour
     Submission.objects.create(assignment=a, student=course.kim, config_text=OFFICIAL)  # no key: never a clash
     Submission.objects.create(assignment=a, student=course.kim, config_text=OFFICIAL)
     assert Submission.objects.count() == 4
+
+
+@pytest.mark.slow
+def test_a_real_worker_serves_another_student_before_a_backlog_and_submit_waits_for_the_grade(
+        tmp_path: Path) -> None:
+    """``robokit serve`` with one queue worker: Kim posts four submissions, then Lee submits with ``robokit submit
+    --wait``. The worker takes Lee's right after the one it is running (first in, first out: fifth), and the
+    command returns with Lee's grade."""
+    import time
+
+    from course_procs import CourseServer, setup_class
+
+    server = CourseServer(tmp_path / "data", workers=1)
+    tokens = setup_class(server, ["김민준", "이서연"])
+    official = tmp_path / "official.toml"
+    official.write_text(OFFICIAL, encoding="utf-8")
+    server.manage("create_assignment", "1반", "낙하", "--config", str(official), "--allow", "behaviour.duration",
+                  "--seeds", "0:4")
+    server.query("UPDATE course_assignment SET max_waiting = 10")
+    mine = tmp_path / "mine.toml"
+    mine.write_text(changed(OFFICIAL, duration="0.3"), encoding="utf-8")
+    env = {**server.env, "ROBOKIT_TOKEN": tokens["이서연"]}
+    cmd = [sys.executable, "-m", "robokit.cli", "submit", "낙하", str(mine), "--wait"]
+    server.start()
+    try:
+        alone = time.monotonic()
+        first = subprocess.run([*cmd, "--url", server.url], env=env, capture_output=True, text=True, timeout=600)
+        alone = time.monotonic() - alone
+        assert first.returncode == 0 and "graded: 4/4" in first.stdout, first.stdout + first.stderr
+        kim = [post(server.url, "낙하", tokens["김민준"], changed(OFFICIAL, duration=f"0.{i + 2}")).json()["id"]
+               for i in range(4)]
+        behind = time.monotonic()
+        lee = subprocess.run([*cmd, "--url", server.url], env=env, capture_output=True, text=True, timeout=600)
+        behind = time.monotonic() - behind
+        assert lee.returncode == 0 and "graded: 4/4" in lee.stdout, lee.stdout + lee.stderr
+        lee_id = int(re.search(r"submission (\d+)", lee.stdout).group(1))  # type: ignore[union-attr]
+        done = "SELECT count(*) FROM course_submission WHERE status = 'done'"
+        server.wait_for("every submission evaluated", lambda: server.query(done)[0][0] == 6, 600)
+        order = [pk for (pk,) in server.query("SELECT id FROM course_submission ORDER BY claimed_at, id")]
+    finally:
+        server.stop()
+    assert order.index(lee_id) <= order.index(kim[1])  # at most Kim's first ran before it
+    assert order[-3:] == kim[-3:] or order[-3:] == kim[1:]
+    print(f"\nsubmit --wait: {alone:.1f} s alone, {behind:.1f} s behind a 4-submission backlog "
+          f"(4 seeds each; one worker); order {order}, Lee's {lee_id}")
