@@ -161,6 +161,9 @@ def _add_extra_commands(sub: Any) -> None:
     from robokit.sweep.cli import add_sweep_command
 
     add_sweep_command(sub)
+    from robokit.robot.cli import add_robot_command
+
+    add_robot_command(sub)
 
 
 def _overrides(args: argparse.Namespace) -> dict[str, Any]:

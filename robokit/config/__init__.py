@@ -140,6 +140,8 @@ class BodyConfig(Section):
                                                               "...)")
     mjcf: str | None = setting(None, min_length=1, description="a MuJoCo MJCF file, as far as pybullet's loader "
                                                                "reads it")
+    xacro_args: dict[str, Any] = setting(
+        default_factory=dict, description="with urdf = \"x.urdf.xacro\": the xacro arguments (name -> value)")
     mount: MountConfig | None = setting(None, description="fix this body's base to another body's link")
     size: tuple[_s.Length, _s.Length, _s.Length] = setting((0.1, 0.1, 0.1), description="box edge lengths, metres")
     radius: _s.Length = 0.05
@@ -178,6 +180,8 @@ class BodyConfig(Section):
             raise ValueError("give exactly one of 'shape' (box, sphere, cylinder), 'urdf', 'sdf' or 'mjcf'"
                              + (f", not {' and '.join(kinds)}" if kinds else ""))
         self._key_matches_file(kinds[0])
+        if self.xacro_args and not (self.urdf or "").lower().endswith(".xacro"):
+            raise ValueError("'xacro_args' is for a xacro file: urdf = \"NAME.urdf.xacro\"")
         if self.mount is not None:
             if self.region is not None or self.count > 1:
                 raise ValueError("a mounted body takes its pose from 'mount': no 'region' or 'count'")

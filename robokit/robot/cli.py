@@ -1,0 +1,110 @@
+"""``robokit robot check | new | show``: the robot designer's commands (heavy imports inside each command)."""
+
+from __future__ import annotations
+
+import sys
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    import argparse
+
+EXIT_OK, EXIT_PROBLEMS = 0, 2
+
+
+def add_robot_command(sub: Any) -> None:
+    """Register ``robokit robot`` and its three sub-commands."""
+    robot = sub.add_parser("robot", help="design a robot: check a URDF or xacro file, start one, draw one")
+    verbs = robot.add_subparsers(dest="robot_command", metavar="VERB")
+    verbs.required = True
+
+    check = verbs.add_parser("check", help="one line per problem of a URDF or xacro file, with its fix")
+    check.add_argument("file", help="a URDF or xacro file (a bundled robot or pybullet_data name works too)")
+    check.add_argument("--arg", dest="args", action="append", default=[], metavar="NAME=VALUE",
+                       help="a xacro argument (repeatable)")
+    check.add_argument("--fixed-base", action="store_true", help="the robot is fixed in place (no stability check)")
+    check.set_defaults(func=cmd_check)
+
+    new = verbs.add_parser("new", help="write a parametric xacro robot and a config that drives it")
+    new.add_argument("name", help="the robot's name (letters, digits, _)")
+    new.add_argument("--kind", required=True, choices=("diffdrive", "arm", "gripper-arm"))
+    new.add_argument("-o", "--out", metavar="DIR", help="the folder to write to (default: ./NAME)")
+    new.add_argument("--force", action="store_true", help="write over existing files")
+    new.set_defaults(func=cmd_new)
+
+    show = verbs.add_parser("show", help="draw a robot from three sides with its joint frames and axes")
+    show.add_argument("file", help="a URDF or xacro file")
+    show.add_argument("--arg", dest="args", action="append", default=[], metavar="NAME=VALUE",
+                      help="a xacro argument (repeatable)")
+    show.add_argument("-o", "--output", default="robot.png", metavar="PNG")
+    show.add_argument("--size", type=int, default=360, metavar="PX", help="each view's height in pixels")
+    show.set_defaults(func=cmd_show)
+
+
+def xacro_args(items: list[str]) -> dict[str, str]:
+    """``NAME=VALUE`` options as a dict."""
+    from robokit.errors import UserError
+
+    out = {}
+    for item in items:
+        name, eq, value = item.partition("=")
+        if not eq or not name:
+            raise UserError(f"--arg {item!r}: expected NAME=VALUE")
+        out[name.strip()] = value.strip()
+    return out
+
+
+def find_file(name: str) -> str:
+    """A path as given, else a bundled robot or a ``pybullet_data`` name."""
+    from pathlib import Path
+
+    import pybullet_data
+
+    from robokit.errors import UserError
+
+    data = Path(__file__).resolve().parent.parent / "data"
+    for cand in (Path(name), data / name, Path(pybullet_data.getDataPath()) / name):
+        if cand.is_file():
+            return str(cand)
+    raise UserError(f"{name}: no such file (looked here, in robokit's robots and in pybullet_data)")
+
+
+def cmd_check(args: argparse.Namespace) -> int:
+    """``robokit robot check FILE``: print each problem on one line; exit 2 when there is an error."""
+    from robokit.robot.check import check_robot, load
+
+    path = find_file(args.file)
+    robot = load(path, xacro_args(args.args))
+    problems = check_robot(robot, fixed_base=True if args.fixed_base else None)
+    for p in problems:
+        print(p.text(args.file), file=sys.stderr if not p.warning else sys.stdout)
+    errors = [p for p in problems if not p.warning]
+    if errors:
+        print(f"{args.file}: {len(errors)} problem{'s' * (len(errors) != 1)}", file=sys.stderr)
+        return EXIT_PROBLEMS
+    warned = f", {len(problems)} warning{'s' * (len(problems) != 1)}" if problems else ""
+    print(f"{args.file}: ok ({len(robot.links)} links, {len(robot.joints)} joints{warned})")
+    return EXIT_OK
+
+
+def cmd_new(args: argparse.Namespace) -> int:
+    """``robokit robot new NAME --kind KIND``: write the xacro and the config; say what to run next."""
+    from pathlib import Path
+
+    from robokit.robot.scaffold import new_robot
+
+    xacro_path, config_path = new_robot(args.name, args.kind, Path(args.out) if args.out else None, force=args.force)
+    print(f"wrote {xacro_path} and {config_path}")
+    print(f"next: robokit robot check {xacro_path}")
+    print(f"      robokit run {config_path}")
+    return EXIT_OK
+
+
+def cmd_show(args: argparse.Namespace) -> int:
+    """``robokit robot show FILE -o robot.png``: three views with joint frames and axes labelled."""
+    from robokit.robot.check import load
+    from robokit.robot.show import draw_robot
+
+    robot = load(find_file(args.file), xacro_args(args.args))
+    out = draw_robot(robot, args.output, height=args.size)
+    print(f"wrote {out}")
+    return EXIT_OK
