@@ -232,6 +232,59 @@ def test_rays_hit_what_geometry_says_and_look_through_hidden_bodies(world: World
     assert through.body.tolist() == [world.body("plane")] and through.fraction[0] == pytest.approx(0.5, abs=1e-3)
 
 
+RAY_CORNERS = {
+    # name: (start, end, what the ray reports: None for nothing, else (which body, fraction, normal))
+    "starts inside, leaves": ((0.0, 0.0, 0.5), (1.0, 0.0, 0.5), None),
+    "starts inside, meets the wall": ((0.0, 0.0, 0.5), (0.0, 1.0, 0.5), ("wall", 0.45, (0, -1, 0))),
+    "starts on a face, points out": ((0.1, 0.0, 0.5), (1.0, 0.0, 0.5), None),
+    "starts on a face, points in": ((0.1, 0.0, 0.5), (-1.0, 0.0, 0.5), ("box", 0.0, (1, 0, 0))),
+    "from outside": ((-1.0, 0.0, 0.5), (1.0, 0.0, 0.5), ("box", 0.45, (-1, 0, 0))),
+    "parallel to a face, 1 um outside": ((-1.0, 0.100001, 0.5), (1.0, 0.100001, 0.5), None),
+    "parallel to a face, 1 mm inside": ((-1.0, 0.099, 0.5), (1.0, 0.099, 0.5), ("box", 0.45, (-1, 0, 0))),
+    "ends on a face": ((-1.0, 0.0, 0.5), (-0.1, 0.0, 0.5), None),
+    "ends 0.1 mm short": ((-1.0, 0.0, 0.5), (-0.1001, 0.0, 0.5), None),
+    "ends 0.1 mm inside": ((-1.0, 0.0, 0.5), (-0.0999, 0.0, 0.5), ("box", 0.9 / 0.9001, (-1, 0, 0))),
+    "zero length, outside": ((-1.0, 0.0, 0.5), (-1.0, 0.0, 0.5), None),
+    "zero length, inside": ((0.0, 0.0, 0.5), (0.0, 0.0, 0.5), None),
+    "through an edge": ((-1.0, -0.9, 0.5), (1.0, 1.1, 0.5), ("box", 0.45, None)),
+}
+"""A 0.2 m box centred at (0, 0, 0.5) and a wall whose near face is the plane y = 0.45: the answer per the rule in
+:class:`~robokit.engines.interface.RayCaster` (a ray reports the first surface it enters; the shape it starts in is
+passed through; the end is not part of the segment), worked out from the geometry."""
+
+
+@pytest.mark.parametrize("batch", ["one start", "many starts"])
+def test_rays_follow_the_worlds_rule_at_every_corner(world: World, batch: str) -> None:
+    bodies = {"box": world.add_primitive("box", "box", size=(0.2, 0.2, 0.2), mass=0, position=(0, 0, 0.5)),
+              "wall": world.add_primitive("wall", "box", size=(2, 0.1, 2), mass=0, position=(0, 0.5, 0.5))}
+    cases = list(RAY_CORNERS.values())
+    if batch == "one start":  # a lidar's batch: every ray from one point (engines may take a faster path)
+        cases = [c for c in cases if c[0] == (0.0, 0.0, 0.5)]
+    starts, ends = np.array([c[0] for c in cases]), np.array([c[1] for c in cases])
+    hits = world.ray_caster().cast(starts, ends)
+    for i, (_, _, expected) in enumerate(cases):
+        name = [k for k, v in RAY_CORNERS.items() if v is cases[i]][0]
+        if expected is None:
+            assert (hits.body[i], hits.fraction[i]) == (-1, 1.0), name
+            continue
+        body, fraction, normal = expected
+        assert hits.body[i] == bodies[body], name
+        assert hits.fraction[i] == pytest.approx(fraction, abs=1e-6), name
+        assert hits.position is not None and hits.normal is not None
+        assert hits.position[i] == pytest.approx(starts[i] + fraction * (ends[i] - starts[i]), abs=1e-6), name
+        if normal is not None:
+            assert hits.normal[i] == pytest.approx(normal, abs=1e-6), name
+
+
+def test_a_ray_inside_a_body_resting_on_the_floor_reads_what_is_beyond(world: World) -> None:
+    """A range sensor inside a slab (mounted in it, or on a body sunk a little into it): its downward ray starts
+    inside the slab and reports the plane it enters below, not the slab's face it leaves."""
+    world.add_primitive("slab", "box", size=(0.4, 0.4, 0.1), mass=0, position=(0, 0, 0.05))
+    hits = world.ray_caster().cast(np.array([[0.0, 0.0, 0.08]]), np.array([[0.0, 0.0, -1.0]]), detail=False)
+    assert hits.body.tolist() == [world.body("plane")]
+    assert hits.fraction[0] == pytest.approx(0.08 / 1.08, abs=1e-6)
+
+
 def test_a_camera_sees_depth_in_metres_and_bodies_by_id(world: World) -> None:
     box = world.add_primitive("box", "box", size=(0.4, 0.4, 0.4), mass=0, position=(0, 0, 0.2), rgba=(1, 0, 0, 1))
     width, height, near, far = 64, 48, 0.1, 10.0

@@ -162,7 +162,20 @@ class RayHits(NamedTuple):
 
 
 class RayCaster(Protocol):
-    """Casts batches of ray segments in one world (:meth:`World.ray_caster`). Segments are world frame, metres."""
+    """Casts batches of ray segments in one world (:meth:`World.ray_caster`). Segments are world frame, metres.
+
+    The rule every engine follows: a segment reports the first surface it *enters* between its start and its end.
+
+    - A ray that starts inside a shape (or on its surface, pointing out) passes through that shape: the face it
+      leaves by is not a hit, and a surface beyond it (or inside it: another body's) is.
+    - A ray that starts on a surface and points into the shape hits it at fraction 0.
+    - The end is not part of the segment: a surface exactly at the end is not a hit (at most the range).
+    - A zero-length segment hits nothing (body -1, fraction 1.0).
+    - A ray along a face's plane, touching the shape only at its boundary, may or may not report it (engines
+      differ at exactly 0); a ray 1 µm outside a face misses it, 1 mm inside hits the face it enters.
+
+    ``tests/test_engine_contract.py`` checks each case on every engine.
+    """
 
     rays_cast: int
     """Rays the engine's own ray test cast so far (for benchmarks and tests)."""

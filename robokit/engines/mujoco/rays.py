@@ -8,7 +8,7 @@ a caster made with ``see_hidden=False`` leaves out; collisions do not look at ge
 from __future__ import annotations
 
 from collections.abc import Collection
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -20,6 +20,14 @@ if TYPE_CHECKING:
 
 HIDDEN_GROUP = 5
 """The geom group of bodies hidden from rays."""
+ZERO_LENGTH = 1e-12
+"""Segments shorter than this (m) hit nothing."""
+GRAZING = 1e-9
+"""A hit whose surface normal is within this cosine of perpendicular to the ray is grazing, not entering."""
+NUDGE = 1e-7
+"""How far (m) beyond a second surface it leaves a continued ray starts."""
+MAX_PASSES = 8
+"""Surfaces one ray may pass through (leaving or grazing) before it counts as a miss."""
 
 
 class MujocoRayCaster:
@@ -47,26 +55,63 @@ class MujocoRayCaster:
 
     def _fractions(self, starts: np.ndarray, ends: np.ndarray, normals: np.ndarray | None) -> tuple[
             np.ndarray, np.ndarray]:
-        """Per segment (arrays (N, 3)): the hit geom (-1: none) and the fraction along it (1.0: none)."""
+        """Per segment (arrays (N, 3)): the hit geom (-1: none) and the fraction along it (1.0: none), by the
+        World's rule (:class:`~robokit.engines.interface.RayCaster`): a surface the ray leaves (it started inside
+        the shape) or only grazes is passed through, a surface at the very end is not a hit, and a zero-length
+        segment hits nothing."""
         m, d = self.world.compiled()
         n = len(starts)
         vec = np.ascontiguousarray(ends - starts)
+        length = np.sqrt(np.einsum("ij,ij->i", vec, vec))
+        empty = length < ZERO_LENGTH
+        if empty.any():  # MuJoCo refuses a zero vector (a fatal error): give those a unit one and drop the answer
+            vec[empty] = (0.0, 0.0, 1.0)
         geom = np.full(n, -1, dtype=np.int32)
         dist = np.full(n, -1.0)
-        if n and normals is None and np.all(starts == starts[0]):
+        normal = normals if normals is not None else np.zeros((n, 3))
+        if n and np.all(starts == starts[0]):
             mujoco.mj_multiRay(m, d, np.ascontiguousarray(starts[0]), vec.reshape(-1), self.groups, True, -1, geom,
-                               dist, None, n, mujoco.mjMAXVAL)
+                               dist, normal.reshape(-1) if normal.flags.c_contiguous else None, n,
+                               mujoco.mjMAXVAL)
         else:
-            one, normal = np.zeros(1, dtype=np.int32), np.zeros(3)
+            one, out = np.zeros(1, dtype=np.int32), np.zeros(3)
             for i in range(n):
                 dist[i] = mujoco.mj_ray(m, d, np.ascontiguousarray(starts[i]), vec[i], self.groups, True, -1, one,
-                                        normal)
-                geom[i] = one[0]
-                if normals is not None:
-                    normals[i] = normal
-        missed = (dist < 0.0) | (dist > 1.0) | (geom < 0)
+                                        out)
+                geom[i], normal[i] = one[0], out
+        hit = (dist >= 0.0) & (geom >= 0)
+        leaving = hit & (np.einsum("ij,ij->i", normal, vec) >= -GRAZING * length)
+        for i in np.flatnonzero(leaving & ~empty).tolist():
+            geom[i], dist[i] = self._onwards(m, d, starts[i], vec[i], int(geom[i]), float(length[i]),
+                                             normal[i])
+        missed = (dist < 0.0) | (dist >= 1.0) | (geom < 0) | empty
         geom[missed] = -1
+        if normals is not None:
+            normals[missed] = 0.0
         return geom, np.where(missed, 1.0, dist)
+
+    def _onwards(self, m: Any, d: Any, start: np.ndarray, vec: np.ndarray, geom: int, length: float,
+                 normal: np.ndarray) -> tuple[int, float]:
+        """Continue a ray that leaves (or grazes) ``geom``: cast again from the start with the geom's
+        MuJoCo body left out, so a surface inside that shape still counts; past a second such surface, from just
+        beyond it. Returns the next surface entered (geom, fraction of the whole segment; -1 and -1.0: none before
+        the end); ``normal`` receives its normal."""
+        one, out = np.zeros(1, dtype=np.int32), np.zeros(3)
+        origin, exclude = 0.0, int(m.geom_bodyid[geom])
+        for _ in range(MAX_PASSES):
+            rest = vec * (1.0 - origin)
+            step = mujoco.mj_ray(m, d, np.ascontiguousarray(start + vec * origin), np.ascontiguousarray(rest),
+                                 self.groups, True, exclude, one, out)
+            if step < 0.0 or one[0] < 0:
+                return -1, -1.0
+            frac = origin + step * (1.0 - origin)
+            if float(out @ vec) < -GRAZING * length:
+                normal[:] = out
+                return int(one[0]), frac
+            origin, exclude = frac + NUDGE / length, int(m.geom_bodyid[one[0]])
+            if origin >= 1.0:
+                return -1, -1.0
+        return -1, -1.0
 
     def _owners(self, geom: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Robokit body id and link per hit geom (-1, -1 for none and for skipped bodies)."""
