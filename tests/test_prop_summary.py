@@ -1,0 +1,198 @@
+"""Every summary row and export compared with the rows or trace it came from, over generated inputs.
+
+A sweep's summary derives figures twice -- a rate and the per-trial flags it counts, a median and the values it is
+the median of, a JUnit file and the rows it lists -- and a run record derives each machine's stays in its states
+from the transition records. Here rows and traces are generated, and every derived number is recomputed plainly
+from them: counts by counting, the Wilson bounds as the roots of the score equation (numpy's polynomial roots), the
+median by sorting, the nearest-rank p95 by its definition, each JUnit test case and each Markdown line against its
+row, each reproduce command parsed back with shlex, each span against a walk of the events.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import shlex
+import xml.etree.ElementTree as ET
+from typing import Any
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from robokit.record.export import state_changes
+from robokit.record.format import RunRecord
+from robokit.record.layout import TRACE_FILE
+from robokit.sweep.summary import failed_trials, summarise, to_markdown, write_junit
+
+PROPS = settings(max_examples=60, deadline=None, derandomize=True,
+                 suppress_health_check=[HealthCheck.function_scoped_fixture])
+Z = 1.959963984540054
+OUTCOMES = ("succeeded", "failed", "aborted", "error")
+
+
+def score_roots(k: int, n: int) -> tuple[float, float]:
+    """Wilson's interval: the p where (k/n - p)^2 = z^2 p (1 - p) / n, as the roots of that quadratic in p."""
+    phat = k / n
+    # (1 + z^2/n) p^2 - (2 phat + z^2/n) p + phat^2 = 0
+    roots = np.roots([1 + Z * Z / n, -(2 * phat + Z * Z / n), phat * phat]).real
+    return float(min(roots)), float(max(roots))
+
+
+figure_value = st.one_of(st.floats(-1e6, 1e6, allow_nan=False), st.integers(-1000, 1000), st.none(), st.booleans(),
+                         st.just(float("nan")), st.just("text"))
+
+
+@st.composite
+def sweeps(draw: Any) -> tuple[list[dict[str, Any]], list[str]]:
+    cells = draw(st.lists(st.sampled_from(["base", "mass=0.5", "mass=2", "friction=0.1"]), min_size=1, max_size=3,
+                          unique=True))
+    rows = []
+    for i in range(draw(st.integers(0, 25))):
+        cell = draw(st.sampled_from(cells))
+        figures = draw(st.dictionaries(st.sampled_from(["score", "placed", "error_mm"]), figure_value, max_size=3))
+        rows.append({"key": f"{cell}/{i}", "cell": cell, "seed": i, "overrides": {} if cell == "base" else
+                     {cell.split("=")[0]: float(cell.split("=")[1])}, "outcome": draw(st.sampled_from(OUTCOMES)),
+                     "reason": draw(st.sampled_from(["", "dropped it", "a 'quoted' reason", "시간 초과"])),
+                     "run_id": f"run-{i}", "sim_time": draw(st.floats(0, 100)), "wall_time": draw(st.floats(0, 5)),
+                     "figures": figures, "worker": i % 2})
+    return rows, cells
+
+
+def plain_number(v: Any) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+
+
+@settings(PROPS, max_examples=40)
+@given(sweeps())
+def test_every_summary_figure_is_recomputed_from_the_rows(sweep: tuple[list[dict[str, Any]], list[str]]) -> None:
+    rows, cells = sweep
+    summary = summarise(rows, cells)
+    assert [c["cell"] for c in summary["cells"]] == cells
+    assert summary["trials"] == len(rows)
+    assert summary["succeeded"] == len([r for r in rows if r["outcome"] == "succeeded"])
+    assert summary["errors"] == len([r for r in rows if r["outcome"] == "error"])
+    named = sorted({k for r in rows for k, v in r["figures"].items() if plain_number(v)})
+    assert summary["metrics"] == named
+    for c in summary["cells"]:
+        mine = [r for r in rows if r["cell"] == c["cell"]]
+        ok = len([r for r in mine if r["outcome"] == "succeeded"])
+        assert (c["trials"], c["succeeded"]) == (len(mine), ok)
+        assert c["errors"] == len([r for r in mine if r["outcome"] == "error"])
+        if not mine:
+            assert c["success_rate"] is None and c["wilson95"] == [0.0, 1.0]
+            continue
+        assert c["success_rate"] == ok / len(mine)
+        lo, hi = score_roots(ok, len(mine))
+        assert c["wilson95"] == pytest.approx([lo, hi], abs=1e-9)
+        assert c["wilson95"][0] <= c["success_rate"] <= c["wilson95"][1]
+        for name in [*named, "sim_time", "wall_time"]:
+            values = sorted(float(r["figures"][name]) if name in r["figures"] else float(r[name])
+                            for r in mine if name in r["figures"] and plain_number(r["figures"][name])
+                            or name not in r["figures"] and name in ("sim_time", "wall_time"))
+            if not values:
+                assert name not in c["figures"]
+                continue
+            got = c["figures"][name]
+            mid = len(values) // 2
+            median = values[mid] if len(values) % 2 else (values[mid - 1] + values[mid]) / 2
+            rank = max(1, math.ceil(0.95 * len(values)))  # nearest rank: the smallest value with 95 % at or below
+            assert (got["n"], got["median"], got["p95"]) == (len(values), pytest.approx(median), values[rank - 1])
+
+
+@settings(PROPS, max_examples=25)
+@given(sweeps())
+def test_junit_markdown_and_failed_trials_list_every_row(tmp_path_factory: pytest.TempPathFactory,
+                                                         sweep: tuple[list[dict[str, Any]], list[str]]) -> None:
+    rows, cells = sweep
+    path = tmp_path_factory.mktemp("junit") / "junit.xml"
+    write_junit(rows, path)
+    suite = ET.parse(path).getroot().find("testsuite")
+    assert suite is not None
+    cases = suite.findall("testcase")
+    assert int(suite.get("tests", "-1")) == len(cases) == len(rows)
+    assert int(suite.get("failures", "-1")) == len([r for r in rows if r["outcome"] in ("failed", "aborted")])
+    assert int(suite.get("errors", "-1")) == len([r for r in rows if r["outcome"] == "error"])
+    for case, r in zip(cases, rows, strict=True):
+        assert (case.get("classname"), case.get("name")) == (r["cell"], f"seed={r['seed']}")
+        failure, error = case.find("failure"), case.find("error")
+        assert (failure is not None) == (r["outcome"] in ("failed", "aborted"))
+        assert (error is not None) == (r["outcome"] == "error")
+        if failure is not None:
+            assert failure.get("message") == f"{r['outcome']}: {r['reason']}"
+    failed = failed_trials(rows, "configs/my robot.toml")
+    assert [f["key"] for f in failed] == [r["key"] for r in rows if r["outcome"] != "succeeded"]
+    for f in failed:
+        r = next(r for r in rows if r["key"] == f["key"])
+        argv = shlex.split(f["command"])
+        assert argv[:5] == ["robokit", "run", "configs/my robot.toml", "--seed", str(r["seed"])]
+        sets = dict(a.split("=", 1) for a in argv[6::2])
+        assert argv[5::2] == ["--set"] * len(r["overrides"])
+        assert {k: float(v) for k, v in sets.items()} == r["overrides"]
+    summary = summarise(rows, cells)
+    summary["failed_trials"] = failed
+    table = to_markdown(summary).splitlines()
+    for c in summary["cells"]:
+        line = next(x for x in table if x.startswith(f"| `{c['cell']}` |"))
+        cols = [x.strip() for x in line.strip("|").split("|")]
+        assert cols[1] == str(c["trials"]) and cols[4] == str(c["errors"])
+        rate = "-" if c["success_rate"] is None else f"{100 * c['success_rate']:.1f} %"
+        assert cols[2] == rate
+    totals = f"{len(rows)} trials, {summary['succeeded']} succeeded, {summary['errors']} errors"
+    assert any(x.startswith(totals) for x in table)
+    listed = [x for x in table if x.startswith("- `")]
+    assert len(listed) == min(len(failed), 50) + (len(failed) > 50)
+
+
+# ------------------------------------------------------------------------------------------ a record's state stays
+@st.composite
+def traces(draw: Any) -> tuple[dict[str, Any], list[dict[str, Any]], float]:
+    machines = draw(st.lists(st.sampled_from(["sort", "pick", "drive"]), min_size=1, max_size=3, unique=True))
+    states = ["IDLE", "MOVE", "GRASP", "DONE"]
+    initial = {m: draw(st.sampled_from(states)) for m in machines}
+    current = dict(initial)
+    events, t = [], 0.0
+    for _ in range(draw(st.integers(0, 12))):
+        t += draw(st.sampled_from([0.0, 1 / 240, 0.25, 1.5]))
+        m = draw(st.sampled_from(machines))
+        dest = draw(st.sampled_from(states))
+        events.append({"kind": "transition", "t": t, "machine": m, "source_state": current[m], "dest_state": dest,
+                       "trigger": f"to_{dest.lower()}"})
+        current[m] = dest
+        if draw(st.booleans()):
+            events.append({"kind": "reading", "t": t, "sensor": "cam"})  # other records in between
+    end = t + draw(st.sampled_from([0.0, 0.5, 3.0]))
+    events.append({"kind": "end", "t": end})
+    header = {"kind": "header", "schema": "robokit.record/1", "machines": [
+        {"name": m, "initial": initial[m]} for m in machines]}
+    return header, events, end
+
+
+@PROPS
+@given(traces())
+def test_state_stays_and_state_changes_follow_the_transition_records(
+        tmp_path_factory: pytest.TempPathFactory, trace: tuple[dict[str, Any], list[dict[str, Any]], float]) -> None:
+    header, events, end = trace
+    folder = tmp_path_factory.mktemp("run")
+    (folder / TRACE_FILE).write_text("\n".join(json.dumps(x) for x in [header, *events]) + "\n", encoding="utf-8")
+    rec = RunRecord(folder)
+    spans = rec.spans()
+    transitions = [e for e in events if e["kind"] == "transition"]
+    for m in header["machines"]:
+        name = m["name"]
+        mine = [e for e in transitions if e["machine"] == name]
+        stays = spans[name]
+        # one stay per transition, plus the last; each begins where the previous ended, from 0 to the run's end
+        assert len(stays) == len(mine) + 1
+        assert [s.state for s in stays] == [m["initial"], *[e["dest_state"] for e in mine]]
+        assert [s.start for s in stays] == [0.0, *[e["t"] for e in mine]]
+        assert [s.end for s in stays] == [*[e["t"] for e in mine], end]
+        for e in mine:  # the state a machine is in just after its transition
+            assert rec.state_at(spans, e["t"])[name] == e["dest_state"] or any(
+                x["t"] == e["t"] for x in mine if x is not e)  # several in the same instant: the last counts
+    changes = state_changes(rec)
+    assert len(changes) == len(header["machines"]) + len(transitions)
+    assert [(t, m) for t, m, _ in changes[len(header["machines"]):]] == [(e["t"], e["machine"]) for e in transitions]
+    for (_, _, text), e in zip(changes[len(header["machines"]):], transitions, strict=True):
+        assert text == f"{e['machine']}: {e['source_state']} -> {e['dest_state']} ({e['trigger']})"
