@@ -13,8 +13,11 @@ import os
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+
+from robokit.errors import ConfigError
 
 from robokit.robot.expand import expand_xacro, is_xacro
 from robokit.robot.model import Joint, Link, Robot, read_robot
@@ -282,4 +285,27 @@ def _meshes(robot: Robot) -> list[Problem]:
                 if s.kind == "mesh" and mesh_path(robot, s.filename) is None:
                     out.append(Problem("mesh", f"link {link.name!r}", f"{tag} mesh {s.filename!r} does not exist",
                                        "fix the path (relative to the URDF's folder) or add the file", link.line))
+    return out
+
+
+def config_problems(cfg: Any) -> list[ConfigError]:
+    """``robokit validate``: the errors (not the warnings) of every ``[robots.NAME]`` that loads a URDF or xacro
+    file, each naming the config, the robot's key and the problem."""
+    import pybullet_data
+
+    from robokit.engines.interface import DATA_DIR
+
+    out = []
+    for name, body in cfg.robots.items():
+        if body.urdf is None:
+            continue
+        candidates = [Path(body.urdf)] if os.path.isabs(body.urdf) else \
+            [cfg.base_dir / body.urdf, DATA_DIR / body.urdf, Path(pybullet_data.getDataPath()) / body.urdf]
+        path = next((c for c in candidates if c.is_file()), None)
+        if path is None:  # the loader has said so already
+            continue
+        robot = load(path, body.xacro_args)
+        for p in check_robot(robot, fixed_base=body.fixed_base or body.mount is not None):
+            if not p.warning:
+                out.append(ConfigError(p.text(body.urdf), key=f"robots.{name}", file=cfg.source))
     return out
