@@ -239,3 +239,26 @@ def test_a_real_worker_serves_another_student_before_a_backlog_and_submit_waits_
     assert order[-3:] == kim[-3:] or order[-3:] == kim[1:]
     print(f"\nsubmit --wait: {alone:.1f} s alone, {behind:.1f} s behind a 4-submission backlog "
           f"(4 seeds each; one worker); order {order}, Lee's {lee_id}")
+
+
+def test_a_re_evaluation_has_a_ticket_of_its_own(client: Any, course: Course) -> None:
+    """Kim's second submission was graded by Lee's task while Kim's second task still evaluates Lee's: a teacher's
+    re-evaluation of it must not share that busy ticket; its task takes the re-queued submission."""
+    from django_q.models import OrmQ
+
+    from robokit.server.fair_queue import claim
+    from robokit.server.models import Submission
+
+    a = make_assignment(course.room, max_waiting=10, max_per_day=0)
+    k1, k2 = (Submission.objects.create(assignment=a, student=course.kim, config_text=OFFICIAL).pk for _ in "ab")
+    l1 = Submission.objects.create(assignment=a, student=course.lee, config_text=OFFICIAL).pk
+    assert claim(k1) == k1
+    graded(k1)
+    assert claim(k2) == l1  # Lee was never served: Kim's second ticket takes Lee's, and is still on it
+    assert claim(l1) == k2
+    graded(k2)
+    client.login(username="teacher", password="correct-horse-battery")
+    assert client.post(f"/submissions/{k2}/reevaluate/", {"reason": "a new robokit"}).status_code == 302
+    (ticket,) = [t.task["args"][0] for t in OrmQ.objects.all()]
+    assert ticket < 0 and claim(ticket) == k2
+    assert claim(k2) == l1  # Kim's second ticket still resumes Lee's

@@ -234,10 +234,10 @@ def reevaluate(request: HttpRequest, pk: int) -> HttpResponse:
         if not again:
             return _plain(409, f"submission {sub.pk} is {sub.status}: evaluate it again once it is graded")
         Result.objects.filter(submission=sub, official=True).delete()
-        ModerationEvent.objects.create(classroom=room, submission=sub, action=ModerationEvent.REEVALUATE,
-                                       reason=reason, teacher=request.user, what=f"submission {sub}")
-        if not sync:
-            async_task(TASK, sub.pk, task_name=f"evaluate submission {sub.pk} again")
+        event = ModerationEvent.objects.create(classroom=room, submission=sub, action=ModerationEvent.REEVALUATE,
+                                               reason=reason, teacher=request.user, what=f"submission {sub}")
+        if not sync:  # a ticket of its own (see fair_queue.claim): the submission's first may still be in use
+            async_task(TASK, -event.pk, task_name=f"evaluate submission {sub.pk} again")
     if sync:
         async_task(TASK, sub.pk, sync=True, task_name=f"evaluate submission {sub.pk} again")
     return HttpResponseRedirect(reverse("submission", args=[sub.pk]))

@@ -83,8 +83,9 @@ def admit(assignment: Assignment, student_id: int, key: str | None = None, now: 
 
 
 def claim(ticket: int) -> int | None:
-    """The submission a queue task (``ticket``, the id of the submission that queued it) evaluates: the one it
-    already claimed and has not finished, else the fairest waiting one, now claimed; None when nothing waits.
+    """The submission a queue task evaluates: the one its ``ticket`` already claimed and has not finished, else the
+    fairest waiting one, now claimed; None when nothing waits. A ticket is the id of the submission that queued
+    the task, or minus the moderation event's id for a teacher's re-evaluation (tickets are never shared).
 
     Without workers (``settings.QUEUE_SYNC``) the posting process evaluates its own submission: ``ticket``.
     """
