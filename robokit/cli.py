@@ -395,6 +395,9 @@ def cmd_validate(args: argparse.Namespace) -> int:
     with Simulation(cfg, plugins, gui=False) as sim:
         n_bodies = len(sim.world.body_names)
         problems = sim.preflight()
+    from robokit.robot.check import config_problems  # every robot's own description (robokit robot check)
+
+    problems += config_problems(cfg)
     for problem in problems:
         print(f"robokit: error: {problem}", file=sys.stderr)
     if problems:

@@ -18,7 +18,6 @@ from typing import Any
 import numpy as np
 
 from robokit.errors import ConfigError
-
 from robokit.robot.expand import expand_xacro, is_xacro
 from robokit.robot.model import Joint, Link, Robot, read_robot
 
