@@ -10,7 +10,8 @@ Exit codes:
 - 5: the server refused the result (kept; ``robokit outbox retry``);
 - 6: the run succeeded and its result was kept, but its record (trace, pose log) could not be written in full (a
   full disk, a file-size limit): each failure is a one-line warning naming the file and the reason;
-- 130: interrupted by SIGINT (Ctrl-C), 143: by SIGTERM, at any moment from start-up to exit (one line on stderr;
+- 130: interrupted by SIGINT (Ctrl-C), 143: by SIGTERM, at any moment from the console script's first instruction
+  (:mod:`robokit.entry`) to exit (one line on stderr;
   whatever result exists is kept: a signal during start-up gives an ``aborted`` result with no ticks, one during
   the loop stops at a tick boundary, one after the loop keeps the result as it was).
 
@@ -207,8 +208,16 @@ def _load(args: argparse.Namespace) -> tuple[Any, Any]:
     return plugins, load_config(args.config, plugins, _overrides(args))
 
 
+_run_started = False
+"""``cmd_run`` began: from then on it keeps the result itself (an ``aborted`` one if a signal ends start-up)."""
+_run_called = False
+"""``cmd_run`` handed the run to :func:`robokit.runner.run_config`, which keeps the result from then on."""
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     """``robokit run``: build, run, report; print a summary (or the RunResult JSON with ``--json``)."""
+    global _run_started
+    _run_started = True
     if args.video:  # before anything is simulated: the video needs imageio-ffmpeg
         from robokit.extras import require
 
@@ -218,12 +227,22 @@ def cmd_run(args: argparse.Namespace) -> int:
     guard = StopGuard.current()
     try:
         plugins, cfg = _load(args)  # first: robokit.runner imports robokit.config, see _load
+        from robokit.runner import run_config
     except BaseException as exc:  # a signal broke into start-up (imports, plugins): keep what can be kept
         if isinstance(exc, KeyboardInterrupt) or (guard is not None and guard.signalled):
             return _interrupted_before_config(args, guard.signal if guard is not None else None)
         raise
-    from robokit.runner import run_config
+    try:
+        return _run_loaded(args, plugins, cfg, run_config)
+    except KeyboardInterrupt:
+        if _run_called:  # the run keeps its own result
+            raise
+        return _interrupted_before_config(args, guard.signal if guard is not None else None)
 
+
+def _run_loaded(args: argparse.Namespace, plugins: Any, cfg: Any, run_config: Any) -> int:
+    """``robokit run`` once its config is loaded: a signal before :func:`robokit.runner.run_config` takes over
+    reaches :func:`cmd_run` (which keeps an ``aborted`` result); one after is the run's own."""
     _end_startup_gc_pause()
     gui = bool(args.gui or cfg.world.gui)
     if gui:
@@ -249,7 +268,9 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     trace = _open_trace(args.trace) if args.trace else None
     video = _video_before_send(cfg, args) if args.video else None
+    global _run_called
     try:
+        _run_called = True
         out = run_config(cfg, plugins, gui=True if args.gui else None, max_time=args.max_time, trace=trace,
                          record=not args.no_record, pose_hz=args.pose_hz, save_frames=args.save_frames,
                          after_run=hold, on_problem=None if args.quiet else _warn_problem, before_send=video)
@@ -312,6 +333,42 @@ def _frames_note(cfg: Any, out: Any, args: argparse.Namespace) -> None:
     note = frames_note(folder, args.save_frames or cfg.record.save_frames)
     if note:
         print(note, file=sys.stderr if args.json else sys.stdout)
+
+
+def _interrupted_before_command(argv: list[str]) -> int:
+    """A signal ended the command before it began (imports, parsing the command line): for ``robokit run CONFIG``
+    keep an ``aborted`` result all the same, as :func:`_interrupted_before_config` does."""
+    config, seed = _run_arguments(argv)
+    if _run_started or config is None or not os.path.isfile(config):
+        return _interrupted(None)
+    from robokit.process.interrupts import StopGuard
+
+    guard = StopGuard.current()
+    import argparse
+
+    args = argparse.Namespace(config=config, seed=seed, json="--json" in argv)
+    return _interrupted_before_config(args, guard.signal if guard is not None else None)
+
+
+def _run_arguments(argv: list[str]) -> tuple[str | None, int | None]:
+    """``robokit run``'s config and ``--seed`` read from the raw command line (no parser: it may be what a signal
+    broke into); ``(None, None)`` for another command."""
+    if not argv or argv[0] != "run":
+        return None, None
+    takes_value = {name for name, options in _RUN_OPTIONS if "action" not in options}
+    config, seed, i = None, None, 1
+    while i < len(argv):
+        arg = argv[i]
+        name = arg.split("=", 1)[0]
+        if arg.startswith("--") and name in takes_value and "=" not in arg:
+            if name == "--seed" and i + 1 < len(argv) and argv[i + 1].lstrip("-").isdigit():
+                seed = int(argv[i + 1])
+            i += 2
+            continue
+        if config is None and not arg.startswith("-"):
+            config = arg
+        i += 1
+    return config, seed
 
 
 def _interrupted_before_config(args: argparse.Namespace, signal_name: str | None) -> int:
@@ -414,19 +471,21 @@ def cmd_plugins(args: argparse.Namespace) -> int:
 
     plugins = load_plugins()
     rows = [
-        {"kind": t.kind, "type": t.qualified if t.name in plugins.ambiguous[t.kind] else t.name,
+        {"kind": t.kind, "type": plugins.listed_name(t),
          "distribution": t.distribution, "version": t.version,
          "description": t.description}
         for t in plugins.all_types()
     ]
     if args.json:
-        print(json.dumps({"types": rows, "broken": plugins.broken}, indent=2))
+        print(json.dumps({"types": rows, "clashes": plugins.clashes(), "broken": plugins.broken}, indent=2))
         return EXIT_OK
     width = max((len(r["type"]) for r in rows), default=4)
     origins = [f"{r['distribution']} {r['version']}".strip() for r in rows]
     owidth = max((len(o) for o in origins), default=8)
     for r, origin in zip(rows, origins, strict=True):
         print(f"{r['kind']:<10} {r['type']:<{width}}  {origin:<{owidth}}  {r['description']}")
+    for line in plugins.clashes():
+        print(f"clash: {line}")
     for label, why in plugins.broken.items():
         print(f"not loaded: {label}: {why}")
     return EXIT_OK
@@ -497,6 +556,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     b3Warning lines, build banner, GUI chatter) never reaches the terminal as is: it is captured for the whole
     command and summarised in one line on stderr (nothing with ``--quiet``).
     """
+    global _run_started, _run_called
+    _run_started = _run_called = False
     own_process = argv is None  # the console script: this process is robokit's own
     guard = None
     if own_process:  # first of all: a signal from here on is handled (130 / 143, one line), never a traceback
@@ -509,12 +570,26 @@ def main(argv: Sequence[str] | None = None) -> int:
         _pause_gc_for_startup()
     code = EXIT_INTERRUPTED
     try:
+        if guard is not None:
+            _deliver_noted_signals()
         code = _main(argv)
     except KeyboardInterrupt:  # a signal between the guard's phases, or before any command was chosen
-        code = _interrupted(None)
+        code = _interrupted_before_command(argv)
     finally:
         _end_startup_gc_pause()
     return guard.closing(code) if guard is not None else code
+
+
+def _deliver_noted_signals() -> None:
+    """Signals the console script's entry module (:mod:`robokit.entry`) noted before robokit's guard was installed
+    are delivered again, now to the guard: handled as any signal during start-up."""
+    entry = sys.modules.get("robokit.entry")
+    if entry is None:
+        return
+    import signal
+
+    for signum in entry.noted():
+        signal.raise_signal(signum)
 
 
 def _interrupted(detail: str | None) -> int:
@@ -523,6 +598,7 @@ def _interrupted(detail: str | None) -> int:
 
     guard = StopGuard.current()
     name = guard.signal if guard is not None and guard.signal else "SIGINT"
+
     print(f"robokit: interrupted ({name})" + (f"; {detail}" if detail else ""), file=sys.stderr, flush=True)
     return exit_code_for(name)
 
@@ -538,7 +614,7 @@ def _main(argv: list[str]) -> int:
     try:
         args = _parser(argv[0] if argv else None).parse_args(argv)
     except KeyboardInterrupt:
-        return _interrupted(None)
+        return _interrupted_before_command(argv)
     args.debug = debug
     from robokit.process.interrupts import StopGuard
 
