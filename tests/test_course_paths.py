@@ -122,7 +122,8 @@ def test_no_reason_shown_to_anyone_holds_a_server_path(client: Any, course: Cour
                                     trials=1, succeeded=0, success_rate=0.0, error=f"see {paths[1]}/robokit-eval-1")
     Result.objects.create(run_id="r-1", classroom=course.room, project=a.project, student=course.kim,
                           student_name=course.kim.name, verified=True, official=True, outcome="aborted",
-                          reason=reason, seed=0, submission=sub)
+                          reason=reason, seed=0, submission=sub,
+                          payload={"reason": reason, "config": f"file://{paths[1]}/robokit-eval-1/a.toml"})
     client.post("/me/", {"token": course.kim_token})
     shown = [client.get("/me/").content.decode(),
              client.get(f"/api/robotics/submissions/{sub.pk}/", HTTP_AUTHORIZATION=f"Bearer {course.kim_token}")

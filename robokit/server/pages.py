@@ -27,6 +27,7 @@ from robokit.server.models import Artifact, Classroom, Project, Result, Student,
 from robokit.server.payload import config_name
 from robokit.server.ranking import best_per_student, columns
 from robokit.server.replay_page import replay_context
+from robokit.server.submitted import scrub
 
 SESSION_TOKEN = "course_student_token"
 
@@ -165,7 +166,7 @@ def run_detail(request: HttpRequest, run_id: str) -> HttpResponse:
         "plots": [a for a in artifacts if a.kind == Artifact.PLOT],
         "timeline": _timeline(trace, record.sim_time or record.total_time) if trace else None,
         "config_text": _read_text(config) if config else None,
-        "payload": json.dumps(payload, indent=2, ensure_ascii=False)[:20000],
+        "payload": scrub(json.dumps(payload, indent=2, ensure_ascii=False)[:20000]),
         "teacher": request.user.is_authenticated,
     })
 

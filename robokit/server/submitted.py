@@ -152,7 +152,7 @@ def model_path_problem(value: str) -> str | None:
     return f"{value!r} is not one of robokit's bundled models nor pybullet_data's: {ONLY}"
 
 
-_PATH = re.compile(r"(?<![\w.~-])(?:[A-Za-z]:)?(?:[/\\][^\s/\\'\"():,;<>|]+)+[/\\]?")
+_PATH = re.compile(r"(?<![\w.~:/-])(?:[A-Za-z]:)?(?:[/\\][^\s/\\'\"():,;<>|]+)+[/\\]?")
 
 
 def _roots() -> list[tuple[str, str]]:
@@ -185,4 +185,4 @@ def scrub(text: str) -> str:
         name = PurePosixPath(path.replace("\\", "/")).name
         return f".../{name}" if name else "..."
 
-    return _PATH.sub(short, text)
+    return _PATH.sub(short, re.sub(r"\bfile://(?=/)", "", text))
