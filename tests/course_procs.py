@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import os
 import re
-import signal
 import sqlite3
 import subprocess
 import threading
@@ -14,6 +13,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import psutil
 from server_proc import ROBOKIT, free_port, robokit
 
 PASSWORD = "correct-horse-battery"
@@ -56,22 +56,39 @@ class CourseServer:
     def log(self) -> str:
         return "".join(self.lines)
 
-    def kill(self) -> None:
-        """SIGKILL the server's whole process group: server, queue processes, sandboxes."""
+    def tree(self) -> list[psutil.Process]:
+        """The server and every process under it (its worker, the queue's processes, sandboxes)."""
         assert self.proc is not None
-        os.killpg(self.proc.pid, signal.SIGKILL)
-        self.proc.wait(timeout=60)
+        try:
+            top = psutil.Process(self.proc.pid)
+            return [top, *top.children(recursive=True)]
+        except psutil.NoSuchProcess:
+            return []
 
-    def stop(self) -> None:
+    def kill(self) -> None:
+        """SIGKILL the server's whole process tree at once, as a power cut would: server, worker, queue processes,
+        sandboxes (each in a session of its own)."""
         assert self.proc is not None
+        tree = self.tree()
+        for p in tree:
+            p.suspend()  # none of them acts on another's death while the others are killed
+        for p in tree:
+            p.kill()
+        self.proc.wait(timeout=60)
+        psutil.wait_procs(tree, timeout=60)
+
+    def stop(self) -> list[psutil.Process]:
+        """SIGTERM the server and wait for it; returns the processes of its tree still alive after that (killed
+        then: nothing of ours may outlive the test)."""
+        assert self.proc is not None
+        tree = self.tree()
         if self.proc.poll() is None:
             self.proc.terminate()
             self.proc.wait(timeout=120)
-        try:
-            os.killpg(self.proc.pid, 0)
-        except ProcessLookupError:
-            return
-        os.killpg(self.proc.pid, signal.SIGKILL)  # nothing of ours may outlive the test
+        alive = [p for p in tree if p.is_running() and p.status() != psutil.STATUS_ZOMBIE]
+        for p in alive:
+            p.kill()
+        return alive
 
     def query(self, sql: str, *params: Any) -> list[tuple[Any, ...]]:
         with sqlite3.connect(self.data / "db.sqlite3", timeout=30) as db:

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import subprocess
 import sys
 import uuid
@@ -81,18 +82,52 @@ def test_evaluating_again_changes_nothing_and_a_partial_evaluation_resumes(clien
     assert now[0] == kept[0] and now[1] == kept[1] and now[2] != kept[2]  # only the missing trial ran again
 
 
-def test_a_trial_over_its_time_limit_ends_aborted(client: Any, course: Course) -> None:
+def test_a_trial_over_its_cpu_budget_ends_aborted(client: Any, course: Course) -> None:
     from robokit.server.models import Result, Submission
 
     a = make_assignment(course.room, seeds=(0,), trial_seconds=0.5)
-    # An hour of sim time: no machine steps 33 bodies 7,200x faster than real time, so the 0.5 s wall limit ends it
-    # on any machine (at 9 s of sim time an idle machine finished first).
+    # An hour of sim time: no machine steps 33 bodies 7,200x faster than real time on 0.5 s of processor time.
     hour = changed(OFFICIAL, duration="3600.0", max_time="3700.0")
     assert submit(client, a.name, hour, course.kim_token).status_code == 201
     sub = Submission.objects.get()
     row = Result.objects.get(submission=sub)
-    assert row.outcome == "aborted" and "max_wall_time" in row.reason, row.reason
-    assert sub.status == "done" and sub.success_rate == 0.0
+    assert row.outcome == "aborted", row.reason
+    assert row.reason.startswith("interrupted by its CPU-time budget (0.5 s of processor time) at t = "), row.reason
+    assert 0 < row.sim_time < 3600 and sub.status == "done" and sub.success_rate == 0.0
+
+
+def test_a_submitted_wall_clock_budget_is_set_aside(client: Any, course: Course) -> None:
+    """``world.max_wall_time`` would make the grade depend on the machine's load: the official trial ignores it."""
+    from robokit.server.models import Result
+
+    a = make_assignment(course.room, seeds=(0,), allowed_keys=["world.*", "behaviour.duration"])
+    text = OFFICIAL.replace("[world]", "[world]\nmax_wall_time = 0.001", 1)
+    assert "max_wall_time = 0.001" in text
+    assert submit(client, a.name, text, course.kim_token).status_code == 201
+    row = Result.objects.get()
+    assert (row.outcome, row.reason) == ("succeeded", "watched 33 bodies for 0.5 s")
+
+
+def test_a_trial_past_the_wall_clock_safety_net_is_requeued_not_graded(client: Any, course: Course,
+                                                                       monkeypatch: Any) -> None:
+    from robokit.server import sandbox
+    from robokit.server.evaluation import evaluate_submission
+    from robokit.server.models import Result, Submission
+
+    a = make_assignment(course.room, seeds=(0, 1))
+    monkeypatch.setattr(sandbox, "WALL_FACTOR", 0.0)
+    monkeypatch.setattr(sandbox, "WALL_MARGIN", 0.05)  # no process starts this fast: the net trips
+    assert submit(client, a.name, OFFICIAL, course.kim_token).status_code == 201
+    sub = Submission.objects.get()
+    assert Result.objects.count() == 0  # nothing graded
+    assert (sub.status, sub.requeued, sub.attempts) == ("queued", 1, 1)
+    assert re.fullmatch(r"re-queued at \d\d:\d\d UTC: a trial ran past the wall-clock safety limit \(0\.05 s\)"
+                        r" - the machine was too busy or the trial waited on something", sub.note), sub.note
+    monkeypatch.undo()
+    assert evaluate_submission(sub.pk) == "done"  # the queue's next delivery
+    sub.refresh_from_db()
+    assert (sub.status, sub.trials, sub.succeeded, sub.attempts) == ("done", 2, 2, 2)
+    assert sorted(Result.objects.values_list("seed", flat=True)) == [0, 1]
 
 
 def test_the_sandbox_sets_its_limits_before_anything_runs() -> None:

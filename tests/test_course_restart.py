@@ -1,10 +1,12 @@
 """The server SIGKILLed (with its queue workers and sandboxes) in the middle of evaluations, then restarted:
-every submission is evaluated exactly once - each official trial stored once, none lost, none that had
-finished run again."""
+the submission that was being evaluated goes back to the queue once its heartbeat is stale (its page says so), the
+killed evaluation's scratch folder is removed, and every submission is evaluated exactly once - each official trial
+stored once, none lost, none that had finished run again."""
 
 from __future__ import annotations
 
 import re
+import time
 from pathlib import Path
 
 import pytest
@@ -17,7 +19,9 @@ SEEDS = 4
 
 
 def test_sigkill_mid_evaluation_then_restart_evaluates_every_submission_exactly_once(tmp_path: Path) -> None:
-    env = {"ROBOKIT_QUEUE_TIMEOUT": "60", "ROBOKIT_QUEUE_RETRY": "65"}  # a taken task comes back after 65 s
+    scratch = tmp_path / "tmp"
+    scratch.mkdir()
+    env = {"ROBOKIT_QUEUE_HEARTBEAT": "1", "ROBOKIT_QUEUE_STALE": "8", "TMPDIR": str(scratch)}
     server = CourseServer(tmp_path / "data", workers=1, env=env)
     tokens = setup_class(server, ["김민준", "이서연", "박지호"])
     official = tmp_path / "official.toml"
@@ -34,14 +38,23 @@ def test_sigkill_mid_evaluation_then_restart_evaluates_every_submission_exactly_
         trials = "SELECT submission_id, seed, id, received_at FROM course_result WHERE submission_id IS NOT NULL"
         server.wait_for("a first trial stored", lambda: len(server.query(trials)) >= 1, 180)
         server.kill()
+        killed = time.monotonic()
         before = {(s, seed): (pk, at) for s, seed, pk, at in server.query(trials)}
         states = dict(server.query("SELECT id, status FROM course_submission"))
         assert 1 <= len(before) < 3 * SEEDS and "running" in states.values(), (before, states)
+        left = [p.name for p in scratch.iterdir() if p.name.startswith("robokit-eval-")]
+        assert left, "the killed evaluation left its scratch folder"
 
         server.lines.clear()
         server.start()
+        assert not any((scratch / name).exists() for name in left)  # removed before the worker took work
+        requeued = "SELECT count(*) FROM course_submission WHERE requeued > 0 OR status = 'done'"
+        server.wait_for("the killed evaluation handed back", lambda: server.query(requeued)[0][0] == 3, 120)
+        noticed = time.monotonic() - killed
         done = "SELECT count(*) FROM course_submission WHERE status = 'done'"
         server.wait_for("every submission evaluated", lambda: server.query(done)[0][0] == 3, 300)
+        print(f"\nhanded back {noticed:.1f} s after the SIGKILL (stale after 8 s); all done "
+              f"{time.monotonic() - killed:.1f} s after it")
     finally:
         server.stop()
     after = server.query(trials)
@@ -50,7 +63,11 @@ def test_sigkill_mid_evaluation_then_restart_evaluates_every_submission_exactly_
     assert len(after) == 3 * SEEDS
     kept = {(s, seed): (pk, at) for s, seed, pk, at in after}
     assert all(kept[key] == value for key, value in before.items())  # a finished trial was never run again
-    rows = server.query("SELECT status, trials, succeeded, success_rate, attempts FROM course_submission")
-    assert all(r[:4] == ("done", SEEDS, SEEDS, 1.0) for r in rows), rows
-    assert sorted(r[4] for r in rows).count(2) >= 1  # the interrupted one was resumed by a second attempt
+    rows = server.query("SELECT id, status, trials, succeeded, success_rate, attempts, requeued, note "
+                        "FROM course_submission")
+    assert all(r[1:5] == ("done", SEEDS, SEEDS, 1.0) for r in rows), rows
+    running = [r for r in rows if states[r[0]] == "running"]
+    assert len(running) == 1 and running[0][5:7] == (2, 1), rows  # resumed once, by a second attempt
+    assert re.fullmatch(r"re-queued at \d\d:\d\d UTC: the worker evaluating it stopped", running[0][7]), running
+    assert all(r[6] == 0 and r[7] == "" for r in rows if r not in running)
     assert len(re.findall(r"Processed .*evaluate submission", server.log)) >= 1

@@ -27,7 +27,8 @@ class Assignment(models.Model):
                                     help_text="dotted keys students may change; '*' matches one or more levels")
     seeds = models.JSONField(default=list, help_text="official seeds, each submission is run on every one")
     ranking = models.CharField(max_length=300, blank=True, default="-success_rate,-wilson_low")
-    trial_seconds = models.FloatField(default=60.0, help_text="wall-clock limit of one trial")
+    trial_seconds = models.FloatField(default=60.0, help_text="CPU-time budget of one trial (seconds of processor "
+                                      "time; the config's max_time bounds its simulated time)")
     opens_at = models.DateTimeField(null=True, blank=True)
     due_at = models.DateTimeField(null=True, blank=True)
     late_policy = models.CharField(max_length=10, default=ACCEPT,
@@ -122,6 +123,10 @@ class Submission(models.Model):
     claim = models.BigIntegerField(null=True, blank=True, db_index=True,
                                    help_text="the queue task evaluating it (see robokit.server.fair_queue)")
     claimed_at = models.DateTimeField(null=True, blank=True, help_text="when a worker took it up")
+    worker = models.CharField(max_length=200, blank=True, help_text="the queue process evaluating it (host:pid/pid)")
+    heartbeat = models.DateTimeField(null=True, blank=True, help_text="last sign of life of its worker")
+    requeued = models.IntegerField(default=0, help_text="times it was handed back to the queue (a worker stopped)")
+    note = models.CharField(max_length=300, blank=True, help_text="what happened to it, for the student")
 
     class Meta:
         ordering = ["-submitted_at", "-id"]
@@ -144,7 +149,8 @@ class Submission(models.Model):
     def to_dict(self) -> dict[str, Any]:
         return {"id": self.pk, "uuid": str(self.uuid), "assignment": self.assignment.name,
                 "student": self.student.name, "submitted_at": self.submitted_at.isoformat(), "late": self.late,
-                "status": self.status, "seeds": len(self.assignment.seeds), "plugins": self.plugin_modules,
+                "status": self.status, "note": self.note, "seeds": len(self.assignment.seeds),
+                "plugins": self.plugin_modules,
                 "success_rate": self.success_rate,
                 "wilson95": [self.wilson_low, self.wilson_high], "url": f"/submissions/{self.pk}/"}
 

@@ -13,6 +13,7 @@ import os
 import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 from typing import Any
 
@@ -106,8 +107,37 @@ def migrate() -> None:
         raise UserError(f"database {describe_database()}: {exc}") from None
 
 
+def prepare_plugins() -> None:
+    """Discover and import every plugin type once, completely, before the process takes work: the web server's
+    threads and the queue's processes then only read the plugin tables, never fill them."""
+    from robokit.sweep.trial import plugins_for
+
+    plugins_for(()).complete()
+
+
+class _Stop:
+    """SIGTERM / SIGINT for a process that serves until told to stop: the first signal asks it to stop (and breaks
+    out of the wait it is in, when :attr:`breakable`); later ones are noted and change nothing, so stopping (the
+    workers above all) is never itself cut short."""
+
+    def __init__(self) -> None:
+        self.signal: str | None = None
+        self.breakable = False
+        for sig in (signal.SIGTERM, signal.SIGINT):
+            signal.signal(sig, self._handle)
+
+    def _handle(self, signum: int, _frame: Any) -> None:
+        if self.signal is not None:
+            return
+        self.signal = signal.Signals(signum).name
+        if self.breakable:
+            self.breakable = False
+            raise KeyboardInterrupt
+
+
 def cmd_serve(args: argparse.Namespace) -> int:
-    """``robokit serve``: migrate, say where the database is, serve until Ctrl-C / SIGTERM."""
+    """``robokit serve``: migrate, say where the database is, serve until Ctrl-C / SIGTERM (then stop its
+    workers, always)."""
     folder = setup(args.data)
     migrate()
     if args.create_teacher:
@@ -117,6 +147,7 @@ def cmd_serve(args: argparse.Namespace) -> int:
 
     from robokit.server.wsgi import application
 
+    prepare_plugins()  # wsgi did already; said here too, so the order is plain
     if args.host in ("0.0.0.0", "::") and not os.environ.get("ROBOKIT_ALLOWED_HOSTS"):
         settings.ALLOWED_HOSTS = ["*"]
     try:
@@ -126,63 +157,139 @@ def cmd_serve(args: argparse.Namespace) -> int:
         raise UserError(f"cannot listen on {args.host}:{args.port}: {exc.strerror or exc}") from None
     print(f"robokit serve: database {describe_database()}; uploads in {settings.MEDIA_ROOT}", flush=True)
     host = f"[{args.host}]" if ":" in args.host else args.host
-    print(f"robokit serve: http://{host}:{server.effective_port}/ (results: POST /api/robotics/result/; "
-          f"waitress, {args.threads} threads; data {folder}) - Ctrl-C stops", flush=True)
-    workers = _start_workers(folder, args.workers, settings)
-    signal.signal(signal.SIGTERM, _raise_interrupt)
+    stop = _Stop()
+    workers = None
     try:
-        server.run()  # returns on Ctrl-C / SIGTERM (waitress catches the KeyboardInterrupt and closes)
+        workers = _start_workers(folder, args.workers, settings)
+        print(f"robokit serve: http://{host}:{server.effective_port}/ (results: POST /api/robotics/result/; "
+              f"waitress, {args.threads} threads; data {folder}) - Ctrl-C stops", flush=True)
+        stop.breakable = stop.signal is None
+        if stop.breakable:
+            server.run()  # returns on the signal (waitress catches the KeyboardInterrupt and closes)
     except KeyboardInterrupt:
         pass
     finally:
+        stop.breakable = False
         server.close()
         _stop_workers(workers)
     print("robokit serve: stopped", file=sys.stderr)
     return 0
 
 
+WORKER_OF_ENV = "ROBOKIT_WORKER_OF"
+"""Set by ``robokit serve`` for the ``robokit worker`` it starts: the server's process id (the worker stops when
+that process is gone, even if it was killed)."""
+
+
 def _start_workers(folder: Path, n: int, settings: Any) -> subprocess.Popen[bytes] | None:
-    """``robokit worker --workers N`` beside the server (its own process group of queue processes)."""
+    """``robokit worker --workers N`` beside the server, in a session of its own (a Ctrl-C at the terminal reaches
+    the server, which stops the worker: it hands back what it was evaluating)."""
     if n <= 0 or getattr(settings, "QUEUE_SYNC", False):
         return None
     proc = subprocess.Popen([sys.executable, "-m", "robokit.cli", "worker", "--data", str(folder),
-                             "--workers", str(n)])
+                             "--workers", str(n)], env={**os.environ, WORKER_OF_ENV: str(os.getpid())},
+                            start_new_session=True)
     print(f"robokit serve: {n} evaluation worker{'s' if n != 1 else ''} (robokit worker, pid {proc.pid})",
           flush=True)
     return proc
 
 
 def _stop_workers(proc: subprocess.Popen[bytes] | None) -> None:
-    if proc is None or proc.poll() is not None:
+    """SIGTERM to the worker (it hands back its submissions and ends its processes in a second or two); SIGKILL to
+    its whole session if it has not ended after 30 s."""
+    if proc is None:
         return
-    proc.terminate()  # the queue finishes or hands back what it holds (an unfinished task comes back later)
+    if proc.poll() is None:
+        proc.terminate()
+        try:
+            proc.wait(timeout=30)
+        except subprocess.TimeoutExpired:
+            pass
     try:
-        proc.wait(timeout=30)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        proc.wait()
+        os.killpg(proc.pid, signal.SIGKILL)  # anything of its session still there (a stuck or killed worker)
+    except (ProcessLookupError, PermissionError):
+        pass
+    proc.wait()
 
 
 def cmd_worker(args: argparse.Namespace) -> int:
-    """``robokit worker``: django-q2's cluster on the server's database; Ctrl-C / SIGTERM stops it."""
-    os.environ["ROBOKIT_WORKERS"] = str(max(1, args.workers))
+    """``robokit worker``: django-q2's cluster on the server's database. Before it takes work: plugins loaded,
+    scratch folders of stopped evaluations removed, submissions of stopped workers handed back; then every
+    ``QUEUE_STALE / 3`` seconds the hand-back again. SIGTERM / SIGINT: its queue processes and their sandboxes are
+    ended at once and what they were evaluating goes back to the queue (no trial is lost, none graded by the
+    stop)."""
+    import socket
+
+    n = max(1, args.workers)
+    os.environ["ROBOKIT_WORKERS"] = str(n)
     setup(args.data)
     migrate()
+    from django import db
+    from django.conf import settings
+
+    from robokit.server import lease
+    from robokit.server.sandbox import remove_stale_scratch
+
+    name = f"{socket.gethostname()}:{os.getpid()}"
+    os.environ[lease.WORKER_ENV] = name
+    prepare_plugins()
+    removed = remove_stale_scratch()
+    if removed:
+        print(f"robokit worker: removed {len(removed)} scratch folder(s) of stopped evaluations", flush=True)
+    _reap(lease)
+    lease.top_up()
     from django_q.cluster import Cluster
 
-    print(f"robokit worker: {max(1, args.workers)} evaluation process(es) on {describe_database()}", flush=True)
-    cluster = Cluster()  # handles SIGTERM / SIGINT itself: stops its processes, then the sentinel ends
-    cluster.start()
+    print(f"robokit worker: {n} evaluation process(es) on {describe_database()}", flush=True)
+    serve_pid = int(os.environ.get(WORKER_OF_ENV) or 0)
+    cluster = Cluster()
+    stop = _Stop()  # after the cluster's constructor, which installs handlers of its own that wait for the tasks
+    db.connections.close_all()  # the cluster's processes are forked: none may share this process's connection
     try:
-        while cluster.sentinel is not None and cluster.sentinel.is_alive():
-            cluster.sentinel.join()
-    except KeyboardInterrupt:
-        cluster.stop()
+        cluster.start()
+        every, last = float(settings.QUEUE_STALE) / 3, time.monotonic()
+        while stop.signal is None and cluster.sentinel is not None and cluster.sentinel.is_alive():
+            if serve_pid and os.getppid() != serve_pid:
+                print("robokit worker: its server is gone: stopping", file=sys.stderr, flush=True)
+                break
+            if time.monotonic() - last >= every:
+                _reap(lease)
+                last = time.monotonic()
+            cluster.sentinel.join(timeout=1.0)
+    finally:
+        _end_descendants()
+        back = lease.hand_back(name, "the worker evaluating it was stopped")
+        if back:
+            print(f"robokit worker: handed {len(back)} submission(s) back to the queue", file=sys.stderr, flush=True)
+    print("robokit worker: stopped", file=sys.stderr, flush=True)
     return 0
 
 
-def _raise_interrupt(*_args: Any) -> None:
-    raise KeyboardInterrupt
+def _reap(lease: Any) -> None:
+    from django.db import DatabaseError, close_old_connections
+
+    try:
+        back = lease.reap_stale()
+    except DatabaseError as exc:  # the database away for a moment: next time
+        print(f"robokit worker: could not look for stopped evaluations: {exc}", file=sys.stderr, flush=True)
+        close_old_connections()
+        return
+    if back:
+        print(f"robokit worker: handed {len(back)} submission(s) of a stopped worker back to the queue "
+              f"({', '.join(map(str, back))})", flush=True)
+
+
+def _end_descendants() -> None:
+    """SIGKILL every process this one started, and theirs (queue processes, sandboxes)."""
+    import psutil
+
+    procs = psutil.Process().children(recursive=True)
+    for p in procs:
+        try:
+            p.kill()
+        except psutil.NoSuchProcess:
+            pass
+    psutil.wait_procs(procs, timeout=10)
 
 
 def _max_body(settings: Any) -> int:

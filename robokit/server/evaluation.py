@@ -20,11 +20,13 @@ from collections.abc import Callable, Iterator
 from typing import Any
 
 from django.db import IntegrityError, transaction
-from django.db.models import F
+from django.db.models import Q
 from django.utils import timezone
 
+from robokit.server import lease
 from robokit.server.assignments import Submission
 from robokit.server.fair_queue import claim
+from robokit.server.sandbox import Requeue, run_sandboxed
 
 log = logging.getLogger("robokit.server.evaluation")
 TASK = "robokit.server.evaluation.evaluate_submission"
@@ -54,8 +56,11 @@ def create_submission(admit: Callable[[], None] | None = None, **fields: Any) ->
 
 
 def official_overrides(trial_seconds: float) -> dict[str, Any]:
-    """What an official trial sets on top of the submitted config: the assignment's per-trial time limit."""
-    return {"world.max_wall_time": float(trial_seconds)}
+    """What an official trial sets on top of the submitted config: no wall-clock budget (a submitted
+    ``world.max_wall_time`` would make the outcome depend on the machine's load). The trial's budget is its CPU
+    time (``trial_seconds``, enforced by :func:`robokit.server.sandbox.official_task`) and the config's simulated
+    time."""
+    return {"world.max_wall_time": None}
 
 
 def trial_tasks(sub: Submission, seeds: list[int]) -> list[Any]:
@@ -74,18 +79,29 @@ def evaluate_submission(submission_id: int) -> str:
     sub = Submission.objects.select_related("assignment", "student").filter(pk=claim(submission_id)).first()
     if sub is None or sub.status in (Submission.DONE, Submission.ERROR):
         return "nothing to do"
-    Submission.objects.filter(pk=sub.pk).update(status=Submission.RUNNING, attempts=F("attempts") + 1)
+    me = lease.worker_id()
+    if not lease.take(sub.pk, me):
+        return "being evaluated by a live worker"
     seeds = [int(s) for s in sub.assignment.seeds]
     stored = set(sub.results.values_list("seed", flat=True))
     todo = trial_tasks(sub, [s for s in seeds if s not in stored])
+    beat = lease.Heartbeat(sub.pk, me)
     try:
         for row in run_trials(todo, float(sub.assignment.trial_seconds), dict(sub.plugin_files or {})):
+            if beat.lost:
+                return "handed over"  # re-queued meanwhile: whoever has it now runs the rest
             store_trial(sub, row)
+    except Requeue as exc:  # not the submission's doing: its unfinished trials go back to the queue
+        log.warning("evaluation of submission %s re-queued: %s", sub.pk, exc)
+        lease.requeue(sub.pk, str(exc), Q(status=Submission.RUNNING, worker=me))
+        return "re-queued"
     except Exception as exc:  # noqa: BLE001 - the submission says what went wrong; the queue task ends
         log.exception("evaluation of submission %s failed", sub.pk)
         Submission.objects.filter(pk=sub.pk).exclude(status=Submission.DONE).update(
             status=Submission.ERROR, error=f"{type(exc).__name__}: {exc}"[:2000])
         return "error"
+    finally:
+        beat.stop()
     return finish(sub)
 
 
@@ -97,8 +113,6 @@ def run_trials(tasks: list[Any], trial_seconds: float, files: dict[str, str] | N
     address = os.environ.get("ROBOKIT_RAY_ADDRESS", "").strip()
     if address:
         return _run_on_ray(address, tasks, trial_seconds, files or {})
-    from robokit.server.sandbox import run_sandboxed
-
     return run_sandboxed(tasks, trial_seconds, files or {})
 
 
@@ -106,13 +120,17 @@ def _run_on_ray(address: str, tasks: list[Any], trial_seconds: float,
                 files: dict[str, str]) -> Iterator[dict[str, Any]]:
     import shutil
 
-    from robokit.server.sandbox import scratch_folder
+    from robokit.server.sandbox import official_task, scratch_folder, trial_wall_limit
     from robokit.sweep.ray_backend import RayBackend
 
     folder = scratch_folder(files) if files else None
     try:
-        yield from RayBackend(address, trial_timeout=trial_seconds + 60,
-                              runtime_env={"working_dir": folder} if folder else None).run(tasks)
+        backend = RayBackend(address, trial_timeout=trial_wall_limit(trial_seconds),
+                             runtime_env={"working_dir": folder} if folder else None)
+        for row in backend.run([official_task(t, trial_seconds) for t in tasks]):
+            if row.get("outcome") == "error" and row.get("worker") == "ray":  # timed out, or its worker died
+                raise Requeue(f"Ray: {row.get('reason')}")
+            yield row
     finally:
         if folder:
             shutil.rmtree(folder, ignore_errors=True)

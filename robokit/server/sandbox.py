@@ -8,15 +8,23 @@ At submit time the web process starts the same child to check a config that name
 (:func:`check_sandboxed`): the child imports the student's modules as extra plugins, loads the config as a trial
 would, and writes one JSON line (valid, or the key and message), within :data:`CHECK_SECONDS`.
 
+What decides a trial's outcome is a function of the submission and the seed, never of the machine's load:
+
+- the config's simulated-time limit (``world.max_time``) and the trial's own CPU time: a trial whose thread has used
+  the assignment's ``trial_seconds`` of processor time is stopped at the next tick (outcome ``aborted``, the reason
+  says so); one stuck inside a single step for :data:`CPU_GRACE` more CPU seconds is stopped by the kernel
+  (``RLIMIT_CPU``), and that trial is ``aborted`` too. A submitted ``world.max_wall_time`` is set aside.
+- a wall-clock limit per trial remains as a safety net (:func:`trial_wall_limit`, generous): when it trips, the
+  process is killed and :class:`Requeue` is raised — an infrastructure failure, never a graded row; the trials not
+  finished go back to the queue. So does a child killed by anything but its own limits.
+
 What isolation there is (said plainly in docs/server.md):
 
-- a separate process, started fresh for each submission, in a new empty scratch folder (its working directory,
-  ``HOME`` and ``TMPDIR``), deleted afterwards; an environment with nothing of the server's (no secret key, no
-  database URL);
-- ``setrlimit``: CPU seconds (the trials' time limits plus a margin; the kernel kills the process past it), address
+- a separate process, started fresh for each submission in its own session (a Ctrl-C meant for the server does not
+  reach it; it ends when its parent does), in a new empty scratch folder (its working directory, ``HOME`` and
+  ``TMPDIR``), deleted afterwards; an environment with nothing of the server's (no secret key, no database URL);
+- ``setrlimit``: CPU seconds (each trial's budget, and all trials' plus a margin for the whole process), address
   space (``ROBOKIT_SANDBOX_MEMORY_MB``, default 3072), size of any file it writes (64 MiB), no core files;
-- a wall-clock limit per trial (robokit's own ``world.max_wall_time``: the trial ends ``aborted``), and one for the
-  whole process (the parent kills it);
 - no network when the machine lets an unprivileged user make a network namespace (``unshare --net
   --map-root-user``: only a loopback device, down); otherwise the process has the server's network.
 
@@ -28,29 +36,56 @@ it: that code runs here, inside these limits and nowhere else.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
 import threading
-from collections.abc import Iterator, Sequence
+import time
+from collections.abc import Callable, Iterator, Sequence
 from functools import cache
 from typing import Any
 
 FILE_LIMIT = 64 << 20
 MEMORY_MB = int(os.environ.get("ROBOKIT_SANDBOX_MEMORY_MB", 3072))
 CPU_MARGIN = 30
-WALL_MARGIN = 30
-"""Seconds the whole process may take beyond its trials' limits (start-up, loading plugins) before it is killed."""
+"""CPU seconds the whole process may use beyond its trials' budgets (start-up, loading plugins)."""
+CPU_GRACE = 5
+"""CPU seconds a trial may run past its budget inside one step before the kernel stops the process (SIGXCPU)."""
+CPU_POLL = 0.05
+"""Wall seconds between two looks at a running trial's CPU time."""
+WALL_FACTOR = 10.0
+WALL_MARGIN = 60.0
+"""The wall-clock safety net of one trial: ``WALL_FACTOR`` times its CPU allowance, plus ``WALL_MARGIN``."""
 CHECK_SECONDS = 30.0
 """Wall and CPU seconds for checking a submitted config with the student's plugin (start-up included)."""
+SCRATCH_PREFIX = "robokit-eval-"
+STALE_UNNAMED = 24 * 3600.0
+"""Age after which a scratch folder without a process id in its name counts as left behind."""
 
 
-def wall_limit(trials: int, trial_seconds: float) -> float:
-    """The wall-clock limit of a process that runs ``trials`` trials of at most ``trial_seconds`` each."""
-    return trials * trial_seconds + WALL_MARGIN
+class Requeue(Exception):
+    """The evaluation could not finish for a reason that is not the submission's (the wall-clock safety net
+    tripped, the process was killed from outside): the trials without a row go back to the queue."""
+
+
+def trial_wall_limit(trial_seconds: float) -> float:
+    """The wall-clock safety net of one trial whose CPU budget is ``trial_seconds`` (start-up included)."""
+    return WALL_FACTOR * (trial_seconds + CPU_GRACE) + WALL_MARGIN
+
+
+def process_cpu_limit(trials: int, trial_seconds: float) -> int:
+    """The CPU seconds of a process that runs ``trials`` trials of ``trial_seconds`` of CPU each."""
+    return int(trials * (trial_seconds + CPU_GRACE)) + CPU_MARGIN
+
+
+def budget_reason(trial_seconds: float) -> str:
+    """What stops a trial over its CPU budget (the run's reason reads "interrupted by <this> at t = ... s")."""
+    return f"its CPU-time budget ({trial_seconds:g} s of processor time)"
 
 
 @cache
@@ -72,34 +107,59 @@ def sandbox_command() -> list[str]:
     return ["unshare", "--net", "--map-root-user", *cmd] if network_isolation() else cmd
 
 
+def official_task(task: Any, trial_seconds: float) -> Any:
+    """``task`` with the CPU-time budget armed around its run (the hooks are plain functions: they pickle, so the
+    same task runs in the sandbox or on a Ray worker)."""
+    return dataclasses.replace(task, before=functools.partial(start_cpu_budget, float(trial_seconds)),
+                               after=stop_cpu_budget)
+
+
 def run_sandboxed(tasks: Sequence[Any], trial_seconds: float,
                   files: dict[str, str] | None = None) -> Iterator[dict[str, Any]]:
-    """Yield one row per task (:class:`robokit.sweep.trial.TrialTask`), as each trial ends, from a fresh
-    limited process. A trial the process did not finish (it hit a limit or died) gets an ``error`` row.
-    ``files`` (a student's plugin package, paths checked by :mod:`robokit.server.plugin_upload`) are written into
-    the scratch folder, the process's working directory, where the tasks' ``plugins`` modules are imported from."""
+    """Yield one row per task (:class:`robokit.sweep.trial.TrialTask`), as each trial ends, from fresh limited
+    processes (a process that ends during a trial is replaced for the trials after it). ``trial_seconds`` is each
+    trial's CPU budget. ``files`` (a student's plugin package, paths checked by :mod:`robokit.server.plugin_upload`)
+    are written into the scratch folder, the process's working directory, where the tasks' ``plugins`` modules are
+    imported from.
+
+    Raises:
+        Requeue: the wall-clock safety net tripped, or the process was killed from outside; the rows yielded so far
+            stand, the rest of the trials have none.
+    """
     from robokit.sweep.trial import error_row
 
     scratch = scratch_folder(files or {})
-    sent = [{**{f.name: getattr(t, f.name) for f in dataclasses.fields(t) if f.name not in ("before", "after")},
-             "base_dir": scratch} for t in tasks]
-    cpu = int(len(tasks) * trial_seconds) + CPU_MARGIN
-    done: set[str] = set()
-    child = None
+    todo = list(tasks)
     try:
-        child = _Child(scratch, {"tasks": sent, "limits": _limits(cpu)}, wall_limit(len(tasks), trial_seconds))
-        for line in child.lines():
-            if line.strip():
-                row = json.loads(line)
-                done.add(row["key"])
-                yield row
-        why = child.finish()
-        for t in tasks:
-            if t.key not in done:
-                yield error_row(t, f"the evaluation process ended before this trial finished ({why})")
+        while todo:
+            sent = [{**{f.name: getattr(t, f.name) for f in dataclasses.fields(t)
+                        if f.name not in ("before", "after")}, "base_dir": scratch} for t in todo]
+            request = {"tasks": sent, "trial_cpu": float(trial_seconds),
+                       "limits": _limits(process_cpu_limit(len(todo), trial_seconds))}
+            child = _Child(scratch, request, trial_wall_limit(trial_seconds))
+            try:
+                for line in child.lines():
+                    if line.strip():
+                        row = json.loads(line)
+                        todo = [t for t in todo if t.key != row["key"]]
+                        yield row
+                why = child.finish()
+            finally:
+                child.close()  # the caller stopped reading early: nothing of it may run on
+            if not todo:
+                break
+            if child.timed_out:
+                raise Requeue(f"a trial ran past the wall-clock safety limit ({trial_wall_limit(trial_seconds):g} s)"
+                              f" - the machine was too busy or the trial waited on something")
+            if child.code == -signal.SIGKILL:
+                raise Requeue("the evaluation process was killed from outside")
+            task = todo.pop(0)  # the trial it was running ends here; the others run in a new process
+            if child.code in (-signal.SIGXCPU, 128 + signal.SIGXCPU):
+                row = error_row(task, f"interrupted by {budget_reason(trial_seconds)}: stopped inside a step")
+                yield {**row, "outcome": "aborted"}
+            else:
+                yield error_row(task, f"the evaluation process ended during this trial ({why})")
     finally:
-        if child is not None:
-            child.close()  # the caller stopped reading early: nothing of it may run on
         shutil.rmtree(scratch, ignore_errors=True)
 
 
@@ -137,8 +197,9 @@ def check_sandboxed(config_text: str, source: str, overrides: dict[str, Any], fi
 
 
 def scratch_folder(files: dict[str, str]) -> str:
-    """A new scratch folder holding only ``files`` (``{relative path: text}``); the caller deletes it."""
-    scratch = tempfile.mkdtemp(prefix="robokit-eval-")
+    """A new scratch folder holding only ``files`` (``{relative path: text}``); the caller deletes it. Its name
+    carries this process's id, so a later worker can tell it was left behind (:func:`remove_stale_scratch`)."""
+    scratch = tempfile.mkdtemp(prefix=f"{SCRATCH_PREFIX}{os.getpid()}-")
     try:
         _write_files(scratch, files)
     except BaseException:
@@ -147,44 +208,87 @@ def scratch_folder(files: dict[str, str]) -> str:
     return scratch
 
 
+def remove_stale_scratch(folder: str | None = None) -> list[str]:
+    """Remove the scratch folders in ``folder`` (the temporary folder) whose process no longer runs (an evaluation
+    killed mid-way); returns the folders removed. A folder of a running process is left alone."""
+    import psutil
+
+    folder = folder or tempfile.gettempdir()
+    removed = []
+    try:
+        names = os.listdir(folder)
+    except OSError:
+        return []
+    for name in names:
+        if not name.startswith(SCRATCH_PREFIX):
+            continue
+        pid = name[len(SCRATCH_PREFIX):].split("-", 1)[0]
+        path = os.path.join(folder, name)
+        if psutil.pid_exists(int(pid)) if pid.isdigit() else _younger(path, STALE_UNNAMED):
+            continue
+        if os.path.isdir(path) and not os.path.islink(path):
+            shutil.rmtree(path, ignore_errors=True)
+            removed.append(path)
+    return removed
+
+
+def _younger(path: str, seconds: float) -> bool:
+    try:
+        return time.time() - os.stat(path).st_mtime < seconds
+    except OSError:
+        return False
+
+
 def _limits(cpu: int) -> dict[str, int]:
     return {"cpu": cpu, "memory_mb": MEMORY_MB, "file": FILE_LIMIT}
 
 
 class _Child:
-    """The limited child process, started in ``scratch`` with ``request`` on its stdin and killed after
-    ``wall`` seconds."""
+    """The limited child process, started in ``scratch`` with ``request`` on its stdin, in a session of its own;
+    killed when ``wall`` seconds pass without a row (:attr:`timed_out`)."""
 
     def __init__(self, scratch: str, request: dict[str, Any], wall: float) -> None:
         env = {"PATH": os.environ.get("PATH", "/usr/bin:/bin"), "HOME": scratch, "TMPDIR": scratch,
                "LANG": "C.UTF-8", "MPLBACKEND": "Agg", "PYTHONDONTWRITEBYTECODE": "1"}
         self.proc = subprocess.Popen(sandbox_command(), stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                     stderr=subprocess.PIPE, cwd=scratch, env=env, text=True)
-        self.timer = threading.Timer(wall, self.proc.kill)
-        self.timer.start()
+                                     stderr=subprocess.PIPE, cwd=scratch, env=env, text=True,
+                                     start_new_session=True)
+        self.wall, self.timed_out, self.code = wall, False, 0
+        self.deadline = time.monotonic() + wall
+        self.ended = threading.Event()
+        threading.Thread(target=self._watch, daemon=True).start()
         assert self.proc.stdin is not None and self.proc.stderr is not None
         self.err = _Collect(self.proc.stderr)
         self.proc.stdin.write(json.dumps(request))
         self.proc.stdin.close()
 
+    def _watch(self) -> None:
+        while not self.ended.wait(max(0.0, min(1.0, self.deadline - time.monotonic()))):
+            if time.monotonic() >= self.deadline and self.proc.poll() is None:
+                self.timed_out = True
+                self.proc.kill()
+                return
+
     def lines(self) -> Iterator[str]:
-        """The child's stdout, line by line, as it writes them."""
+        """The child's stdout, line by line, as it writes them (each row restarts the wall-clock safety net)."""
         assert self.proc.stdout is not None
-        yield from self.proc.stdout
+        for line in self.proc.stdout:
+            self.deadline = time.monotonic() + self.wall
+            yield line
 
     def finish(self) -> str:
         """Wait for the child; why it ended (for messages)."""
-        code = self.proc.wait()
-        self.timer.cancel()
+        self.code = self.proc.wait()
+        self.ended.set()
         self.err.join()
-        return _why(code, self.err.text)
+        return _why(self.code, self.err.text)
 
     def close(self) -> None:
         """Kill the child if it still runs."""
-        self.timer.cancel()
+        self.ended.set()
         if self.proc.poll() is None:
             self.proc.kill()
-            self.proc.wait()
+        self.code = self.proc.wait()
 
 
 def _write_files(scratch: str, files: dict[str, str]) -> None:
@@ -212,9 +316,9 @@ class _Collect(threading.Thread):
 
 
 def _why(code: int, stderr: str) -> str:
-    if code == -9:
-        return "killed: CPU or wall-clock limit reached"
-    if code in (-24, 152):
+    if code == -signal.SIGKILL:
+        return "killed"
+    if code in (-signal.SIGXCPU, 128 + signal.SIGXCPU):
         return "CPU time limit reached"
     last = stderr.strip().splitlines()[-1] if stderr.strip() else ""
     return f"exit code {code}{': ' + last[:300] if last else ''}"
@@ -238,11 +342,80 @@ def apply_limits(limits: dict[str, int]) -> None:
     _limit(resource, resource.RLIMIT_CORE, 0)
 
 
+def _cpu_soft_limit(seconds: float) -> None:
+    """Lower the soft CPU limit to ``seconds`` from now (the kernel sends SIGXCPU there, which ends this process);
+    the hard limit set by :func:`apply_limits` stays."""
+    import math
+    import resource
+
+    used = resource.getrusage(resource.RUSAGE_SELF)
+    _, hard = resource.getrlimit(resource.RLIMIT_CPU)
+    soft = math.ceil(used.ru_utime + used.ru_stime + seconds)
+    if hard != resource.RLIM_INFINITY:
+        soft = min(soft, hard)
+    resource.setrlimit(resource.RLIMIT_CPU, (soft, hard))
+
+
+class _CpuWatch(threading.Thread):
+    """Stops a simulation once the thread that runs it has used ``seconds`` of CPU time (its own thread's clock
+    where the platform has one, else the process's)."""
+
+    def __init__(self, sim: Any, seconds: float) -> None:
+        super().__init__(daemon=True)
+        self.sim, self.seconds = sim, seconds
+        self.clock: Callable[[], float] = time.process_time
+        try:
+            self.clock = functools.partial(time.clock_gettime, time.pthread_getcpuclockid(threading.get_ident()))
+        except (AttributeError, OSError):
+            pass
+        self.start_cpu = self.clock()
+        self.done = threading.Event()
+        self.start()
+
+    def run(self) -> None:
+        while not self.done.wait(CPU_POLL):
+            if self.clock() - self.start_cpu >= self.seconds:
+                self.sim.interrupt(budget_reason(self.seconds))
+                return
+
+
+_watch: list[_CpuWatch] = []
+
+
+def start_cpu_budget(seconds: float, sim: Any, _seed: int) -> None:
+    """A trial's ``before`` hook: watch its CPU time from now on (see :func:`official_task`)."""
+    stop_cpu_budget(None, None)
+    _watch.append(_CpuWatch(sim, seconds))
+
+
+def stop_cpu_budget(_sim: Any, _result: Any) -> dict[str, Any]:
+    """A trial's ``after`` hook: the run ended; no figures of its own (a figure must not depend on the machine)."""
+    while _watch:
+        _watch.pop().done.set()
+    return {}
+
+
+def _end_with_parent() -> None:
+    """End this process when its parent (the queue worker) is gone: nothing of an evaluation outlives it."""
+    parent = os.getppid()
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(1.0)
+        os._exit(1)
+
+    threading.Thread(target=watch, daemon=True).start()
+
+
 def main() -> int:
     """The child: limits first, then the trials (one JSON row per line on the original stdout) or the config
-    check (one JSON line: ``{"ok": true}`` or the field and message)."""
+    check (one JSON line: ``{"ok": true}`` or the field and message). SIGINT and SIGTERM are held back: only
+    its parent stops it (SIGKILL), so a signal can never end a trial as if the submission had stopped."""
+    if hasattr(signal, "pthread_sigmask"):
+        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
     request = json.loads(sys.stdin.read())
     apply_limits(request["limits"])
+    _end_with_parent()
     out = os.fdopen(os.dup(1), "w", encoding="utf-8")
     devnull = os.open(os.devnull, os.O_WRONLY)
     os.dup2(devnull, 1)  # pybullet prints its banner at C level: keep the rows' stream clean
@@ -257,9 +430,12 @@ def main() -> int:
         return 0
     from robokit.sweep.trial import TrialTask, run_trial_safely
 
+    budget = float(request["trial_cpu"])
     for fields in request["tasks"]:
         fields["plugins"] = tuple(fields.get("plugins") or ())
-        row = run_trial_safely(TrialTask(**fields))
+        _cpu_soft_limit(budget + CPU_GRACE)
+        row = run_trial_safely(official_task(TrialTask(**fields), budget))
+        stop_cpu_budget(None, None)
         out.write(json.dumps(row, separators=(",", ":")) + "\n")
         out.flush()
     return 0

@@ -16,8 +16,12 @@ variable                          meaning (default)
                                   (e.g. ``https://robots.school.org``)
 ``ROBOKIT_MAX_RESULT_BYTES``      largest result body accepted (1 MiB)
 ``ROBOKIT_MAX_VIDEO_BYTES``       largest video upload (50 MiB); plots 5 MiB, traces 20 MiB
-``ROBOKIT_QUEUE_TIMEOUT``         seconds one evaluation may take before the queue stops it (3600)
-``ROBOKIT_QUEUE_RETRY``           seconds before a task whose worker died is handed out again (timeout + 60)
+``ROBOKIT_QUEUE_TIMEOUT``         seconds one evaluation may take before the queue stops it (21600); what is
+                                  stored stays, the rest is handed back
+``ROBOKIT_QUEUE_RETRY``           seconds before the queue hands out again a task it never saw end (timeout + 60)
+``ROBOKIT_QUEUE_HEARTBEAT``       seconds between two signs of life of a worker evaluating a submission (15)
+``ROBOKIT_QUEUE_STALE``           seconds without a sign of life after which a submission goes back to the queue
+                                  (90)
 ``ROBOKIT_QUEUE_SYNC``            ``1``: evaluate submissions in the posting process, without workers (off)
 ``ROBOKIT_WORKERS``               evaluation processes of ``robokit worker`` (set by ``--workers``)
 ================================  =========================================================================
@@ -161,11 +165,14 @@ LOGGING = {
 }
 
 INSTALLED_APPS.append("django_q")
-QUEUE_TIMEOUT = int(os.environ.get("ROBOKIT_QUEUE_TIMEOUT", 3600))
+QUEUE_TIMEOUT = int(os.environ.get("ROBOKIT_QUEUE_TIMEOUT", 6 * 3600))
+QUEUE_HEARTBEAT = float(os.environ.get("ROBOKIT_QUEUE_HEARTBEAT", 15))
+QUEUE_STALE = float(os.environ.get("ROBOKIT_QUEUE_STALE", 90))
 Q_CLUSTER = {
     # django-q2 with its ORM broker: the queue is a table of this database (SQLite is enough for a class). A task
-    # taken by a worker is locked for `retry` seconds and deleted when done; a worker killed mid-task leaves it
-    # locked, and after `retry` seconds another (or the restarted) worker takes it again.
+    # taken by a worker is locked for `retry` seconds and deleted when done. A worker killed mid-task stops its
+    # submission's heartbeat: robokit.server.lease hands the submission back with a new task within about
+    # QUEUE_STALE seconds; the old task, handed out again after `retry`, then finds nothing to do.
     "name": "robokit",
     "orm": "default",
     "workers": int(os.environ.get("ROBOKIT_WORKERS", 1)),

@@ -42,13 +42,15 @@ class Command(BaseCommand):
         parser.add_argument("--due", help="due at (ISO 8601); default never")
         parser.add_argument("--late", choices=[Assignment.ACCEPT, Assignment.REFUSE], default=Assignment.ACCEPT,
                             help="after the due time: accept and mark late (default) or refuse")
-        parser.add_argument("--trial-seconds", type=float, default=60.0, help="wall-clock limit of one trial")
+        parser.add_argument("--trial-seconds", type=float, default=60.0,
+                            help="CPU-time budget of one trial in seconds of processor time (default 60); the "
+                                 "config's world.max_time bounds its simulated time")
         parser.add_argument("--allow-plugins", action="store_true", help="students may send their own plugin "
                             "package with a submission (run only in the evaluation sandbox)")
 
     def handle(self, *args: Any, **opts: Any) -> None:
         from robokit.errors import UserError
-        from robokit.server.sandbox import wall_limit
+        from robokit.server.sandbox import process_cpu_limit
         from robokit.server.submitted import SubmissionError, parse_toml, validate_config
         from robokit.sweep.spec import parse_seeds
 
@@ -62,10 +64,11 @@ class Command(BaseCommand):
             raise CommandError(f"--config {path}: {exc.strerror or exc}") from None
         except (UserError, SubmissionError) as exc:
             raise CommandError(f"{path}: {exc}") from None
-        if wall_limit(len(seeds), opts["trial_seconds"]) > settings.QUEUE_TIMEOUT:
+        if process_cpu_limit(len(seeds), opts["trial_seconds"]) > settings.QUEUE_TIMEOUT:
             raise CommandError(f"--seeds/--trial-seconds: {len(seeds)} trials of up to {opts['trial_seconds']:g} s "
-                               f"may take longer than the queue lets one evaluation run ({settings.QUEUE_TIMEOUT} s, "
-                               f"ROBOKIT_QUEUE_TIMEOUT); use fewer seeds, a shorter limit or a longer timeout")
+                               f"of CPU time may take longer than the queue lets one evaluation run "
+                               f"({settings.QUEUE_TIMEOUT} s, ROBOKIT_QUEUE_TIMEOUT); use fewer seeds, a smaller "
+                               f"budget or a longer timeout")
         behaviour = parse_toml(text).get("behaviour", {})
         kind = opts["kind"] or (behaviour.get("type", "") if isinstance(behaviour, dict) else "")
         project, _ = Project.objects.get_or_create(classroom=room, name=opts["name"],
