@@ -1,6 +1,6 @@
 """Text a student pastes or trusts: shell blocks in README.md and every page under docs/ (lessons in both languages
 included) hold no ``<placeholder>`` a shell would choke on, the configs' comments say where results really go, and
-the error lines the README shows are what robokit prints."""
+the error lines docs/configs.md shows are what robokit prints."""
 
 from __future__ import annotations
 
@@ -47,13 +47,13 @@ def test_config_comments_name_the_run_folder_layout(config: Path) -> None:
             assert not re.search(r"results/<run[ _]id>\.json", line), f"{config.name}:{n}: {line.strip()}"
 
 
-def test_the_readme_error_lines_are_what_validate_prints(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+def test_the_config_guide_error_lines_are_what_validate_prints(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
                                                          capsys: pytest.CaptureFixture[str]) -> None:
-    """README's config reference shows two error lines for ``configs/x.toml``: a negative mass and a misspelt key.
+    """docs/configs.md shows two error lines for ``configs/x.toml``: a negative mass and a misspelt key.
     Both configs are written here and validated; the lines must be what robokit prints (``...`` ends a cut)."""
     from robokit.cli import main
 
-    shown = [line for line in (ROOT / "README.md").read_text(encoding="utf-8").splitlines()
+    shown = [line for line in (ROOT / "docs" / "configs.md").read_text(encoding="utf-8").splitlines()
              if line.startswith("robokit: error: configs/x.toml:")]
     assert len(shown) == 2
     (tmp_path / "configs").mkdir()
