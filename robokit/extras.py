@@ -12,7 +12,7 @@ from robokit.errors import UserError
 
 EXTRAS: dict[str, tuple[str, ...]] = {
     "video": ("matplotlib", "imageio_ffmpeg"),
-    "server": ("django", "dj_database_url", "waitress", "whitenoise", "lxml", "django_q"),
+    "server": ("django", "dj_database_url", "waitress", "whitenoise", "lxml", "django_q", "psutil"),
     "ray": ("ray",),
     "gym": ("gymnasium",),
     "rerun": ("rerun", "mcap"),
