@@ -124,7 +124,7 @@ def test_a_filesystem_error_is_reported_as_one_not_as_a_connection_failure(tmp_p
 
 
 def test_lock_files_do_not_pile_up(tmp_path: Path, server, monkeypatch) -> None:
-    """Every delivered run leaves nothing behind: no entry, no lock file (it used to leave one lock per run)."""
+    """Every delivered run leaves nothing behind: no entry, no lock file (not one lock per run)."""
     from robokit.config import load_config
     from robokit.plugin_api.plugins import load_plugins
     from robokit.runner import run_config
