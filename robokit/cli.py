@@ -494,13 +494,17 @@ def cmd_plugins(args: argparse.Namespace) -> int:
 def cmd_inspect(args: argparse.Namespace) -> int:
     """``robokit inspect``: lesson 02's joint table of a URDF."""
     from robokit.core.world import World
+    from robokit.robot.cli import inspect_links, inspect_path, print_links
 
+    urdf = inspect_path(args.urdf)  # a xacro file is expanded first
     with World.create() as world:
-        world.load_urdf("robot", args.urdf, fixed_base=True)
+        world.load_urdf("robot", urdf, fixed_base=True)
         joints = world.joints("robot")
         base = world.base_link_name("robot")
+        links = inspect_links(world, urdf)
     if args.json:
-        print(json.dumps({"urdf": args.urdf, "base_link": base, "joints": [j.__dict__ for j in joints]}, indent=2))
+        print(json.dumps({"urdf": args.urdf, "base_link": base, "joints": [j.__dict__ for j in joints],
+                          "links": links}, indent=2))
         return EXIT_OK
     print(f"{args.urdf}: base link {base!r}, {len(joints)} joints")
     header = ("idx", "name", "type", "lower", "upper", "max_force", "max_vel", "child link")
@@ -508,6 +512,7 @@ def cmd_inspect(args: argparse.Namespace) -> int:
     for j in joints:
         print(f"{j.index:>3}  {j.name:<28} {j.type:<10} {j.lower:>9.3f} {j.upper:>9.3f} {j.max_force:>9.1f} "
               f"{j.max_velocity:>8.2f}  {j.child_link}")
+    print_links(links)
     return EXIT_OK
 
 

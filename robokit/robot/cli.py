@@ -108,3 +108,41 @@ def cmd_show(args: argparse.Namespace) -> int:
     out = draw_robot(robot, args.output, height=args.size)
     print(f"wrote {out}")
     return EXIT_OK
+
+
+def inspect_path(name: str) -> str:
+    """What ``robokit inspect`` loads: a xacro file expanded (default arguments), anything else as given."""
+    from robokit.robot.expand import expand_xacro, is_xacro
+
+    return str(expand_xacro(find_file(name))) if is_xacro(name) else name
+
+
+def inspect_links(world: Any, urdf: str) -> list[dict[str, Any]]:
+    """Each link of the loaded ``robot``: name, mass (kg, as the file gives it; the engine's default for a link
+    without one), centre of mass (m, link frame) and inertia (kg·m², about the centre of mass, as the
+    file gives it; None when the file has none)."""
+    from robokit.robot.model import read_robot
+
+    model = read_robot(world.resolve_urdf(urdf))
+    rows = []
+    for index, name in enumerate(world.link_names("robot"), start=-1):
+        link = model.link(name)
+        mass = link.mass if link is not None and link.mass is not None else world.mass("robot", index)
+        rows.append({"link": name, "mass": float(mass),
+                     "com": list(link.inertial_xyz) if link else None,
+                     "inertia": dict(zip(("ixx", "ixy", "ixz", "iyy", "iyz", "izz"), link.inertia, strict=True))
+                     if link and link.inertia else None})
+    return rows
+
+
+def print_links(rows: list[dict[str, Any]]) -> None:
+    """The link table under ``robokit inspect``'s joint table."""
+    total = sum(r["mass"] for r in rows)
+    print(f"links: total mass {total:.3f} kg")
+    print("{:<28} {:>9}  {:>10} {:>10} {:>10}  {}".format("link", "mass kg", "ixx", "iyy", "izz",
+                                                          "ixy ixz iyz (kg·m²)"))
+    for r in rows:
+        i = r["inertia"]
+        moments = (f"{i['ixx']:>10.3g} {i['iyy']:>10.3g} {i['izz']:>10.3g}  {i['ixy']:.3g} {i['ixz']:.3g} "
+                   f"{i['iyz']:.3g}") if i else f"{'(none in the file)':>32}"
+        print(f"{r['link']:<28} {r['mass']:>9.3f}  {moments}")
