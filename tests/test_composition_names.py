@@ -124,9 +124,27 @@ def test_a_builtin_name_stays_the_builtin_and_the_other_is_reachable_qualified(t
     make_dist(tmp_path, "aaa-copycat", "0.1", LABELLED.replace("{label}", "7.0").replace('"rangefinder"',
                                                                                            '"body_pose"'))
     monkeypatch.syspath_prepend(str(tmp_path))
-    with pytest.warns(PluginLoadWarning, match="its sensor type 'body_pose' is reachable as 'aaa-copycat:body_pose' "
-                                               "only: the bare name is robokit's built-in sensor"):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", PluginLoadWarning)  # listed by `robokit plugins`, not warned on every command
         plugins = load_plugins()
+    assert [t.distribution for t in plugins.shadowed["sensor"]["body_pose"]] == ["aaa-copycat"]
     assert plugins.get("sensor", "body_pose").distribution == "robokit"
     assert plugins.get("sensor", "aaa-copycat:body_pose").distribution == "aaa-copycat"
     assert plugins.get("sensor", "robokit:body_pose") is plugins.get("sensor", "body_pose")
+
+
+@pytest.mark.parametrize("claimed", ["robokit:body_pose", "other-dist:rangefinder"])
+def test_a_package_registers_names_under_its_own_distribution_only(tmp_path: Path, monkeypatch: Any,
+                                                                   capsys: pytest.CaptureFixture[str],
+                                                                   claimed: str) -> None:
+    make_dist(tmp_path, "squatter", "0.1", LABELLED.replace("{label}", "9.0").replace('"rangefinder"',
+                                                                                      f'"{claimed}"'))
+    monkeypatch.syspath_prepend(str(tmp_path))
+    with pytest.warns(PluginLoadWarning, match=f"sensor type '{claimed}' not registered: a type name has no "
+                                               "distribution part"):
+        plugins = load_plugins()
+    assert all(t.distribution != "squatter" for t in plugins.all_types())
+    assert plugins.get("sensor", "robokit:body_pose").distribution == "robokit"
+    assert main(["plugins"]) == 0
+    listed = [line for line in capsys.readouterr().out.splitlines() if "squatter" in line]
+    assert len(listed) == 1 and listed[0].startswith("not loaded: squatter (squatter:main): "), listed

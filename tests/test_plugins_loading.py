@@ -7,6 +7,7 @@ plugin manager every time, so nothing leaks between tests.
 from __future__ import annotations
 
 import json
+import warnings
 from pathlib import Path
 
 import pytest
@@ -108,25 +109,33 @@ def test_two_types_with_one_name_make_the_bare_name_ambiguous_and_both_are_liste
 
     assert main(["plugins"]) == 0  # every command still works
     out, err = capsys.readouterr()
-    assert [line.split()[1] for line in out.splitlines() if "rangefinder" in line] == [
-        "alpha-sensors:rangefinder", "beta-sensors:rangefinder"]
+    assert [line.split()[1] for line in out.splitlines() if "rangefinder" in line and
+            not line.startswith("clash: ")] == ["alpha-sensors:rangefinder", "beta-sensors:rangefinder"]
+    assert [line for line in out.splitlines() if line.startswith("clash: ")] == [  # once, with both owners
+        "clash: sensor type 'rangefinder': alpha-sensors 1.0 (as 'alpha-sensors:rangefinder') and beta-sensors 2.0 "
+        "(as 'beta-sensors:rangefinder')"]
     assert "rangefinder" not in err
 
 
-def test_a_type_clashing_with_a_builtin_is_skipped_and_the_builtin_keeps_its_name(tmp_path, monkeypatch, capsys):
+def test_a_type_clashing_with_a_builtin_is_listed_qualified_and_the_builtin_keeps_its_name(tmp_path, monkeypatch,
+                                                                                            capsys):
     # "aaa-copycat" sorts before "robokit": it is loaded first, yet the built-in keeps the name
     make_dist(tmp_path / "dists", "aaa-copycat", "0.1", GOOD_SENSOR, type_name="body_pose")
     monkeypatch.syspath_prepend(str(tmp_path / "dists"))
-    with pytest.warns(PluginLoadWarning, match=r"robokit plugin aaa-copycat 0\.1: its sensor type 'body_pose' is "
-                                               r"reachable as 'aaa-copycat:body_pose' only: the bare name is "
-                                               r"robokit's built-in sensor"):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", PluginLoadWarning)  # a clash warns on no command
         plugins = load_plugins()
     assert plugins.get("sensor", "body_pose").origin.startswith("robokit ")
 
     assert main(["plugins"]) == 0
     out, err = capsys.readouterr()
-    assert [line.split()[2] for line in out.splitlines() if " body_pose " in line] == ["robokit"]
-    assert len([line for line in err.splitlines() if "aaa-copycat" in line]) == 1
+    assert [line.split()[1:3] for line in out.splitlines()
+            if line.startswith("sensor ") and line.split()[1].endswith("body_pose")] == [
+        ["aaa-copycat:body_pose", "aaa-copycat"], ["body_pose", "robokit"]]
+    assert [line for line in out.splitlines() if line.startswith("clash: ")] == [
+        "clash: sensor type 'body_pose': robokit 0.1.0 (the bare name) and aaa-copycat 0.1 (as "
+        "'aaa-copycat:body_pose')"]
+    assert "aaa-copycat" not in err
     config = tmp_path / "c.toml"
     config.write_text('[world]\nmax_time = 0.05\n[bodies.ball]\nshape = "sphere"\nradius = 0.1\nmass = 1\n'
                       'position = [0, 0, 1]\n[sensors.s]\ntype = "body_pose"\n')

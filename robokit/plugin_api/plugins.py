@@ -141,6 +141,8 @@ class Plugins:
         """Every registered type by kind, then (normalised distribution name, type name)."""
         self.ambiguous: dict[str, dict[str, list[PluginType]]] = {k: {} for k in KINDS}
         """Bare type names registered by two or more third-party distributions: a config must say which."""
+        self.shadowed: dict[str, dict[str, list[PluginType]]] = {k: {} for k in KINDS}
+        """Third-party types whose bare name is a built-in's: reachable as ``distribution:type`` only."""
 
     def want(self, kind: str, name: str) -> None:
         """Make sure the type ``kind``/``name`` is loaded if any plugin provides it (imports its module only,
@@ -205,7 +207,25 @@ class Plugins:
             self.complete()
             named = [(n, t.distribution, t) for n, t in self.types[kind].data.items()]
             named += [(n, t.distribution, t) for n, clash in self.ambiguous[kind].items() for t in clash]
+            named += [(n, t.distribution, t) for n, others in self.shadowed[kind].items() for t in others]
             out += [t for _, _, t in sorted(named, key=lambda x: (x[0], x[1]))]
+        return out
+
+    def listed_name(self, t: PluginType) -> str:
+        """The name a config uses for ``t``: its bare name when that leads to it, else ``distribution:type``."""
+        return t.name if self.types[t.kind].data.get(t.name) is t else t.qualified
+
+    def clashes(self) -> list[str]:
+        """One line per type name two distributions register, naming both owners and how to reach each."""
+        self.complete()
+        out = []
+        for kind in KINDS:
+            for name, others in sorted(self.shadowed[kind].items()):
+                mine = self.types[kind].data[name]
+                out.append(f"{kind} type {name!r}: {mine.origin} (the bare name) and "
+                           + " and ".join(f"{t.origin} (as {t.qualified!r})" for t in others))
+            for name, clash in sorted(self.ambiguous[kind].items()):
+                out.append(f"{kind} type {name!r}: " + " and ".join(f"{t.origin} (as {t.qualified!r})" for t in clash))
         return out
 
     @property
@@ -354,6 +374,11 @@ def _collect(plugins: Plugins, kind: str, origins: dict[str, tuple[str, str]], o
 
         def register(type_name: str, cls: type, schema: type | None = None, *, _p: str = impl.plugin_name,
                      _d: str = dist, _v: str = version) -> None:
+            if not isinstance(type_name, str) or not type_name or ":" in type_name:
+                bare = str(type_name).rpartition(":")[2]
+                _reject(plugins, f"{_d} ({_p})", f"{kind} type {type_name!r} not registered: a type name has no "
+                        f"distribution part: register {bare!r}, and configs reach it as '{_d}:{bare}'")
+                return
             new = PluginType(kind, type_name, cls, schema, _d, _v, _p)
             _add(plugins, new)
 
@@ -372,8 +397,9 @@ def _add(plugins: Plugins, new: PluginType) -> None:
     """Register a type under ``distribution:type`` always, and under its bare name unless that clashes.
 
     A clash is never settled by load order: robokit's built-in types keep their bare names (the other type is
-    reachable as ``distribution:type`` only, with a warning); between two other distributions the bare name becomes
-    ambiguous (using it is a config error listing both; ``robokit plugins`` lists both).
+    reachable as ``distribution:type`` only); between two other distributions the bare name becomes ambiguous
+    (using it is a config error listing both). ``robokit plugins`` lists every owner, and the clash once
+    (:meth:`Plugins.clashes`); nothing is printed on other commands.
     """
     kind, name = new.kind, new.name
     plugins.qualified[kind].setdefault((normalized(new.distribution), name), new)
@@ -394,9 +420,7 @@ def _add(plugins: Plugins, new: PluginType) -> None:
     if builtin:
         other = new if builtin[0] is existing else existing
         types[name] = builtin[0]
-        warnings.warn(f"robokit plugin {other.origin}: its {kind} type {name!r} is reachable as "
-                      f"{other.qualified!r} only: the bare name is robokit's built-in {kind}", PluginLoadWarning,
-                      stacklevel=4)
+        plugins.shadowed[kind].setdefault(name, []).append(other)
         return
     del types[name]  # no warning: an ambiguous name is an error only where a config uses it
     clash[name] = sorted([existing, new], key=lambda t: normalized(t.distribution))
