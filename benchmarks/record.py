@@ -6,7 +6,7 @@
 2. **Video render rate**: frames per second of ``robokit video``'s renderer for the recorded run (rebuild the
    scene, set the poses, render each frame with TinyRenderer and draw the overlay; no encoding), on the same run:
    at ``--size`` serial (one process) and parallel (``--workers``, default one per core: today's default command),
-   and the default command when issue 31 was filed (640x480, one process; the per-frame code is the same), with
+   and the former default command (640x480, one process; the per-frame code is the same), with
    wall time and CPU time (a parallel figure includes its workers' CPU and their start-up). Two labelled ratios:
    serial vs workers at the same size, and the default command before/after (smaller default frame + workers).
    Then, in CPU time, the best speed-up two cores allow at the same size given the serial parts (scene rebuild, a
@@ -35,7 +35,7 @@ from robokit.runner import run_config
 
 CONFIG = Path(__file__).resolve().parent.parent / "configs" / "sort_robot.toml"
 OLD_SIZE = (640, 480)
-"""``robokit video``'s default frame size when issue 31 was filed (rendered in one process then)."""
+"""``robokit video``'s former default frame size (rendered in one process)."""
 
 
 def one_run(plugins: Any, record: bool, folder: Path) -> tuple[float, dict]:
@@ -116,7 +116,7 @@ def render_rate(run: Path, size: tuple[int, int], limit: int, workers: int) -> N
     (_, _, serial, _), (_, _, parallel, _), (_, _, old, _) = rows
     print(f"  same size, serial vs {workers} workers ({size[0]}x{size[1]}): {serial / parallel:.2f}x (wall)")
     print(f"  default command before/after (smaller default frame + workers; {OLD_SIZE[0]}x{OLD_SIZE[1]} serial when "
-          f"issue 31 was filed vs {size[0]}x{size[1]} with {workers} workers now): {old / parallel:.2f}x (wall)")
+          f"formerly vs {size[0]}x{size[1]} with {workers} workers now): {old / parallel:.2f}x (wall)")
     print(f"  load average now: {' '.join(f'{v:.2f}' for v in os.getloadavg())}")
 
 

@@ -164,7 +164,7 @@ def test_world_restore_then_steps_equal_a_fresh_build(restored_sim: Any, moves: 
 @pytest.mark.parametrize("engine", [
     pytest.param("pybullet", marks=pytest.mark.xfail(strict=True, reason=(
         "PyBullet's World.snapshot() switches on deterministicOverlappingPairs as a side effect: a world that was "
-        "snapshotted steps differently from a fresh build that was not (reported to the lead)"))),
+        "snapshotted steps differently from a fresh build that was not"))),
     "mujoco"])
 def test_taking_a_snapshot_changes_nothing_of_the_next_steps(engine: str) -> None:
     """Taking a snapshot only reads: a world that took one steps exactly as one that did not."""

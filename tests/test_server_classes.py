@@ -1,4 +1,4 @@
-"""Projects and their rankings belong to a class: a teacher never sees or changes another teacher's (issue 23).
+"""Projects and their rankings belong to a class: a teacher never sees or changes another teacher's.
 
 Two teachers: ``teacher`` owns 1반 (the course fixture), ``park`` owns two classes of their own. Both classes post
 project "A". Every way a ranking can change (the admin's change form, list edit, delete, a post that creates a

@@ -1,6 +1,6 @@
 """The result API refuses every malformed body with a 400 naming the field (never a 500, fuzzed with Hypothesis),
 takes only JSON, answers a missing token with the documented 401; pages carry a Content-Security-Policy; the
-database and uploads are private; the run page never shows a student's local folders (issue 23)."""
+database and uploads are private; the run page never shows a student's local folders."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
-"""The server's rules as docs/server.md states them, each expectation computed from the rule, not from the code
-(issue 24): which ``Authorization`` headers are accepted, a re-post of someone else's run id, counts and their
+"""The server's rules as docs/server.md states them, each expectation computed from the rule, not from the code:
+which ``Authorization`` headers are accepted, a re-post of someone else's run id, counts and their
 bounds, how much of an upload the content checks read, the per-run file cap, and the leaderboard's ranking."""
 
 from __future__ import annotations

@@ -2,7 +2,7 @@
 link survives, however it is spelled (namespace prefixes, character references, data: URLs); a real matplotlib plot
 keeps every shape. The stored files are judged by a second, independent parser (the standard library's) and, in the
 slow tier, opened from disk in headless Chromium next to the originals: the originals' scripts run, the stored
-files' do not (issue 23)."""
+files' do not."""
 
 from __future__ import annotations
 

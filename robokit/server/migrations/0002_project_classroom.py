@@ -1,4 +1,4 @@
-# Projects become per class (issue 23): first the column, nullable, and the name no longer unique on its own.
+# Projects become per class: first the column, nullable, and the name no longer unique on its own.
 
 import django.db.models.deletion
 from django.db import migrations, models

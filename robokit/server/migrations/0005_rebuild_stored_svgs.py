@@ -1,4 +1,4 @@
-"""SVG plots stored before uploads were rebuilt from a parse (issue 23) were kept as sent, checked only by a pattern
+"""SVG plots stored before uploads were rebuilt from a parse were kept as sent, checked only by a pattern
 that a namespace prefix, ``javascript&#58;`` or ``<use href="data:...">`` got past. Rebuild each stored one the way
 uploads are now (:func:`robokit.server.svg.clean_svg`), updating its size and hash; one that does not parse as an
 SVG document (it would be refused today) is deleted with its row. Files already missing are left to the row."""
