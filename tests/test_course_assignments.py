@@ -27,7 +27,7 @@ def queued(settings: Any) -> None:
 
 
 def test_create_assignment_command_stores_config_seeds_keys_and_due(course: Course, tmp_path: Path) -> None:
-    from django.core.management import call_command
+    from django.core.management import CommandError, call_command
 
     from robokit.server.models import Assignment
 
@@ -41,6 +41,12 @@ def test_create_assignment_command_stores_config_seeds_keys_and_due(course: Cour
     assert a.may_change("behaviour.duration") and a.may_change("world.max_time")
     assert not a.may_change("world.seed_x") and not a.may_change("bodies.box.mass")
     assert a.project.name == "낙하" and a.project.classroom == course.room
+    assert (a.max_waiting, a.max_per_day) == (1, 10)  # the limits' defaults
+    call_command("create_assignment", "1반", "낙하", "--config", str(cfg), "--max-waiting", "2", "--max-per-day", "0")
+    a.refresh_from_db()
+    assert (a.max_waiting, a.max_per_day) == (2, 0)
+    with pytest.raises(CommandError, match="--max-waiting"):
+        call_command("create_assignment", "1반", "낙하", "--config", str(cfg), "--max-per-day", "-1")
 
 
 def test_create_assignment_refuses_an_invalid_official_config_in_one_line(course: Course, tmp_path: Path) -> None:

@@ -211,8 +211,7 @@ def test_a_real_worker_serves_another_student_before_a_backlog_and_submit_waits_
     official = tmp_path / "official.toml"
     official.write_text(OFFICIAL, encoding="utf-8")
     server.manage("create_assignment", "1반", "낙하", "--config", str(official), "--allow", "behaviour.duration",
-                  "--seeds", "0:4")
-    server.query("UPDATE course_assignment SET max_waiting = 10")
+                  "--seeds", "0:4", "--max-waiting", "10")
     mine = tmp_path / "mine.toml"
     mine.write_text(changed(OFFICIAL, duration="0.3"), encoding="utf-8")
     env = {**server.env, "ROBOKIT_TOKEN": tokens["이서연"]}

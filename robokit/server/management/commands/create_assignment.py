@@ -47,6 +47,10 @@ class Command(BaseCommand):
                                  "config's world.max_time bounds its simulated time")
         parser.add_argument("--allow-plugins", action="store_true", help="students may send their own plugin "
                             "package with a submission (run only in the evaluation sandbox)")
+        parser.add_argument("--max-waiting", type=int, default=1, metavar="N", help="submissions a student may have "
+                            "queued or being evaluated at once (default 1; 0: no limit)")
+        parser.add_argument("--max-per-day", type=int, default=10, metavar="N", help="submissions a student may "
+                            "make in any 24 hours (default 10; 0: no limit)")
 
     def handle(self, *args: Any, **opts: Any) -> None:
         from robokit.errors import UserError
@@ -69,6 +73,8 @@ class Command(BaseCommand):
                                f"of CPU time may take longer than the queue lets one evaluation run "
                                f"({settings.QUEUE_TIMEOUT} s, ROBOKIT_QUEUE_TIMEOUT); use fewer seeds, a smaller "
                                f"budget or a longer timeout")
+        if opts["max_waiting"] < 0 or opts["max_per_day"] < 0:
+            raise CommandError("--max-waiting, --max-per-day: a whole number >= 0 (0: no limit)")
         behaviour = parse_toml(text).get("behaviour", {})
         kind = opts["kind"] or (behaviour.get("type", "") if isinstance(behaviour, dict) else "")
         project, _ = Project.objects.get_or_create(classroom=room, name=opts["name"],
@@ -76,7 +82,8 @@ class Command(BaseCommand):
         fields = {"kind": kind, "config_text": text, "allowed_keys": opts["allow"], "seeds": seeds,
                   "ranking": opts["ranking"], "trial_seconds": opts["trial_seconds"],
                   "opens_at": when(opts["opens"], "--opens"), "due_at": when(opts["due"], "--due"),
-                  "late_policy": opts["late"], "allow_plugins": opts["allow_plugins"], "project": project}
+                  "late_policy": opts["late"], "allow_plugins": opts["allow_plugins"], "project": project,
+                  "max_waiting": opts["max_waiting"], "max_per_day": opts["max_per_day"]}
         assignment, created = Assignment.objects.update_or_create(classroom=room, name=opts["name"], defaults=fields)
         due = assignment.due_at.isoformat() if assignment.due_at else "no due time"
         self.stdout.write(f"assignment {assignment.name!r} {'created' if created else 'updated'} in class "
