@@ -120,6 +120,7 @@ def test_the_assignment_page_says_who_has_not_submitted(client: Any, course: Cou
     page = client.get(f"/classes/{course.room.pk}/assignments/{a.pk}/").content.decode()
     assert "(1 not yet)" in page and "not submitted" in page and "queued 1" in page
     assert "&lt;script&gt;alert(&#x27;x&#x27;)&lt;/script&gt;" in page  # the other student's name, as text
+    assert '<dd id="limits">1 waiting at a time, 10 in any 24 hours</dd>' in page
     room_page = client.get(f"/classes/{course.room.pk}/").content.decode()
     assert f"/classes/{course.room.pk}/assignments/{a.pk}/" in room_page and "grades.csv" in room_page
 
