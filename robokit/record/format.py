@@ -53,11 +53,24 @@ class RunRecord:
         data: dict[str, Any] = json.loads(path.read_text(encoding="utf-8"))
         return data
 
+    def _no_trace(self) -> str:
+        """Why there is no trace, in one line: a run with ``--no-record`` keeps only its ``result.json``."""
+        if not (self.folder / RESULT_FILE).is_file():
+            return f"{self.folder}: no {TRACE_FILE} (not a run record, or recorded before records existed)"
+        try:
+            ticks = int(self.result.get("ticks") or 0)
+        except (ValueError, TypeError, json.JSONDecodeError):
+            ticks = 0
+        if ticks > 0:
+            return (f"{self.folder}: this run kept only its {RESULT_FILE} (it ran with --no-record): there is no "
+                    f"trace or pose log to draw from; run it again without --no-record")
+        return f"{self.folder}: this run stopped before its record began: only its {RESULT_FILE} was kept"
+
     @cached_property
     def _trace(self) -> tuple[dict[str, Any], list[dict[str, Any]]]:
         path = self.folder / TRACE_FILE
         if not path.is_file():
-            raise UserError(f"{self.folder}: no {TRACE_FILE} (not a run record, or recorded before records existed)")
+            raise UserError(self._no_trace())
         lines = path.read_text(encoding="utf-8").splitlines()
         try:
             header = json.loads(lines[0]) if lines else {}
@@ -85,6 +98,8 @@ class RunRecord:
         """The pose log: ``t``, ``tick``, ``base/<body>`` (N, 7) and ``joints/<body>`` (N, joints)."""
         path = self.folder / POSES_FILE
         if not path.is_file():
+            if not (self.folder / TRACE_FILE).is_file():
+                raise UserError(self._no_trace())
             raise UserError(f"{self.folder}: no pose log ({POSES_FILE}); was the run recorded with pose_hz = 0?")
         with np.load(path) as data:
             return {k: data[k] for k in data.files}

@@ -153,8 +153,9 @@ class FlushReport:
 
     @property
     def clean(self) -> bool:
-        """Every entry taken was delivered (nothing failed, nothing left waiting)."""
-        return not (self.failed or self.waiting or self.busy or self.not_tried)
+        """Every entry taken was delivered (nothing failed, nothing left waiting). An entry another sender was
+        sending (``busy``) was not taken: that sender says how it went."""
+        return not (self.failed or self.waiting or self.not_tried)
 
     def counts(self) -> str:
         return (f"{len(self.delivered)} delivered, {len(self.failed)} refused (moved to failed/), "
@@ -194,6 +195,37 @@ class Outbox:
         """
         if not self.path_for(run_id).exists():
             (self.locks_dir / f"{run_id}.lock").unlink(missing_ok=True)
+
+    def sweep_locks(self) -> list[str]:
+        """Delete the lock files a sender left behind when it was killed after its entry was settled (delivered or
+        moved to ``failed/``) but before it deleted the lock: each is taken without waiting, and deleted only if no
+        entry waits under that run id (as :meth:`drop_lock_file` does). Returns the run ids whose lock went."""
+        swept: list[str] = []
+        try:
+            locks = sorted(self.locks_dir.glob("*.lock"))
+        except OSError:
+            return swept
+        for path in locks:
+            run_id = path.stem
+            try:
+                if self.path_for(run_id).exists():
+                    continue  # a waiting entry keeps its lock file
+            except ValueError:
+                continue  # not a lock robokit made
+            lock = FileLock(str(path), timeout=0)
+            try:
+                lock.acquire()
+            except (Timeout, OSError):
+                continue  # a live sender holds it
+            try:
+                if not self.path_for(run_id).exists():
+                    path.unlink(missing_ok=True)
+                    swept.append(run_id)
+            except OSError:
+                pass
+            finally:
+                lock.release()
+        return swept
 
     def put(self, payload: dict[str, Any], url: str, options: dict[str, Any] | None = None, *,
             last_error: str | None = None, identity: str = NO_TOKEN) -> Entry:
@@ -331,6 +363,7 @@ class Outbox:
         target = getattr(send, "target", None) or (lambda e: e.url)
         who = getattr(send, "identity", None)
         report = FlushReport()
+        self.sweep_locks()
         for path, why in self.unreadable():
             report.lines.append(f"warning: {path}: {why}")
         pending = [e for e in self.entries()
