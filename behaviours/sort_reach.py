@@ -21,6 +21,10 @@ Vec3 = tuple[float, float, float]
 STEPS = ("above the object", "down to the grasp", "up to the transport altitude", "across to above the bin",
          "down to release in the bin", "up out of the bin")
 """What each move of one pick-and-place is (the first two concern the object, the rest its bin)."""
+OVER_BIN = 3
+"""The index of the move that brings the object over its bin slot: a run whose arm cannot make the moves after it
+(lowering into the bin, leaving it) still ends with the object in the bin — the sort opens the gripper when a pick
+fails, over the slot — so only the moves up to this one decide whether a bin is within reach."""
 
 
 @dataclass(frozen=True)
@@ -79,7 +83,9 @@ def sort_picks(look: Vec3, objects: Sequence[tuple[str, str, Vec3, float]], slot
 def _plan(moves: Sequence[Move], check_moves: Any, here: Any, fallbacks: Sequence[Any]) -> tuple[str, Move | None,
                                                                                                 Any]:
     """Plan ``moves`` one by one from ``here``; a move that fails is planned again from each of ``fallbacks`` (a
-    run recovers from where it then is). Returns ("" or the first reason, the move it concerns, the end)."""
+    run recovers from where it then is). Returns ("" or the first reason, the move it concerns, the end). A move
+    after the object is over its bin (:data:`OVER_BIN`) that fails ends the plan without a reason: the object is
+    dropped into the bin from there."""
     for move in moves:
         target = [(move.position, move.yaw)]
         (reason,), end = check_moves(target, here)
@@ -89,7 +95,7 @@ def _plan(moves: Sequence[Move], check_moves: Any, here: Any, fallbacks: Sequenc
             (again,), end = check_moves(target, start)
             reason = reason if again else ""
         if reason:
-            return reason, move, here
+            return ("", None, here) if move.step > OVER_BIN else (reason, move, here)
         here = end
     return "", None, here
 
