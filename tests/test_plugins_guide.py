@@ -42,3 +42,22 @@ def test_the_guide_sensor_measures_the_distance_to_the_wall():
         away = sim.readings["range"]
     assert reading.hit == "wall" and reading.distance == pytest.approx(0.95, abs=1e-3)  # wall face at x = 0.95
     assert away.hit is None and math.isinf(away.distance)
+
+
+@pytest.mark.slow  # pip builds a wheel in an isolated build environment
+def test_the_guide_wheel_command_builds_a_plugin_that_pins_robokit(tmp_path: Path) -> None:
+    import shutil
+    import subprocess
+
+    root = Path(__file__).resolve().parents[1]
+    text = (root / "docs" / "plugins.md").read_text(encoding="utf-8")
+    section = text[text.index("## 13. Packaging"):text.index("## 14. Checklist")]
+    command = re.search(r"`(pip wheel [^`]*)`", section)
+    assert command is not None
+    package = tmp_path / "pkg"
+    shutil.copytree(root / "examples" / "robokit-example-behaviour", package)
+    assert 'dependencies = ["robokit>=0.1,<0.2"]' in (package / "pyproject.toml").read_text()  # it pins robokit
+    done = subprocess.run([sys.executable, "-m", *command[1].split(), "-q", "--disable-pip-version-check"],
+                          cwd=package, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert [w.name for w in (package / "dist").glob("*.whl")] == ["robokit_example_wander-0.1.0-py3-none-any.whl"]
