@@ -19,7 +19,7 @@ from robokit.core.simulation import Simulation
 from robokit.errors import ConfigError, Interrupted, PluginError, UserError, plugin_fault
 from robokit.plugin_api.plugins import Plugins
 from robokit.process.interrupts import STARTUP_GRACE, StopGuard, exit_code_for
-from robokit.report.reporting import build_payload, deliver
+from robokit.report.reporting import Refused, build_payload, deliver
 
 EXIT_NOT_STORED = 4
 """Exit code when the result could be neither delivered nor stored locally by any reporter."""
@@ -110,6 +110,7 @@ def error_result(cfg: Config, seed: int, reason: str, *, run_id: str | None = No
         behaviour=cfg.behaviour.type if cfg.behaviour else None, seed=seed, outcome=outcome, reason=reason,
         ticks=0, sim_time=0.0, wall_time=0.0,
         started_at=dt.datetime.now(dt.timezone.utc).isoformat(timespec="seconds"), interrupted=interrupted,
+        engine=cfg.world.engine,
     )
 
 
@@ -359,6 +360,8 @@ def summary(out: RunOutput) -> str:
     for warning in r.warnings + [f for f in out.record_failures if f not in r.warnings]:
         lines.append(f"warning: {warning}")
     for name, d in out.deliveries:
+        if isinstance(d, Refused):  # said once, in the command's own `refused` line (what to change)
+            continue
         lines.append(f"report[{name}]: {d.message or ('delivered' if d.delivered else 'not delivered')}")
     if not out.stored:
         lines.append("WARNING: the result could not be delivered or stored anywhere")

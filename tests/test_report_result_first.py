@@ -84,3 +84,22 @@ def test_a_record_command_after_no_record_names_the_option(tmp_path: Path, capsy
             assert len(err) == 1 and "it ran with --no-record" in err[0] and "without --no-record" in err[0], command
     finally:
         os.chdir(cwd)
+
+
+def test_a_refused_report_is_one_line_without_the_server_s_raw_json(server: CourseServer, tmp_path: Path,
+                                                                    monkeypatch: pytest.MonkeyPatch,
+                                                                    capsys: pytest.CaptureFixture) -> None:
+    import json
+
+    from report_server import Answer
+
+    server.script(Answer(401, json.dumps({"error": "no token sent: this class needs a student's token",
+                                          "field": "Authorization"}), store=False))
+    monkeypatch.delenv("ROBOKIT_TOKEN", raising=False)
+    monkeypatch.chdir(tmp_path)
+    config = Path(__file__).resolve().parents[1] / "configs" / "drop_test.toml"
+    assert main(["run", str(config), "--report-url", server.url, "--set", "behaviour.duration=0.2"]) == 5
+    captured = capsys.readouterr()
+    said = [line for line in (captured.out + captured.err).splitlines() if "401" in line or "refused" in line.lower()]
+    assert len(said) == 1 and said[0].startswith("robokit: error: report[http] refused (HTTP 401): no token sent")
+    assert "{" not in said[0]
