@@ -238,12 +238,13 @@ def test_cli_writes_trials_summary_junit_and_plots(tmp_path: Path) -> None:
                    "behaviour.raise_seeds=[2]", "--set", "behaviour.duration=0.1,0.2", "--workers", "2",
                    "--out", str(out), "--junit", str(junit))
     assert proc.returncode == 1, proc.stderr  # one trial per cell raised
-    assert "| `behaviour.duration=0.1` | 4 | 75.0 % | 30.1–95.4 % | 1 |" in proc.stdout
+    assert "| `behaviour.duration=0.1` | pybullet " in proc.stdout  # the engine, then its version
+    assert " | 4 | 75.0 % | 30.1–95.4 % | 1 |" in proc.stdout
     assert "sweep: 8/8 done, 2 not succeeded" in proc.stdout  # not a terminal: plain progress lines
     summary = json.loads((out / "summary.json").read_text(encoding="utf-8"))
     assert [c["cell"] for c in summary["cells"]] == ["behaviour.duration=0.1", "behaviour.duration=0.2"]
     assert summary["cells"][1]["figures"]["seed_squared"] == {"n": 4, "median": 2.5, "p95": 9.0}
-    assert (out / "summary.md").read_text(encoding="utf-8").startswith("| cell | trials | success |")
+    assert (out / "summary.md").read_text(encoding="utf-8").startswith("| cell | engine | trials | success |")
     suite = ET.parse(junit).getroot().find("testsuite")
     assert suite is not None and (suite.get("tests"), suite.get("errors")) == ("8", "2")
     assert (out / "success_rate.png").read_bytes()[:4] == b"\x89PNG"

@@ -32,6 +32,10 @@ class RunResult:
     interrupted: bool = False
     warnings: list[str] = field(default_factory=list)
     """Things the outcome does not show: e.g. a sensor that returned NaN (see :mod:`robokit.core.reading_check`)."""
+    engine: str | None = None
+    """The physics engine that ran it (``pybullet``, ``mujoco``): the engines give different outcomes."""
+    engine_version: str | None = None
+    """That engine package's version."""
     schema: str = SCHEMA
 
     def to_dict(self) -> dict[str, Any]:

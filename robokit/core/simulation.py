@@ -437,6 +437,8 @@ class Simulation:
             result=behaviour_result,
             interrupted=self.interrupted and self.outcome is None,
             warnings=self._warnings(),
+            engine=self.world.engine,
+            engine_version=self.world.engine_version,
         )
         try:
             self.plugins.call("robokit_run_end", simulation=self, result=result)

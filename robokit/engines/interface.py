@@ -240,6 +240,8 @@ class World(ABC):
     """Engine name -> a function returning its World class (imported only when asked for)."""
     engine: ClassVar[str] = ""
     """This World's engine name."""
+    engine_version: ClassVar[str] = ""
+    """The engine package's version (``"3.2.7"``, ``"4.0.0"``), as a run's result names it."""
     client: Any
     """The engine's own handle (PyBullet: the ``BulletClient``; None once closed). Engine-specific: plugins and
     behaviours never touch it (a test enforces it); robokit's engine-aware tools may."""

@@ -91,7 +91,8 @@ def build_page(rec: RunRecord, video: Path | None, plots: list[Path], replay: st
              f"<p>{escape(str(r.get('reason', '')))}</p>",
              f"<p class='meta'>run {escape(rec.run_id)} · seed {escape(str(header.get('seed')))} · behaviour "
              f"{escape(str(r.get('behaviour')))} · sim {float(r.get('sim_time', 0)):.2f} s · wall "
-             f"{float(r.get('wall_time', 0)):.2f} s · started {escape(str(r.get('started_at', '')))} · robokit "
+             f"{float(r.get('wall_time', 0)):.2f} s · started {escape(str(r.get('started_at', '')))} · engine "
+             f"{escape(' '.join(str(v) for v in (r.get('engine'), r.get('engine_version')) if v) or '?')} · robokit "
              f"{escape(str(header.get('robokit_version')))}</p>"]
     parts.append(_section("Headline figures", "주요 결과", f"<table class='figs'>{_figures(result)}</table>"))
     parts.append(_section("Objects", "물체", _objects(result)))

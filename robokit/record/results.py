@@ -31,7 +31,7 @@ def list_runs(root: str | None, n: int = 20) -> str:
     folders = run_folders(base)[-n:] if n > 0 else run_folders(base)
     if not folders:
         return f"no runs in {base}/ yet (robokit run CONFIG keeps one there)"
-    rows = [("run", "started (UTC)", "config", "seed", "outcome", "sim s", "figures")]
+    rows = [("run", "started (UTC)", "config", "seed", "engine", "outcome", "sim s", "figures")]
     for folder in folders:
         rec = RunRecord(folder)
         r = rec.result
@@ -44,7 +44,8 @@ def list_runs(root: str | None, n: int = 20) -> str:
         started = str(r.get("started_at", ""))[:19].replace("T", " ")
         sim = r.get("sim_time")
         rows.append((folder.name[:8], started, _short(str(r.get("config", "?"))), str(r.get("seed", "")),
-                     str(r.get("outcome", "?")), f"{sim:.2f}" if isinstance(sim, (int, float)) else "",
+                     str(r.get("engine") or "?"), str(r.get("outcome", "?")),
+                     f"{sim:.2f}" if isinstance(sim, (int, float)) else "",
                      headline(r.get("result") or {})))
     widths = [max(text_width(row[i]) for row in rows) for i in range(len(rows[0]) - 1)]
     return "\n".join(("  ".join(_pad(c, w) for c, w in zip(row[:-1], widths, strict=True)) + "  " + row[-1])
@@ -177,10 +178,11 @@ def show_run(rec: RunRecord) -> str:
         lines.append("  no result.json (the run did not finish?)")
     else:
         result = r.pop("result", {}) or {}
-        for key in ("outcome", "reason", "config", "behaviour", "seed", "started_at", "sim_time", "wall_time",
-                    "ticks", "robokit_version"):
+        for key in ("outcome", "reason", "config", "behaviour", "seed", "engine", "started_at", "sim_time",
+                    "wall_time", "ticks", "robokit_version"):
             if key in r:
-                lines.append(f"  {key}: {r[key]}")
+                version = r.get("engine_version") if key == "engine" else None
+                lines.append(f"  {key}: {r[key]}" + (f" {version}" if version else ""))
         lines.append("  result:")
         lines += tree(result, 2)
     files = sorted(p.name for p in rec.folder.iterdir())

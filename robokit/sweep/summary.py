@@ -59,6 +59,11 @@ def _figure(row: Mapping[str, Any], name: str) -> Any:
     return row.get(name) if name in ROW_FIGURES else None
 
 
+def _engine(row: Mapping[str, Any]) -> str:
+    """The engine (and version) a trial ran on, as its row names it ("?" for a row that does not)."""
+    return " ".join(str(v) for v in (row.get("engine"), row.get("engine_version")) if v) or "?"
+
+
 def summarise(rows: Sequence[Mapping[str, Any]], cells: Sequence[str], metrics: Sequence[str] = ()) -> dict[str, Any]:
     """The summary of a sweep's rows, cell by cell (in ``cells`` order).
 
@@ -81,6 +86,7 @@ def summarise(rows: Sequence[Mapping[str, Any]], cells: Sequence[str], metrics: 
                 figures[name] = {"n": len(nums), "median": statistics.median(nums), "p95": percentile(nums, 95)}
         out_cells.append({
             "cell": cell, "overrides": mine[0]["overrides"] if mine else {}, "trials": len(mine),
+            "engine": ", ".join(sorted({_engine(r) for r in mine if r.get("engine")})) or "?",
             "succeeded": ok, "errors": sum(r["outcome"] == "error" for r in mine),
             "success_rate": ok / len(mine) if mine else None, "wilson95": [lo, hi], "figures": figures,
         })
@@ -132,12 +138,13 @@ def _fmt(value: float) -> str:
 def to_markdown(summary: Mapping[str, Any]) -> str:
     """The summary as a Markdown table: one row per cell, ``median / p95`` per figure."""
     names = list(dict.fromkeys([*summary["metrics"], "sim_time"]))
-    head = ["cell", "trials", "success", "95 % CI", "errors", *(f"{n} (median / p95)" for n in names)]
+    head = ["cell", "engine", "trials", "success", "95 % CI", "errors", *(f"{n} (median / p95)" for n in names)]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for c in summary["cells"]:
         rate = "-" if c["success_rate"] is None else f"{100 * c['success_rate']:.1f} %"
         lo, hi = c["wilson95"]
-        cols = [f"`{c['cell']}`", str(c["trials"]), rate, f"{100 * lo:.1f}–{100 * hi:.1f} %", str(c["errors"])]
+        cols = [f"`{c['cell']}`", c.get("engine") or "?", str(c["trials"]), rate, f"{100 * lo:.1f}–{100 * hi:.1f} %",
+                str(c["errors"])]
         for n in names:
             f = c["figures"].get(n)
             cols.append(f"{_fmt(f['median'])} / {_fmt(f['p95'])}" if f else "-")

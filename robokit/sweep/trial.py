@@ -188,7 +188,7 @@ def _row(task: TrialTask, result: Any, extra: Mapping[str, Any], t0: float, run_
            "run_id": task.run_id, "outcome": result.outcome, "reason": result.reason,
            "figures": {**figures, **extra}, "sim_time": result.sim_time, "ticks": result.ticks,
            "wall_time": round(wall, 4), "run_wall_time": round(run_wall, 4), "worker": worker_name(),
-           "interrupted": result.interrupted,
+           "interrupted": result.interrupted, "engine": result.engine, "engine_version": result.engine_version,
            "result": result.to_dict()}
     return jsonable(row)  # type: ignore[no-any-return]
 

@@ -34,6 +34,7 @@ class MujocoWorld(MujocoBodies):
     """
 
     engine = "mujoco"
+    engine_version = str(mujoco.__version__)
 
     @classmethod
     def check_config(cls, config: Config, *, gui: bool | None = None) -> None:

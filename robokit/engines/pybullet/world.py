@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from collections.abc import Collection, Iterator, Mapping, Sequence
 from contextlib import contextmanager
+from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any
 
@@ -91,6 +92,13 @@ class _Client(BulletClient):  # type: ignore[misc]
         return attribute
 
 
+def _version(package: str) -> str:
+    try:
+        return version(package)
+    except PackageNotFoundError:  # a build from source without metadata
+        return ""
+
+
 class PyBulletWorld(World):
     """The World on one PyBullet client (DIRECT by default, GUI on request); see :class:`World` for the arguments.
 
@@ -99,6 +107,7 @@ class PyBulletWorld(World):
     """
 
     engine = "pybullet"
+    engine_version = _version("pybullet")
 
     def __init__(
         self,
