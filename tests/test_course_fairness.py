@@ -225,6 +225,7 @@ def test_a_real_worker_serves_another_student_before_a_backlog_and_submit_waits_
         kim = [post(server.url, "낙하", tokens["김민준"], changed(OFFICIAL, duration=f"0.{i + 2}")).json()["id"]
                for i in range(4)]
         behind = time.monotonic()
+        lee_posted = dt.datetime.now(dt.timezone.utc).isoformat(sep=" ")
         lee = subprocess.run([*cmd, "--url", server.url], env=env, capture_output=True, text=True, timeout=600)
         behind = time.monotonic() - behind
         assert lee.returncode == 0 and "graded: 4/4" in lee.stdout, lee.stdout + lee.stderr
@@ -232,12 +233,15 @@ def test_a_real_worker_serves_another_student_before_a_backlog_and_submit_waits_
         done = "SELECT count(*) FROM course_submission WHERE status = 'done'"
         server.wait_for("every submission evaluated", lambda: server.query(done)[0][0] == 6, 600)
         order = [pk for (pk,) in server.query("SELECT id FROM course_submission ORDER BY claimed_at, id")]
+        spans = dict(server.query("SELECT id, (julianday(finished_at) - julianday(?)) * 86400 "
+                                  "FROM course_submission", lee_posted))
     finally:
         server.stop()
     assert order.index(lee_id) <= order.index(kim[1])  # at most Kim's first ran before it
     assert order[-3:] == kim[-3:] or order[-3:] == kim[1:]
     print(f"\nsubmit --wait: {alone:.1f} s alone, {behind:.1f} s behind a 4-submission backlog "
-          f"(4 seeds each; one worker); order {order}, Lee's {lee_id}")
+          f"(4 seeds each; one worker); Lee's graded {spans[lee_id]:.1f} s after its post, Kim's last "
+          f"{spans[kim[-1]]:.1f} s after it (first in, first out would have graded Lee then); order {order}")
 
 
 def test_a_re_evaluation_has_a_ticket_of_its_own(client: Any, course: Course) -> None:

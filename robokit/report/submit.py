@@ -119,7 +119,7 @@ def cmd_submit(args: argparse.Namespace) -> int:
 
 def follow(url: str, headers: dict[str, str], limit: float, sleep: Callable[[float], None] = time.sleep) -> int:
     """Poll a submission's state until it is graded (or fails, or ``limit`` seconds pass); print its trials and
-    grade. Polls back off from 0.5 s to 10 s; a lost connection is retried until the limit."""
+    grade. Polls back off from 0.5 s to 5 s (x1.5 each time); a lost connection is retried until the limit."""
     import requests
 
     deadline, pause, last = time.monotonic() + limit, 0.5, ""
@@ -141,7 +141,7 @@ def follow(url: str, headers: dict[str, str], limit: float, sleep: Callable[[flo
                   f"'/me/' or run with --wait again later", file=sys.stderr)
             return EXIT_STILL_WAITING
         sleep(pause)
-        pause = min(pause * 2, 10.0)
+        pause = min(pause * 1.5, 5.0)
 
 
 def report(state: dict[str, Any]) -> int:
