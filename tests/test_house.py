@@ -15,14 +15,14 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1] / "robokit"
 
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ("robokit", "robokit.errors", "robokit.process"),
+    ("robokit", "robokit.errors", "robokit.extras", "robokit.process"),
     ("robokit.config",),
     ("robokit.plugin_api", "robokit.msgs", "robokit.components"),
-    ("robokit.engines",),
+    ("robokit.engines", "robokit.robot"),
     ("robokit.core", "robokit.fsm"),
     ("robokit.report", "robokit.record"),
     ("robokit.runner", "robokit.sweep", "robokit.gym", "robokit.checks", "robokit.server"),
-    ("robokit.testing", "robokit.checks.pytest_plugin", "robokit.cli"),
+    ("robokit.testing", "robokit.checks.pytest_plugin", "robokit.cli", "robokit.entry"),
 )
 """Rooms from the bottom up: a module may import its own room and the rooms below it, never one above."""
 
@@ -85,7 +85,8 @@ def _layer(module: str) -> int:
     best, level = -1, -1
     for index, rooms in enumerate(LAYERS):
         for room in rooms:
-            if (module == room or module.startswith(room + ".")) and len(room) > best:
+            inside = module.startswith(room + ".") and room != "robokit"  # the top package holds only its door
+            if (module == room or inside) and len(room) > best:
                 best, level = len(room), index
     return level
 
