@@ -103,3 +103,21 @@ def test_the_docs_worked_tree_with_its_guard_runs_without_tripping_on_the_floor(
     assert result.outcome == "succeeded", result.reason
     assert result.result["monitors"]["guard"]["outcome"] == "running"
     assert math.hypot(x, y) <= 0.2 + 0.02  # home (go_to_goal's default tolerance)
+
+
+def test_a_contact_sensor_refuses_ignore_with_other_and_an_unknown_body(tmp_path: Path) -> None:
+    from test_compose import _toml
+
+    from robokit.testing import validate_error
+
+    base: dict[str, Any] = {"world": {"max_time": 0.1},
+                            "bodies": {"plane": {"urdf": "plane.urdf", "position": [0, 0, 0]},
+                                       "box": {"shape": "box", "size": [0.1, 0.1, 0.1], "mass": 1,
+                                               "position": [0, 0, 0.05]}}}
+    for sensor, expected in (
+            ({"other": "plane", "ignore": ["plane"]}, "sensors.touch.ignore: 'ignore' is for contacts with anything"),
+            ({"ignore": ["plnae"]}, "sensors.touch.ignore[0]: ")):
+        raw = {**base, "sensors": {"touch": {"type": "contact", "body": "box", **sensor}}}
+        path = tmp_path / "c.toml"
+        path.write_text(_toml(raw))
+        assert expected in validate_error(path)
