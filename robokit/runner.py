@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import datetime as dt
 import json
+import os
 import uuid
 import warnings
 from collections.abc import Callable
@@ -153,9 +154,24 @@ def run_config(
     written first). A signal there ends ``before_send`` only, and an exception it raises is kept in
     :attr:`RunOutput.before_send_error`: the result is sent (or kept in the outbox) all the same.
     """
-    run_seed = cfg.world.seed if seed is None else seed
     run_id = str(uuid.uuid4())
     run_dir = _make_run_dir(results_root(cfg) / run_id) if record else None
+    reserve = _reserve(run_dir) if run_dir is not None else None
+    try:
+        return _run_and_keep(cfg, plugins, run_id, run_dir, reserve, gui=gui, seed=seed, max_time=max_time,
+                             max_wall=max_wall, trace=trace, report=report, pose_hz=pose_hz, save_frames=save_frames,
+                             after_run=after_run, on_problem=on_problem, before_send=before_send)
+    finally:
+        _release(reserve)
+
+
+def _run_and_keep(cfg: Config, plugins: Plugins, run_id: str, run_dir: Path | None, reserve: Path | None, *,
+                  gui: bool | None, seed: int | None, max_time: float | None, max_wall: float | None,
+                  trace: IO[str] | None, report: bool, pose_hz: float | None, save_frames: bool, after_run: Any,
+                  on_problem: Callable[[ConfigError], None] | None,
+                  before_send: Callable[[RunOutput], None] | None) -> RunOutput:
+    """:func:`run_config`'s work, with the run folder made and its space for ``result.json`` reserved."""
+    run_seed = cfg.world.seed if seed is None else seed
     error: BaseException | None = None
     sim: Simulation | None = None
     with StopGuard.ensure() as guard:
@@ -167,6 +183,7 @@ def run_config(
                              save_frames=save_frames, on_problem=on_problem)
         except UserError:
             if run_dir is not None:  # a config problem found at setup: nothing ran, keep no empty run folder
+                _release(reserve)
                 with contextlib.suppress(OSError):
                     run_dir.rmdir()
             raise
@@ -183,6 +200,7 @@ def run_config(
             result, recorder, failures = _run(sim, cfg, run_dir, trace, guard, pose_hz=pose_hz, max_time=max_time,
                                     max_wall=max_wall)
             error = sim.error
+        _release(reserve)  # the space kept for result.json since the run began: the trace could not take it
         out, senders = _keep(cfg, plugins, result, guard, report=report, error=error)
         out.record_failures += failures
         if sim is not None and (before_send is not None or any(getattr(r, "uploads_record", False) for r in senders)):
@@ -194,6 +212,40 @@ def run_config(
             _after(sim, recorder, out, guard, after_run)
         out.interrupted, out.signal = guard.signalled or result.interrupted, guard.signal or _signal_of(result)
         return out
+
+
+RESERVE_FILE = ".result-space"
+"""A file in the run folder holding disk space for ``result.json`` while the run writes its trace (see
+:func:`_reserve`); deleted just before the result is written."""
+RESERVE_SIZES = (65536, 32768, 16384, 8192)
+"""Bytes tried, largest first: a result is a few kilobytes; a nearly full disk still gets what it can spare."""
+
+
+def _reserve(run_dir: Path) -> Path | None:
+    """Hold disk space for the run's ``result.json`` before anything else is written: a trace that fills the disk
+    during the loop is cut (a record failure, exit 6), and the result is still written. None if no space could be
+    held (the result is then written if it fits)."""
+    path = run_dir / RESERVE_FILE
+    for size in RESERVE_SIZES:
+        try:
+            fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+        except OSError:
+            return None
+        try:
+            os.posix_fallocate(fd, 0, size)
+            return path
+        except OSError:
+            os.ftruncate(fd, 0)
+        finally:
+            os.close(fd)
+    _release(path)
+    return None
+
+
+def _release(reserve: Path | None) -> None:
+    if reserve is not None:
+        with contextlib.suppress(OSError):
+            reserve.unlink(missing_ok=True)
 
 
 def _build(cfg: Config, plugins: Plugins, *, on_problem: Callable[[ConfigError], None] | None,
