@@ -1,8 +1,11 @@
 """The course API: a student submits a config for an assignment, and posts a training log.
 
 ``POST /api/robotics/assignments/<name>/submissions/`` ``{"config": "<TOML text>"}`` with the student's token:
-201 with the submission (queued for official evaluation); 400 naming the key a config may not change or that
-robokit's validation refuses; 403 before the assignment opens or after it is due when late work is refused. With
+201 with the submission (queued for official evaluation); 400 naming the key a config may not change, a file it
+may not name, or that robokit's validation refuses; 403 before the assignment opens or after it is due when late
+work is refused; 413 a config over ``MAX_CONFIG_BYTES``; 429 over the assignment's per-student limits
+(:mod:`robokit.server.fair_queue`), saying when to submit again. An ``Idempotency-Key`` is unique per student (a
+database constraint): a post with a stored key answers 200 with that submission (409 with another config). With
 ``"plugin_files": {"path.py": "source", ...}`` (the assignment must allow it, else 403): the student's own plugin
 package, checked by :mod:`robokit.server.plugin_upload` and imported only in a sandbox process: the config is
 loaded with it there before the submission is accepted (400 naming the key, as for any config), and the trials run
@@ -32,7 +35,7 @@ from robokit.server import tokens
 from robokit.server.api import NO_TOKEN, _token, _unauthorized, error
 from robokit.server.assignments import Assignment, Submission, TrainingRun
 from robokit.server.evaluation import create_submission, official_overrides
-from robokit.server.fair_queue import LimitReached, Repeated, admit
+from robokit.server.fair_queue import LimitReached, admit
 from robokit.server.models import Token
 from robokit.server.payload import RUN_ID, PayloadError, parse
 from robokit.server.plugin_upload import MAX_BYTES as MAX_PLUGIN_BYTES
@@ -109,31 +112,31 @@ def submit(request: HttpRequest, name: str) -> JsonResponse:
         modules = check_plugin_files(plugin_files) if plugin_files else []
         assignment.check_config(text, validate=not modules)
         with transaction.atomic():  # before the sandbox's check; counted again when stored
-            admit(assignment, token.student_id, key)
+            admit(assignment, token.student_id)
         if modules and isinstance(plugin_files, dict):  # its types: checked in a sandbox process, not here
             check_plugin_config(text, plugin_files, modules, official_overrides(assignment.trial_seconds))
     except SubmissionError as exc:
         return error(400, exc.field, scrub(exc.message))
     except LimitReached as exc:
-        return error(429, exc.field, exc.message, **{"Retry-After": str(exc.retry_after)})
-    except Repeated as exc:
-        return _repeated(exc.pk, assignment, text)
+        return _repeated(key, token, assignment, text) or _over(exc)
 
     Token.objects.filter(pk=token.pk).update(last_used_at=now)
     try:
-        sub = create_submission(admit=lambda: admit(assignment, token.student_id, key),
+        sub = create_submission(admit=lambda: admit(assignment, token.student_id),
                                 assignment=assignment, student=token.student, config_text=text, late=late,
                                 plugin_files=plugin_files or {}, plugin_modules=modules, idempotency_key=key)
-    except LimitReached as exc:
-        return error(429, exc.field, exc.message, **{"Retry-After": str(exc.retry_after)})
-    except Repeated as exc:
-        return _repeated(exc.pk, assignment, text)
-    except IntegrityError:  # the unique (student, key) pair: the same key stored by a request at the same moment
-        stored = Submission.objects.filter(student=token.student, idempotency_key=key).values_list("pk", flat=True)
-        if key is None or not stored:
+    except LimitReached as exc:  # e.g. the same post, stored a moment ago by a request racing this one
+        return _repeated(key, token, assignment, text) or _over(exc)
+    except IntegrityError:  # the unique (student, key) constraint: this key is stored already
+        answer = _repeated(key, token, assignment, text)
+        if answer is None:
             raise
-        return _repeated(stored[0], assignment, text)
+        return answer
     return JsonResponse(sub.to_dict(), status=201, json_dumps_params={"ensure_ascii": False})
+
+
+def _over(exc: LimitReached) -> JsonResponse:
+    return error(429, exc.field, exc.message, **{"Retry-After": str(exc.retry_after)})
 
 
 def idempotency_key(request: HttpRequest) -> str | None:
@@ -150,10 +153,13 @@ def idempotency_key(request: HttpRequest) -> str | None:
     return key
 
 
-def _repeated(pk: int, assignment: Assignment, text: str) -> JsonResponse:
-    """The answer to a post whose ``Idempotency-Key`` is already stored: the same submission (200), or 409 when
-    the key came with another assignment or config."""
-    sub = Submission.objects.select_related("assignment", "student").get(pk=pk)
+def _repeated(key: str | None, token: Token, assignment: Assignment, text: str) -> JsonResponse | None:
+    """The answer to a post whose ``Idempotency-Key`` is stored already: that submission (200), or 409 when the
+    key came with another assignment or config; None when the key is not stored (or there is none)."""
+    sub = Submission.objects.select_related("assignment", "student").filter(
+        student=token.student, idempotency_key=key).first() if key is not None else None
+    if sub is None:
+        return None
     if sub.assignment_id != assignment.pk or sub.config_text != text:
         return error(409, "Idempotency-Key", f"this key was already used for submission {sub.pk} with another "
                      "assignment or config: send a new key for a new submission")

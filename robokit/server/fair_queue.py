@@ -40,30 +40,17 @@ class LimitReached(Exception):
         self.field, self.message, self.retry_after = field, message, retry_after
 
 
-class Repeated(Exception):
-    """The post's idempotency key is already stored: ``pk`` is that submission."""
-
-    def __init__(self, pk: int) -> None:
-        super().__init__(f"submission {pk}")
-        self.pk = pk
-
-
-def admit(assignment: Assignment, student_id: int, key: str | None = None, now: dt.datetime | None = None) -> None:
+def admit(assignment: Assignment, student_id: int, now: dt.datetime | None = None) -> None:
     """Refuse a new submission over ``assignment``'s limits for the student. Call it inside the transaction that
     stores the submission: it locks the student's row first, so two posts at once are counted one after the other.
 
     Raises:
-        Repeated: the student already stored a submission with idempotency key ``key``.
         LimitReached: with the time (or the event) after which the student may submit again.
     """
     from robokit.server.models import Student
 
     now = now or timezone.now()
     list(Student.objects.select_for_update().filter(pk=student_id).values_list("pk", flat=True))
-    if key is not None:
-        stored = Submission.objects.filter(student_id=student_id, idempotency_key=key).values_list("pk", flat=True)
-        if stored:
-            raise Repeated(stored[0])
     mine = Submission.objects.filter(assignment=assignment, student_id=student_id)
     waiting = list(mine.exclude(status__in=FINISHED).order_by("submitted_at").values_list("pk", flat=True))
     if assignment.max_waiting and len(waiting) >= assignment.max_waiting:
