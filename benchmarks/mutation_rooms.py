@@ -1,0 +1,212 @@
+"""Mutation testing room by room with mutmut: every mutant mutmut makes in a room, against the tests that cover it.
+
+mutmut (https://github.com/boxed/mutmut, ``pip install mutmut``) mutates every function of the files it is given
+(operators, constants, comparisons, arguments, return values ...) and runs, for each mutant, only the tests that
+call the mutated function (it records which ones in a first, clean run). A mutant that no test notices *survived*;
+the score of a room is killed / (killed + survived + timeout-free others that ran).
+
+Why a copy: robokit's editable install maps ``robokit_plugins`` / ``robokit_behaviours`` to ``plugins/`` /
+``behaviours/``, a layout mutmut cannot mutate in place. For each room this script exports the committed tree
+(``git archive HEAD``: a consistent snapshot, never your uncommitted edits) into a folder of its own under the
+temporary directory, lays the two packages out under their import names, writes the room's ``[tool.mutmut]`` table
+into the copy's ``pyproject.toml`` (the checkout's ``[tool.mutmut]`` table plus the room's files and tests) and
+runs ``python -m mutmut run`` there, with the copy's ``mutants/`` first on ``PYTHONPATH`` so that subprocesses
+(``robokit`` CLI runs, sweep workers) import the mutated code too. The checkout is never written to.
+
+    python benchmarks/mutation_rooms.py --list                     # the rooms, their files and tests
+    python benchmarks/mutation_rooms.py contact config_schema      # run two rooms, one child process each
+    python benchmarks/mutation_rooms.py contact --children 2 --survivors   # and list every survivor
+    python benchmarks/mutation_rooms.py contact --keep                     # keep the copy (then: mutmut show NAME)
+
+Afterwards ``cd <copy> && mutmut show <mutant>`` prints a survivor's diff. The rooms below cover the whole package;
+a run of every room takes hours on two cores: run the rooms you changed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import tomllib
+
+ROOT = Path(__file__).resolve().parents[1]
+
+# room -> (files to mutate, as import paths in the copy; test files that cover them)
+ROOMS: dict[str, tuple[list[str], list[str]]] = {
+    "contact": (["robokit_plugins/contact.py"],
+                ["tests/test_prop_contact.py", "tests/test_arm_contact_joints.py", "tests/test_arm_config_errors.py",
+                 "tests/test_composition_monitors.py", "tests/test_engine_mujoco_devices.py",
+                 "tests/test_mobile_patrol.py", "tests/test_conformance.py"]),
+    "force_torque": (["robokit_plugins/force_torque.py"], ["tests/test_arm_contact_joints.py"]),
+    "gripper": (["robokit_plugins/gripper.py"], ["tests/test_arm_gripper.py", "tests/test_gripper_watch.py"]),
+    "ik_arm": (["robokit_plugins/ik_arm.py", "robokit_plugins/kinematics.py"],
+               ["tests/test_arm_ik.py", "tests/test_pins_arm.py", "tests/test_prop_frames.py"]),
+    "detector": (["robokit_plugins/colour_detector.py"],
+                 ["tests/test_vision_detector.py", "tests/test_pins_vision.py"]),
+    "lidar": (["robokit_plugins/lidar.py", "robokit_plugins/raycast.py"],
+              ["tests/test_mobile_lidar.py", "tests/test_mobile_raycast.py", "tests/test_prop_frames.py"]),
+    "pid": (["robokit_plugins/pid.py"], ["tests/test_pid.py", "tests/test_pins_pid.py"]),
+    "config_schema": (["robokit/config/schema.py", "robokit/config/randomize.py"],
+                      ["tests/test_core_config_errors.py", "tests/test_pins_config.py", "tests/test_randomize.py"]),
+    "config": (["robokit/config/*"],
+               ["tests/test_core_config_errors.py", "tests/test_pins_config.py", "tests/test_sections.py",
+                "tests/test_config_reference.py", "tests/test_randomize.py"]),
+    "composites": (["robokit/core/composites.py", "robokit/core/composite_base.py"],
+                   ["tests/test_composition_composites.py", "tests/test_prop_composites.py",
+                    "tests/test_pins_compose.py"]),
+    "core": (["robokit/core/*"], ["tests/test_core_scheduler.py", "tests/test_core_world.py", "tests/test_pins_core.py",
+                                  "tests/test_composition_composites.py", "tests/test_prop_composites.py"]),
+    "summary": (["robokit/sweep/summary.py"],
+                ["tests/test_pins_sweep.py", "tests/test_lost_sweep_summary.py", "tests/test_prop_summary.py"]),
+    "sweep": (["robokit/sweep/*"], ["tests/test_sweep.py", "tests/test_pins_sweep.py", "tests/test_prop_summary.py"]),
+    "record": (["robokit/record/*"],
+               ["tests/test_record.py", "tests/test_pins_record.py", "tests/test_prop_summary.py"]),
+    "server": (["robokit/server/*"], ["tests/test_server_pages.py", "tests/test_server_rules.py",
+                                      "tests/test_prop_routes.py", "tests/test_pins_server.py"]),
+    "engines": (["robokit/engines/*"], ["tests/test_engine_contract.py", "tests/test_prop_frames.py",
+                                        "tests/test_prop_reset.py"]),
+    "gym": (["robokit/gym/*"], ["tests/test_gym.py", "tests/test_pins_gym.py", "tests/test_prop_reset.py"]),
+    "behaviours": (["robokit_behaviours/*"], ["tests/test_pins_sort.py", "tests/test_pins_pick_place.py",
+                                              "tests/test_pins_patrol.py"]),
+}
+
+# mutmut's exit-code statuses, grouped: what counts as caught, what as missed
+CAUGHT = {"killed", "timeout", "caught by type check", "segfault"}
+MISSED = {"survived"}
+
+
+def export_tree(dest: Path) -> None:
+    """The committed tree into ``dest``, with the plugin and behaviour packages under their import names."""
+    dest.mkdir(parents=True)
+    archive = subprocess.run(["git", "-C", str(ROOT), "archive", "HEAD"], check=True, capture_output=True).stdout
+    subprocess.run(["tar", "-x", "-C", str(dest)], input=archive, check=True)
+    shutil.copytree(dest / "plugins", dest / "robokit_plugins")
+    shutil.copytree(dest / "behaviours", dest / "robokit_behaviours")
+    shutil.copytree(dest / "configs" / "gym", dest / "robokit_configs" / "gym")
+
+
+def toml_value(value: object) -> str:
+    if isinstance(value, list):
+        return "[" + ", ".join(toml_value(v) for v in value) + "]"
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int | float):
+        return repr(value)
+    return json.dumps(value)
+
+
+def room_table(base: dict[str, object], files: list[str], tests: list[str]) -> str:
+    table = {**base, "only_mutate": files, "pytest_add_cli_args_test_selection": tests}
+    return "[tool.mutmut]\n" + "".join(f"{k} = {toml_value(v)}\n" for k, v in table.items())
+
+
+def write_config(copy: Path, files: list[str], tests: list[str]) -> None:
+    """The copy's pyproject.toml with its ``[tool.mutmut]`` table replaced by the room's."""
+    path = copy / "pyproject.toml"
+    text = path.read_text(encoding="utf-8")
+    mine = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))  # the checkout's settings
+    base = mine.get("tool", {}).get("mutmut", {})
+    without = re.sub(r"(?ms)^\[tool\.mutmut\]\n.*?(?=^\[|\Z)", "", text)
+    path.write_text(without.rstrip() + "\n\n" + room_table(base, files, tests), encoding="utf-8")
+
+
+def statuses(copy: Path) -> dict[str, str]:
+    """mutant name -> status, read from mutmut's own ``results --all`` listing."""
+    out = subprocess.run([sys.executable, "-m", "mutmut", "results", "--all", "true"], cwd=copy, text=True,
+                         capture_output=True).stdout
+    found = {}
+    for line in out.splitlines():
+        name, sep, status = line.strip().rpartition(": ")
+        if sep:
+            found[name] = status
+    return found
+
+
+def run_room(name: str, children: int, keep: bool, timeout: float) -> dict[str, object]:
+    files, tests = ROOMS[name]
+    work = Path(tempfile.mkdtemp(prefix=f"robokit-mutmut-{name}-"))
+    copy = work / "tree"
+    export_tree(copy)
+    missing = [t for t in tests if not (copy / t).is_file()]
+    tests = [t for t in tests if t not in missing]
+    write_config(copy, files, tests)
+    # made now: an entry of PYTHONPATH that does not exist when Python starts is never searched later
+    (copy / "mutants").mkdir()
+    env = {**os.environ, "PYTHONPATH": str(copy / "mutants"),
+           "ROBOKIT_CACHE_DIR": str(work / "cache"), "MPLBACKEND": "Agg"}
+    start = time.monotonic()
+    cpu = os.times()
+    try:
+        proc = subprocess.run([sys.executable, "-m", "mutmut", "run", "--max-children", str(children)], cwd=copy,
+                              env=env, text=True, capture_output=True, timeout=timeout)
+        tail = (proc.stdout + proc.stderr).strip().splitlines()[-3:]
+    except subprocess.TimeoutExpired:
+        tail = [f"stopped after {timeout:.0f} s (--timeout): the statuses so far"]
+    wall = time.monotonic() - start
+    done = os.times()
+    found = statuses(copy)
+    caught = sum(s in CAUGHT for s in found.values())
+    missed = [m for m, s in found.items() if s in MISSED]
+    other = {m: s for m, s in found.items() if s not in CAUGHT | MISSED}
+    if not keep:
+        shutil.rmtree(work, ignore_errors=True)
+    return {"room": name, "files": files, "tests": tests, "missing_tests": missing, "mutants": len(found),
+            "caught": caught, "survived": missed, "other": other,
+            "score": caught / (caught + len(missed)) if caught + len(missed) else None,
+            "wall_s": round(wall, 1), "cpu_s": round(done.children_user + done.children_system
+                                                     - cpu.children_user - cpu.children_system, 1),
+            "copy": str(copy) if keep else None, "tail": tail}
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("rooms", nargs="*", help=f"rooms to run ({', '.join(ROOMS)})")
+    parser.add_argument("--list", action="store_true", help="list the rooms, their files and tests; run nothing")
+    parser.add_argument("--children", type=int, default=1, help="mutmut's worker processes (default 1)")
+    parser.add_argument("--timeout", type=float, default=3600.0, help="seconds per room before it is stopped")
+    parser.add_argument("--survivors", action="store_true", help="print every surviving mutant's name")
+    parser.add_argument("--keep", action="store_true", help="keep each room's copy (to `mutmut show` survivors)")
+    parser.add_argument("--json", type=Path, help="also write the results as JSON here")
+    args = parser.parse_args(argv)
+    if args.list:
+        for name, (files, tests) in ROOMS.items():
+            print(f"{name:14} {' '.join(files)}\n{'':14} tests: {' '.join(tests)}")
+        return 0
+    unknown = [r for r in args.rooms if r not in ROOMS]
+    if unknown or not args.rooms:
+        parser.error(f"unknown room(s) {unknown}; choose from: {', '.join(ROOMS)}" if unknown else
+                     "name at least one room (--list shows them)")
+    results = []
+    print(f"{'room':14} {'mutants':>7} {'caught':>6} {'survived':>8} {'other':>5} {'score':>6} {'wall s':>7} "
+          f"{'cpu s':>7}")
+    for room in args.rooms:
+        r = run_room(room, args.children, args.keep, args.timeout)
+        results.append(r)
+        score = "-" if r["score"] is None else f"{100 * r['score']:.1f}%"  # type: ignore[operator]
+        print(f"{room:14} {r['mutants']:>7} {r['caught']:>6} {len(r['survived']):>8} {len(r['other']):>5} "  # type: ignore[arg-type]
+              f"{score:>6} {r['wall_s']:>7} {r['cpu_s']:>7}", flush=True)
+        if r["missing_tests"]:
+            print(f"  (tests not in the tree, left out: {' '.join(r['missing_tests'])})")  # type: ignore[arg-type]
+        if not r["mutants"]:
+            print("  mutmut made no mutants: " + " | ".join(r["tail"]))  # type: ignore[arg-type]
+        if args.survivors:
+            for m in r["survived"]:  # type: ignore[attr-defined]
+                print(f"  survived: {m}")
+        if r["copy"]:
+            print(f"  copy kept: {r['copy']}")
+    if args.json:
+        args.json.write_text(json.dumps(results, indent=2), encoding="utf-8")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
