@@ -136,3 +136,24 @@ def test_no_reason_shown_to_anyone_holds_a_server_path(client: Any, course: Cour
         for p in paths:
             assert p not in page, (p, page[:300])
     assert "pybullet_data/r2d2.urdf" in shown[0]
+
+
+def test_an_official_trial_is_stored_without_server_paths(client: Any, course: Course) -> None:
+    """What the evaluation stores (the reason, and the reason and error in the kept payload) holds no server path,
+    so the admin's read-only pages show none either."""
+    from robokit.server.evaluation import store_trial
+    from robokit.server.models import Result, Submission
+
+    a = make_assignment(course.room, seeds=(0,))
+    sub = Submission.objects.create(assignment=a, student=course.kim, config_text=OFFICIAL)
+    paths = server_paths()
+    reason = "failed: " + ", ".join(f"{p}/x.urdf" for p in paths)
+    store_trial(sub, {"run_id": "r-2", "key": "seed=0", "seed": 0, "outcome": "failed", "reason": reason,
+                      "error": f"in {paths[1]}/robokit-eval-9", "figures": {}, "result": {}})
+    stored = Result.objects.get(run_id="r-2")
+    course.teacher.is_superuser = True
+    course.teacher.save()
+    client.login(username="teacher", password=PASSWORD)
+    admin = client.get(f"/admin/course/result/{stored.pk}/change/").content.decode()
+    for text in (stored.reason, str(stored.payload), admin):
+        assert "x.urdf" in text and not any(p in text for p in paths), text[:500]

@@ -27,6 +27,7 @@ from robokit.server import lease
 from robokit.server.assignments import Submission
 from robokit.server.fair_queue import claim
 from robokit.server.sandbox import Requeue, run_sandboxed
+from robokit.server.submitted import scrub
 
 log = logging.getLogger("robokit.server.evaluation")
 TASK = "robokit.server.evaluation.evaluate_submission"
@@ -98,7 +99,7 @@ def evaluate_submission(submission_id: int) -> str:
     except Exception as exc:  # noqa: BLE001 - the submission says what went wrong; the queue task ends
         log.exception("evaluation of submission %s failed", sub.pk)
         Submission.objects.filter(pk=sub.pk).exclude(status=Submission.DONE).update(
-            status=Submission.ERROR, error=f"{type(exc).__name__}: {exc}"[:2000])
+            status=Submission.ERROR, error=scrub(f"{type(exc).__name__}: {exc}")[:2000])
         return "error"
     finally:
         beat.stop()
@@ -145,14 +146,15 @@ def store_trial(sub: Submission, row: dict[str, Any]) -> None:
                if isinstance(v, (int, float)) and not isinstance(v, bool)}
     figures["success"] = 1 if row["outcome"] == "succeeded" else 0
     token = Token.objects.filter(classroom=sub.assignment.classroom, kind=Token.TEACHER).first()
-    payload = {k: v for k, v in row.items() if k != "result"}
+    payload = {k: scrub(v) if k in ("reason", "error") and isinstance(v, str) else v  # no server paths kept
+               for k, v in row.items() if k != "result"}
     payload["result"] = result.get("result") if isinstance(result.get("result"), dict) else {}
     try:
         with transaction.atomic():
             Result.objects.create(
                 run_id=row["run_id"], classroom=sub.assignment.classroom, project=sub.assignment.project,
                 student=sub.student, student_name=sub.student.name, token=token, verified=True, official=True,
-                outcome=row["outcome"], reason=str(row.get("reason") or "")[:2000],
+                outcome=row["outcome"], reason=scrub(str(row.get("reason") or ""))[:2000],
                 behaviour=str(result.get("behaviour") or "")[:100], config=f"submission-{sub.pk}.toml",
                 seed=row["seed"], sim_time=row.get("sim_time"), wall_time=row.get("wall_time"),
                 started_at=str(result.get("started_at") or "")[:40], total_time=figures.get("total_time"),
