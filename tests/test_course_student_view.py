@@ -111,3 +111,38 @@ def test_robokit_submit_wait_follows_the_submission_to_its_grade(live_server: An
     assert lines[1:3] == trials and len(trials) == 2
     assert lines[3] == "graded: 0/2 official trials succeeded (success rate 0.00, 95 % 0.00-0.66)"
     assert took < 300
+
+
+def test_submit_wait_reports_each_change_and_backs_off(httpserver: Any, capsys: Any) -> None:
+    """``follow`` against a server that answers queued, queued, running (handed back once: its note), done: one
+    line per change, the trials and the grade; the pauses between polls grow from 0.5 s by 1.5x up to 5 s."""
+    from robokit.report.submit import follow
+
+    base = {"id": 7, "trials": [], "note": "", "success_rate": None, "wilson95": [None, None], "succeeded": 0}
+    note = "re-queued at 10:02 UTC: the worker evaluating it stopped"
+    states = [{**base, "status": "queued"}, {**base, "status": "queued"},
+              {**base, "status": "running"}, {**base, "status": "queued", "note": note},
+              *[{**base, "status": "running", "note": note}] * 4,
+              {**base, "status": "done", "succeeded": 1, "success_rate": 0.5, "wilson95": [0.0945, 0.9055],
+               "trials": [{"seed": 0, "outcome": "succeeded", "reason": "watched 33 bodies for 0.4 s"},
+                          {"seed": 1, "outcome": "failed", "reason": "the cube fell off"}]}]
+    for state in states:
+        httpserver.expect_ordered_request("/api/robotics/submissions/7/").respond_with_json(state)
+    pauses: list[float] = []
+    code = follow(httpserver.url_for("/api/robotics/submissions/7/"), {}, 3600, sleep=pauses.append)
+    assert code == 0
+    assert capsys.readouterr().out.splitlines() == [
+        "queued...", "running...", f"queued: {note}...", f"running: {note}...",
+        "  seed 0: succeeded - watched 33 bodies for 0.4 s", "  seed 1: failed - the cube fell off",
+        "graded: 1/2 official trials succeeded (success rate 0.50, 95 % 0.09-0.91)"]
+    expected = [min(0.5 * 1.5 ** i, 5.0) for i in range(len(states) - 1)]
+    assert pauses == pytest.approx(expected)
+
+
+def test_submit_wait_gives_up_after_its_limit_and_says_so(httpserver: Any, capsys: Any) -> None:
+    from robokit.report.submit import EXIT_STILL_WAITING, follow
+
+    httpserver.expect_request("/api/robotics/submissions/8/").respond_with_json({"id": 8, "status": "queued"})
+    code = follow(httpserver.url_for("/api/robotics/submissions/8/"), {}, 0.0, sleep=lambda s: None)
+    err = capsys.readouterr().err
+    assert code == EXIT_STILL_WAITING and err.count("\n") == 1 and "still queued after 0 s" in err

@@ -122,7 +122,7 @@ def follow(url: str, headers: dict[str, str], limit: float, sleep: Callable[[flo
     grade. Polls back off from 0.5 s to 5 s (x1.5 each time); a lost connection is retried until the limit."""
     import requests
 
-    deadline, pause, last = time.monotonic() + limit, 0.5, ""
+    deadline, pause, last, said = time.monotonic() + limit, 0.5, "", ""
     while True:
         try:
             resp = requests.get(url, headers=headers, timeout=30)
@@ -130,10 +130,11 @@ def follow(url: str, headers: dict[str, str], limit: float, sleep: Callable[[flo
         except (requests.RequestException, ValueError):
             state = None
         if state is not None:
-            if state["status"] != last:
-                last = state["status"]
+            note = state.get("note") or ""
+            if state["status"] != last or note != said:
+                last, said = state["status"], note
                 if last in ("queued", "running"):
-                    print(f"{last}...", flush=True)
+                    print(f"{last}{f': {note}' if note else ''}...", flush=True)
             if last in ("done", "error"):
                 return report(state)
         if time.monotonic() + pause > deadline:

@@ -258,5 +258,5 @@ def submission_detail(sub: Submission) -> dict[str, Any]:
     trials = [{"seed": r.seed, "outcome": r.outcome, "reason": scrub(r.reason), "sim_time": r.sim_time,
                "figures": r.figures, "run_id": r.run_id}
               for r in sub.results.filter(official=True).order_by("seed")]
-    return {**sub.to_dict(), "error": scrub(sub.error) or None, "succeeded": sub.succeeded,
+    return {**sub.to_dict(), "error": scrub(sub.error) or None, "succeeded": sub.succeeded, "requeued": sub.requeued,
             "trials": trials, "finished_at": sub.finished_at.isoformat() if sub.finished_at else None}
