@@ -76,5 +76,5 @@ def test_a_xacro_robot_is_checked_with_its_arguments(tmp_path: Path, capsys: pyt
     xacro = ROOT / "robokit" / "data" / "robots" / "scaffold" / "diffdrive.urdf.xacro"
     assert main(["robot", "check", str(xacro), "--arg", "chassis_width=0.34"]) == 2
     err = capsys.readouterr().err
-    assert f"{xacro}: joint 'left_wheel': wheel 'left_wheel_link' sits" in err and "[wheels]" in err
+    assert f"{xacro}: joint 'left_wheel': wheel 'left_wheel_link' is sunk" in err and "[wheels]" in err
     assert main(["robot", "check", str(xacro), "--arg", "chassis_width=0.34", "--arg", "track=0.42"]) == 0

@@ -4,7 +4,7 @@
   with the same mass; a factor of :data:`SCALE_FACTOR` off either way is a unit mistake, not a design.
 - ``overlap``: collision shapes of two links that are not parent and child (nor joined by fixed joints into one
   rigid piece) interpenetrating by more than :data:`OVERLAP` at the zero pose.
-- ``wheels``: a wheel (a continuous joint's cylinder) interpenetrating its own parent (the chassis).
+- ``wheels``: a wheel (a continuous joint's cylinder) sunk into its own parent (the chassis).
 - ``stability``: a mobile base dropped on a plane stands for :data:`STAND_TIME` seconds, tilted at most
   :data:`MAX_TILT_DEG`, on its wheels (its base link off the ground).
 """
@@ -25,8 +25,8 @@ OVERLAP = 0.003
 """Metres of interpenetration allowed between two links at the zero pose."""
 STAND_TIME = 1.0
 MAX_TILT_DEG = 10.0
-WHEEL_INSIDE = 0.65
-"""Share of a wheel's bounding box that may lie inside its parent's (Husky's chassis box holds 59 % of each wheel)."""
+WHEEL_INSIDE = 0.75
+"""How deep a wheel may sink into its parent, as a share of its width (Husky's chassis box: 58 mm of 114 mm)."""
 MIN_TIP_DEG = 3.0
 """A base resting on its chassis tilted more than this has tipped over (less: its wheels are too small)."""
 
@@ -143,7 +143,7 @@ def _overlaps(robot: Robot, client: Any, bodies: tuple[int, int], index: dict[st
         if depth <= OVERLAP or frozenset((ga, gb)) in chains:
             continue
         if frozenset((ga, gb)) in adjacent:
-            out += _wheel_in_parent(robot, client, bodies[0], (a, b), index)
+            out += _wheel_in_parent(robot, (a, b), depth)
             continue
         link = robot.link(b)
         out.append(Problem("overlap", f"links {a!r} and {b!r}", f"their collision shapes overlap by "
@@ -153,26 +153,20 @@ def _overlaps(robot: Robot, client: Any, bodies: tuple[int, int], index: dict[st
     return out
 
 
-def _wheel_in_parent(robot: Robot, client: Any, body: int, pair: tuple[str, str],
-                     index: dict[str, int]) -> list[Problem]:
-    """A wheel sunk into its parent (the chassis): more than :data:`WHEEL_INSIDE` of its bounding box inside the
-    parent's. PyBullet ignores the contact, but the robot is built wrong (a chassis box that only grazes the wheel
-    wells, as Husky's does, is fine)."""
+def _wheel_in_parent(robot: Robot, pair: tuple[str, str], depth: float) -> list[Problem]:
+    """A wheel sunk into its parent (the chassis) deeper than :data:`WHEEL_INSIDE` of its width. PyBullet ignores
+    the contact, but the robot is built wrong (a chassis box that grazes the wheels, as Husky's does, is fine)."""
     for j in robot.joints:
         if j.type != "continuous" or {j.parent, j.child} != set(pair):
             continue
         child = robot.link(j.child)
-        if child is None or not any(s.kind == "cylinder" for s in child.collisions):
-            continue
-        wlo, whi = (np.array(v) for v in client.getAABB(body, index[j.child]))
-        plo, phi = (np.array(v) for v in client.getAABB(body, index[j.parent]))
-        inside = float(np.prod(np.clip(np.minimum(whi, phi) - np.maximum(wlo, plo), 0, None)))
-        share = inside / max(float(np.prod(whi - wlo)), 1e-12)
-        if share <= WHEEL_INSIDE:
+        widths = [s.size[1] for s in (child.collisions if child else []) if s.kind == "cylinder"]
+        if not widths or depth <= WHEEL_INSIDE * max(widths):
             return []
-        return [Problem("wheels", f"joint {j.name!r}", f"wheel {j.child!r} sits {share:.0%} inside {j.parent!r} "
-                        "at rest", "move the wheel out (a wider track) or make the chassis narrower: track > "
-                        "chassis width + wheel width", j.line)]
+        return [Problem("wheels", f"joint {j.name!r}", f"wheel {j.child!r} is sunk {depth * 1000:.0f} mm into "
+                        f"{j.parent!r} at rest (the wheel is {max(widths) * 1000:.0f} mm wide)",
+                        "move the wheel out (a wider track) or make the chassis narrower: track > chassis width + "
+                        "wheel width", j.line)]
     return []
 
 
