@@ -29,7 +29,8 @@ def _driver(tmp_path: Path):  # type: ignore[no-untyped-def]
 
     options = webdriver.ChromeOptions()
     options.binary_location = CHROMIUM
-    for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+    for arg in ("--headless=new", "--no-sandbox", "--enable-unsafe-swiftshader", "--use-angle=swiftshader",
+                "--disable-background-networking",
                 "--disable-dev-shm-usage", "--window-size=1280,1000", f"--user-data-dir={tmp_path / 'chrome'}",
                 "--autoplay-policy=no-user-gesture-required"):
         options.add_argument(arg)
@@ -80,5 +81,9 @@ def test_readme_set_up_then_see_what_a_run_did(tmp_path: Path) -> None:
         imgs = driver.find_elements(By.CSS_SELECTOR, "figure img")
         assert imgs and all(driver.execute_script("return arguments[0].naturalWidth", i) > 100 for i in imgs)
         assert driver.find_elements(By.CSS_SELECTOR, "svg")  # the state diagrams, inline
+        # the 3D replay, drawn with the viewer the wheel ships (robokit/data/three.min.js): a canvas of the pane's size
+        wait.until(lambda d: d.execute_script("return !!window.rkReplay"))
+        canvas = driver.execute_script("return rkReplay.viewer.renderer.domElement.getBoundingClientRect()")
+        assert canvas["width"] > 600 and canvas["height"] > 400, canvas
     finally:
         driver.quit()
