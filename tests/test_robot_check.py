@@ -78,3 +78,15 @@ def test_a_xacro_robot_is_checked_with_its_arguments(tmp_path: Path, capsys: pyt
     err = capsys.readouterr().err
     assert f"{xacro}: joint 'left_wheel': wheel 'left_wheel_link' is sunk" in err and "[wheels]" in err
     assert main(["robot", "check", str(xacro), "--arg", "chassis_width=0.34", "--arg", "track=0.42"]) == 0
+
+
+def test_check_reads_a_config_s_robots_with_their_arguments(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from robokit.robot.scaffold import new_robot
+
+    _, config = new_robot("bot", "diffdrive", tmp_path)
+    assert main(["robot", "check", str(config)]) == 0
+    assert capsys.readouterr().out.strip() == f"{config} [robots.robot] bot.urdf.xacro: ok (5 links, 4 joints)"
+    config.write_text(config.read_text(encoding="utf-8").replace("chassis_width = 0.20", "chassis_width = 0.34"),
+                      encoding="utf-8")
+    assert main(["robot", "check", str(config)]) == 2
+    assert "[robots.robot] bot.urdf.xacro: 2 problems" in capsys.readouterr().err

@@ -18,7 +18,8 @@ def add_robot_command(sub: Any) -> None:
     verbs.required = True
 
     check = verbs.add_parser("check", help="one line per problem of a URDF or xacro file, with its fix")
-    check.add_argument("file", help="a URDF or xacro file (a bundled robot or pybullet_data name works too)")
+    check.add_argument("file", help="a URDF or xacro file (a bundled robot or pybullet_data name works too), or a "
+                                    "config: each of its [robots] as the config loads it (xacro_args, fixed_base)")
     check.add_argument("--arg", dest="args", action="append", default=[], metavar="NAME=VALUE",
                        help="a xacro argument (repeatable)")
     check.add_argument("--fixed-base", action="store_true", help="the robot is fixed in place (no stability check)")
@@ -32,7 +33,7 @@ def add_robot_command(sub: Any) -> None:
     new.set_defaults(func=cmd_new)
 
     show = verbs.add_parser("show", help="draw a robot from three sides with its joint frames and axes")
-    show.add_argument("file", help="a URDF or xacro file")
+    show.add_argument("file", help="a URDF or xacro file, or a config (its first robot, with its xacro_args)")
     show.add_argument("--arg", dest="args", action="append", default=[], metavar="NAME=VALUE",
                       help="a xacro argument (repeatable)")
     show.add_argument("-o", "--output", default="robot.png", metavar="PNG")
@@ -68,22 +69,56 @@ def find_file(name: str) -> str:
     raise UserError(f"{name}: no such file (looked here, in robokit's robots and in pybullet_data)")
 
 
+def robots_of(file: str, items: list[str]) -> list[tuple[str, str, dict[str, Any], bool | None]]:
+    """What ``check`` and ``show`` look at: ``(label, path, xacro arguments, fixed base)`` for a robot file (the
+    ``--arg`` options), or for each ``[robots.NAME]`` of a config (its own ``xacro_args`` and ``fixed_base``)."""
+    from pathlib import Path
+
+    from robokit.errors import UserError
+
+    if not file.endswith(".toml"):
+        return [(file, find_file(file), dict(xacro_args(items)), None)]
+    if sys.version_info >= (3, 11):
+        import tomllib
+    else:  # pragma: no cover - robokit's dependency on older Pythons
+        import tomli as tomllib
+
+    try:
+        with open(file, "rb") as f:
+            robots = tomllib.load(f).get("robots", {})
+    except (OSError, tomllib.TOMLDecodeError) as exc:
+        raise UserError(f"{file}: cannot read the config: {exc}") from None
+    out: list[tuple[str, str, dict[str, Any], bool | None]] = []
+    for name, table in robots.items():
+        if isinstance(table, dict) and isinstance(table.get("urdf"), str):
+            urdf = table["urdf"]
+            beside = Path(file).parent / urdf
+            path = str(beside) if beside.is_file() else find_file(urdf)
+            fixed = bool(table.get("fixed_base", False)) or "mount" in table
+            out.append((f"{file} [robots.{name}] {urdf}", path, dict(table.get("xacro_args", {})), fixed))
+    if not out:
+        raise UserError(f"{file}: no [robots.NAME] with a urdf file")
+    return out
+
+
 def cmd_check(args: argparse.Namespace) -> int:
     """``robokit robot check FILE``: print each problem on one line; exit 2 when there is an error."""
     from robokit.robot.check import check_robot, load
 
-    path = find_file(args.file)
-    robot = load(path, xacro_args(args.args))
-    problems = check_robot(robot, fixed_base=True if args.fixed_base else None)
-    for p in problems:
-        print(p.text(args.file), file=sys.stderr if not p.warning else sys.stdout)
-    errors = [p for p in problems if not p.warning]
-    if errors:
-        print(f"{args.file}: {len(errors)} problem{'s' * (len(errors) != 1)}", file=sys.stderr)
-        return EXIT_PROBLEMS
-    warned = f", {len(problems)} warning{'s' * (len(problems) != 1)}" if problems else ""
-    print(f"{args.file}: ok ({len(robot.links)} links, {len(robot.joints)} joints{warned})")
-    return EXIT_OK
+    failed = 0
+    for label, path, arguments, fixed in robots_of(args.file, args.args):
+        robot = load(path, arguments)
+        problems = check_robot(robot, fixed_base=True if args.fixed_base else fixed)
+        for p in problems:
+            print(p.text(label), file=sys.stderr if not p.warning else sys.stdout)
+        errors = [p for p in problems if not p.warning]
+        if errors:
+            print(f"{label}: {len(errors)} problem{'s' * (len(errors) != 1)}", file=sys.stderr)
+            failed += 1
+            continue
+        warned = f", {len(problems)} warning{'s' * (len(problems) != 1)}" if problems else ""
+        print(f"{label}: ok ({len(robot.links)} links, {len(robot.joints)} joints{warned})")
+    return EXIT_PROBLEMS if failed else EXIT_OK
 
 
 def cmd_new(args: argparse.Namespace) -> int:
@@ -104,8 +139,8 @@ def cmd_show(args: argparse.Namespace) -> int:
     from robokit.robot.check import load
     from robokit.robot.show import draw_robot
 
-    robot = load(find_file(args.file), xacro_args(args.args))
-    out = draw_robot(robot, args.output, height=args.size)
+    _, path, arguments, _ = robots_of(args.file, args.args)[0]
+    out = draw_robot(load(path, arguments), args.output, height=args.size)
     print(f"wrote {out}")
     return EXIT_OK
 
