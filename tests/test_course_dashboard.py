@@ -200,6 +200,7 @@ def test_korean_charts_need_no_system_font_and_no_font_cache(tmp_path: Any) -> N
             assert index != 0 and f'id="NotoSansKR-Regular-{index:x}"' in svg, char
 
 
+@pytest.mark.slow
 def test_without_any_korean_font_one_warning_not_one_per_glyph(tmp_path: Any) -> None:
     found, stderr = _charts_without_system_korean(tmp_path, "no-package")
     assert found["font"] is None and all("<svg" in s for s in found["svgs"])

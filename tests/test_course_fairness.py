@@ -111,6 +111,7 @@ def test_limits_refuse_in_one_line_saying_when_to_submit_again(live_server: Any,
     assert Submission.objects.filter(assignment=a, student=course.kim).count() == 3
 
 
+@pytest.mark.slow
 def test_robokit_submit_prints_a_refusal_in_one_line(live_server: Any, course: Course, tmp_path: Path) -> None:
     a = make_assignment(course.room)
     assert post(live_server.url, a.name, course.kim_token, OFFICIAL).status_code == 201
@@ -160,6 +161,7 @@ def test_the_queue_serves_each_student_before_one_students_backlog(live_server: 
     assert sorted(Submission.objects.values_list("claim", flat=True)) == sorted(tickets)
 
 
+@pytest.mark.slow
 def test_a_task_evaluates_the_fairest_submission_through_the_sandbox(live_server: Any, course: Course) -> None:
     """The queue's own task function, as a worker calls it, with Kim's second ticket: it evaluates Lee's
     submission for real (official rows on Lee's seeds), and Kim's waits."""

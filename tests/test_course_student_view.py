@@ -90,6 +90,7 @@ def test_a_teacher_evaluates_a_submission_again_and_the_log_says_so(client: Any,
     assert ModerationEvent.objects.count() == 1
 
 
+@pytest.mark.slow
 @pytest.mark.django_db(transaction=True)
 def test_robokit_submit_wait_follows_the_submission_to_its_grade(live_server: Any, course: Course,
                                                                  tmp_path: Path) -> None:
