@@ -68,9 +68,10 @@ def test_dense_variant_reward_is_minus_the_distance() -> None:
     env = gymnasium.make("robokit/ReachDense-v0", goal_env=True)
     for obs, reward, info in rows:
         d = float(np.linalg.norm(obs["achieved_goal"].astype(np.float64) - obs["desired_goal"]))
-        assert reward == pytest.approx(-d, abs=1e-6) and reward == pytest.approx(-info["distance"], abs=1e-12)
-        assert env.unwrapped.compute_reward(obs["achieved_goal"], obs["desired_goal"], info) == pytest.approx(
-            reward, abs=1e-6)
+        # the reward of the goals as observed (float32 positions): exactly compute_reward's, and the distance of
+        # the true positions to within that rounding
+        assert reward == -d and reward == pytest.approx(-info["distance"], abs=1e-6)
+        assert env.unwrapped.compute_reward(obs["achieved_goal"], obs["desired_goal"], info) == reward
     env.close()
 
 

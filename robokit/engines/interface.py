@@ -282,6 +282,13 @@ class World(ABC):
         """
         return None  # this engine honours every setting
 
+    @classmethod
+    def window_problem(cls) -> str | None:
+        """Why this engine cannot open its GUI window on this machine now, or None if it can. ``World(gui=True)``
+        raises it as a one-line error rather than opening; a Gymnasium env lists the ``"human"`` render mode only
+        when it is None. This default: the engine has no window."""
+        return f"the {cls.engine} engine has no GUI window"
+
     def __init__(
         self,
         *,

@@ -11,6 +11,7 @@
     env = gymnasium.make("robokit/Env-v0", config="configs/gym/reach.toml")    # registered by `import robokit.gym`
     env = gymnasium.make("robokit/Reach-v0", goal_env=True)                    # a shipped env, HER-ready
     env = gymnasium.make("robokit.gym:robokit/Push-v0")                        # the same, importing it first
+    env = gymnasium.make("robokit/Reach-v0", engine="mujoco")                  # on MuJoCo (or world__engine=)
 
 Importing this package registers ``robokit/Env-v0`` and the shipped environments (``robokit/Reach-v0``,
 ``Push-v0``, ``Pick-v0``, ``GoTo-v0``, each also as ``...Dense-v0`` and ``...Sparse-v0``) when Gymnasium is
@@ -44,27 +45,32 @@ SHIPPED = {"Reach": "reach.toml", "Push": "push.toml", "Pick": "pick.toml", "GoT
 
 
 def make(config: str | Path | dict[str, Any], *, render_mode: str | None = None, goal_env: bool | None = None,
-         **overrides: Any) -> Any:
+         engine: str | None = None, **overrides: Any) -> Any:
     """A :class:`~robokit.gym.env.RobokitEnv` from a config with an ``[env]`` section.
 
     Args:
         config: Path to a TOML config, or a dict as TOML parses it.
         render_mode: ``"rgb_array"`` to have ``render()`` return the ``[env] render_camera``'s RGB frame;
-            ``"human"`` to watch the episodes in PyBullet's GUI window, paced to wall-clock time.
+            ``"human"`` to watch the episodes in the engine's GUI window, paced to wall-clock time (PyBullet, with
+            a display).
         goal_env: True for panda-gym's goal dict observation and a sparse reward unless the config names one
             (``[env] goal_env``; None keeps the config's).
+        engine: ``"pybullet"`` or ``"mujoco"`` (None: the config's ``world.engine``).
         overrides: Dotted config keys with ``__`` for dots, e.g. ``env__task__reward="sparse"``,
             ``world__time_step=0.002``.
     """
     from robokit.gym.env import RobokitEnv
 
-    dotted = {key.replace("__", "."): value for key, value in overrides.items()}
-    return RobokitEnv(config, render_mode=render_mode, overrides=dotted, goal_env=goal_env)
+    return RobokitEnv(config, render_mode=render_mode, goal_env=goal_env, engine=engine, **overrides)
 
 
 def make_shipped(name: str, reward: str | None = None, render_mode: str | None = None,
-                 goal_env: bool | None = None, overrides: dict[str, Any] | None = None) -> Any:
-    """The entry point of the registered ids: shipped env ``name`` (see :data:`SHIPPED`) with a reward variant."""
+                 goal_env: bool | None = None, overrides: dict[str, Any] | None = None, engine: str | None = None,
+                 **keys: Any) -> Any:
+    """The entry point of the registered ids: shipped env ``name`` (see :data:`SHIPPED`) with a reward variant.
+
+    ``engine``: ``"pybullet"`` (the configs' own) or ``"mujoco"``; ``keys``: config overrides as keywords with
+    ``__`` for dots (``world__engine="mujoco"``, ``env__task__distance_threshold=0.02``)."""
     from robokit.gym.env import RobokitEnv
 
     path = _config_dir() / SHIPPED[name]
@@ -74,7 +80,7 @@ def make_shipped(name: str, reward: str | None = None, render_mode: str | None =
     dotted = dict(overrides or {})
     if reward is not None:
         dotted["env.task.reward"] = reward
-    return RobokitEnv(path, render_mode=render_mode, overrides=dotted, goal_env=goal_env)
+    return RobokitEnv(path, render_mode=render_mode, overrides=dotted, goal_env=goal_env, engine=engine, **keys)
 
 
 def register_envs() -> None:

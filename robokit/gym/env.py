@@ -20,6 +20,7 @@ from gymnasium import spaces
 
 from robokit.config import Config, build_config, read_toml, set_dotted, validate_model
 from robokit.core.simulation import Simulation
+from robokit.engines.interface import World
 from robokit.errors import ConfigError, UserError
 from robokit.gym.spec import Actions, EnvSpec, Observer, finite_or
 from robokit.gym.task import Task, TaskContext
@@ -72,31 +73,47 @@ class RobokitEnv(gym.Env):  # type: ignore[type-arg]
     Args:
         config: Path to a TOML config (or a dict as TOML parses it).
         render_mode: ``"rgb_array"`` (``render()`` returns the ``[env] render_camera`` sensor's RGB frame),
-            ``"human"`` (the episode runs in PyBullet's GUI window, paced to wall-clock time unless
+            ``"human"`` (the episode runs in the engine's GUI window, paced to wall-clock time unless
             ``[world] realtime = false``; ``render()`` returns None, as Gymnasium's human mode does) or None.
+            An env's ``metadata["render_modes"]`` lists what its engine can do here: ``"rgb_array"`` when the
+            config names a render camera, ``"human"`` when the engine's window can open (PyBullet with a display;
+            MuJoCo has none). Asking for a mode the env cannot do raises one line saying why.
         overrides: Dotted keys set before validation, e.g. ``{"env.task.reward": "sparse"}``.
+        engine: The physics engine (``"pybullet"``, ``"mujoco"``): the config's ``world.engine`` otherwise.
+        keys: More overrides as keywords, ``__`` for dots: ``world__engine="mujoco"``, ``env__task__reward=...``.
+
+    A goal env (``goal_env``: dict observations with ``achieved_goal`` and ``desired_goal``) has
+    :meth:`compute_reward` (for HER's relabelling) and its step reward is that of its observed goals; a flat env
+    has no ``compute_reward``, so tools that look for it (Stable-Baselines3) take it for what it is.
     """
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 25}
+    """The modes an env may offer; each env's own ``metadata`` narrows them to what its engine can do."""
     sim: Simulation | None = None
     _episode_rng: np.random.Generator | None = None
 
     def __init__(self, config: str | Path | dict[str, Any], render_mode: str | None = None,
                  overrides: dict[str, Any] | None = None, plugins: Plugins | None = None,
-                 goal_env: bool | None = None) -> None:
-        overrides = dict(overrides or {})
+                 goal_env: bool | None = None, engine: str | None = None, **keys: Any) -> None:
+        overrides = {**(overrides or {}), **{key.replace("__", "."): value for key, value in keys.items()}}
         if goal_env is not None:
             overrides["env.goal_env"] = goal_env
+        if engine is not None:
+            overrides["world.engine"] = engine
         self.cfg, self.env_spec, self.plugins = load_env_config(config, overrides, plugins)
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+        modes, why_not = self._render_modes()
+        if render_mode is not None and render_mode not in modes:
+            if render_mode in why_not:
+                raise ConfigError(f"render_mode={render_mode!r}: {why_not[render_mode]}",
+                                  key="env.render_camera" if render_mode == "rgb_array" else "world.engine",
+                                  file=self.cfg.source)
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}")
-        if render_mode == "rgb_array" and self.env_spec.render_camera is None:
-            raise ConfigError("render_mode='rgb_array' needs [env] render_camera = a camera sensor's name",
-                              key="env.render_camera", file=self.cfg.source)
         self.render_mode = render_mode
         self._build()
         self.observer = Observer(self.env_spec, self.task.goal_entries)
-        self.metadata = {**self.metadata, "render_fps": round(self.env_spec.control_hz)}
+        self.metadata = {**self.metadata, "render_modes": modes, "render_fps": round(self.env_spec.control_hz)}
+        if self.env_spec.goal_env:
+            self.compute_reward = self._goal_reward
         self.action_space = spaces.Box(-1.0, 1.0, (self.actions.size,), dtype=np.float32)
         try:
             task_obs = self.task.observe()
@@ -166,6 +183,16 @@ class RobokitEnv(gym.Env):  # type: ignore[type-arg]
                                       finite_or(info.upper, np.pi) if ok else np.pi)
         return out
 
+    def _render_modes(self) -> tuple[list[str], dict[str, str]]:
+        """The render modes this env can do on its engine here, and why not for the others."""
+        why_not = {}
+        if self.env_spec.render_camera is None:
+            why_not["rgb_array"] = "needs [env] render_camera = a camera sensor's name"
+        problem = World.engine_class(self.cfg.world.engine).window_problem()
+        if problem is not None:
+            why_not["human"] = f"no window on {self.cfg.world.engine} here: {problem}"
+        return [m for m in self.metadata["render_modes"] if m not in why_not], why_not
+
     @property
     def _paced(self) -> bool:
         """Human mode with ``[world] realtime`` on: each step waits until wall-clock time catches up with sim time."""
@@ -181,10 +208,14 @@ class RobokitEnv(gym.Env):  # type: ignore[type-arg]
 
     # ------------------------------------------------------------------ the Gymnasium API
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[Any, dict[str, Any]]:
-        """Start an episode: the world's start state, then the task places the goal and objects from the seed."""
+        """Start an episode: the world's start state, then the task places the goal and objects from the seed.
+        After :meth:`close`, a reset builds the world again (Stable-Baselines3's checker closes, then resets)."""
         super().reset(seed=seed)
         rng = self._randomize_rng(seed)
-        if self.restorable and not (rng is not None and self.cfg.randomize and self.cfg.randomize.params):
+        if self.sim is None:
+            self._build(rng)
+            self.closed = False
+        elif self.restorable and not (rng is not None and self.cfg.randomize and self.cfg.randomize.params):
             self.world.restore(self.snapshot)
             if rng is not None and self.sim.randomizer is not None:  # type: ignore[union-attr]
                 randomizer = self.sim.randomizer  # type: ignore[union-attr]
@@ -235,7 +266,6 @@ class RobokitEnv(gym.Env):  # type: ignore[type-arg]
         if self._paced:
             self.sim.scheduler.pace()  # type: ignore[union-attr]
         task = self.task
-        reward = float(task.reward())
         failure = task.failure()
         success = bool(task.success())
         terminated = success or failure is not None
@@ -243,12 +273,19 @@ class RobokitEnv(gym.Env):  # type: ignore[type-arg]
         info = self._info(success)
         if failure is not None:
             info["failure"] = failure
-        return self._observation(), reward, terminated, truncated, info
+        obs = self._observe_raw()
+        if self.env_spec.goal_env:  # the reward of the goals as observed: what compute_reward gives for them
+            reward = float(self._goal_reward(obs["achieved_goal"], obs["desired_goal"], info))
+        else:
+            reward = float(task.reward())
+        return obs if self.env_spec.dict_observations else obs["observation"], reward, terminated, truncated, info
 
-    def compute_reward(self, achieved_goal: Any, desired_goal: Any, info: Any) -> np.ndarray:
-        """The reward for these goals (vectorised over leading axes), as :meth:`step` gives it: for HER's
-        relabelling. Sparse: 0 within the task's ``distance_threshold``, else -1; dense: minus the distance."""
-        return self.task.compute_reward(np.asarray(achieved_goal), np.asarray(desired_goal), info)
+    def _goal_reward(self, achieved_goal: Any, desired_goal: Any, info: Any) -> np.ndarray:
+        """A goal env's ``compute_reward``: the reward for these goals (vectorised over leading axes, float64), as
+        :meth:`step` gives it: for HER's relabelling. Sparse: 0 within the task's ``distance_threshold``, else -1;
+        dense: minus the distance."""
+        return np.asarray(self.task.compute_reward(np.asarray(achieved_goal), np.asarray(desired_goal), info),
+                          dtype=np.float64)
 
     def render(self) -> np.ndarray | None:  # type: ignore[override]
         """The render camera's RGB frame (``H x W x 3`` uint8) in ``rgb_array`` mode; None otherwise (in ``human``
@@ -259,7 +296,7 @@ class RobokitEnv(gym.Env):  # type: ignore[type-arg]
         return np.asarray(frame.rgb, dtype=np.uint8)
 
     def close(self) -> None:
-        """Close the World and its components. Safe to call twice."""
+        """Close the World and its components. Safe to call twice; a later :meth:`reset` builds them again."""
         if self.sim is not None:
             self.task.close()
             self.sim.close()

@@ -132,11 +132,11 @@ def hide_from_collisions(world: World, body: int) -> None:
 
 def goal_reward(achieved_goal: Any, desired_goal: Any, threshold: float, kind: str) -> np.ndarray:
     """panda-gym's goal reward, vectorised over leading axes: sparse ``-1`` unless within ``threshold`` (then 0),
-    dense minus the distance. float32, shape of the goals without their last axis."""
+    dense minus the distance. float64 (as a step's reward), shape of the goals without their last axis."""
     d = np.linalg.norm(np.asarray(achieved_goal, np.float64) - np.asarray(desired_goal, np.float64), axis=-1)
     if kind == "sparse":
-        return -(d >= threshold).astype(np.float32)  # type: ignore[no-any-return]
-    return -d.astype(np.float32)  # type: ignore[no-any-return]
+        return -(d >= threshold).astype(np.float64)  # type: ignore[no-any-return]
+    return -d  # type: ignore[no-any-return]
 
 
 def distance(a: Any, b: Any) -> float:

@@ -8,7 +8,11 @@ centre-of-mass frames, its constants. The methods' contracts (units, frames) are
 
 from __future__ import annotations
 
+import ctypes
+import ctypes.util
 import math
+import os
+import sys
 from collections.abc import Collection, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from importlib.metadata import PackageNotFoundError, version
@@ -122,6 +126,9 @@ class PyBulletWorld(World):
     ) -> None:
         super().__init__(gui=gui, time_step=time_step, gravity=gravity, solver_iterations=solver_iterations,
                          seed=seed, base_dir=base_dir, engine=engine)
+        problem = self.window_problem() if gui else None
+        if problem is not None:  # PyBullet ends the process when its window cannot open: say why instead
+            raise UserError(f"PyBullet's GUI window cannot open: {problem}")
         with quiet_stdout():
             try:
                 self.client: Any = _Client(connection_mode=p.GUI if gui else p.DIRECT)
@@ -138,6 +145,27 @@ class PyBulletWorld(World):
         self.client.setPhysicsEngineParameter(fixedTimeStep=self.time_step, numSolverIterations=solver_iterations)
         if gui:
             self.client.configureDebugVisualizer(p.COV_ENABLE_GUI, 0)
+
+    @classmethod
+    def window_problem(cls) -> str | None:
+        """On Linux PyBullet's window needs an X display: None if ``$DISPLAY`` opens (asked of libX11, the library
+        the window itself uses), else why not. Elsewhere None (the platform's own window system)."""
+        if not sys.platform.startswith("linux"):
+            return None
+        display = os.environ.get("DISPLAY")
+        if not display:
+            return "no display (DISPLAY is not set); run headless, or under xvfb-run for a virtual one"
+        try:
+            x11 = ctypes.CDLL(ctypes.util.find_library("X11") or "libX11.so.6")
+        except OSError:
+            return None  # no libX11 to ask: let PyBullet try
+        x11.XOpenDisplay.restype, x11.XOpenDisplay.argtypes = ctypes.c_void_p, [ctypes.c_char_p]
+        x11.XCloseDisplay.argtypes = [ctypes.c_void_p]
+        handle = x11.XOpenDisplay(display.encode())
+        if not handle:
+            return f"display {display!r} does not open (is its X server running?)"
+        x11.XCloseDisplay(handle)
+        return None
 
     @property
     def cid(self) -> int:
