@@ -36,6 +36,14 @@ def test_lesson_04_s_picture_is_what_its_commands_make(tmp_path: Path) -> None:
     made = script.make(lesson, tmp_path / "scratch")
     kept = ROOT / "docs" / "lessons" / lesson.picture
     assert script.difference(made, kept) <= script.TOLERANCE
+
+
+@pytest.mark.slow
+def test_the_comparison_tells_another_camera_view_apart(tmp_path: Path) -> None:
+    script = _script()
+    [lesson] = script.lessons(["04"])
+    script.make(lesson, tmp_path / "scratch")
+    kept = ROOT / "docs" / "lessons" / lesson.picture
     other = tmp_path / "scratch" / "front.png"  # the same moment from another camera: the check must see it
     done = subprocess.run(script.ROBOKIT + ["video", "last", "--time", "end", "--size", "480x360", "--view", "front",
                                             "-o", str(other)], cwd=tmp_path / "scratch", capture_output=True)

@@ -75,25 +75,32 @@ def _expected_frames(run: Path) -> int:
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, Path]:
     """Two runs of different lengths in one folder: (folder, first run, second run)."""
+    from robokit.cli import main
+
     folder = tmp_path_factory.mktemp("outputs")
     made = []
-    for duration in (0.5, 1.0):
-        (folder / "scene.toml").write_text(SCENE.format(max_time=duration + 1, duration=duration))
-        done = _robokit(folder, "run", "scene.toml", "--quiet")
-        assert done.returncode == 0, done.stderr
-        made.append(max((folder / "results").iterdir(), key=lambda p: p.stat().st_mtime_ns))
+    cwd = os.getcwd()
+    os.chdir(folder)
+    try:
+        for duration in (0.5, 1.0):
+            (folder / "scene.toml").write_text(SCENE.format(max_time=duration + 1, duration=duration))
+            assert main(["run", "scene.toml", "--quiet"]) == 0
+            made.append(max((folder / "results").iterdir(), key=lambda p: p.stat().st_mtime_ns))
+    finally:
+        os.chdir(cwd)
     assert made[0] != made[1]
     return folder, made[0], made[1]
 
 
 def test_a_video_ffmpeg_cannot_finish_leaves_the_old_file_and_exits_6(runs: tuple[Path, Path, Path]) -> None:
+    from robokit.cli import main
+
     folder, first, _ = runs
     old = folder / "limited.mp4"
-    made = _robokit(folder, "video", str(first), "-o", old.name, "--size", "64x48")
-    assert made.returncode == 0, made.stderr
+    assert main(["video", str(first), "-o", str(old), "--size", "32x24", "--workers", "1"]) == 0
     before = _sha(old)
-    assert old.stat().st_size < 12_000  # a complete small video fits under the limit; a larger one will not
-    cut = _robokit(folder, "video", str(first), "-o", old.name, "--size", "320x240", limit=12_000)
+    assert old.stat().st_size < 6_000  # a complete small video fits under the limit; a larger one will not
+    cut = _robokit(folder, "video", str(first), "-o", old.name, "--size", "160x120", "--workers", "1", limit=6_000)
     assert cut.returncode == 6, (cut.stdout, cut.stderr)
     lines = cut.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("robokit: warning: limited.mp4: not written"), cut.stderr
@@ -119,6 +126,21 @@ def test_an_interrupted_render_removes_its_partial_file_and_says_so(runs: tuple[
     assert not out.exists() and list(folder.glob(".*part*")) == [] and stdout == ""
 
 
+def test_a_later_run_s_video_under_the_same_name_is_not_the_first_run_s(runs: tuple[Path, Path, Path]) -> None:
+    from robokit.cli import main
+    from robokit.record.page import find_video
+
+    folder, first, second = runs
+    shared = folder / "same.mp4"
+    for run in (first, second):  # the README's flow: every run rendered to the same -o sort.mp4
+        assert main(["video", str(run), "-o", str(shared), "--size", "32x24", "--workers", "1"]) == 0
+    assert _frames_of(shared) == _expected_frames(second) != _expected_frames(first)
+    assert find_video(RunRecord(second)) == shared
+    own = first / "video.mp4"
+    assert find_video(RunRecord(first)) == (own if own.exists() else None)  # never the second run's file
+
+
+@pytest.mark.slow
 def test_a_run_page_embeds_its_own_video_when_a_later_run_took_the_name(runs: tuple[Path, Path, Path]) -> None:
     folder, first, second = runs
     for run in (first, second):  # the README's flow: every run rendered to the same -o sort.mp4
