@@ -1,5 +1,9 @@
 """A course server with its queue workers as real processes, for the slow course-work tests: set-up through
-``robokit manage``, submissions over HTTP, the server's SQLite database read with the standard library."""
+``robokit manage``, submissions over HTTP, the server's database read back directly.
+
+The database is SQLite in the data folder, or, when ``DATABASE_URL`` names a PostgreSQL server (as .ci/run's
+PostgreSQL pass sets it), a new database of its own on that server for each :class:`CourseServer`: the same tests
+run on both."""
 
 from __future__ import annotations
 
@@ -27,6 +31,9 @@ class CourseServer:
         self.data, self.workers, self.port = data, workers, free_port()
         self.url = f"http://127.0.0.1:{self.port}"
         self.env = {**os.environ, "ROBOKIT_TEACHER_PASSWORD": PASSWORD, **(env or {})}
+        self.database = fresh_database(self.env.get("DATABASE_URL", ""))
+        if self.database:
+            self.env["DATABASE_URL"] = self.database
         self.lines: list[str] = []
         self.proc: subprocess.Popen[str] | None = None
 
@@ -93,6 +100,12 @@ class CourseServer:
         return alive
 
     def query(self, sql: str, *params: Any) -> list[tuple[Any, ...]]:
+        """Rows of ``sql`` (``?`` placeholders) from the server's database."""
+        if self.database:
+            import psycopg
+
+            with psycopg.connect(self.database, autocommit=True) as pg:
+                return pg.execute(sql.replace("?", "%s"), params).fetchall()
         with sqlite3.connect(self.data / "db.sqlite3", timeout=30) as db:
             return db.execute(sql, params).fetchall()
 
@@ -110,6 +123,21 @@ class CourseServer:
                 continue
             raise AssertionError(f"robokit serve exited ({code}) while waiting for {what}:\n{self.log[-3000:]}")
         return time.monotonic() - start
+
+
+def fresh_database(url: str) -> str:
+    """For a PostgreSQL ``url``: a new, empty database on that server (its role may create databases), as a URL;
+    for anything else: ""."""
+    if not url.startswith(("postgres://", "postgresql://")):
+        return ""
+    import uuid
+
+    import psycopg
+
+    name = f"robokit_{uuid.uuid4().hex[:16]}"
+    with psycopg.connect(url, autocommit=True) as pg:
+        pg.execute(f'CREATE DATABASE "{name}"')
+    return f"{url.rsplit('/', 1)[0]}/{name}"
 
 
 def setup_class(server: CourseServer, students: list[str]) -> dict[str, str]:
