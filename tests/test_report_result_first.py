@@ -4,6 +4,7 @@ is named as the cause when a command needs its record."""
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
@@ -103,3 +104,20 @@ def test_a_refused_report_is_one_line_without_the_server_s_raw_json(server: Cour
     said = [line for line in (captured.out + captured.err).splitlines() if "401" in line or "refused" in line.lower()]
     assert len(said) == 1 and said[0].startswith("robokit: error: report[http] refused (HTTP 401): no token sent")
     assert "{" not in said[0]
+
+
+def test_a_payload_names_no_folder_of_the_machine_that_made_it(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from robokit.core.result import RunResult
+    from robokit.report.reporting import build_payload
+
+    monkeypatch.chdir(tmp_path)
+    home, venv = str(Path.home()), sys.prefix
+    result = RunResult(run_id="r1", robokit_version="0", config=str(tmp_path / "configs" / "a.toml"), behaviour=None,
+                       seed=1, outcome="error", reason=f"cannot read {tmp_path}/meshes/arm.obj nor {venv}/x.urdf",
+                       ticks=0, sim_time=0.0, wall_time=0.0, started_at="", warnings=[f"{home}/cache is full"])
+    payload = build_payload(result)
+    text = json.dumps(payload)
+    assert str(tmp_path) not in text and venv not in text and f"{home}/" not in text
+    assert payload["config"] == "configs/a.toml" and payload["reason"].startswith("cannot read meshes/arm.obj nor ")
+    outside = build_payload(RunResult(**{**result.to_dict(), "config": "/elsewhere/b.toml"}))
+    assert outside["config"] == "b.toml"

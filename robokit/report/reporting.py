@@ -49,6 +49,10 @@ def build_payload(
     payload = result.to_dict()
     if isinstance(payload.get("config"), str):
         payload["config"] = portable_path(payload["config"])
+    if isinstance(payload.get("reason"), str):
+        payload["reason"] = portable_text(payload["reason"])
+    if isinstance(payload.get("warnings"), list):
+        payload["warnings"] = [portable_text(w) if isinstance(w, str) else w for w in payload["warnings"]]
     if student is not None:
         payload["student"] = student
     if project is not None:
@@ -68,6 +72,19 @@ def portable_path(path: str) -> str:
         return p.relative_to(Path.cwd()).as_posix()
     except (ValueError, OSError):
         return p.name
+
+
+def portable_text(text: str) -> str:
+    """``text`` (a reason, a warning) with this machine's folders written portably: the working folder's prefix
+    dropped (paths become relative), Python's environment as ``<python>``, the home folder as ``~``."""
+    import sys
+
+    places = [(str(Path.cwd()) + os.sep, ""), (sys.prefix + os.sep, "<python>" + os.sep),
+              (str(Path.home()) + os.sep, "~" + os.sep)]
+    for prefix, short in sorted(places, key=lambda p: -len(p[0])):
+        if len(prefix) > 1:
+            text = text.replace(prefix, short)
+    return text
 
 
 def deliver(reporters: Iterable[Any], payload: dict[str, Any], *, stop: Any = None) -> list[tuple[str, Delivery]]:
