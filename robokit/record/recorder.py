@@ -24,6 +24,7 @@ import pybullet as p
 
 from robokit import __version__
 from robokit.core.result import jsonable
+from robokit.record.atomic import part_name
 from robokit.record.layout import POSES_FILE, RECORD_SCHEMA, TRACE_FILE, machines_of
 
 
@@ -193,12 +194,17 @@ class Recorder:
         self.finish()
         if not self.period or not self._ticks:
             return []
-        tmp, path = self.folder / (POSES_FILE + ".tmp.npz"), self.folder / POSES_FILE
+        tmp, path = part_name(self.folder / POSES_FILE), self.folder / POSES_FILE
         try:
             np.savez_compressed(tmp, **self.poses())  # type: ignore[arg-type]
+            with np.load(tmp) as back:  # checked before it takes the name: every sample is there
+                whole = len(back["t"]) == len(self._ticks)
+            if not whole:
+                return [f"run record: {path} read back short; the pose log was not kept"]
             tmp.replace(path)
-        except OSError as exc:
-            return [f"run record: writing {path} failed: {exc.strerror or exc}; the pose log was not kept"]
+        except (OSError, ValueError, KeyError) as exc:
+            why = exc.strerror if isinstance(exc, OSError) and exc.strerror else exc
+            return [f"run record: writing {path} failed: {why}; the pose log was not kept"]
         finally:
             tmp.unlink(missing_ok=True)
         return []
@@ -207,7 +213,7 @@ class Recorder:
         """Stop recording: close the trace where it is, write no pose log, leave no temporary file."""
         self.period = 0
         self._close_trace()
-        (self.folder / (POSES_FILE + ".tmp.npz")).unlink(missing_ok=True)
+        part_name(self.folder / POSES_FILE).unlink(missing_ok=True)
 
     def close(self, result: Any = None) -> list[str]:
         """:meth:`finish`, then :meth:`write_poses` (for code that records a simulation it runs itself)."""
