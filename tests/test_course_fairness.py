@@ -18,6 +18,8 @@ import pytest
 import requests
 from course_helpers import Course
 from course_work import OFFICIAL, changed, make_assignment
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 pytest_plugins = ["course_fixtures"]
 pytestmark = pytest.mark.django_db(transaction=True)
@@ -267,3 +269,43 @@ def test_a_re_evaluation_has_a_ticket_of_its_own(client: Any, course: Course) ->
     (ticket,) = [t.task["args"][0] for t in OrmQ.objects.all()]
     assert ticket < 0 and claim(ticket) == k2
     assert claim(k2) == l1  # Kim's second ticket still resumes Lee's
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(posts=st.lists(st.integers(0, 2), min_size=1, max_size=12),
+       steps=st.lists(st.booleans(), min_size=30, max_size=30))
+def test_any_order_of_posts_is_served_fairly(course: Course, posts: list[int], steps: list[bool]) -> None:
+    """Generated: three students post in any order, then two workers take and finish submissions in any
+    interleaving (each step: take the next task, or finish the oldest running one). At every take, counted plainly
+    from the rows: the student served has no more submissions running than any other student with one waiting,
+    and among those, was served no later than them; every submission is evaluated once."""
+    from robokit.server.fair_queue import claim
+    from robokit.server.models import Student, Submission
+
+    Submission.objects.all().delete()
+    a = make_assignment(course.room, max_waiting=100, max_per_day=0) if not course.room.assignments.exists() \
+        else course.room.assignments.get()
+    third = Student.objects.get_or_create(classroom=course.room, name="박지호")[0]
+    students = [course.kim, course.lee, third]
+    tickets = [Submission.objects.create(assignment=a, student=students[s], config_text=OFFICIAL).pk for s in posts]
+    running: list[int] = []
+    served: dict[int, int] = {}  # student -> the step it was last served at
+    taken = []
+    for step, take in enumerate([*steps, *[False] * 2, *[True, False] * len(tickets)]):
+        if take and tickets and len(running) < 2:
+            rows = list(Submission.objects.values_list("pk", "student_id", "status", "claim"))
+            waiting = {s for _, s, status, c in rows if status == "queued" and c is None}
+            busy = {s: sum(1 for pk in running if Submission.objects.get(pk=pk).student_id == s) for s in waiting}
+            pk = claim(tickets.pop(0))
+            if pk is None:
+                continue
+            who = Submission.objects.get(pk=pk).student_id
+            assert busy[who] == min(busy.values())
+            fewest = [s for s in waiting if busy[s] == busy[who]]
+            assert served.get(who, -1) <= min(served.get(s, -1) for s in fewest)
+            served[who] = step
+            running.append(pk)
+            taken.append(pk)
+        elif not take and running:
+            graded(running.pop(0))
+    assert sorted(taken) == sorted(Submission.objects.values_list("pk", flat=True))
