@@ -190,7 +190,11 @@ def cmd_view(args: argparse.Namespace) -> int:
     require("video", "robokit view" + (" --no-video" if args.no_video else ""),
             ("matplotlib", "imageio_ffmpeg") if renders else ("matplotlib",))
     out = Path(args.output) if args.output else rec.folder / "index.html"
-    write_page(rec, out, video=not args.no_video, replay=not args.no_replay)
+    try:
+        write_page(rec, out, video=not args.no_video, replay=not args.no_replay)
+    except KeyboardInterrupt as exc:
+        exc.robokit_detail = f"{out} not written; no partial file was left"  # type: ignore[attr-defined]
+        raise
     print(out)
     return 0
 

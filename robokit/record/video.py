@@ -18,7 +18,7 @@ import os
 import subprocess
 import tempfile
 import time
-from collections.abc import Iterator
+from collections.abc import Generator, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -203,7 +203,7 @@ def default_workers() -> int:
 
 
 def frame_bytes(rec: RunRecord, *, fps: float, size: tuple[int, int], view: str | None,
-                workers: int) -> Iterator[bytes]:
+                workers: int) -> Generator[bytes, None, None]:
     """Every video frame of a record as RGB bytes, in order; ``workers`` > 1 renders them in that many processes.
 
     Workers are started with ``spawn`` (a pybullet client must never cross a process boundary) and each rebuilds
@@ -253,12 +253,13 @@ def render_video(rec: RunRecord, out: Path, *, fps: float | None = None, size: t
     start = time.perf_counter()  # measures the render rate only; no logic depends on it
     bar = tqdm(total=total, unit="frame", desc="video", disable=None if progress is None else not progress,
                leave=False)
+    rendered = frame_bytes(rec, fps=rate, size=size, view=view, workers=workers or default_workers())
     try:
         with atomic_output(out) as tmp:
-            count = _encode(frame_bytes(rec, fps=rate, size=size, view=view, workers=workers or default_workers()),
-                            tmp, out, size, rate, bar.update)
+            count = _encode(rendered, tmp, out, size, rate, bar.update)
             _check_frames(tmp, out, count)
     finally:
+        rendered.close()  # stops the render workers at once (an interrupt, ffmpeg gone)
         bar.close()
     busy = time.perf_counter() - start
     stats = VideoStats(count, w, h, rate, count / busy if busy > 0 else 0.0)
