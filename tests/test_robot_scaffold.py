@@ -73,3 +73,44 @@ def test_a_xacro_mistake_is_one_line_with_file_and_line(tmp_path: Path, capsys: 
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1
     assert f"{xacro}:{line}: xacro: name 'trak' is not defined" in err and "robots.robot" in err
+
+
+LESSON = Path(__file__).resolve().parent.parent / "docs" / "lessons"
+
+
+@pytest.mark.parametrize("page", ["09-design-your-robot.md", "09-design-your-robot.ko.md"])
+def test_the_lesson_shows_what_the_checker_prints(tmp_path: Path, page: str, monkeypatch: pytest.MonkeyPatch,
+                                                  capsys: pytest.CaptureFixture[str]) -> None:
+    """Lesson 09, step 2: the scaffold with the page's bigger wheels and chassis (and the old track)."""
+    import re
+
+    _, config = new_robot("mybot", "diffdrive", tmp_path)
+    text = config.read_text(encoding="utf-8")
+    for old, new in (("wheel_radius = 0.05, track", "wheel_radius = 0.07, track"),
+                     ("chassis_length = 0.30, chassis_width = 0.20, chassis_mass = 2.0",
+                      "chassis_length = 0.36, chassis_width = 0.34, chassis_mass = 3.0"),
+                     ("position = [0, 0, 0.05]", "position = [0, 0, 0.07]")):
+        assert old in text
+        text = text.replace(old, new)
+    config.write_text(text, encoding="utf-8")
+    monkeypatch.chdir(tmp_path)
+    assert main(["robot", "check", "mybot.toml"]) == 2
+    shown = re.search(r"```text\n(.*?)```", (LESSON / page).read_text(encoding="utf-8"), re.S)
+    assert shown is not None
+    assert capsys.readouterr().err.strip().splitlines() == shown.group(1).strip().splitlines()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("engine", ["pybullet", "mujoco"])
+@pytest.mark.parametrize("robot", ["mybot", "myarm"])
+def test_the_lesson_s_finished_robots_reach_their_goals(robot: str, engine: str, tmp_path: Path) -> None:
+    config = LESSON / "09" / robot / f"{robot}.toml"
+    with build(config, overrides={"world.engine": engine, "report.keep_local": False}) as sim:
+        sim.run()
+        assert sim.outcome is not None and sim.outcome.status == "succeeded"
+        if robot == "myarm":
+            x, y, _ = sim.world.pose("cube")[0]
+            assert math.dist((x, y), GOALS["arm"]) < 0.02
+        else:
+            x, y, _ = sim.world.pose("robot")[0]
+            assert math.dist((x, y), GOALS["diffdrive"]) < 0.25

@@ -78,7 +78,7 @@ def _render_view(client: Any, body: int, name: str, eye_dir: Any, up: Any, heigh
     lo, hi = _bounds(client, body)
     center, size = (lo + hi) / 2, float(max(np.max(hi - lo), 0.05))
     width = int(height * 4 / 3)
-    distance = size / np.tan(np.radians(FOV_DEG) / 2) * 0.85
+    distance = size / np.tan(np.radians(FOV_DEG) / 2) * 0.75
     view = _look(center, eye_dir, up, distance)
     proj = _projection(width / height, distance / 10, distance * 10)
     img = client.getCameraImage(width, height, viewMatrix=view.T.flatten().tolist(),
@@ -93,8 +93,9 @@ def _render_view(client: Any, body: int, name: str, eye_dir: Any, up: Any, heigh
                      cv2.LINE_AA)
         tip = _pixel(pos + axis * scale, view, proj, width, height)
         cv2.arrowedLine(rgb, origin, tip, (0, 200, 255), 2, cv2.LINE_AA, tipLength=0.25)
-        cv2.putText(rgb, joint, (origin[0] + 4, origin[1] - 4), cv2.FONT_HERSHEY_SIMPLEX, 0.38, (0, 0, 0), 1,
-                    cv2.LINE_AA)
+        for colour, thickness in (((255, 255, 255), 3), ((0, 0, 0), 1)):  # dark text on a light outline
+            cv2.putText(rgb, joint, (origin[0] + 4, origin[1] - 4), cv2.FONT_HERSHEY_SIMPLEX, 0.38, colour,
+                        thickness, cv2.LINE_AA)
     cv2.putText(rgb, name, (8, 20), cv2.FONT_HERSHEY_SIMPLEX, 0.6, (0, 0, 0), 1, cv2.LINE_AA)
     return rgb
 
