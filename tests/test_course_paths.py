@@ -14,6 +14,8 @@ from typing import Any
 import pytest
 from course_helpers import PASSWORD, Course
 from course_work import OFFICIAL, make_assignment, submit
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 pytest_plugins = ["course_fixtures"]
 pytestmark = pytest.mark.django_db
@@ -157,3 +159,31 @@ def test_an_official_trial_is_stored_without_server_paths(client: Any, course: C
     admin = client.get(f"/admin/course/result/{stored.pk}/change/").content.decode()
     for text in (stored.reason, str(stored.payload), admin):
         assert "x.urdf" in text and not any(p in text for p in paths), text[:500]
+
+
+_SEGMENT = st.text(alphabet="abcdefghijklmnopqrstuvwxyz0123456789_-.", min_size=1, max_size=12).filter(
+    lambda s: s not in (".", ".."))
+_WORD = st.text(alphabet="abcdefghijklmnopqrstuvwxyz가나다 ", min_size=1, max_size=10)
+
+
+@settings(max_examples=100, deadline=None)
+@given(parts=st.lists(st.tuples(_WORD, st.integers(0, 4), st.lists(_SEGMENT, min_size=1, max_size=4)),
+                      min_size=1, max_size=4),
+       wrap=st.sampled_from(["{}", "'{}'", '"{}"', "({})", "{}:", "file://{}", "{},"]))
+def test_scrub_takes_out_every_server_folder(parts: list[tuple[str, int, list[str]]], wrap: str) -> None:
+    """Generated reasons: words, and paths under the server's folders (venv, scratch, home, checkout, data) in
+    quotes, brackets or a file URL. No folder survives; each path's last part and every word do; scrubbing twice
+    changes nothing more."""
+    from robokit.server.submitted import scrub
+
+    roots = server_paths()
+    text, words, names = "", [], []
+    for word, root, segments in parts:
+        path = "/".join([roots[root], *segments])
+        text += f"{word} {wrap.format(path)} "
+        words.append(word.strip())
+        names.append(segments[-1])
+    out = scrub(text)
+    assert not any(root in out for root in roots), out
+    assert all(w in out for w in words) and all(n in out for n in names), out
+    assert scrub(out) == out
