@@ -10,8 +10,6 @@ from __future__ import annotations
 
 import os
 import re
-import sys
-import tempfile
 from collections.abc import Iterator
 from pathlib import Path, PurePosixPath, PureWindowsPath
 from typing import Any
@@ -155,19 +153,20 @@ def model_path_problem(value: str) -> str | None:
 _PATH = re.compile(r"(?<![\w.~:/-])(?:[A-Za-z]:)?(?:[/\\][^\s/\\'\"():,;<>|]+)+[/\\]?")
 
 
-def _roots() -> list[tuple[str, str]]:
-    """Server folders and the label each is shown as, longest first."""
+def _packages() -> list[tuple[str, str]]:
+    """robokit's and pybullet_data's folders (as found and resolved) with the name they are shown by, longest
+    first."""
     import robokit
 
-    pairs = [(str(Path(robokit.__file__).resolve().parent), "robokit"), (sys.prefix, "<python>"),
-             (sys.base_prefix, "<python>"), (tempfile.gettempdir(), "<scratch>"), (os.path.expanduser("~"), "~")]
+    folders = [(Path(robokit.__file__).parent, "robokit")]
     try:
         import pybullet_data
 
-        pairs.append((str(Path(pybullet_data.getDataPath()).resolve()), "pybullet_data"))
+        folders.append((Path(pybullet_data.getDataPath()), "pybullet_data"))
     except ImportError:
         pass
-    return sorted({(p.rstrip("/\\"), label) for p, label in pairs if len(p) > 1}, key=lambda x: -len(x[0]))
+    pairs = {(str(p).rstrip("/\\"), label) for folder, label in folders for p in (folder, folder.resolve())}
+    return sorted(pairs, key=lambda x: -len(x[0]))
 
 
 def scrub(text: str) -> str:
@@ -175,12 +174,12 @@ def scrub(text: str) -> str:
     (``robokit/data/arm.urdf``), any other absolute path by its last part (``.../secret_key``)."""
     if not text or ("/" not in text and "\\" not in text):
         return text
-    roots = _roots()
+    packages = _packages()
 
     def short(match: re.Match[str]) -> str:
         path = match.group(0)
-        for root, label in roots:
-            if label in ("robokit", "pybullet_data") and (path == root or path.startswith(root + os.sep)):
+        for root, label in packages:
+            if path == root or path.startswith(root + os.sep):
                 return label + path[len(root):]
         name = PurePosixPath(path.replace("\\", "/")).name
         return f".../{name}" if name else "..."
