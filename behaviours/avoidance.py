@@ -33,7 +33,7 @@ from pydantic import Field
 from robokit.components import SetupContext
 from robokit.config import Schema
 from robokit.errors import ConfigError
-from robokit.msgs.mobile import LaserScan, Pose2D, Twist, wrap_angle
+from robokit.msgs.mobile import STOP, LaserScan, Pose2D, Twist, wrap_angle
 
 
 class AvoidanceConfig(Schema):
@@ -311,6 +311,10 @@ class Navigating:
         if cfg.scan:
             check_scan(ctx.components[cfg.scan], cfg.scan)
         self.avoider = Avoider(cfg.avoidance)
+
+    def halt(self, t: float) -> Mapping[str, Any] | None:
+        """Stopped before it ended (a composite's timeout, a monitor): the drive stops; never stepped again."""
+        return {self.config.drive: STOP}
 
     def pose(self, readings: Mapping[str, Any]) -> Pose2D:
         """The robot's pose from the drive reading."""
