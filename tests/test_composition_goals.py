@@ -143,6 +143,7 @@ def test_suction_then_fingers_on_more_seeds(seed: int) -> None:
     fallback_run(seed)
 
 
+@pytest.mark.slow  # a whole sort with a camera: seconds
 def test_a_later_sort_step_counts_only_its_own_camera_frames() -> None:
     raw = copy.deepcopy(SORT)
     sort = {"name": "sort", **raw["behaviour"]}
