@@ -30,7 +30,7 @@ from robokit.server.sandbox import Requeue, run_sandboxed
 from robokit.server.submitted import scrub
 
 log = logging.getLogger("robokit.server.evaluation")
-TASK = "robokit.server.evaluation.evaluate_submission"
+TASK = lease.TASK
 CELL = "official"
 
 

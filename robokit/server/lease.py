@@ -32,6 +32,8 @@ WORKER_ENV = "ROBOKIT_WORKER_ID"
 SPARE_TICKETS = 10**15
 MAX_REQUEUES = 5
 """Hand-backs after which a submission is marked ``error`` instead (a teacher can have it evaluated again)."""
+TASK = "robokit.server.evaluation.evaluate_submission"
+"""The queue's task that evaluates a submission, by its dotted path (django-q imports it by name)."""
 
 
 def spare_ticket() -> int:
@@ -100,8 +102,6 @@ def requeue(pk: int, why: str, only_if: Q) -> bool:
     :data:`MAX_REQUEUES` hand-backs it is marked ``error`` instead. Returns whether this call changed it."""
     from django_q.tasks import async_task
 
-    from robokit.server.evaluation import TASK
-
     now = timezone.now()
     note = f"re-queued at {now:%H:%M} UTC: {why}"[:300]
     with transaction.atomic():
@@ -149,8 +149,6 @@ def top_up() -> int:
     when a worker starts and whenever a stopped worker's submission is handed back."""
     from django_q.models import OrmQ
     from django_q.tasks import async_task
-
-    from robokit.server.evaluation import TASK
 
     if getattr(settings, "QUEUE_SYNC", False):
         return 0

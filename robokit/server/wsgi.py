@@ -13,6 +13,6 @@ from robokit.server.private import private_sqlite  # noqa: E402
 
 private_sqlite(settings.DATABASES["default"])  # a new database file is 0600, whatever gunicorn's umask
 
-from robokit.server.cli import prepare_plugins  # noqa: E402
+from robokit.sweep.trial import plugins_for  # noqa: E402
 
-prepare_plugins()  # every plugin type loaded before the first request: the server's threads only read them
+plugins_for(()).complete()  # every plugin type loaded before the first request: the server's threads only read them
