@@ -147,3 +147,16 @@ def test_submit_wait_gives_up_after_its_limit_and_says_so(httpserver: Any, capsy
     code = follow(httpserver.url_for("/api/robotics/submissions/8/"), {}, 0.0, sleep=lambda s: None)
     err = capsys.readouterr().err
     assert code == EXIT_STILL_WAITING and err.count("\n") == 1 and "still queued after 0 s" in err
+
+
+def test_submit_wait_stops_at_once_when_the_token_no_longer_sees_the_submission(httpserver: Any,
+                                                                                  capsys: Any) -> None:
+    from robokit.report.submit import EXIT_REFUSED, follow
+
+    httpserver.expect_request("/api/robotics/submissions/9/").respond_with_json(
+        {"error": "Authorization: this token was revoked", "field": "Authorization"}, status=401)
+    pauses: list[float] = []
+    code = follow(httpserver.url_for("/api/robotics/submissions/9/"), {}, 3600, sleep=pauses.append)
+    err = capsys.readouterr().err
+    assert code == EXIT_REFUSED and not pauses
+    assert err == "robokit: error: cannot follow the submission: Authorization: this token was revoked\n"

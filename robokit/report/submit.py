@@ -128,7 +128,14 @@ def follow(url: str, headers: dict[str, str], limit: float, sleep: Callable[[flo
             resp = requests.get(url, headers=headers, timeout=30)
             state = resp.json() if resp.status_code == 200 else None
         except (requests.RequestException, ValueError):
-            state = None
+            resp, state = None, None
+        if resp is not None and resp.status_code in (401, 403, 404):  # the token no longer sees it: say so once
+            try:
+                why = resp.json().get("error") or f"HTTP {resp.status_code}"
+            except ValueError:
+                why = f"HTTP {resp.status_code}"
+            print(f"robokit: error: cannot follow the submission: {why}", file=sys.stderr)
+            return EXIT_REFUSED
         if state is not None:
             note = state.get("note") or ""
             if state["status"] != last or note != said:
