@@ -11,7 +11,6 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Mapping
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -20,30 +19,11 @@ import numpy as np
 from robokit.errors import ConfigError
 from robokit.robot.expand import expand_xacro, is_xacro
 from robokit.robot.model import Joint, Link, Robot, read_robot
+from robokit.robot.problem import Problem, is_mobile
 
 CHECKS = ("names", "tree", "mass", "inertia", "inertia-scale", "axis", "limits", "effort", "mesh", "overlap",
           "wheels", "stability")
 """Every check, in the order they run."""
-
-
-@dataclass(frozen=True)
-class Problem:
-    """One problem: which ``check`` found it, the element (``link 'x'`` / ``joint 'y'``), what and how to fix it."""
-
-    check: str
-    where: str
-    message: str
-    fix: str
-    line: int = 0
-    warning: bool = False
-    """A warning is shown by ``robokit robot check`` but refuses nothing: inertias out of scale with the link's
-    size (PyBullet's own Panda and R2D2 carry placeholder inertias of 0.3 and 1 kg·m² on small links)."""
-
-    def text(self, file: str | Path) -> str:
-        """``FILE[:LINE]: [warning: ]ELEMENT: PROBLEM; fix: FIX [check]`` on one line."""
-        at = f"{file}:{self.line}" if self.line else str(file)
-        kind = "warning: " if self.warning else ""
-        return f"{at}: {kind}{self.where}: {self.message}; fix: {self.fix} [{self.check}]"
 
 
 def load(path: str | Path, xacro_args: Mapping[str, object] | None = None) -> Robot:
@@ -86,11 +66,6 @@ def static_problems(robot: Robot, *, fixed_base: bool | None = None) -> list[Pro
         out += _axis(joint) + _limits(joint) + _effort(joint)
     out += _meshes(robot)
     return out
-
-
-def is_mobile(robot: Robot, fixed_base: bool | None) -> bool:
-    """A mobile base: not fixed in place, with at least two wheels (continuous joints whose child collides)."""
-    return fixed_base is not True and len(robot.wheels()) >= 2
 
 
 def _names(robot: Robot) -> list[Problem]:

@@ -17,8 +17,8 @@ from typing import Any
 
 import numpy as np
 
-from robokit.robot.check import Problem, is_mobile
 from robokit.robot.model import Robot
+from robokit.robot.problem import Problem, is_mobile
 
 SCALE_FACTOR = 20.0
 OVERLAP = 0.003
