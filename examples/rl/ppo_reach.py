@@ -1,6 +1,7 @@
 """Train PPO (stable-baselines3) on robokit's ``reach``: the documented ``python -m robokit.gym.train`` run.
 
-    pip install torch --index-url https://download.pytorch.org/whl/cpu && pip install -e '.[rl]'   # torch's CPU build first
+    pip install torch --index-url https://download.pytorch.org/whl/cpu   # torch's CPU build first
+    pip install -e '.[rl]'
     python examples/rl/ppo_reach.py                          # = python -m robokit.gym.train configs/gym/reach.toml
                                                              #     --algo ppo --timesteps 40000 --seed 0
     robokit run runs/train/reach-ppo-s0/policy.toml          # the learned policy as a behaviour, unedited
