@@ -207,6 +207,9 @@ def cmd_export(args: argparse.Namespace) -> int:
     if not args.rerun and not args.mcap:
         raise UserError("robokit export: give --rerun FILE.rrd and/or --mcap FILE.mcap")
     if args.rerun:
+        import os
+
+        os.environ.setdefault("RUST_LOG", "off")  # before Rerun loads: its own log lines; a failure is said once
         require("rerun", "robokit export --rerun", ("rerun",))
     if args.mcap:
         require("rerun", "robokit export --mcap", ("mcap",))

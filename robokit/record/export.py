@@ -19,6 +19,7 @@ import base64
 import functools
 import json
 import math
+import os
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -142,8 +143,11 @@ def export_rerun(rec: RunRecord, out: Path, replay: Replay | None = None) -> dic
         UserError: rerun-sdk is not installed.
     """
     require("rerun", "robokit export --rerun", ("rerun",))
+    os.environ.setdefault("RUST_LOG", "off")  # Rerun's own log lines (read when it loads): a failure is said once
     import rerun as rr
     import rerun.blueprint as rrb
+
+    from robokit.record.atomic import OutputFailed
 
     replay = replay or replay_of(rec)
     with atomic_output(out) as tmp:
@@ -151,9 +155,40 @@ def export_rerun(rec: RunRecord, out: Path, replay: Replay | None = None) -> dic
         rr.set_log_time_enabled(False, recording=stream)  # one timeline, the run's: "sim" (sim seconds)
         stream.save(str(tmp), default_blueprint=rrb.Blueprint(rrb.TimePanel(timeline="sim")))
         counts = _log_rerun(rr, stream, rec, replay)
-        stream.flush()
-        stream.disconnect()
+        try:
+            stream.flush()
+            stream.disconnect()
+        except RuntimeError as exc:  # Rerun's file writer stopped (a full disk, a file-size limit)
+            raise OutputFailed(out, f"Rerun could not finish the file ({exc}){_write_limits(out)}") from None
+        _check_rrd(tmp, out, counts["transforms"])
     return counts
+
+
+def _write_limits(out: Path) -> str:
+    """What may have stopped a write: a file-size limit set for this process, or a disk nearly full."""
+    import resource
+    import shutil
+
+    soft, _ = resource.getrlimit(resource.RLIMIT_FSIZE)
+    if soft != resource.RLIM_INFINITY:
+        return f"; a file-size limit of {soft} bytes is set"
+    free = shutil.disk_usage(out.parent).free
+    return f"; {free} bytes are free on its disk" if free < 16 << 20 else ""
+
+
+def _check_rrd(path: Path, out: Path, transforms: int) -> None:
+    """Read the recording back (Rerun's own reader) before it takes its name: every transform logged is there."""
+    import rerun.chunk
+
+    from robokit.record.atomic import OutputFailed
+
+    try:
+        found = sum(chunk.num_rows for chunk in rerun.chunk.RrdReader(path).store().stream()
+                    if "Transform3D:translation" in chunk.to_record_batch().schema.names)
+    except Exception as exc:  # noqa: BLE001 - whatever the reader says, the file is not whole
+        raise OutputFailed(out, f"the recording written cannot be read back: {exc}") from None
+    if found != transforms:
+        raise OutputFailed(out, f"the recording written holds {found} of {transforms} transforms")
 
 
 def _log_rerun(rr: Any, stream: Any, rec: RunRecord, replay: Replay) -> dict[str, int]:
