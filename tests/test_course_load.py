@@ -1,11 +1,12 @@
-"""A class of 40 submitting at once before a deadline (40 submissions x 20 official seeds), evaluated by 2 queue
-workers: no submission lost or evaluated twice; prints the time from the burst to the last official result.
+"""A class of 40 submitting at once before a deadline (40 submissions x 20 official seeds), evaluated by one queue
+worker and by two: no submission lost or evaluated twice; prints the time from the burst to the last official result.
 
     python -m pytest -q -s -p no:randomly -m slow tests/test_course_load.py
 """
 
 from __future__ import annotations
 
+import os
 import time
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
@@ -16,11 +17,12 @@ from course_procs import CourseServer, setup_class
 from course_work import OFFICIAL, changed
 
 pytestmark = pytest.mark.slow
-STUDENTS, SEEDS, WORKERS = 40, 20, 2
+STUDENTS, SEEDS = 40, 20
 
 
-def test_forty_students_twenty_seeds_two_workers(tmp_path: Path) -> None:
-    server = CourseServer(tmp_path / "data", workers=WORKERS)
+@pytest.mark.parametrize("workers", [1, 2])
+def test_forty_students_twenty_seeds(tmp_path: Path, workers: int) -> None:
+    server = CourseServer(tmp_path / "data", workers=workers)
     tokens = setup_class(server, [f"학생{i:02d}" for i in range(STUDENTS)])
     assert len(tokens) == STUDENTS
     official = tmp_path / "official.toml"
@@ -52,5 +54,7 @@ def test_forty_students_twenty_seeds_two_workers(tmp_path: Path) -> None:
     attempts = server.query("SELECT attempts, count(*) FROM course_submission GROUP BY attempts")
     assert attempts == [(1, STUDENTS)]  # each evaluated by one worker, once
     wall = server.query("SELECT sum(wall_time) FROM course_result")[0][0]
-    print(f"\n{STUDENTS} submissions x {SEEDS} seeds, {WORKERS} workers: burst of posts {burst:.1f} s, last "
-          f"official result {total:.1f} s after the first post; trials' own wall time {wall:.0f} s in all")
+    database = "PostgreSQL" if server.database else "SQLite"
+    print(f"\n{STUDENTS} submissions x {SEEDS} seeds, {workers} worker(s), {database}: burst of posts {burst:.1f} s, "
+          f"last official result {total:.1f} s after the first post; trials' own wall time {wall:.0f} s in all "
+          f"(load {os.getloadavg()[0]:.1f})")
