@@ -62,3 +62,19 @@ def test_validate_refuses_a_robot_the_checker_refuses(tmp_path: Path, capsys: py
     assert len(err) == 2 and all("robots.robot: bot.urdf.xacro: joint '" in e and "[wheels]" in e for e in err)
     config.write_text(text.replace("track = 0.28", "track = 0.42"), encoding="utf-8")
     assert main(["validate", str(config)]) == 0
+
+
+def test_the_replay_draws_the_xacro_robot_with_the_config_s_arguments(tmp_path: Path,
+                                                                      monkeypatch: pytest.MonkeyPatch) -> None:
+    from robokit.record.format import find_run
+    from robokit.record.replay import replay_of
+
+    _, config = new_robot("arm1", "gripper-arm", tmp_path)
+    monkeypatch.chdir(tmp_path)
+    assert main(["run", config.name, "--quiet", "--set", "robots.robot.xacro_args.upper_arm=0.45",
+                 "--set", "world.max_time=0.2"]) in (0, 1)
+    replay = replay_of(find_run("last", tmp_path / "results"))
+    frames = {link.path: k for k, link in enumerate(replay.links)}
+    assert {"robot/upper_arm", "robot/finger_left_link", "robot/finger_right_link"} <= set(frames)
+    upper = [s for s in replay.shapes if s.frame == frames["robot/upper_arm"]]
+    assert [s.kind for s in upper] == ["box"] and np.allclose(upper[0].size, (0.05, 0.05, 0.45))
