@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 from robokit_plugins.contact import ContactConfig, ContactSensor
 
@@ -64,7 +64,7 @@ def test_the_scene_touches_where_it_was_built_to(scene: Any) -> None:
 
 @st.composite
 def configs(draw: Any) -> dict[str, Any]:
-    body = draw(st.sampled_from(["a", "b", "c", "robot"]))
+    body = draw(st.sampled_from(NAMES))
     cfg: dict[str, Any] = {"body": body, "min_force": draw(st.sampled_from([0.0, 0.5, 3.0, 12.0]))}
     if LINKS[body] and draw(st.booleans()):
         cfg["link"] = draw(st.sampled_from(LINKS[body]))
@@ -80,6 +80,7 @@ def configs(draw: Any) -> dict[str, Any]:
 
 @settings(max_examples=80, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(configs())
+@example({"body": "plane", "other": "robot", "other_link": "left_wheel_link", "min_force": 0.0})  # one of 3 links
 def test_readings_are_the_worlds_contacts_filtered_by_the_config(scene: Any, cfg: dict[str, Any]) -> None:
     w = scene.world
     body = w.body(cfg["body"])
@@ -104,16 +105,18 @@ def test_readings_are_the_worlds_contacts_filtered_by_the_config(scene: Any, cfg
             assert set(got.others) == {n for n in names if touching(cfg["body"], n)}
 
 
-@pytest.mark.parametrize(("cfg", "key"), [
-    ({"body": "ghost"}, "body"),
-    ({"body": "robot", "link": "wing"}, "link"),
-    ({"body": "a", "other": "ghost"}, "other"),
-    ({"body": "a", "other": "robot", "other_link": "wing"}, "other_link"),
-    ({"body": "a", "other_link": "planeLink"}, "other_link"),
-    ({"body": "a", "other": "plane", "ignore": ["b"]}, "ignore"),
-    ({"body": "a", "ignore": ["plane", "ghost"]}, "ignore[1]"),
+@pytest.mark.parametrize(("cfg", "key", "says"), [
+    ({"body": "ghost"}, "body", "ghost"),
+    ({"body": "robot", "link": "wing"}, "link", "wing"),
+    ({"body": "a", "other": "ghost"}, "other", "ghost"),
+    ({"body": "a", "other": "robot", "other_link": "wing"}, "other_link", "wing"),
+    ({"body": "a", "other_link": "planeLink"}, "other_link", "'other_link' needs 'other'"),
+    ({"body": "a", "other": "plane", "ignore": ["b"]}, "ignore", "'ignore' is for contacts with anything"),
+    ({"body": "a", "ignore": ["plane", "ghost"]}, "ignore[1]", "ghost"),
 ])
-def test_a_config_mistake_is_an_error_at_its_key(scene: Any, cfg: dict[str, Any], key: str) -> None:
+def test_a_config_mistake_is_an_error_at_its_key(scene: Any, cfg: dict[str, Any], key: str, says: str) -> None:
+    """One line at the key that holds the mistake, saying what is wrong (the name, or the rule broken)."""
     with pytest.raises(ConfigError) as err:
         sensor(scene, **cfg)
     assert err.value.key == key
+    assert says in err.value.message and "\n" not in err.value.message
