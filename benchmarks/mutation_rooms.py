@@ -10,13 +10,15 @@ Why a copy: robokit's editable install maps ``robokit_plugins`` / ``robokit_beha
 (``git archive HEAD``: a consistent snapshot, never your uncommitted edits) into a folder of its own under the
 temporary directory, lays the two packages out under their import names, writes the room's ``[tool.mutmut]`` table
 into the copy's ``pyproject.toml`` (the checkout's ``[tool.mutmut]`` table plus the room's files and tests) and
-runs ``python -m mutmut run`` there, with the copy's ``mutants/`` first on ``PYTHONPATH`` so that subprocesses
-(``robokit`` CLI runs, sweep workers) import the mutated code too. The checkout is never written to.
+runs ``python -m mutmut run`` there. Mutants run in the test process; subprocesses (``robokit`` CLI runs, sweep
+workers) import the copy's unmutated code, so a mutant only a subprocess would show survives (a test that calls the
+code in-process kills it). The checkout is never written to.
 
     python benchmarks/mutation_rooms.py --list                     # the rooms, their files and tests
     python benchmarks/mutation_rooms.py contact config_schema      # run two rooms, one child process each
     python benchmarks/mutation_rooms.py contact --children 2 --survivors   # and list every survivor
     python benchmarks/mutation_rooms.py contact --keep                     # keep the copy (then: mutmut show NAME)
+    python benchmarks/mutation_rooms.py contact --mutants 'robokit_plugins.contact.*read*'   # re-check some
 
 Afterwards ``cd <copy> && mutmut show <mutant>`` prints a survivor's diff. The rooms below cover the whole package;
 a run of every room takes hours on two cores: run the rooms you changed.
@@ -130,7 +132,7 @@ def statuses(copy: Path) -> dict[str, str]:
     return found
 
 
-def run_room(name: str, children: int, keep: bool, timeout: float) -> dict[str, object]:
+def run_room(name: str, children: int, keep: bool, timeout: float, only: list[str]) -> dict[str, object]:
     files, tests = ROOMS[name]
     work = Path(tempfile.mkdtemp(prefix=f"robokit-mutmut-{name}-"))
     copy = work / "tree"
@@ -138,16 +140,18 @@ def run_room(name: str, children: int, keep: bool, timeout: float) -> dict[str, 
     missing = [t for t in tests if not (copy / t).is_file()]
     tests = [t for t in tests if t not in missing]
     write_config(copy, files, tests)
-    # made now: an entry of PYTHONPATH that does not exist when Python starts is never searched later
-    (copy / "mutants").mkdir()
-    env = {**os.environ, "PYTHONPATH": str(copy / "mutants"),
+    # subprocesses (robokit CLI runs, sweep workers) import the copy's own, unmutated code: mutmut's trampolines
+    # read their settings from the working directory, which a subprocess changes
+    env = {**os.environ, "PYTHONPATH": str(copy),
            "ROBOKIT_CACHE_DIR": str(work / "cache"), "MPLBACKEND": "Agg"}
     start = time.monotonic()
     cpu = os.times()
     try:
-        proc = subprocess.run([sys.executable, "-m", "mutmut", "run", "--max-children", str(children)], cwd=copy,
-                              env=env, text=True, capture_output=True, timeout=timeout)
-        tail = (proc.stdout + proc.stderr).strip().splitlines()[-3:]
+        proc = subprocess.run([sys.executable, "-m", "mutmut", "run", "--max-children", str(children), *only],
+                              cwd=copy, env=env, text=True, capture_output=True, timeout=timeout)
+        (work / "mutmut.log").write_text(proc.stdout + proc.stderr, encoding="utf-8")
+        tail = [x for x in (proc.stdout + proc.stderr).splitlines() if x.startswith(("E ", "FAILED"))][:3]
+        tail += (proc.stdout + proc.stderr).strip().splitlines()[-2:]
     except subprocess.TimeoutExpired:
         tail = [f"stopped after {timeout:.0f} s (--timeout): the statuses so far"]
     wall = time.monotonic() - start
@@ -176,6 +180,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--survivors", action="store_true", help="print every surviving mutant's name")
     parser.add_argument("--keep", action="store_true", help="keep each room's copy (to `mutmut show` survivors)")
     parser.add_argument("--json", type=Path, help="also write the results as JSON here")
+    parser.add_argument("--mutants", nargs="+", default=[], metavar="NAME",
+                        help="run only these mutants (names or globs, as --survivors prints them): re-check survivors")
     args = parser.parse_args(argv)
     if args.list:
         for name, (files, tests) in ROOMS.items():
@@ -189,7 +195,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{'room':14} {'mutants':>7} {'caught':>6} {'survived':>8} {'other':>5} {'score':>6} {'wall s':>7} "
           f"{'cpu s':>7}")
     for room in args.rooms:
-        r = run_room(room, args.children, args.keep, args.timeout)
+        r = run_room(room, args.children, args.keep, args.timeout, args.mutants)
         results.append(r)
         score = "-" if r["score"] is None else f"{100 * r['score']:.1f}%"  # type: ignore[operator]
         print(f"{room:14} {r['mutants']:>7} {r['caught']:>6} {len(r['survived']):>8} {len(r['other']):>5} "  # type: ignore[arg-type]
