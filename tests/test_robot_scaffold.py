@@ -11,6 +11,7 @@ import pytest
 
 from robokit.cli import main
 from robokit.core.simulation import build
+from robokit.robot.check import check_robot, load
 from robokit.robot.scaffold import KINDS, new_robot
 
 GOALS = {"diffdrive": (5.0, 3.0), "arm": (0.45, -0.35), "gripper-arm": (0.45, -0.35)}
@@ -114,3 +115,34 @@ def test_the_lesson_s_finished_robots_reach_their_goals(robot: str, engine: str,
         else:
             x, y, _ = sim.world.pose("robot")[0]
             assert math.dist((x, y), GOALS["diffdrive"]) < 0.25
+
+
+MESH_ROBOT = """<?xml version="1.0"?>
+<robot name="duckbot" xmlns:xacro="http://www.ros.org/wiki/xacro">
+  <xacro:arg name="scale" default="0.5"/>
+  <link name="base_link">
+    <inertial><mass value="1.0"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial>
+    <visual><geometry><mesh filename="meshes/duck.obj" scale="$(arg scale) $(arg scale) $(arg scale)"/></geometry>
+    </visual>
+    <collision><geometry><box size="0.1 0.1 0.1"/></geometry></collision>
+  </link>
+</robot>
+"""
+
+
+@pytest.mark.parametrize("engine", ["pybullet", "mujoco"])
+def test_a_xacro_robot_s_relative_meshes_load_from_the_cache(tmp_path: Path, engine: str) -> None:
+    """The expanded URDF lives in the cache: a mesh named relative to the xacro file is found all the same."""
+    import shutil
+
+    import pybullet_data
+
+    (tmp_path / "meshes").mkdir()
+    shutil.copy(Path(pybullet_data.getDataPath()) / "duck.obj", tmp_path / "meshes" / "duck.obj")
+    (tmp_path / "duckbot.urdf.xacro").write_text(MESH_ROBOT, encoding="utf-8")
+    config = {"world": {"engine": engine}, "bodies": {"plane": {"urdf": "plane.urdf", "position": [0, 0, 0]}},
+              "robots": {"duck": {"urdf": "duckbot.urdf.xacro", "position": [0, 0, 0.05], "fixed_base": True,
+                                  "xacro_args": {"scale": 0.2}}}}
+    with build(config, base_dir=tmp_path) as sim:
+        assert sim.world.has_body("duck")
+        assert check_robot(load(tmp_path / "duckbot.urdf.xacro")) == []

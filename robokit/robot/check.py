@@ -239,13 +239,13 @@ def _effort(joint: Joint) -> list[Problem]:
 
 def mesh_path(robot: Robot, filename: str) -> Path | None:
     """Where a mesh file name points (relative to the URDF's folder; ``package://PKG/x`` as PyBullet looks for
-    it: under the URDF's folder with and without ``PKG``), or None when it exists nowhere."""
+    it, see :func:`~robokit.robot.expand.package_candidates`), or None when it exists nowhere."""
+    from robokit.robot.expand import package_candidates
+
     folder = robot.path.parent
     name = filename[len("file://"):] if filename.startswith("file://") else filename
     if name.startswith("package://"):
-        rest = name[len("package://"):]
-        candidates = [folder / rest, folder / rest.partition("/")[2]]
-        candidates += [p / rest for p in folder.parents][:4]
+        candidates = package_candidates(folder, name)
     else:
         candidates = [Path(name) if os.path.isabs(name) else folder / name]
     return next((c for c in candidates if c.is_file()), None)

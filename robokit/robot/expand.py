@@ -97,14 +97,27 @@ def _find_line(path: Path, message: str) -> int | None:
     return None
 
 
+def package_candidates(folder: Path, name: str) -> list[Path]:
+    """Where a ``package://PKG/rest`` mesh may be, seen from a robot file in ``folder`` (as PyBullet looks: the
+    path with and without the package's name, under the folder and a few of its parents)."""
+    rest = name[len("package://"):]
+    tails = [rest, rest.partition("/")[2]]
+    return [base / tail for base in [folder, *list(folder.parents)[:3]] for tail in tails if tail]
+
+
 def _absolute_meshes(text: str, folder: Path) -> str:
-    """Rewrite relative ``<mesh filename>`` values to absolute paths under ``folder`` (``package://`` and
-    ``file://`` names are left to the engine)."""
+    """Rewrite relative ``<mesh filename>`` values, and ``package://`` ones found near ``folder``, to absolute paths
+    (the expanded file lives in the cache, not beside the xacro file)."""
     root = ET.fromstring(text)
     changed = False
     for mesh in root.iter("mesh"):
         name = mesh.get("filename", "")
-        if name and "://" not in name and not os.path.isabs(name):
+        if name.startswith("package://"):
+            found = next((c for c in package_candidates(folder, name) if c.is_file()), None)
+            if found is not None:
+                mesh.set("filename", str(found.resolve()))
+                changed = True
+        elif name and "://" not in name and not os.path.isabs(name):
             mesh.set("filename", str((folder / name).resolve()))
             changed = True
     if not changed:
