@@ -13,6 +13,7 @@ import re
 import signal
 import subprocess
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 import psutil
@@ -27,7 +28,7 @@ SEEDS = 3
 
 
 @pytest.fixture
-def server(tmp_path: Path) -> CourseServer:
+def server(tmp_path: Path) -> Iterator[CourseServer]:
     scratch = tmp_path / "tmp"
     scratch.mkdir()
     server = CourseServer(tmp_path / "data", workers=1, env={"TMPDIR": str(scratch)})
@@ -36,7 +37,9 @@ def server(tmp_path: Path) -> CourseServer:
     official.write_text(OFFICIAL, encoding="utf-8")
     server.manage("create_assignment", "1반", "낙하", "--config", str(official), "--allow", "behaviour.duration",
                   "--seeds", f"0:{SEEDS}")
-    return server
+    yield server
+    if server.proc is not None and server.proc.poll() is None:  # a test that failed half-way: nothing may outlive it
+        server.stop()
 
 
 def ours(server: CourseServer, log: list[str]) -> list[psutil.Process]:
