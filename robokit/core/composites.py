@@ -21,6 +21,11 @@ the world's sim time ``t``; a child's own stopwatch is ``behaviour.elapsed(t)`` 
 composite starts it). A child started after another one ended starts at the next tick; a child's ``rate_hz``
 counts ticks from its own start.
 
+**Goals**: a child's goal (its ``check_goal(world)``) is judged the tick the child ends and decides its outcome
+(met: ``succeeded``, not met: ``failed``), recorded in its child record; each rule above goes by those judged
+outcomes. When the run ends, only the child that decided the composite (a sequence's last step, the alternative
+that succeeded, ...) and children marked ``must_last`` are asked again (:meth:`Composite.check_goal`).
+
 A child that is stopped before it ends (a timeout, a parallel decided, a monitor's abort) is **halted**: its
 optional ``halt(t)`` method runs (return commands to stop what it started, e.g. ``{"arm": HoldArm()}``) and it is
 never stepped again. Every start, end and halt is a trace record (``child_start``, ``child_end``, ``child_halt``;
