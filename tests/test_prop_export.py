@@ -1,0 +1,173 @@
+"""Every row of an export compared with the record it came from: MCAP's transforms, scans and logs.
+
+A diffbot starts turned (143 degrees: no identity, no half turn) and drives an arc with its wheels spinning; the run is
+recorded and exported with ``robokit export --mcap``. Each ``/tf`` message is checked against the pose log sample of
+the same index -- its timestamp, and every link's world pose worked out here from the recorded base centre of mass,
+the URDF's inertial origin, joint origins and axes, and the recorded joint angles -- and each ``/states`` log line
+against the trace's transition records; each ``/lidar`` scan's pose is the lidar link's frame of that sample.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import xml.etree.ElementTree as ET
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from robokit.cli import main
+from robokit.record.format import find_run
+
+ROOT = Path(__file__).resolve().parents[1]
+DIFFBOT = ROOT / "robokit" / "data" / "robots" / "diffbot.urdf"
+YAW = math.radians(143.0)
+SCENE = f"""
+[world]
+max_time = 0.75
+
+[bodies.plane]
+urdf = "plane.urdf"
+position = [0, 0, 0]
+
+[robots.robot]
+urdf = "{DIFFBOT}"
+position = [0.3, -0.2, 0.06]
+rpy_deg = [0, 0, 143]
+
+[sensors.scan]
+type = "lidar"
+rate_hz = 10
+rays = 36
+range_max = 3.0
+
+[actuators.drive]
+type = "diff_drive"
+
+[behaviour]
+type = "go_to_goal"
+goal = [-1.43, 0.8]
+"""
+
+
+def rot(axis: Any, angle: float) -> np.ndarray:
+    k = np.asarray(axis, float) / np.linalg.norm(axis)
+    skew = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    return np.eye(3) + math.sin(angle) * skew + (1.0 - math.cos(angle)) * skew @ skew
+
+
+def matrix_of(q: Any) -> np.ndarray:
+    x, y, z, w = (float(v) for v in q)
+    n = math.sqrt(x * x + y * y + z * z)
+    return np.eye(3) if n < 1e-12 else rot([x, y, z], 2.0 * math.atan2(n, w))
+
+
+def frame(p: Any, r: np.ndarray) -> np.ndarray:
+    out = np.eye(4)
+    out[:3, :3], out[:3, 3] = r, p
+    return out
+
+
+def numbers(text: str | None) -> list[float]:
+    return [float(v) for v in (text or "0 0 0").split()]
+
+
+def urdf() -> tuple[np.ndarray, dict[str, dict[str, Any]]]:
+    """The base's inertial origin, and per child link its joint's name, type, origin (4x4) and axis."""
+    root = ET.parse(DIFFBOT).getroot()
+    base = next(link for link in root.iter("link") if link.get("name") == "base_link")
+    origin = base.find("inertial/origin")
+    inertial = np.array(numbers(origin.get("xyz") if origin is not None else None))
+    joints = {}
+    for j in root.iter("joint"):
+        o, a = j.find("origin"), j.find("axis")
+        r, p, y = numbers(o.get("rpy") if o is not None else None)
+        joints[j.find("child").get("link")] = {  # type: ignore[union-attr]
+            "name": j.get("name"), "type": j.get("type"), "axis": numbers(a.get("xyz") if a is not None else "1 0 0"),
+            "origin": frame(numbers(o.get("xyz") if o is not None else None), rot([0, 0, 1], y) @ rot([0, 1, 0], p)
+                            @ rot([1, 0, 0], r))}
+    return inertial, joints
+
+
+@pytest.fixture(scope="module")
+def exported(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, list[tuple[int, dict]]]]:
+    from mcap.reader import make_reader
+
+    folder = tmp_path_factory.mktemp("export")
+    (folder / "scene.toml").write_text(SCENE)
+    cwd = os.getcwd()
+    os.chdir(folder)
+    try:
+        assert main(["run", "scene.toml", "--quiet"]) in (0, 1)  # the goal is out of reach in 0.75 s: fine
+    finally:
+        os.chdir(cwd)
+    record = find_run("last", folder / "results").folder
+    out = folder / "run.mcap"
+    assert main(["export", str(record), "--mcap", str(out)]) == 0
+    messages: dict[str, list[tuple[int, dict]]] = {}
+    with out.open("rb") as f:
+        for _, channel, message in make_reader(f).iter_messages():
+            messages.setdefault(channel.topic, []).append((message.log_time, json.loads(message.data)))
+    return record, messages
+
+
+def test_every_transform_is_the_recorded_sample_composed_with_the_urdf(exported: Any) -> None:
+    record, messages = exported
+    poses = np.load(record / "poses.npz")
+    t, base, joints = poses["t"], poses["base/robot"], poses["joints/robot"]
+    inertial, chain = urdf()
+    order = [j["name"] for j in sorted(chain.values(), key=lambda j: list(chain.values()).index(j))]
+    tf = messages["/tf"]
+    assert len(tf) == len(t) and len(t) > 10
+    turned = 0.0
+    for i, (stamp, msg) in enumerate(tf):
+        assert stamp == round(float(t[i]) * 1e9)
+        got = {x["child_frame_id"]: x for x in msg["transforms"]}
+        for x in msg["transforms"]:
+            assert x["timestamp"] == {"sec": stamp // 10**9, "nsec": stamp % 10**9}
+        com = frame(base[i, :3], matrix_of(base[i, 3:]))
+        link = com @ frame(-inertial, np.eye(3))  # the link frame seen from the centre of mass
+        expected = {"robot/base_link": link}
+        q = dict(zip(order, joints[i], strict=False))
+        for child, j in chain.items():
+            motion = rot(j["axis"], float(q[j["name"]])) if j["type"] == "continuous" else np.eye(3)
+            expected[f"robot/{child}"] = link @ j["origin"] @ frame(np.zeros(3), motion)
+        for path, want in expected.items():
+            tr, rq = got[path]["translation"], got[path]["rotation"]
+            assert np.allclose([tr["x"], tr["y"], tr["z"]], want[:3, 3], atol=2e-4), (i, path)
+            r = matrix_of([rq["x"], rq["y"], rq["z"], rq["w"]])
+            assert np.degrees(math.acos(max(-1.0, min(1.0, (np.trace(r.T @ want[:3, :3]) - 1) / 2)))) < 0.05, (i, path)
+        turned = math.atan2(link[1, 0], link[0, 0])
+        if i == 0:  # it starts where the config put it: turned 143 degrees
+            assert abs(math.remainder(turned - YAW, 2 * math.pi)) < 0.01
+    assert abs(math.remainder(turned - YAW, 2 * math.pi)) > 0.05  # and it turned on the way
+
+
+def test_every_log_line_is_a_transition_of_the_trace_at_its_time(exported: Any) -> None:
+    record, messages = exported
+    lines = (record / "trace.jsonl").read_text().splitlines()
+    header, events = json.loads(lines[0]), [json.loads(x) for x in lines[1:]]
+    want = [(0, f"{m['name']}: start in {m['initial']}") for m in header["machines"]]
+    want += [(round(e["t"] * 1e9), f"{e['machine']}: {e['source_state']} -> {e['dest_state']} ({e['trigger']})")
+             for e in events if e["kind"] == "transition"]
+    got = [(stamp, msg["message"]) for stamp, msg in messages["/states"]]
+    assert got == want and len(want) > 1
+
+
+def test_every_scan_sits_on_the_lidar_link_of_its_sample(exported: Any) -> None:
+    record, messages = exported
+    poses = np.load(record / "poses.npz")
+    t = [round(float(v) * 1e9) for v in poses["t"]]
+    tf = {stamp: {x["child_frame_id"]: x for x in msg["transforms"]} for stamp, msg in messages["/tf"]}
+    scans = messages["/lidar/scan"]
+    assert len(scans) == len(t)
+    for stamp, scan in scans:
+        lidar = tf[stamp]["robot/lidar_link"]
+        p, o = scan["pose"]["position"], scan["pose"]["orientation"]
+        assert [p[k] for k in "xyz"] == pytest.approx([lidar["translation"][k] for k in "xyz"], abs=1e-4)
+        assert abs(float(np.dot([o[k] for k in "xyzw"], [lidar["rotation"][k] for k in "xyzw"]))) == \
+            pytest.approx(1.0, abs=1e-6)
+        assert scan["timestamp"] == {"sec": stamp // 10**9, "nsec": stamp % 10**9}
