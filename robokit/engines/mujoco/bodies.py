@@ -224,7 +224,8 @@ class MujocoBodies(MujocoExtras, World):
         mass = values.pop("mass", None)
         if mass is not None and not (link == -1 and self._root[rid] in self._static):
             self.scene.set_mass(self.scene.spec.body(target), mass)
-        values.pop("friction_anchor", None)  # PyBullet's; MuJoCo's soft contacts have no anchor to keep
+        if values.pop("friction_anchor", 0.0):  # a gripper's finger: the stiffest contact MuJoCo allows
+            self.scene.set_grip(self.scene.spec.body(target))
         joint_damping = values.pop("joint_damping", None)
         if joint_damping is not None:
             for joint in self.scene.spec.body(target).joints:

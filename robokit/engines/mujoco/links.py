@@ -100,9 +100,20 @@ def critical_damping(kp: float, inertia: float) -> float:
     return 2.0 * math.sqrt(max(kp * inertia, 0.0))
 
 
+ARMATURE_SHARE = 0.5
+"""A driven joint's armature (reflected rotor inertia), as a share of ``time_step * damping`` of its motor.
+
+MuJoCo's implicit integrators fold a motor's damping into the step's mass matrix after the constraint solver has
+sized the contact forces against the matrix without it (MuJoCo issue #3443): the hand then moves otherwise than
+its contacts were solved for, and an object held by friction slips (17-22 mm over a Panda's transport). robokit
+steps with the Euler integrator instead, where the motor's damping is a force the solver sees; the armature keeps
+that explicit damping stable (``time_step * damping / (inertia + armature)`` below 2 along every direction)."""
+
+
 class Motors:
     """The joint motors' settings, kept here and written into the model: a recompile (a body added or removed)
-    builds a fresh model, and :meth:`reapply` puts every motor back as it was."""
+    builds a fresh model, and :meth:`reapply` puts every motor back as it was. A driven joint also gets its
+    armature (:data:`ARMATURE_SHARE`)."""
 
     def __init__(self) -> None:
         self.settings: dict[str, tuple[float, float, float, float, float]] = {}
@@ -124,6 +135,7 @@ class Motors:
         model.actuator_biasprm[act, :3] = (0.0, kp, kd)
         model.actuator_forcelimited[act] = 1 if limit > 0 else 0
         model.actuator_forcerange[act] = (-limit, limit)
+        model.dof_armature[model.jnt_dofadr[model.actuator_trnid[act, 0]]] = ARMATURE_SHARE * model.opt.timestep * -kd
         data.ctrl[act] = ctrl
 
     def reapply(self, model: Any, data: Any, names: Collection[str]) -> None:

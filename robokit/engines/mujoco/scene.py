@@ -71,7 +71,8 @@ class Scene:
         spec.option.timestep = time_step
         spec.option.gravity = list(gravity)
         spec.option.iterations = iterations
-        spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+        spec.option.integrator = mujoco.mjtIntegrator.mjINT_EULER  # motor damping in the constraint solve (links.py)
+        spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC  # MuJoCo's advice for grasping (see set_grip)
         return cls(spec)
 
     def set_mass(self, body: mujoco.MjsBody, mass: float) -> None:
@@ -122,6 +123,16 @@ class Scene:
             geom.friction = friction
             if params.get("restitution") is not None:
                 self.contacts.setdefault(geom.name, GeomContact()).restitution = float(params["restitution"] or 0.0)
+
+    def set_grip(self, body: mujoco.MjsBody) -> None:
+        """A gripping surface (PyBullet's ``friction_anchor``: contacts that hold what they squeeze): its contacts
+        take its own parameters (``priority``) with MuJoCo's stiffest reference, a time constant of two steps
+        (``solref``; shorter is not stable), so friction stops a slip within a step; and torsional friction
+        (``condim`` 4) so a squeezed object does not pivot."""
+        for geom in body.geoms:
+            geom.priority = 1
+            geom.solref = [2.0 * self.spec.option.timestep, 1.0]
+            geom.condim = max(geom.condim, 4)
 
     def add_restitution_pairs(self, static_bodies: set[str]) -> None:
         """One explicit pair for each two geoms (of different bodies, not both static) whose restitutions multiply to
