@@ -134,12 +134,13 @@ def _mass(link: Link, *, is_root: bool, mobile: bool, robot: Robot) -> list[Prob
     if link.mass < 0:
         return [Problem("mass", where, f"mass {link.mass:g} kg is negative", _mass_fix(link), link.line)]
     if link.mass == 0:
-        moved = not is_root or mobile
         driven = any(j.child == link.name and j.movable for j in robot.joints)
-        if (is_root and mobile) or (driven and link.collisions):
-            what = "a base of mass 0 is pinned in place by the engine" if is_root else \
-                "a moving link of mass 0 makes the joint's dynamics singular"
-            return [Problem("mass", where, f"mass is 0 kg: {what}", _mass_fix(link), link.line)] if moved else []
+        if is_root and mobile:
+            return [Problem("mass", where, "mass is 0 kg: a base of mass 0 is pinned in place by the engine",
+                            _mass_fix(link), link.line)]
+        if not is_root and driven and link.collisions:
+            return [Problem("mass", where, "mass is 0 kg: a moving link of mass 0 makes the joint's dynamics "
+                            "singular", _mass_fix(link), link.line)]
     return []
 
 
