@@ -427,3 +427,50 @@ def test_world_fixed_lidar_scans_in_its_rpy_plane(lidar_sim, a: float, b: float,
     scan = lidar_sim.components["fixed"].read()
     fov = math.radians(270.0)
     check_scan(scan, np.zeros(3), r, centre, -fov / 2, fov / 47)
+
+
+# ------------------------------------------------------------------------------------------ IK targets
+ARM_SCENE = {
+    "robots": {"panda": {"urdf": "franka_panda/panda.urdf", "position": [0, 0, 0], "fixed_base": True}},
+    "actuators": {"arm": {"type": "ik_arm", "body": "panda", "ee_link": "panda_grasptarget",
+                          "ready_pose": {"panda_joint2": -0.4, "panda_joint4": -2.2, "panda_joint6": 1.8,
+                                         "panda_joint7": 0.785}}},
+}
+
+
+@pytest.fixture(scope="module")
+def arm_sim() -> Iterator:
+    with make_sim(ARM_SCENE) as sim:
+        yield sim
+
+
+@settings(max_examples=6, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@given(st.floats(0.35, 0.6), st.floats(-0.25, 0.25), st.floats(0.15, 0.45), st.floats(-1.4, 1.4),
+       st.sampled_from(["down", "tilted"]), rotations)
+def test_ik_arm_puts_the_tool_frame_at_the_target_pose(arm_sim, x: float, y: float, z: float, yaw: float,
+                                                       kind: str, tilt: tuple) -> None:
+    """A MoveTo's target frame: the tool's +z along world -z turned by ``yaw`` (``orientation`` None), or a given
+    quaternion (the down pose tilted by up to ~17 degrees about a random axis). The world's link frame ends there."""
+    from robokit.msgs.arm import MoveTo
+
+    w, arm = arm_sim.world, arm_sim.components["arm"]
+    down = rodrigues(Z, yaw) @ rodrigues(X, math.pi)  # tool down, turned by yaw about world +z
+    if kind == "down":
+        cmd, want = MoveTo((x, y, z), yaw=yaw), down
+    else:
+        want = rodrigues(tilt[0], tilt[1] * 0.1) @ down
+        cmd = MoveTo((x, y, z), orientation=quaternion_of(want))
+    arm.command(cmd)
+    for _ in range(8):
+        arm_sim.step(120)
+        state = arm_sim.readings["arm"]
+        if state.status != "moving":
+            break
+    assert state.status == "reached", state.reason
+    panda = w.body("panda")
+    pos, orn = w.pose(panda, w.link(panda, "panda_grasptarget"))
+    assert np.allclose(pos, [x, y, z], atol=0.005)
+    assert math.degrees(angle_between(matrix_of(orn), want)) < 2.0
+    assert np.allclose(state.position, pos, atol=1e-4)  # the reading is the world's link frame
+    assert math.degrees(angle_between(matrix_of(state.orientation), matrix_of(orn))) < 0.1
