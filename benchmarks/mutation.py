@@ -11,8 +11,9 @@ Two sources of mutants:
 
 How a mutant runs: the working tree (or ``--rev``'s tree) is copied once per worker into a temporary folder, with
 ``robokit_plugins`` / ``robokit_behaviours`` links to ``plugins/`` / ``behaviours/`` so that the copy's code is what
-gets imported (the editable install maps those two package names to the source checkout, which is why mutmut and
-cosmic-ray, which mutate in place or need a plain package layout, do not fit); the copy goes first on
+gets imported (the editable install maps those two package names to the source checkout; mutmut itself runs the
+same way, room by room, in ``benchmarks/mutation_rooms.py`` -- the measure; this corpus is a regression set); the
+copy goes first on
 ``PYTHONPATH`` (subprocesses -- CLI runs, sweep workers -- inherit it). One mutant is written into the copy, the
 file's tests run with ``-x -q -p no:randomly -n 0`` and a per-mutant timeout, and the file is restored. Your
 checkout is never touched, so you can keep working while it runs.
