@@ -162,6 +162,7 @@ import robokit.record.fonts as fonts
 fonts.SYSTEM_FILES = ()
 if sys.argv[1] == "no-package":
     sys.modules["pylopdf_fonts_ko"] = None  # nor the packaged font: import fails
+fonts.warn_if_no_korean_font()  # as the server's start does
 from robokit.server import charts
 with warnings.catch_warnings(record=True) as caught:
     warnings.simplefilter("always")

@@ -7,8 +7,9 @@ drawn as boxes, one warning per glyph) until the cache is rebuilt. Here the font
 1. ``pylopdf-fonts-ko`` (Noto Sans KR, SIL Open Font License 1.1), installed with ``robokit[server]``;
 2. a system font: NanumGothic (``fonts-nanum``), Noto Sans CJK (``fonts-noto-cjk``), Malgun Gothic, AppleGothic.
 
-Without any, :func:`korean_font` logs one warning (once per process) and charts draw Latin text only; the
-per-glyph warnings matplotlib would give are silenced by :func:`quiet_missing_glyphs`.
+Without any, the server says so once when it starts (:func:`warn_if_no_korean_font`, or at the first chart:
+:func:`korean_font`) and charts draw Korean as boxes; the per-glyph warnings matplotlib would give are silenced by
+:func:`quiet_missing_glyphs`.
 """
 
 from __future__ import annotations
@@ -67,11 +68,19 @@ def korean_font(*, warn: bool = True) -> str | None:
             family = font_manager.FontProperties(fname=str(path)).get_name()
         except (OSError, RuntimeError, ValueError) as exc:
             log.warning("robokit: warning: the Korean font %s could not be read (%s)", path.name, exc)
-    if family is None and warn:
+    if family is None and warn and not _warned:
         _warned.append(True)
         log.warning("robokit: warning: %s", MISSING)
     _found.append(family)
     return family
+
+
+def warn_if_no_korean_font() -> None:
+    """At a server's start: the one warning, when no Korean font file is there (looks for files only, imports no
+    matplotlib); charts drawn later do not repeat it."""
+    if not _warned and korean_font_file() is None:
+        _warned.append(True)
+        log.warning("robokit: warning: %s", MISSING)
 
 
 @contextlib.contextmanager

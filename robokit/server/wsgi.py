@@ -16,3 +16,7 @@ private_sqlite(settings.DATABASES["default"])  # a new database file is 0600, wh
 from robokit.sweep.trial import plugins_for  # noqa: E402
 
 plugins_for(()).complete()  # every plugin type loaded before the first request: the server's threads only read them
+
+from robokit.record.fonts import warn_if_no_korean_font  # noqa: E402
+
+warn_if_no_korean_font()  # the charts draw Korean: said once, at start, when no font can
