@@ -226,7 +226,8 @@ def _course_work_urls(course: Course) -> dict[str, str]:
         "student-chart": f"/classes/{room}/students/{kim}/weekly.svg", "grades-csv": f"/classes/{room}/grades.csv",
         "grades-xlsx": f"/classes/{room}/grades.xlsx",
         "moderate": f"/classes/{room}/moderate/", "moderation": f"/classes/{room}/moderation/",
-        "submission": f"/submissions/{sub.pk}/", "reevaluate": f"/submissions/{sub.pk}/reevaluate/", "api-submit": f"/api/robotics/assignments/{a.name}/submissions/",
+        "submission": f"/submissions/{sub.pk}/", "reevaluate": f"/submissions/{sub.pk}/reevaluate/",
+        "api-submit": f"/api/robotics/assignments/{a.name}/submissions/",
         "api-submission": f"/api/robotics/submissions/{sub.pk}/", "api-training": "/api/robotics/training/",
     }
 
