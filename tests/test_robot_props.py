@@ -13,6 +13,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -20,7 +21,7 @@ from robokit.robot.check import check_robot, load, static_problems
 from robokit.robot.model import Link, Robot
 
 PROPS = settings(max_examples=60, deadline=None, derandomize=True)
-SLOW_PROPS = settings(max_examples=15, deadline=None, derandomize=True)
+SLOW_PROPS = settings(max_examples=30, deadline=None, derandomize=True)
 XACRO = Path(__file__).resolve().parent.parent / "robokit" / "data" / "robots" / "scaffold" / "diffdrive.urdf.xacro"
 
 
@@ -72,6 +73,7 @@ designs = st.fixed_dictionaries({
     "chassis_height": st.floats(0.04, 0.12), "chassis_mass": st.floats(0.5, 8.0), "gap": st.floats(0.01, 0.1)})
 
 
+@pytest.mark.slow
 @SLOW_PROPS
 @given(designs)
 def test_the_scaffold_passes_whenever_the_track_clears_the_chassis(design: dict[str, float]) -> None:
@@ -81,6 +83,7 @@ def test_the_scaffold_passes_whenever_the_track_clears_the_chassis(design: dict[
     assert [p.text("bot") for p in check_robot(load(XACRO, args))] == []
 
 
+@pytest.mark.slow
 @SLOW_PROPS
 @given(designs)
 def test_the_scaffold_is_refused_when_the_chassis_buries_its_wheels(design: dict[str, float]) -> None:
