@@ -218,14 +218,15 @@ def cmd_run(args: argparse.Namespace) -> int:
     """``robokit run``: build, run, report; print a summary (or the RunResult JSON with ``--json``)."""
     global _run_started
     _run_started = True
-    if args.video:  # before anything is simulated: the video needs imageio-ffmpeg
-        from robokit.extras import require
-
-        require("video", "robokit run --video", ("imageio_ffmpeg",))
-    from robokit.process.interrupts import StopGuard
-
-    guard = StopGuard.current()
+    guard = None
     try:
+        if args.video:  # before anything is simulated: the video needs imageio-ffmpeg
+            from robokit.extras import require
+
+            require("video", "robokit run --video", ("imageio_ffmpeg",))
+        from robokit.process.interrupts import StopGuard
+
+        guard = StopGuard.current()
         plugins, cfg = _load(args)  # first: robokit.runner imports robokit.config, see _load
         from robokit.runner import run_config
     except BaseException as exc:  # a signal broke into start-up (imports, plugins): keep what can be kept
@@ -376,6 +377,11 @@ def _interrupted_before_config(args: argparse.Namespace, signal_name: str | None
     with the standard library alone (whatever was being imported is left alone)."""
     from robokit.core.result import early_result, write_early_result
 
+    if signal_name is None:
+        from robokit.process.interrupts import StopGuard
+
+        guard = StopGuard.current()
+        signal_name = guard.signal if guard is not None else None
     path, payload = early_result(args.config, signal_name or "SIGINT", seed=args.seed)
     try:
         write_early_result(path, payload)

@@ -169,19 +169,20 @@ def capture_c_stdout() -> Iterator[CapturedOutput]:
     olds = {name: getattr(sys, name) for name in streams}
     swapped = []
     with _scratch_file() as sink:
-        for fd, name in zip((1, 2), streams, strict=True):
-            stream = olds[name]
-            try:
-                stream.flush()
-                real = stream.fileno() == fd
-            except (AttributeError, OSError, ValueError):  # captured or replaced stream (pytest): fd only
-                real = False
-            os.dup2(sink.fileno(), fd)
-            if real:
-                setattr(sys, name, io.TextIOWrapper(os.fdopen(os.dup(saved[fd]), "wb"), encoding=stream.encoding,
-                                                    errors=stream.errors, line_buffering=True))
-                swapped.append(name)
-        try:
+        try:  # set up inside: an interrupt half-way still gets the real streams back
+            for fd, name in zip((1, 2), streams, strict=True):
+                stream = olds[name]
+                try:
+                    stream.flush()
+                    real = stream.fileno() == fd
+                except (AttributeError, OSError, ValueError):  # captured or replaced stream (pytest): fd only
+                    real = False
+                os.dup2(sink.fileno(), fd)
+                if real:
+                    setattr(sys, name, io.TextIOWrapper(os.fdopen(os.dup(saved[fd]), "wb"),
+                                                        encoding=stream.encoding, errors=stream.errors,
+                                                        line_buffering=True))
+                    swapped.append(name)
             yield captured
         finally:
             _flush_c_stdio()

@@ -45,8 +45,8 @@ def add_record_commands(sub: Any) -> None:
     still = vid.add_mutually_exclusive_group()
     still.add_argument("--time", metavar="S", help="write one PNG of the scene at sim time S seconds ('end': the "
                        "last moment) instead of a video (-o defaults to <run folder>/frame_<N>.png)")
-    still.add_argument("--frame", type=int, metavar="N", help="write one PNG of video frame N instead of a video "
-                       "(frames count from 0 at --fps, default the pose log's 30 a second; -1 is the last)")
+    still.add_argument("--frame", type=_frame_number, metavar="N", help="write one PNG of video frame N instead of "
+                       "a video (frames count from 0 at --fps, default the pose log's 30 a second; -1 is the last)")
     _dir(vid)
     vid.set_defaults(func=cmd_video)
 
@@ -74,6 +74,15 @@ def add_record_commands(sub: Any) -> None:
     exp.add_argument("--mcap", metavar="FILE", help="write MCAP with Foxglove schemas (needs the 'rerun' extra)")
     _dir(exp)
     exp.set_defaults(func=cmd_export)
+
+
+def _frame_number(text: str) -> int:
+    """``--frame``'s value: a whole frame number (a sim time in seconds is ``--time``)."""
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a frame number such as 30 or -1, got {text!r} (for a sim time "
+                                         f"in seconds: --time {text})") from None
 
 
 def _dir(parser: argparse.ArgumentParser) -> None:
