@@ -197,5 +197,7 @@ def test_a_still_by_frame_number_or_by_sim_time(runs: tuple[Path, Path, Path], t
                                                f"to {last} (30 a second; -1 is the last)")
     assert main(["video", str(first), "--time", "soon"]) == 2
     assert "--time: expected sim seconds or 'end', got 'soon'" in capsys.readouterr().err
-    assert main(["video", str(first), "--frame", "7.9"]) == 2  # a sim time given where a frame number goes
+    with pytest.raises(SystemExit) as usage:  # a sim time given where a frame number goes: argparse's usage error
+        main(["video", str(first), "--frame", "7.9"])
+    assert usage.value.code == 2
     assert "got '7.9' (for a sim time in seconds: --time 7.9)" in capsys.readouterr().err
