@@ -14,6 +14,7 @@ import json
 import math
 import shlex
 import xml.etree.ElementTree as ET
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -133,12 +134,13 @@ def test_junit_markdown_and_failed_trials_list_every_row(tmp_path_factory: pytes
     summary = summarise(rows, cells)
     summary["failed_trials"] = failed
     table = to_markdown(summary).splitlines()
+    head = [x.strip() for x in table[0].strip("|").split("|")]  # columns found by their names
     for c in summary["cells"]:
         line = next(x for x in table if x.startswith(f"| `{c['cell']}` |"))
-        cols = [x.strip() for x in line.strip("|").split("|")]
-        assert cols[1] == str(c["trials"]) and cols[4] == str(c["errors"])
+        cols = dict(zip(head, [x.strip() for x in line.strip("|").split("|")], strict=True))
+        assert cols["trials"] == str(c["trials"]) and cols["errors"] == str(c["errors"])
         rate = "-" if c["success_rate"] is None else f"{100 * c['success_rate']:.1f} %"
-        assert cols[2] == rate
+        assert cols["success"] == rate
     totals = f"{len(rows)} trials, {summary['succeeded']} succeeded, {summary['errors']} errors"
     assert any(x.startswith(totals) for x in table)
     listed = [x for x in table if x.startswith("- `")]
@@ -196,3 +198,44 @@ def test_state_stays_and_state_changes_follow_the_transition_records(
     assert [(t, m) for t, m, _ in changes[len(header["machines"]):]] == [(e["t"], e["machine"]) for e in transitions]
     for (_, _, text), e in zip(changes[len(header["machines"]):], transitions, strict=True):
         assert text == f"{e['machine']}: {e['source_state']} -> {e['dest_state']} ({e['trigger']})"
+
+
+# ------------------------------------------------------------------------------------------ a real sweep
+@pytest.mark.slow  # eight trials in a worker process: ~3 s of CPU
+def test_a_real_sweeps_summary_junit_and_records_agree_with_its_trial_rows(tmp_path: Path, monkeypatch: Any) -> None:
+    """Two cells (one that succeeds, one that runs out of time) x four seeds, one of which raises: every figure
+    of summary.json, every JUnit case and every kept record's outcome recomputed from trials.jsonl, and every row's
+    figure from its own seed (the test behaviour's ``seed_squared``)."""
+    from robokit.cli import main
+    from robokit.sweep.summary import wilson
+
+    plugins = Path(__file__).resolve().parent / "sweep_plugins"
+    monkeypatch.syspath_prepend(str(plugins))
+    monkeypatch.chdir(tmp_path)
+    code = main(["sweep", str(plugins / "fault.toml"), "--plugin", "sweep_faults", "--seeds", "0:4", "--workers",
+                 "1", "--set", "behaviour.duration=0.2,2.0", "--set", "behaviour.raise_seeds=[2]", "--out", "out",
+                 "--junit", "junit.xml", "--keep", "all", "--quiet"])
+    assert code in (0, 1)
+    rows = [json.loads(x) for x in (tmp_path / "out" / "trials.jsonl").read_text().splitlines() if x.strip()]
+    rows = [r for r in rows if "outcome" in r]
+    assert len(rows) == 8 and {r["seed"] for r in rows} == {0, 1, 2, 3}
+    for r in rows:
+        long = r["overrides"]["behaviour.duration"] == 2.0
+        assert r["outcome"] == ("error" if r["seed"] == 2 else "aborted" if long else "succeeded"), r
+        assert r["figures"]["seed_squared"] == r["seed"] ** 2  # the figures it had when it ended, error or not
+        if r.get("record"):
+            kept = json.loads((Path(r["record"]) / "result.json").read_text())
+            assert (kept["outcome"], kept["seed"]) == (r["outcome"], r["seed"])
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert (summary["trials"], summary["succeeded"], summary["errors"]) == (8, 3, 2)
+    for c in summary["cells"]:
+        mine = [r for r in rows if r["cell"] == c["cell"]]
+        ok = sum(r["outcome"] == "succeeded" for r in mine)
+        assert (c["trials"], c["succeeded"], c["success_rate"]) == (len(mine), ok, ok / len(mine))
+        assert c["wilson95"] == pytest.approx(list(score_roots(ok, len(mine))), abs=1e-9)
+        assert c["wilson95"] == pytest.approx(list(wilson(ok, len(mine))))
+        squares = sorted(r["seed"] ** 2 for r in mine)  # docs/sweeps.md: each figure over the cell's rows
+        assert c["figures"]["seed_squared"]["median"] == pytest.approx(float(np.median(squares)))
+    suite = ET.parse(tmp_path / "junit.xml").getroot().find("testsuite")
+    assert suite is not None
+    assert (suite.get("tests"), suite.get("failures"), suite.get("errors")) == ("8", "3", "2")
