@@ -8,8 +8,9 @@ Exit codes:
 - 3: a plugin (or robokit itself) raised (outcome ``error``);
 - 4: the result could be neither delivered nor stored;
 - 5: the server refused the result (kept; ``robokit outbox retry``);
-- 6: the run succeeded and its result was kept, but its record (trace, pose log) could not be written in full (a
-  full disk, a file-size limit): each failure is a one-line warning naming the file and the reason;
+- 6: the run succeeded and its result was kept, but its record (trace, pose log) or an output asked for (``--video``;
+  ``robokit video / view / export``'s file) could not be written in full (a full disk, a file-size limit): each
+  failure is a one-line warning naming the file and the reason, and an output not made leaves nothing under its name;
 - 130: interrupted by SIGINT (Ctrl-C), 143: by SIGTERM, at any moment from the console script's first instruction
   (:mod:`robokit.entry`) to exit (one line on stderr;
   whatever result exists is kept: a signal during start-up gives an ``aborted`` result with no ticks, one during
