@@ -330,9 +330,9 @@ CAMERA_SCENE = {
 }
 
 
-@pytest.fixture(scope="module")
-def camera_sim() -> Iterator:
-    with make_sim(CAMERA_SCENE) as sim:
+@pytest.fixture(scope="module", params=ENGINES)
+def camera_sim(request: pytest.FixtureRequest) -> Iterator:
+    with make_sim(CAMERA_SCENE, overrides={"world.engine": request.param}) as sim:
         yield sim
 
 
@@ -376,9 +376,9 @@ LIDAR_SCENE = {
 }
 
 
-@pytest.fixture(scope="module")
-def lidar_sim() -> Iterator:
-    with make_sim(LIDAR_SCENE) as sim:
+@pytest.fixture(scope="module", params=ENGINES)
+def lidar_sim(request: pytest.FixtureRequest) -> Iterator:
+    with make_sim(LIDAR_SCENE, overrides={"world.engine": request.param}) as sim:
         yield sim
 
 
@@ -438,9 +438,9 @@ ARM_SCENE = {
 }
 
 
-@pytest.fixture(scope="module")
-def arm_sim() -> Iterator:
-    with make_sim(ARM_SCENE) as sim:
+@pytest.fixture(scope="module", params=ENGINES)
+def arm_sim(request: pytest.FixtureRequest) -> Iterator:
+    with make_sim(ARM_SCENE, overrides={"world.engine": request.param}) as sim:
         yield sim
 
 
