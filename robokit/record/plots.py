@@ -63,8 +63,14 @@ def make_plots(rec: RunRecord, out: Path, *, fmt: str = "png", scan_at: float | 
 
 
 def _save(fig: Any, path: Path, plt: Any) -> Path:
-    fig.savefig(path)
-    plt.close(fig)
+    """Save under a temporary name and rename (:mod:`robokit.record.atomic`): a picture is whole or absent."""
+    from robokit.record.atomic import atomic_output
+
+    try:
+        with atomic_output(path) as tmp:
+            fig.savefig(tmp, format=path.suffix.lstrip(".") or "png")
+    finally:
+        plt.close(fig)
     return path
 
 
