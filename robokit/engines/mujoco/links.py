@@ -120,6 +120,8 @@ class Motors:
         """Actuator name -> (gain, position bias, velocity bias, force limit (0: none), control)."""
         self.torques: set[str] = set()
         """Motors in torque mode: their torque lasts one step."""
+        self.inertia_changed = False
+        """An armature changed since the mass matrix was last computed (the world recomputes it before stepping)."""
 
     def set(self, model: Any, data: Any, name: str, setting: tuple[float, float, float, float, float],
             torque: bool) -> None:
@@ -135,7 +137,11 @@ class Motors:
         model.actuator_biasprm[act, :3] = (0.0, kp, kd)
         model.actuator_forcelimited[act] = 1 if limit > 0 else 0
         model.actuator_forcerange[act] = (-limit, limit)
-        model.dof_armature[model.jnt_dofadr[model.actuator_trnid[act, 0]]] = ARMATURE_SHARE * model.opt.timestep * -kd
+        dof = model.jnt_dofadr[model.actuator_trnid[act, 0]]
+        armature = ARMATURE_SHARE * model.opt.timestep * -kd
+        if model.dof_armature[dof] != armature:
+            model.dof_armature[dof] = armature
+            self.inertia_changed = True
         data.ctrl[act] = ctrl
 
     def reapply(self, model: Any, data: Any, names: Collection[str]) -> None:

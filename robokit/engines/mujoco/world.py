@@ -56,6 +56,9 @@ class MujocoWorld(MujocoBodies):
     def step(self) -> None:
         """Advance physics by one step (forces applied since the last step act during it)."""
         m, d = self.compiled()
+        if self.motors.inertia_changed:  # the mass matrix mj_step1 computed predates a new armature
+            mujoco.mj_step1(m, d)
+            self.motors.inertia_changed = False
         for bid, force, point in self._forces:
             mujoco.mj_applyFT(m, d, force, np.zeros(3), point, bid, d.qfrc_applied)
         mujoco.mj_step2(m, d)
