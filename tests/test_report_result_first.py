@@ -34,7 +34,7 @@ def server() -> Iterator[CourseServer]:
 
 def test_three_flushes_at_once_each_exit_0_and_send_every_entry_once(server: CourseServer, tmp_path: Path) -> None:
     box = Outbox(tmp_path / "outbox")
-    ids = [box.put(make_payload(i), server.url, OPTS).run_id for i in range(24)]
+    ids = [box.put(make_payload(i), server.url, OPTS).run_id for i in range(12)]
     procs = [subprocess.Popen(ROBOKIT + ["outbox", "flush", "--dir", str(box.root)], stdout=subprocess.PIPE,
                               stderr=subprocess.PIPE, text=True) for _ in range(3)]
     outs = [p.communicate(timeout=120) for p in procs]

@@ -88,7 +88,8 @@ def test_a_signal_right_after_the_guard_appears_is_handled(folder: Path, sig: si
 
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
 def test_signals_from_spawn_are_handled_once_robokit_runs(folder: Path, sig: signal.Signals) -> None:
-    problems = [p for d in (0.0, 0.15, 0.3) for g, p in [_shot(folder, sig, d, after_guard=False)] if p]
+    delays = (0.1, 0.3) if sig == signal.SIGINT else (0.2,)  # a subset; the slow sweep tries every 10 ms
+    problems = [p for d in delays for g, p in [_shot(folder, sig, d, after_guard=False)] if p]
     assert problems == []
 
 
