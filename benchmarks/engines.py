@@ -2,6 +2,13 @@
 (``configs/patrol_robot.toml``) per seed on PyBullet then MuJoCo, in this one process, and a Gymnasium env's steps.
 
     python benchmarks/engines.py --trials 20
+    python benchmarks/engines.py --grasp --trials 20 --start-seed 200
+
+``--grasp`` measures held objects instead, per engine and seed: ``configs/pick_place.toml`` and a three-colour sort
+(``configs/sort_robot.toml`` with a green bin and two green cubes added). While a cube is off the table (its centre
+2 cm above its resting height) its position in the hand's frame is read every 4 ticks; a transport's slip is how far
+it moved from where it was once the grip settled (40 ticks after lift-off). It prints the median and largest slip,
+the pick-and-place's placement error (median, largest) and each job's successes.
 
 Per job and engine it prints: the success rate (the run's outcome, which the world's goal check decides), the
 median sim seconds per object (a run's sim time over its objects), the loop's wall seconds per sim second, and
@@ -14,6 +21,7 @@ simulate alike (see docs/engines.md), so the figures compare jobs, not steps.
 from __future__ import annotations
 
 import argparse
+import math
 import statistics
 import time
 from pathlib import Path
@@ -67,12 +75,89 @@ def gym_steps_per_second(engine: str, steps: int) -> float:
         env.close()
 
 
+def three_colour_sort() -> dict[str, Any]:
+    """``configs/sort_robot.toml`` as TOML parses it, with a green bin beside the red one and two green cubes."""
+    from robokit.config import read_toml
+
+    raw = read_toml(JOBS["sort"])
+    raw["world"]["max_time"] = 60.0
+    raw["bodies"]["green_bin"] = {**raw["bodies"]["red_bin"], "position": [0.05, 0.5, 0]}
+    raw["bodies"]["green"] = {**raw["bodies"]["red"], "rgba": [0.1, 0.8, 0.2, 1]}
+    raw["regions"]["table"]["min_spacing"] = 0.09
+    raw["sensors"]["truth"]["bodies"] += ["green_0", "green_1"]
+    raw["behaviour"]["bins"]["green"] = {"body": "green_bin"}
+    return raw
+
+
+def held_slips(sim: Any) -> list[float]:
+    """Run ``sim`` to its end; the slip (m) of each transport of a cube in the Panda's hand (see the module doc)."""
+    world = sim.world
+    hand = {j.child_link: j.index for j in world.joints("panda")}["panda_hand"]
+    cubes = [n for n in world.body_names if n.startswith(("red_", "blue_", "green_", "cube"))]
+    resting = {c: world.pose(c)[0][2] for c in cubes}
+    watching: dict[str, list[Any]] = {}
+    slips: list[float] = []
+    step = world.step
+
+    def watched() -> None:
+        step()
+        if world.tick % 4:
+            return
+        for cube in cubes:
+            pose = world.pose(cube)
+            if pose[0][2] > resting[cube] + 0.02:
+                offset = world.multiply_transforms(*world.invert_transform(*world.pose("panda", hand)), *pose)[0]
+                seen = watching.setdefault(cube, [])
+                seen.append(offset)
+            elif cube in watching:
+                seen = watching.pop(cube)
+                if len(seen) > 30:
+                    slips.append(max(math.dist(seen[10], o) for o in seen[10:]))
+
+    world.step = watched
+    out = sim.run()
+    return [float(out.outcome == "succeeded"), float(out.result.get("placement_error") or 0.0), *slips]
+
+
+def grasp(trials: int, start: int) -> None:
+    """``--grasp``: slip, placement error and success per engine (see the module doc)."""
+    from robokit.config import build_config, load_config
+    from robokit.core.simulation import Simulation
+    from robokit.plugin_api.plugins import load_plugins
+
+    plugins = load_plugins()
+    sort3 = three_colour_sort()
+    print(f"{'job':14} {'engine':9} {'success':>8} {'slip median / max mm':>21} {'placement median / max mm':>26}")
+    for job in ("pick_place", "sort 3 colours"):
+        for engine in ENGINES:
+            ok, places, slips = 0.0, [], []
+            for seed in range(start, start + trials):
+                overrides = {"world.engine": engine, "world.seed": seed}
+                if job == "pick_place":
+                    cfg = load_config(ROOT / "configs" / "pick_place.toml", plugins, overrides)
+                else:
+                    raw = {**sort3, "world": {**sort3["world"], "engine": engine, "seed": seed}}
+                    cfg = build_config(raw, plugins, source="sort_robot.toml + green", base_dir=ROOT / "configs")
+                with Simulation(cfg, plugins) as sim:
+                    success, place, *held = held_slips(sim)
+                ok += success
+                places.append(place * 1000)
+                slips += [s * 1000 for s in held]
+            place_text = (f"{statistics.median(places):.2f} / {max(places):.2f}" if job == "pick_place" else "-")
+            print(f"{job:14} {engine:9} {ok:>4.0f}/{trials:<3} "
+                  f"{statistics.median(slips):>10.2f} / {max(slips):<8.2f} {place_text:>26}", flush=True)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     parser.add_argument("--trials", type=int, default=20)
     parser.add_argument("--start-seed", type=int, default=0)
     parser.add_argument("--gym-steps", type=int, default=2000)
+    parser.add_argument("--grasp", action="store_true", help="held objects' slip and placement instead")
     args = parser.parse_args(argv)
+    if args.grasp:
+        grasp(args.trials, args.start_seed)
+        return 0
     from robokit.plugin_api.plugins import load_plugins
 
     plugins = load_plugins()
