@@ -126,6 +126,52 @@ def test_an_interrupted_render_removes_its_partial_file_and_says_so(runs: tuple[
     assert not out.exists() and list(folder.glob(".*part*")) == [] and stdout == ""
 
 
+def _children(pid: int) -> set[int]:
+    """Child processes of ``pid`` (from /proc), recursively."""
+    out: set[int] = set()
+    for task in Path(f"/proc/{pid}/task").glob("*"):
+        try:
+            kids = {int(k) for k in (task / "children").read_text().split()}
+        except OSError:
+            continue
+        for kid in kids:
+            out |= {kid} | _children(kid)
+    return out
+
+
+@pytest.mark.slow
+def test_ctrl_c_at_the_terminal_stops_the_render_workers_without_a_word(runs: tuple[Path, Path, Path]) -> None:
+    """SIGINT to the whole process group (what Ctrl-C at a terminal does) while two workers render: one line, the
+    partial file removed, and no worker or ffmpeg left running."""
+    folder, _, second = runs
+    out = folder / "group.mp4"
+    proc = subprocess.Popen(ROBOKIT + ["video", str(second), "-o", out.name, "--size", "640x480", "--workers", "2"],
+                            cwd=folder, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    deadline = time.monotonic() + 120
+    while not list(folder.glob(".group.mp4.part*")) and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.01)  # waits for a condition: ffmpeg has opened its temporary file
+    helpers = _children(proc.pid)
+    assert proc.poll() is None and len(helpers) >= 3, helpers  # two workers and ffmpeg at least
+    os.killpg(proc.pid, signal.SIGINT)
+    _, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 130
+    assert stderr.strip().splitlines() == [
+        "robokit: interrupted (SIGINT); group.mp4 not written; its partial file was removed"]
+    assert not out.exists() and list(folder.glob(".*part*")) == []
+    def running(pid: int) -> bool:
+        try:
+            state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+            return state != "Z" and Path(f"/proc/{pid}/cmdline").read_bytes() != b""  # not exiting
+        except OSError:
+            return False
+
+    deadline = time.monotonic() + 10
+    while any(running(pid) for pid in helpers) and time.monotonic() < deadline:
+        time.sleep(0.05)  # waits for a condition: the helpers, stopped by robokit, finish exiting
+    assert [pid for pid in helpers if running(pid)] == []
+
+
 def test_a_later_run_s_video_under_the_same_name_is_not_the_first_run_s(runs: tuple[Path, Path, Path]) -> None:
     from robokit.cli import main
     from robokit.record.page import find_video
