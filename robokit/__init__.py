@@ -5,9 +5,9 @@ Importing :mod:`robokit` is cheap: it loads neither pybullet nor OpenCV. Plugins
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 __version__ = "0.1.0"
+
+TYPE_CHECKING = False  # as typing.TYPE_CHECKING (which type checkers read as true) without importing typing
 
 if TYPE_CHECKING:
     import pluggy
