@@ -121,18 +121,34 @@ class Motors:
         self.torques: set[str] = set()
         """Motors in torque mode: their torque lasts one step."""
         self.inertia_changed = False
+        self.ids: dict[str, int] = {}
+        """Actuator name -> id in the model as compiled now."""
         """An armature changed since the mass matrix was last computed (the world recomputes it before stepping)."""
 
     def set(self, model: Any, data: Any, name: str, setting: tuple[float, float, float, float, float],
             torque: bool) -> None:
-        """Store one motor's setting and write it into ``model`` / ``data``."""
+        """Store one motor's setting and write it into ``model`` / ``data`` (only the control when the gains are
+        those already written: a servo sent new targets every tick)."""
+        old = self.settings.get(name)
         self.settings[name] = setting
-        (self.torques.add if torque else self.torques.discard)(name)
+        if torque:
+            self.torques.add(name)
+        elif self.torques:
+            self.torques.discard(name)
+        if old is not None and old[:4] == setting[:4]:
+            data.ctrl[self._id(model, name)] = setting[4]
+            return
         self._write(model, data, name)
+
+    def _id(self, model: Any, name: str) -> int:
+        act = self.ids.get(name)
+        if act is None:
+            act = self.ids[name] = int(model.actuator(name).id)
+        return act
 
     def _write(self, model: Any, data: Any, name: str) -> None:
         gain, kp, kd, limit, ctrl = self.settings[name]
-        act = model.actuator(name).id
+        act = self._id(model, name)
         model.actuator_gainprm[act, :3] = (gain, 0.0, 0.0)
         model.actuator_biasprm[act, :3] = (0.0, kp, kd)
         model.actuator_forcelimited[act] = 1 if limit > 0 else 0
@@ -146,6 +162,7 @@ class Motors:
 
     def reapply(self, model: Any, data: Any, names: Collection[str]) -> None:
         """Write every stored motor that still exists (``names``: the model's actuators) into a new model."""
+        self.ids.clear()
         for name in [n for n in self.settings if n not in names]:
             del self.settings[name]
             self.torques.discard(name)
@@ -157,4 +174,4 @@ class Motors:
         for name in self.torques:
             gain, kp, kd, limit, _ = self.settings[name]
             self.settings[name] = (gain, kp, kd, limit, 0.0)
-            data.ctrl[model.actuator(name).id] = 0.0
+            data.ctrl[self._id(model, name)] = 0.0

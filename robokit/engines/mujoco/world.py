@@ -19,7 +19,7 @@ from robokit.engines.interface import ChainFrame, ChainJoint, Contact, JointStat
 from robokit.engines.mujoco import attach as attachments
 from robokit.engines.mujoco import kin, support
 from robokit.engines.mujoco import render as rendering
-from robokit.engines.mujoco.bodies import MujocoBodies, _vec
+from robokit.engines.mujoco.bodies import MujocoBodies
 from robokit.engines.mujoco.gl import mujoco
 from robokit.engines.mujoco.links import Motors, critical_damping, motor_gains
 from robokit.engines.mujoco.rays import HIDDEN_GROUP, MujocoRayCaster
@@ -52,6 +52,14 @@ class MujocoWorld(MujocoBodies):
         self.cameras = rendering.Cameras()
         self._wrenches: dict[tuple[int, int], tuple[tuple[float, ...], tuple[float, ...]]] = {}
         """(body, joint) -> reaction wrench of the last step (child frame) and that frame's rotation."""
+        self._addresses: dict[tuple[int | str, int], tuple[int, int, int]] = {}
+        """(body, joint) -> MuJoCo joint id, qpos and dof address (until the next compile)."""
+        self._drives: dict[tuple[Any, ...], tuple[str, tuple[float, float, float, float]]] = {}
+        """(body, joint, mode, force) -> actuator name and its (gain, position bias, velocity bias, force limit)."""
+        self._rows: dict[tuple[Any, ...], tuple[np.ndarray, np.ndarray, list[bool]]] = {}
+        """(body, joints) -> their qpos and dof addresses and which move, for :meth:`joint_states`."""
+        self._geom_owner: np.ndarray | None = None
+        """Per MuJoCo geom: (robokit body id, link) of its body, (-1, -1) for none (until the next compile)."""
 
     def step(self) -> None:
         """Advance physics by one step (forces applied since the last step act during it)."""
@@ -73,7 +81,12 @@ class MujocoWorld(MujocoBodies):
         self.tick += 1
 
     def _after_compile(self, model: Any) -> None:
-        """Motor settings live in the model: put them back into a freshly compiled one."""
+        """Motor settings live in the model: put them back into a freshly compiled one. MuJoCo's ids changed: drop
+        what was looked up by them."""
+        self._addresses.clear()
+        self._drives.clear()
+        self._rows.clear()
+        self._geom_owner = None
         self.motors.reapply(model, self.data, {model.actuator(i).name for i in range(model.nu)})
 
     def remove_body(self, name: str) -> None:
@@ -108,28 +121,42 @@ class MujocoWorld(MujocoBodies):
     # ----------------------------------------------------------------- joints: state and motors
     def _joint(self, body: int | str, joint: int) -> tuple[int, int, int]:
         """MuJoCo joint id, qpos address and dof address of a movable joint."""
+        found = self._addresses.get((body, joint))
+        if found is not None and not self._dirty:
+            return found
         bid = self._mj(body, joint)
         m = self.model
         if m.body_jntnum[bid] == 0:
             raise UserError(f"joint {joint} of {self._label(body)!r} is fixed")
         jid = int(m.body_jntadr[bid])
-        return jid, int(m.jnt_qposadr[jid]), int(m.jnt_dofadr[jid])
+        found = self._addresses[(body, joint)] = (jid, int(m.jnt_qposadr[jid]), int(m.jnt_dofadr[jid]))
+        return found
 
     def joint_states(self, body: int, joints: Sequence[int]) -> Sequence[JointState]:
         """Position, velocity, reaction wrench (zeros unless :meth:`enable_joint_wrench`) and last motor force of
         each joint; a fixed joint reads position and velocity 0."""
-        out = []
         m, d = self.compiled()
-        for j in joints:
-            reaction = self._wrenches.get((self.body(body), j), ((0.0,) * 6, ()))[0]
-            bid = self._mj(body, j)
-            if m.body_jntnum[bid] == 0:
-                out.append(JointState(0.0, 0.0, reaction, 0.0))  # type: ignore[arg-type]
-                continue
-            _, qadr, dadr = self._joint(body, j)
-            torque = float(d.qfrc_actuator[dadr])
-            out.append(JointState(float(d.qpos[qadr]), float(d.qvel[dadr]), reaction, torque))  # type: ignore[arg-type]
-        return out
+        key = (body, tuple(joints))
+        rows = self._rows.get(key)
+        if rows is None:
+            rows = self._rows[key] = self._state_rows(body, joints)
+        qadr, dadr, movable = rows
+        qpos, qvel, torque = d.qpos[qadr].tolist(), d.qvel[dadr].tolist(), d.qfrc_actuator[dadr].tolist()
+        zero = (0.0,) * 6
+        rid = self.body(body) if self._wrenches else -1
+        return [JointState(qpos[i] if moves else 0.0, qvel[i] if moves else 0.0,
+                           self._wrenches[(rid, j)][0] if (rid, j) in self._wrenches else zero,  # type: ignore[arg-type]
+                           torque[i] if moves else 0.0)
+                for i, (j, moves) in enumerate(zip(joints, movable, strict=True))]
+
+    def _state_rows(self, body: int, joints: Sequence[int]) -> tuple[np.ndarray, np.ndarray, list[bool]]:
+        """qpos and dof addresses of ``joints`` (0 for a fixed one) and which of them move (until the next
+        compile)."""
+        m = self.model
+        movable = [bool(m.body_jntnum[self._mj(body, j)]) for j in joints]
+        addresses = [self._joint(body, j)[1:] if moves else (0, 0) for j, moves in zip(joints, movable, strict=True)]
+        qadr = np.array([a[0] for a in addresses], dtype=np.int64)
+        return qadr, np.array([a[1] for a in addresses], dtype=np.int64), movable
 
     def enable_joint_wrench(self, body: int, joint: int, enabled: bool = True) -> None:
         """Measure (or stop measuring) a joint's reaction wrench at every step."""
@@ -162,21 +189,38 @@ class MujocoWorld(MujocoBodies):
                         max_velocity: float | None = None, position_gain: float | None = None) -> None:
         """Drive one joint with its MuJoCo motor; gains come from MuJoCo's model of the joint
         (:func:`~robokit.engines.mujoco.links.motor_gains`), not from PyBullet's."""
+        m, d = self.compiled()
+        key = (body, joint, mode, force)
+        drive = self._drives.get(key)
+        if drive is None:
+            drive = self._drives[key] = self._drive(body, joint, mode, force)
+        name, gains = drive
+        if mode == "torque":
+            ctrl = float(force or 0.0)
+        else:
+            ctrl = float((target_velocity if mode == "velocity" else target_position) or 0.0)
+        if gains[3] == 0.0 and force is not None:  # force 0: the motor is off (a passive joint)
+            ctrl = 0.0
+        self.motors.set(m, d, name, (*gains, ctrl), torque=mode == "torque")
+
+    def _drive(self, body: int, joint: int, mode: MotorMode, force: float | None) -> tuple[
+            str, tuple[float, float, float, float]]:
+        """A joint motor's actuator name and gains (gain, position bias, velocity bias, force limit) in ``mode``."""
         jid, _, dadr = self._joint(body, joint)
-        m, d = self.model, self.data
+        m = self.model
         info = self.joints(body)[joint]
         limit = abs(float(force)) if force is not None else info.max_force
         inertia = float(m.dof_M0[dadr])
         kv, kp = motor_gains(limit, inertia, self.time_step)
-        if mode == "torque":
-            setting = (1.0, 0.0, 0.0, limit, float(force or 0.0))
+        if force is not None and limit == 0.0:
+            gains = (0.0, 0.0, 0.0, 0.0)
+        elif mode == "torque":
+            gains = (1.0, 0.0, 0.0, limit)
         elif mode == "velocity":
-            setting = (kv, 0.0, -kv, limit if force is not None or limit > 0 else 0.0, float(target_velocity or 0.0))
+            gains = (kv, 0.0, -kv, limit if force is not None or limit > 0 else 0.0)
         else:
-            setting = (kp, -kp, -critical_damping(kp, inertia), limit, float(target_position or 0.0))
-        if force is not None and limit == 0.0:  # force 0: the motor is off (a passive joint)
-            setting = (0.0, 0.0, 0.0, 0.0, 0.0)
-        self.motors.set(m, d, f"{m.joint(jid).name}/motor", setting, torque=mode == "torque")
+            gains = (kp, -kp, -critical_damping(kp, inertia), limit)
+        return f"{m.joint(jid).name}/motor", gains
 
     def set_joint_motors(self, body: int, joints: Sequence[int], mode: MotorMode, *,
                          target_positions: Sequence[float] | None = None,
@@ -252,21 +296,41 @@ class MujocoWorld(MujocoBodies):
         """Contact points of ``body`` after the last step; the point is MuJoCo's (midway between the surfaces)."""
         m, d = self.compiled()
         rid = self.body(body)
-        out = []
+        out: list[Contact] = []
+        if d.ncon == 0:
+            return out
+        owner = self._geom_owners(m)[d.contact.geom]  # (ncon, 2 sides, (body, link))
         wrench = np.zeros(6)
-        for i in range(d.ncon):
-            con = d.contact[i]
-            own = [self._owner.get(int(m.geom_bodyid[g]), (-1, -1)) for g in con.geom]
-            for side in (0, 1):
-                (a, la), (b, lb) = own[side], own[1 - side]
-                if a != rid or (link is not None and la != link) or (other is not None and b != other):
-                    continue
-                if other_link is not None and lb != other_link:
-                    continue
-                mujoco.mj_contactForce(m, d, i, wrench)
-                normal = con.frame[:3] * (-1.0 if side == 0 else 1.0)  # MuJoCo's points from geom 1 to geom 2
-                out.append(Contact(b, la, lb, float(wrench[0]), _vec(con.pos), _vec(normal)))
+        found = []
+        for side in (0, 1):
+            mine, theirs = owner[:, side], owner[:, 1 - side]
+            keep = mine[:, 0] == rid
+            if link is not None:
+                keep &= mine[:, 1] == link
+            if other is not None:
+                keep &= theirs[:, 0] == other
+            if other_link is not None:
+                keep &= theirs[:, 1] == other_link
+            found += [(i, side) for i in np.flatnonzero(keep).tolist()]
+        if not found:
+            return out
+        positions, frames, owners = d.contact.pos.tolist(), d.contact.frame[:, :3].tolist(), owner.tolist()
+        for i, side in sorted(found):  # in MuJoCo's contact order
+            mujoco.mj_contactForce(m, d, i, wrench)
+            sign = -1.0 if side == 0 else 1.0  # MuJoCo's normal points from geom 1 to geom 2
+            normal = (sign * frames[i][0], sign * frames[i][1], sign * frames[i][2])
+            (_, la), (b, lb) = owners[i][side], owners[i][1 - side]
+            out.append(Contact(b, la, lb, float(wrench[0]), tuple(positions[i]), normal))  # type: ignore[arg-type]
         return out
+
+    def _geom_owners(self, m: Any) -> np.ndarray:
+        """Per MuJoCo geom of the compiled model: its (robokit body id, link), (-1, -1) for a geom of no body."""
+        if self._geom_owner is None:
+            table = np.full((m.ngeom, 2), -1, dtype=np.int64)
+            for g in range(m.ngeom):
+                table[g] = self._owner.get(int(m.geom_bodyid[g]), (-1, -1))
+            self._geom_owner = table
+        return self._geom_owner
 
     # ----------------------------------------------------------------- episodes, lifetime
     def snapshot(self) -> dict[str, Any]:
