@@ -25,7 +25,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Literal
 
 import numpy as np
 from pydantic import Field
@@ -34,6 +34,7 @@ from robokit.components import SetupContext
 from robokit.config import Schema
 from robokit.errors import ConfigError
 from robokit.msgs.mobile import STOP, LaserScan, Pose2D, Twist, wrap_angle
+from robokit.planning import PlanningConfig, PlanningNavigator
 
 
 class AvoidanceConfig(Schema):
@@ -257,6 +258,10 @@ class NavConfig(Schema):
         tolerance: A goal is reached within this distance, m.
         align_deg: Turning in place ends when the heading error is below this, degrees.
         avoidance: Navigation parameters.
+        planner: ``"rules"``: steer by the clearance rules of :class:`Avoider`; ``"astar"``: an occupancy grid
+            from the lidar, A* over it and a dynamic-window local planner (:mod:`robokit.planning`), the rules
+            only while the map shows no way to the goal.
+        planning: Parameters of ``planner = "astar"``.
     """
 
     drive: str = "drive"
@@ -264,6 +269,8 @@ class NavConfig(Schema):
     tolerance: float = Field(0.2, gt=0)
     align_deg: float = Field(20.0, gt=0, lt=90)
     avoidance: AvoidanceConfig = Field(default_factory=AvoidanceConfig)  # type: ignore[arg-type]
+    planner: Literal["rules", "astar"] = "rules"
+    planning: PlanningConfig = Field(default_factory=PlanningConfig)  # type: ignore[arg-type]
 
 
 MAX_RAY_SPACING_DEG = 10.0
@@ -311,6 +318,17 @@ class Navigating:
         if cfg.scan:
             check_scan(ctx.components[cfg.scan], cfg.scan)
         self.avoider = Avoider(cfg.avoidance)
+        self.planner: PlanningNavigator | None = None
+        if cfg.planner == "astar":
+            if not cfg.scan and not cfg.planning.known_map:
+                raise ConfigError("planner 'astar' needs a lidar ('scan') or planning.known_map = true", key="planner")
+            self.planner = build_planner(ctx, cfg)
+
+    def planning_result(self) -> dict[str, Any]:
+        """The planner's counts for the run's result (empty with the rules)."""
+        if self.planner is None:
+            return {}
+        return {"planner": "astar", "planning": self.planner.stats.as_dict()}
 
     def halt(self, t: float) -> Mapping[str, Any] | None:
         """Stopped before it ended (a composite's timeout, a monitor): the drive stops; never stepped again."""
@@ -324,7 +342,16 @@ class Navigating:
                      ignore: tuple[float, float, float] | None = None) -> NavStep:
         """One navigation step towards ``goal`` (world xy, m); fires aligned / misaligned / blocked / clear."""
         scan = readings[self.config.scan] if self.config.scan else None
-        nav = self.avoider.step(self.pose(readings), scan, goal, t, ignore)
+        nav = None
+        if self.planner is not None:
+            drive = readings[self.config.drive]
+            planned = self.planner.step(drive.pose, (drive.v, drive.omega), scan, goal, t, self.config.tolerance,
+                                        ignore)
+            if planned is not None:
+                x, y, _ = drive.pose
+                nav = NavStep(planned[0], False, math.hypot(goal[0] - x, goal[1] - y), planned[1])
+        if nav is None:
+            nav = self.avoider.step(self.pose(readings), scan, goal, t, ignore)
         align = math.radians(self.config.align_deg)
         state = self.state_name
         if nav.avoiding and state != "AVOIDING" and state in MOTION_STATES:
@@ -338,3 +365,46 @@ class Navigating:
         if self.state_name == "TURNING":
             nav.twist = Twist(0.0, nav.twist.omega)
         return nav
+
+
+def build_planner(ctx: SetupContext, cfg: NavConfig) -> PlanningNavigator:
+    """A :class:`~robokit.planning.PlanningNavigator` over the area the run can reach: the robot's start, the
+    config's goal and waypoints and the static bodies standing above the floor, plus ``planning.grid.margin``
+    (or ``planning.grid.extent``). With ``planning.known_map`` the grid starts with those bodies marked."""
+    world = ctx.world
+    p = cfg.planning
+    statics = []
+    for name in world.body_names:
+        lo, hi = world.body_aabb(name)
+        if world.mass(name) == 0 and hi[2] > 0.02 and max(abs(v) for v in (*lo[:2], *hi[:2])) < 1e3:
+            statics.append((lo[0], lo[1], hi[0], hi[1]))
+    if p.grid.extent:
+        if len(p.grid.extent) != 4 or p.grid.extent[0] >= p.grid.extent[2] or p.grid.extent[1] >= p.grid.extent[3]:
+            raise ConfigError(f"expected (xmin, ymin, xmax, ymax), got {list(p.grid.extent)}",
+                              key="planning.grid.extent")
+        lo2, hi2 = p.grid.extent[:2], p.grid.extent[2:]
+    else:
+        robot = getattr(getattr(ctx.components.get(cfg.drive), "config", None), "robot", None)
+        xs: list[float] = []
+        ys: list[float] = []
+        if robot and world.has_body(robot):
+            start = world.pose(robot)[0]
+            xs.append(start[0])
+            ys.append(start[1])
+        for point in (getattr(cfg, "goal", None), *getattr(cfg, "waypoints", ())):
+            if point is not None:
+                xs.append(point[0])
+                ys.append(point[1])
+        for x0, y0, x1, y1 in statics:
+            xs += [x0, x1]
+            ys += [y0, y1]
+        m = p.grid.margin
+        lo2, hi2 = (min(xs) - m, min(ys) - m), (max(xs) + m, max(ys) + m)
+    planner = PlanningNavigator(p, lo2, hi2, boxes=statics if p.known_map else ())
+    drive_cfg = getattr(ctx.components.get(cfg.drive), "config", None)
+    rim = getattr(drive_cfg, "max_acceleration", None)
+    track = getattr(drive_cfg, "track_width", None)
+    if isinstance(rim, (int, float)) and isinstance(track, (int, float)):  # the window never asks more than the drive
+        planner.dwa.cfg = p.dwa.model_copy(update={"max_accel": min(p.dwa.max_accel, rim),
+                                                   "max_yaw_accel": min(p.dwa.max_yaw_accel, 2 * rim / track)})
+    return planner
