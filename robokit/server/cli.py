@@ -205,10 +205,13 @@ def _stop_workers(proc: subprocess.Popen[bytes] | None) -> None:
             proc.wait(timeout=30)
         except subprocess.TimeoutExpired:
             pass
-    try:
-        os.killpg(proc.pid, signal.SIGKILL)  # anything of its session still there (a stuck or killed worker)
-    except (ProcessLookupError, PermissionError):
-        pass
+    if hasattr(os, "killpg"):
+        try:
+            os.killpg(proc.pid, signal.SIGKILL)  # anything of its session still there (a stuck or killed worker)
+        except (ProcessLookupError, PermissionError):
+            pass
+    else:
+        proc.kill()
     proc.wait()
 
 
