@@ -2,8 +2,9 @@
 
 Turn in place until roughly facing the goal, then drive with a smooth heading controller (yaw rate proportional to
 the heading error, speed falling with the error, the clearance ahead and the distance left); with a lidar, go
-around obstacles with :class:`~robokit_behaviours.avoidance.Avoider`. Succeeds within ``tolerance`` of the goal;
-fails when ``timeout`` sim seconds pass first.
+around obstacles with :class:`~robokit_behaviours.avoidance.Avoider`; with ``planner = "astar"``, follow an A* path
+over an occupancy grid built from the lidar with a dynamic-window local planner (:mod:`robokit.planning`).
+Succeeds within ``tolerance`` of the goal; fails when ``timeout`` sim seconds pass first.
 """
 
 from __future__ import annotations
@@ -90,6 +91,7 @@ class GoToGoal(Navigating, MachineBehaviour):
             "distance_to_goal": round(((gx - x) ** 2 + (gy - y) ** 2) ** 0.5, 4),
             "distance_travelled": round(self.last.distance, 3),
             "states": self.visited,
+            **self.planning_result(),
         }
 
 

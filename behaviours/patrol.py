@@ -251,6 +251,7 @@ class Patrol(Navigating, MachineBehaviour):
         }
         if self.last is not None:
             out["distance_travelled"] = round(self.last.distance, 3)
+        out.update(self.planning_result())
         return out
 
 
