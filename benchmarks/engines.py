@@ -3,6 +3,14 @@
 
     python benchmarks/engines.py --trials 20
     python benchmarks/engines.py --grasp --trials 20 --start-seed 200
+    python benchmarks/engines.py --loop            # needs valgrind: instructions per sim second of the main job
+
+``--loop`` counts instructions (valgrind's callgrind: the figure a shared, loaded machine does not change) of the
+main job's loop per simulated second, three ways: robokit on MuJoCo, the same compiled MuJoCo model stepped bare
+(``mj_step`` alone, the model robokit built, from its state after set-up), and robokit on PyBullet. Each is run for
+two lengths in separate processes (60 and 420 ticks: the sort approaches, grasps and carries its first cube, between
+the first two camera frames); the difference of their counts over the difference of their sim times leaves set-up,
+start-up and the first frame out.
 
 ``--grasp`` measures held objects instead, per engine and seed: ``configs/pick_place.toml`` and a three-colour sort
 (``configs/sort_robot.toml`` with a green bin and two green cubes added). While a cube is off the table (its centre
@@ -148,13 +156,67 @@ def grasp(trials: int, start: int) -> None:
                   f"{statistics.median(slips):>10.2f} / {max(slips):<8.2f} {place_text:>26}", flush=True)
 
 
+def loop_only(how: str, ticks: int) -> None:
+    """``--loop-only``: build the main job (seed 3), then run ``ticks`` ticks of its loop (``bare``: step its
+    compiled MuJoCo model with ``mj_step`` instead, the motors' controls as set-up left them)."""
+    from robokit.config import load_config
+    from robokit.core.simulation import Simulation
+    from robokit.plugin_api.plugins import load_plugins
+
+    plugins = load_plugins()
+    cfg = load_config(JOBS["sort"], plugins, {"world.engine": "pybullet" if how == "pybullet" else "mujoco",
+                                              "world.seed": 3})
+    with Simulation(cfg, plugins) as sim:
+        if how == "bare":
+            import mujoco
+
+            sim.step(1)
+            model, data = sim.world.client.model, sim.world.client.data
+            for _ in range(ticks):
+                mujoco.mj_step(model, data)
+        else:
+            sim.step(ticks)
+
+
+def loop_instructions(short: int, long: int) -> None:
+    """``--loop``: instructions per sim second of each way, from two callgrind runs of ``--loop-only``."""
+    import subprocess
+    import sys
+    import tempfile
+
+    time_step = 1.0 / 240.0
+    print(f"{'loop':18} {'instructions per sim s':>24} {'x bare MuJoCo':>14}")
+    per_second = {}
+    for how in ("bare", "mujoco", "pybullet"):
+        counts = []
+        for ticks in (short, long):
+            with tempfile.TemporaryDirectory() as tmp:
+                out = Path(tmp) / "callgrind.out"
+                subprocess.run(["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}",
+                                sys.executable, __file__, "--loop-only", how, "--ticks", str(ticks)],
+                               check=True, capture_output=True)
+                summary = [line for line in out.read_text().splitlines() if line.startswith("summary:")]
+                counts.append(int(summary[0].split()[1]))
+        per_second[how] = (counts[1] - counts[0]) / ((long - short) * time_step)
+        print(f"{how:18} {per_second[how]:>24,.0f} {per_second[how] / per_second['bare']:>14.2f}", flush=True)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     parser.add_argument("--trials", type=int, default=20)
     parser.add_argument("--start-seed", type=int, default=0)
     parser.add_argument("--gym-steps", type=int, default=2000)
     parser.add_argument("--grasp", action="store_true", help="held objects' slip and placement instead")
+    parser.add_argument("--loop", action="store_true", help="instructions per sim second (valgrind) instead")
+    parser.add_argument("--loop-only", choices=("mujoco", "bare", "pybullet"), help=argparse.SUPPRESS)
+    parser.add_argument("--ticks", type=int, default=240, help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
+    if args.loop_only:
+        loop_only(args.loop_only, args.ticks)
+        return 0
+    if args.loop:
+        loop_instructions(60, 420)  # 0.25 s to 1.75 s: between the first two camera frames on both engines
+        return 0
     if args.grasp:
         grasp(args.trials, args.start_seed)
         return 0

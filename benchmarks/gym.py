@@ -5,6 +5,8 @@
     python benchmarks/gym.py --steps 2000 --rounds 5               # speed, all three tasks
     python benchmarks/gym.py --tasks pick --steps 1000 --rounds 9   # one task
     python benchmarks/gym.py --random-episodes 300                 # start distance and random-policy success
+    pip install gymnasium-robotics  # --engines only (not a robokit dependency); its Fetch envs run on MuJoCo
+    python benchmarks/gym.py --engines --steps 1000 --rounds 3     # robokit on PyBullet and MuJoCo, and Fetch
 
 Both environments are made through ``gymnasium.make`` (so both carry Gymnasium's default wrappers), step with
 uniformly random actions from seeded generators, and reset when an episode ends. They run the same physics:
@@ -12,6 +14,11 @@ a 0.002 s physics step, 20 physics steps per env step (0.04 sim-s), 50-step epis
 (robokit's scene also holds a ground plane and a goal marker, as panda-gym's does). Within a round the
 two alternate every ``--chunk`` steps so that machine load hits both alike; the ratio is taken per round and the
 median reported.
+
+``--engines`` compares robokit's two engines instead: each task's env made with ``engine="pybullet"`` and with
+``engine="mujoco"``, interleaved the same way, with gymnasium-robotics' ``FetchReach-v4`` / ``FetchPush-v4`` /
+``FetchPickAndPlace-v4`` (a MuJoCo Fetch arm: 0.002 s physics steps, 20 per env step, as here) as the anchor when
+gymnasium-robotics is installed. It prints steps per second per env and MuJoCo / PyBullet per round.
 
 ``--random-episodes N`` compares the tasks themselves instead: the median start distance (achieved to desired goal
 at reset) and the success rate of uniformly random actions over N episodes, for each pair.
@@ -44,6 +51,64 @@ def make_robokit(task: str, goal_env: bool = False) -> Any:
     import robokit.gym  # noqa: F401 - registers robokit/Reach-v0 ...
 
     return gymnasium.make(f"robokit/{PAIRS[task][0]}-v0", goal_env=goal_env)
+
+
+FETCH = {"reach": "FetchReach-v4", "push": "FetchPush-v4", "pick": "FetchPickAndPlace-v4"}
+
+
+def make_engine(task: str, engine: str) -> Any:
+    import gymnasium
+
+    import robokit.gym  # noqa: F401 - registers robokit/Reach-v0 ...
+
+    return gymnasium.make(f"robokit/{PAIRS[task][0]}-v0", engine=engine)
+
+
+def make_fetch(task: str) -> Any | None:
+    """gymnasium-robotics' Fetch env for ``task``, or None when gymnasium-robotics is not installed."""
+    import gymnasium
+
+    try:
+        import gymnasium_robotics
+    except ImportError:
+        return None
+    gymnasium.register_envs(gymnasium_robotics)
+    try:
+        env = gymnasium.make(FETCH[task])
+        env.reset(seed=0)
+    except Exception as exc:  # noqa: BLE001 - an anchor that does not run is left out, and said so
+        print(f"{FETCH[task]} left out: it does not run here ({type(exc).__name__}: {str(exc) or 'an assertion'}; "
+              f"gymnasium-robotics {gymnasium_robotics.__version__})")
+        return None
+    return env
+
+
+def engines(task: str, args: argparse.Namespace) -> None:
+    """``--engines``: interleaved env steps per second of robokit on each engine (and Fetch), side by side."""
+    envs = {f"robokit {task} {engine}": make_engine(task, engine) for engine in ("pybullet", "mujoco")}
+    fetch = make_fetch(task)
+    if fetch is not None:
+        envs[f"gymnasium-robotics {FETCH[task]}"] = fetch
+    names = list(envs)
+    rates: dict[str, list[float]] = {n: [] for n in names}
+    ratios = []
+    for r in range(args.rounds):
+        runners = {n: Runner(envs[n], seed=r) for n in names}
+        for _ in range(args.steps // args.chunk):
+            for name in names:
+                runners[name].run(args.chunk)
+        for name in names:
+            rates[name].append(runners[name].rate)
+        ratios.append(runners[names[1]].cpu_rate / runners[names[0]].cpu_rate)
+        print(f"round {r + 1}: " + "  ".join(f"{n} {rates[n][-1]:6.0f}" for n in names)
+              + f" steps/s; mujoco / pybullet by CPU time {ratios[-1]:.2f}", flush=True)
+    for name in names:
+        print(f"{name:40s} median {statistics.median(rates[name]):6.0f} env steps/s")
+    print(f"{task}: robokit mujoco / pybullet by CPU time: median {statistics.median(ratios):.2f} "
+          f"(min {min(ratios):.2f}, max {max(ratios):.2f})" + ("" if fetch is not None else
+                                                               "; Fetch left out (see above)"))
+    for env in envs.values():
+        env.close()
 
 
 def make_panda_gym(task: str) -> Any:
@@ -132,6 +197,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--chunk", type=int, default=50, help="steps per turn when alternating")
     parser.add_argument("--resets", type=int, default=200)
     parser.add_argument("--random-episodes", type=int, default=0, help="compare the tasks instead (see above)")
+    parser.add_argument("--engines", action="store_true", help="robokit on each engine, and Fetch (see above)")
     args = parser.parse_args(argv)
     tasks = [t for t in args.tasks.split(",") if t]
     if unknown := [t for t in tasks if t not in PAIRS]:
@@ -140,6 +206,11 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if args.random_episodes:
             compare_tasks(tasks, args.random_episodes)
+            return 0
+        if args.engines:
+            for task in tasks:
+                engines(task, args)
+            print(f"load average: {' '.join(f'{v:.2f}' for v in os.getloadavg())} on {os.cpu_count()} cores")
             return 0
         for task in tasks:
             speed(task, args)

@@ -50,13 +50,14 @@ def kinematic_chain(world: MujocoBodies, body: int, link: int) -> list[ChainFram
     return steps
 
 
-def jacobian(world: MujocoBodies, body: int, link: int, positions: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
+def jacobian(world: MujocoBodies, body: int, link: int, positions: Sequence[float], scratch: Any) -> tuple[
+        np.ndarray, np.ndarray]:
     """Linear and angular Jacobian (3 x n each) of ``link``'s link-frame origin (its MuJoCo body's frame, as
-    ``World.pose`` gives it) at the movable joints' ``positions``, columns in joint index order; computed on a copy
-    of the state (the world does not move)."""
+    ``World.pose`` gives it) at the movable joints' ``positions``, columns in joint index order; computed in
+    ``scratch``, an ``MjData`` of the compiled model kept for this (the world does not move; mocap bodies stand
+    where the model puts them)."""
     m, d = world.compiled()
     movable = [j.index for j in world.joints(body) if j.movable]
-    scratch = mujoco.MjData(m)
     scratch.qpos[:] = d.qpos
     dofs = []
     for j, q in zip(movable, positions, strict=True):

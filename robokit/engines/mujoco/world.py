@@ -58,6 +58,8 @@ class MujocoWorld(MujocoBodies):
         """(body, joint, mode, force) -> actuator name and its (gain, position bias, velocity bias, force limit)."""
         self._rows: dict[tuple[Any, ...], tuple[np.ndarray, np.ndarray, list[bool]]] = {}
         """(body, joints) -> their qpos and dof addresses and which move, for :meth:`joint_states`."""
+        self._scratch: tuple[Any, Any] | None = None
+        """(model, an MjData of it) for kinematics computed off the world's state."""
         self._geom_owner: np.ndarray | None = None
         """Per MuJoCo geom: (robokit body id, link) of its body, (-1, -1) for none (until the next compile)."""
 
@@ -281,7 +283,10 @@ class MujocoWorld(MujocoBodies):
 
     def jacobian(self, body: int, link: int, positions: Sequence[float]) -> tuple[np.ndarray, np.ndarray]:
         """MuJoCo's Jacobian of a link's frame origin (see :mod:`robokit.engines.mujoco.kin`)."""
-        return kin.jacobian(self, body, link, positions)
+        m, _ = self.compiled()
+        if self._scratch is None or self._scratch[0] is not m:  # an MjData costs ms to make: one per model
+            self._scratch = (m, mujoco.MjData(m))
+        return kin.jacobian(self, body, link, positions, self._scratch[1])
 
     # ----------------------------------------------------------------- cameras
     def render(self, width: int, height: int, view: Sequence[float], projection: Sequence[float], *, near: float,
