@@ -71,6 +71,7 @@ def make_fetch(task: str) -> Any | None:
     try:
         import gymnasium_robotics
     except ImportError:
+        print(f"{FETCH[task]} left out: gymnasium-robotics is not installed (pip install gymnasium-robotics)")
         return None
     gymnasium.register_envs(gymnasium_robotics)
     try:
