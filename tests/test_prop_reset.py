@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 
 pytest.importorskip("gymnasium")  # robokit[gym]; the test extra installs it
@@ -80,8 +80,8 @@ def used(request: pytest.FixtureRequest) -> Iterator[tuple[Path, str, Any]]:
 episodes = st.lists(st.tuples(st.integers(0, 2**16), st.integers(0, 25), st.integers(0, 2**16)), max_size=3)
 
 
-@settings(max_examples=4, deadline=None, derandomize=True,
-          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@settings(max_examples=4, deadline=None, derandomize=True, phases=[Phase.explicit, Phase.generate],  # no shrinking:
+          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])  # an example is an env
 @given(history=episodes, seed=st.integers(0, 2**16), action_seed=st.integers(0, 2**16))
 def test_reset_after_any_history_equals_a_fresh_build(used: tuple[Path, str, Any], history: list, seed: int,
                                                       action_seed: int) -> None:
