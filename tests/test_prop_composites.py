@@ -12,13 +12,14 @@ claim.
 from __future__ import annotations
 
 from collections.abc import Mapping
+from types import SimpleNamespace
 from typing import Any
 
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from robokit.checks.scripted import ScriptedRun
-from robokit.components import Behaviour
+from robokit.components import Behaviour, GoalCheck
 from robokit.core.composites import (
     Fallback,
     FallbackConfig,
@@ -199,3 +200,75 @@ def test_parallel_against_every_outcome_combination_and_policy(children: list, s
             assert plan.halts == [(0, tick)] and plan.steps == [tick + 1]
         else:
             assert not plan.halts
+
+
+# ------------------------------------------------------------------------------------------ goals
+class Goaled(Scripted):
+    """A scripted child that states a goal: met or not when it ends, and met or not when asked again later."""
+
+    def __init__(self, name: str, config: Plan) -> None:
+        super().__init__(name, config)
+        self.at_end, self.later = config.goals  # type: ignore[attr-defined]
+        self.asked = 0
+
+    def check_goal(self, world: Any) -> GoalCheck:
+        self.asked += 1
+        met = self.at_end if self.asked == 1 else self.later
+        return GoalCheck(met, f"{self.name} {'met' if met else 'not met'}")
+
+
+goal_child = st.tuples(st.sampled_from([*ENDS, None]), st.integers(0, 3), st.sampled_from([None, True, False]),
+                       st.booleans(), st.booleans())
+
+
+def judged(claimed: str | None, goal: bool | None) -> str | None:
+    """docs/behaviours.md, "When a goal is checked": a child that ended succeeded or failed is what the world says
+    (met: succeeded, not met: failed); aborted stands; a child without a goal keeps its claim."""
+    if claimed is None or goal is None or claimed == "aborted":
+        return claimed
+    return "succeeded" if goal else "failed"
+
+
+@PROPS
+@given(st.sampled_from(["sequence", "fallback", "parallel"]), st.lists(goal_child, min_size=2, max_size=4))
+def test_composites_go_by_each_childs_goal_judged_when_it_ends(kind: str, children: list) -> None:
+    plans = {}
+    members = []
+    for i, (claimed, d, goal, later, must_last) in enumerate(children):
+        plan = Plan([(claimed, d)])
+        plan.goals = (goal, later)  # type: ignore[attr-defined]
+        plans[f"c{i}"] = plan
+        child = Goaled(f"c{i}", plan) if goal is not None else Scripted(f"c{i}", plan)
+        members.append(Member(f"c{i}", "Scripted", child, 1, "<scripted>", SimpleNamespace(must_last=must_last)))
+    composite = {"sequence": lambda: Sequence("seq", SequenceConfig()),
+                 "fallback": lambda: Fallback("fb", FallbackConfig()),
+                 "parallel": lambda: Parallel("par", ParallelConfig())}[kind]()
+    composite.add_children(members)
+    run = ScriptedRun(composite)
+    tick = None
+    for k in range(HORIZON):
+        run.step({})
+        if run.outcome is not None:
+            tick = k
+            break
+    as_judged = [(judged(c, g), d) for c, d, g, _, _ in children]
+    if kind == "parallel":
+        want, want_tick, want_children = expect_parallel(as_judged, "all", "one")
+    else:
+        want, want_tick, want_children = expect_ordered(kind, as_judged)
+    assert (run.outcome.status if run.outcome else None, tick) == (want, want_tick)
+    got = records(run, "steps" if kind == "sequence" else "children")
+    assert [got.get(n, "not started" if kind != "parallel" else "running") for n in plans] == want_children
+    # the run's final verdict: only a composite that succeeded is asked again, about what must last
+    verdict = composite.check_goal(None)
+    if want != "succeeded":
+        assert verdict is None
+        return
+    succeeded = [i for i, o in enumerate(want_children) if o == "succeeded"]
+    final = succeeded[-1:] if kind == "sequence" else succeeded  # a sequence: its last step
+    final = sorted(set(final) | {i for i in succeeded if children[i][4]})  # and every must_last child
+    asked = [i for i in final if children[i][2] is not None]
+    if not asked:
+        assert verdict is None
+    else:
+        assert verdict is not None and verdict.met == all(children[i][3] for i in asked)
