@@ -46,7 +46,7 @@ import sys
 import tempfile
 import threading
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Iterator, Sequence
 from functools import cache
 from typing import Any
 
@@ -357,24 +357,19 @@ def _cpu_soft_limit(seconds: float) -> None:
 
 
 class _CpuWatch(threading.Thread):
-    """Stops a simulation once the thread that runs it has used ``seconds`` of CPU time (its own thread's clock
-    where the platform has one, else the process's)."""
+    """Stops a simulation once its process has used ``seconds`` more CPU time (every thread's: a renderer's worker
+    threads count too, as they do for ``RLIMIT_CPU``)."""
 
     def __init__(self, sim: Any, seconds: float) -> None:
         super().__init__(daemon=True)
         self.sim, self.seconds = sim, seconds
-        self.clock: Callable[[], float] = time.process_time
-        try:
-            self.clock = functools.partial(time.clock_gettime, time.pthread_getcpuclockid(threading.get_ident()))
-        except (AttributeError, OSError):
-            pass
-        self.start_cpu = self.clock()
+        self.start_cpu = time.process_time()
         self.done = threading.Event()
         self.start()
 
     def run(self) -> None:
         while not self.done.wait(CPU_POLL):
-            if self.clock() - self.start_cpu >= self.seconds:
+            if time.process_time() - self.start_cpu >= self.seconds:
                 self.sim.interrupt(budget_reason(self.seconds))
                 return
 
