@@ -64,5 +64,5 @@ def test_planner_on_every_scene(kind: str, seed: int) -> None:
 @pytest.mark.parametrize("kind", ["dead_end", "narrow"])
 def test_rules_fail_where_the_planner_succeeds(kind: str) -> None:
     cfg, _ = scene(kind, 0, planner="rules", timeout=60)
-    status, left, _, _ = drive_to_end(cfg, 60)
+    status, left, _, _ = drive_to_end(cfg, 61)
     assert status == "failed" and left > 1.0
