@@ -53,7 +53,8 @@ class CourseServer:
                 break
         else:
             raise AssertionError("robokit serve exited before its workers ran:\n" + self.log)
-        threading.Thread(target=self._drain, daemon=True).start()
+        self._drainer = threading.Thread(target=self._drain, daemon=True)
+        self._drainer.start()
         return self
 
     def _drain(self) -> None:
@@ -97,6 +98,7 @@ class CourseServer:
         alive = [p for p in tree if p.is_running() and p.status() != psutil.STATUS_ZOMBIE]
         for p in alive:
             p.kill()
+        self._drainer.join(timeout=60)  # the output ends when every process that shares it has ended
         return alive
 
     def query(self, sql: str, *params: Any) -> list[tuple[Any, ...]]:

@@ -1,6 +1,7 @@
 """Nothing races: a course server that has just started receives 40 concurrent submissions of the unchanged
-official sort config (one per student, as a class does at a deadline) and refuses none. Every plugin type is
-loaded before the server listens, so no request thread ever finds the plugin tables half-filled.
+official sort config (one per student, as a class does at a deadline) and refuses none, and its log keeps every
+request's line. Every plugin type is loaded before the server listens, so no request thread ever finds the plugin
+tables half-filled or imports anything.
 
     python -m pytest -q -s -n 0 -m slow tests/test_course_grading_coldstart.py
 """
@@ -44,5 +45,8 @@ def test_a_fresh_server_refuses_none_of_forty_concurrent_valid_submissions(tmp_p
     assert not refused, refused
     stored = server.query("SELECT count(*), count(DISTINCT student_id) FROM course_submission WHERE status = 'queued'")
     assert stored == [(STUDENTS, STUDENTS)]
+    # and the server's own output survived the burst (threads importing plugins at once, each silencing and
+    # restoring the process's stdout and stderr around pybullet's banner, can leave them pointing nowhere)
+    assert server.log.count("POST /api/robotics/assignments/분류/submissions/ 201") == STUDENTS, server.log[-2000:]
     print(f"\na freshly started server: {STUDENTS} concurrent submissions answered within {burst:.1f} s, "
           f"{len(refused)} refused")
