@@ -121,7 +121,7 @@ class OccupancyGrid:
             solid &= np.hypot(ends[:, 0] - ignore[0], ends[:, 1] - ignore[1]) > ignore[2]
         origin = np.asarray(scan.origin[:2], dtype=float)
         length = np.hypot(ends[:, 0] - origin[0], ends[:, 1] - origin[1])
-        step = self.res * 0.7
+        step = self.res
         ts = np.arange(step, float(length.max(initial=0.0)) + step, step)
         free = np.zeros(self.logodds.size, dtype=bool)
         if len(ts):
@@ -156,13 +156,15 @@ class OccupancyGrid:
         r = self._reach
         n, m = self.shape
         rows = np.pad(occupied, ((r, r), (0, 0)))
-        col = np.full(self.shape, np.inf)
+        col = np.full((n, m + 2 * r), np.inf, dtype=np.float32)  # squared cells to the nearest in the column
+        inner = col[:, r:r + m]
+        for d in range(r, -1, -1):  # nearer offsets overwrite further ones
+            inner[rows[r + d:r + d + n] | rows[r - d:r - d + n]] = d * d
+        best = np.full(self.shape, np.inf, dtype=np.float32)
+        tmp = np.empty(self.shape, dtype=np.float32)
         for d in range(-r, r + 1):
-            col = np.minimum(col, np.where(rows[r + d:r + d + n], float(d * d), np.inf))
-        sq = np.pad(col, ((0, 0), (r, r)), constant_values=np.inf)
-        best = np.full(self.shape, np.inf)
-        for d in range(-r, r + 1):
-            best = np.minimum(best, sq[:, r + d:r + d + m] + float(d * d))
+            np.add(col[:, r + d:r + d + m], d * d, out=tmp)
+            np.minimum(best, tmp, out=best)
         return np.minimum(np.sqrt(best) * self.res, self.cap).astype(np.float32)
 
     # ------------------------------------------------------------------ queries
