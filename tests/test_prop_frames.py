@@ -28,7 +28,7 @@ from robokit.msgs.arm import cube_grasp_yaw, down_quaternion, quat_angle, quat_m
 from robokit.msgs.vision import deproject
 from robokit.testing import PLANE, make_sim
 
-PROPS = settings(max_examples=40, deadline=None, derandomize=True,
+PROPS = settings(max_examples=25, deadline=None, derandomize=True,
                  suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 ENGINES = ["pybullet", "mujoco"]
 DIFFBOT = Path(__file__).resolve().parents[1] / "robokit" / "data" / "robots" / "diffbot.urdf"

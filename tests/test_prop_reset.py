@@ -80,7 +80,7 @@ def used(request: pytest.FixtureRequest) -> Iterator[tuple[Path, str, Any]]:
 episodes = st.lists(st.tuples(st.integers(0, 2**16), st.integers(0, 25), st.integers(0, 2**16)), max_size=3)
 
 
-@settings(max_examples=4, deadline=None, derandomize=True, phases=[Phase.explicit, Phase.generate],  # no shrinking:
+@settings(max_examples=3, deadline=None, derandomize=True, phases=[Phase.explicit, Phase.generate],  # no shrinking:
           suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])  # an example is an env
 @given(history=episodes, seed=st.integers(0, 2**16), action_seed=st.integers(0, 2**16))
 def test_reset_after_any_history_equals_a_fresh_build(used: tuple[Path, str, Any], history: list, seed: int,
@@ -127,7 +127,7 @@ def restored_sim(request: pytest.FixtureRequest) -> Iterator[Any]:
         yield sim, sim.world.snapshot()  # the start state every example goes back to
 
 
-@settings(max_examples=6, deadline=None, derandomize=True,
+@settings(max_examples=4, deadline=None, derandomize=True,
           suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @given(moves=st.lists(st.tuples(st.sampled_from(["a", "b", "ball", "robot"]),
                                 st.tuples(*(st.floats(-0.5, 0.5),) * 3), st.floats(-3, 3)), max_size=4),
