@@ -3,6 +3,7 @@
 In GUI mode it reads the World's key events (:meth:`World.key_events <robokit.engines.interface.World.key_events>`).
 A ``script`` of timed key presses makes the same teleop configs run headless and deterministic (tests, demos): each
 entry holds ``keys`` down from ``at`` for ``hold`` sim seconds.
+Under ``robokit run --live`` the keys held in the live page count too (as a window's; ``docs/live.md``).
 
 A key tapped between two readings (pressed and released before the sensor was due again) is not lost: the World
 flags it ``KEY_TRIGGERED`` without ``KEY_DOWN``, and the reading lists it in ``pressed`` (not in ``down``).
@@ -13,6 +14,7 @@ from __future__ import annotations
 
 import string
 from collections.abc import Mapping
+from typing import Any
 
 from pydantic import Field
 
@@ -67,7 +69,8 @@ class KeyboardSensor(Sensor):
                                   key=f"script[{i}].keys")
         self.use_gui = self.world.gui and not (self.config and self.config.script_in_gui)
         self.previous: frozenset[str] = frozenset()
-
+        self.key_source: Any = None
+        """Keys from a live page (``robokit run --live``): its ``key_events()``, read beside the script."""
         self.last_read = -1.0
 
     def _scripted(self) -> tuple[frozenset[str], frozenset[str]]:
@@ -88,6 +91,9 @@ class KeyboardSensor(Sensor):
             state = decode_events(self.world.key_events(), self.previous)
         else:
             down, began = self._scripted()
+            if self.key_source is not None:  # keys held in the live page, as a window's
+                page = decode_events(self.key_source.key_events(), self.previous)
+                down, began = down | page.down, began | page.pressed
             state = KeyState(down=down, pressed=(down - self.previous) | began)
         self.previous = state.down
         return state

@@ -104,6 +104,12 @@ _RUN_OPTIONS: tuple[tuple[str, dict[str, Any]], ...] = (
     ("--no-record", {"action": "store_true", "help": "keep only result.json, no trace or pose log"}),
     ("--save-frames", {"action": "store_true", "help": "cameras save the frames they render as PNGs (RGB, depth, "
                                                        "segmentation) in the run folder"}),
+    ("--live", {"action": "store_true", "help": "watch and drive the run in a browser: serve a live page (URL "
+                                               "printed), paced to real time (docs/live.md)"}),
+    ("--live-host", {"metavar": "HOST", "help": "with --live: bind HOST instead of 127.0.0.1 (the URL then carries "
+                                                "a token)"}),
+    ("--live-port", {"type": int, "default": 8765, "metavar": "PORT",
+                     "help": "with --live: the page's port (default 8765; 0 = any free port)"}),
     ("--video", {"metavar": "FILE", "help": "render an MP4 of the run right after it, before the result is sent "
                                             "(robokit video)"}),
 )
@@ -242,6 +248,19 @@ def cmd_run(args: argparse.Namespace) -> int:
         return _interrupted_before_config(args, guard.signal if guard is not None else None)
 
 
+def _live_view(args: argparse.Namespace, plugins: Any) -> Any:
+    """``--live``: the live view, registered as a plugin of this run (it starts serving when the run starts)."""
+    if not args.live:
+        if args.live_host:
+            raise UserError("--live-host needs --live")
+        return None
+    from robokit.live import LiveView
+
+    view = LiveView(args.live_host or "127.0.0.1", args.live_port)
+    plugins.pm.register(view, name="robokit-live")
+    return view
+
+
 def _run_loaded(args: argparse.Namespace, plugins: Any, cfg: Any, run_config: Any) -> int:
     """``robokit run`` once its config is loaded: a signal before :func:`robokit.runner.run_config` takes over
     reaches :func:`cmd_run` (which keeps an ``aborted`` result); one after is the run's own."""
@@ -268,6 +287,7 @@ def _run_loaded(args: argparse.Namespace, plugins: Any, cfg: Any, run_config: An
             show(out)
             _hold_window(hold_window, sim.world)
 
+    live = _live_view(args, plugins)
     trace = _open_trace(args.trace) if args.trace else None
     video = _video_before_send(cfg, args) if args.video else None
     global _run_called
@@ -277,6 +297,8 @@ def _run_loaded(args: argparse.Namespace, plugins: Any, cfg: Any, run_config: An
                          record=not args.no_record, pose_hz=args.pose_hz, save_frames=args.save_frames,
                          after_run=hold, on_problem=None if args.quiet else _warn_problem, before_send=video)
     finally:
+        if live is not None:
+            live.close()
         if trace is not None:
             try:
                 trace.close()

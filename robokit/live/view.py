@@ -1,0 +1,199 @@
+"""The live view's side of the loop: a monitor that publishes the scene, the state machines and the clock, and paces
+the run to real time (or holds it, steps it, speeds it up) as the page asks.
+
+It attaches to a run through the lifecycle hooks (:meth:`LiveView.robokit_run_start`), as any plugin may: a monitor
+slot in the loop (:meth:`robokit.core.simulation.Simulation.add_monitor`), a trace listener (the same records the run
+record writes), and the page's keys handed to every component that takes them (the keyboard sensor's
+``key_source``). Frames are taken at most ``fps`` times per wall second, and at every tick while paused.
+"""
+
+from __future__ import annotations
+
+import base64
+import math
+import sys
+import time
+from collections import deque
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from robokit import hookimpl
+from robokit.errors import UserError
+from robokit.live.publisher import Control, PageKeys, Publisher
+
+TRANSITIONS_KEPT = 12
+"""How many of the latest transitions (and composite events) a frame carries."""
+
+
+def _base_frame(client: Any, bid: int) -> tuple[Any, Any]:
+    """A body's URDF base-link frame (PyBullet's base pose is its centre of mass)."""
+    pos, orn = client.getBasePositionAndOrientation(bid)
+    info = client.getDynamicsInfo(bid, -1)
+    inv_pos, inv_orn = client.invertTransform(info[3], info[4])
+    return client.multiplyTransforms(pos, orn, inv_pos, inv_orn)
+
+
+def scene_payload(sim: Any) -> tuple[dict[str, Any], list[Any]]:
+    """What the replay viewer (``robokit/data/replay.js``) needs to draw the live world: its ``RK_REPLAY`` payload
+    with one pose sample (the scene now), and the drawn links (for :func:`link_poses`)."""
+    from robokit.record.replay import _links, read_obj
+    from robokit.record.scene import NAMED_VIEWS, Scene, body_boxes, orbit_view, scene_box
+
+    world = sim.world
+    links, shapes = _links(Scene(world, None, {name: [] for name in world.body_names}))  # type: ignore[arg-type]
+    meshes: dict[str, int] = {}
+    mesh_data: list[dict[str, str]] = []
+    items = []
+    for s in shapes:
+        item: dict[str, Any] = {"frame": s.frame, "kind": s.kind, "size": s.size, "rgba": s.rgba,
+                                "position": s.position, "quaternion": s.quaternion}
+        if s.kind == "mesh":
+            if s.mesh not in meshes:
+                got = read_obj(Path(s.mesh)) if s.mesh.lower().endswith(".obj") else None
+                if got is None:
+                    continue
+                meshes[s.mesh] = len(mesh_data)
+                mesh_data.append({"vertices": _b64(got[0]), "triangles": _b64(got[1])})
+            item["mesh"] = meshes[s.mesh]
+        items.append(item)
+    lo, hi = scene_box(world)
+    corners = [np.array([x, y, z]) for blo, bhi in body_boxes(world)
+               for x in (blo[0], bhi[0]) for y in (blo[1], bhi[1]) for z in (blo[2], bhi[2])]
+    view = orbit_view((lo + hi) / 2, corners or [lo, hi], *NAMED_VIEWS["iso"], aspect=4 / 3)
+    poses = np.asarray([v if v is not None else math.nan for v in link_poses(world, links)], np.float32)
+    return ({"links": [link.path for link in links], "shapes": items, "meshes": mesh_data, "frames": [],
+             "view": {"eye": view.eye, "target": view.target, "up": view.up, "fov": view.fov},
+             "t": _b64(np.zeros(1, np.float32)), "poses": _b64(poses), "duration": 0.0, "machines": []}, links)
+
+
+def _b64(a: np.ndarray) -> str:
+    return base64.b64encode(np.ascontiguousarray(a).tobytes()).decode("ascii")
+
+
+def link_poses(world: Any, links: list[Any]) -> list[float | None]:
+    """Every drawn link's world position (m) and quaternion (x, y, z, w), 7 numbers a link, flat; None for the links
+    of a body removed during the run."""
+    client = world.client
+    out: list[float | None] = []
+    for link in links:
+        if not world.has_body(link.body):
+            out += [None] * 7
+            continue
+        bid = world.body(link.body)
+        if link.index < 0:
+            pos, orn = _base_frame(client, bid)
+        else:
+            state = client.getLinkState(bid, link.index, computeForwardKinematics=True)
+            pos, orn = state[4], state[5]
+        out += [round(float(v), 6) for v in (*pos, *orn)]
+    return out
+
+
+class LiveView:
+    """A running run's live page: register it as a plugin before the run (``plugins.pm.register(view)``); it starts
+    its server at once, shows the run's world when the run starts, and keeps serving until :meth:`close`.
+
+    Args:
+        host: Address to bind (``127.0.0.1``; any other needs the token in the URL).
+        port: TCP port (0: any free one).
+        paused: Start held at tick 0 (the page's resume or step lets it go).
+        speed: Sim seconds per wall second (``math.inf``: as fast as possible).
+        fps: Frames the page is sent at most per wall second while the run goes.
+        announce: Print the page's URL on stderr.
+
+    Raises:
+        UserError: The address cannot be served (the port is taken).
+    """
+
+    kind = "monitor"
+    period = 1
+
+    def __init__(self, host: str = "127.0.0.1", port: int = 0, *, paused: bool = False, speed: float = 1.0,
+                 fps: float = 30.0, announce: bool = True) -> None:
+        self.host, self.port = host, port
+        self.publisher = Publisher()
+        self.control = Control(paused=paused, speed=speed)
+        self.keys = PageKeys()
+        self.fps = fps
+        self.sim: Any = None
+        self._links: list[Any] = []
+        self._states: dict[str, str] = {}
+        self._recent: deque[dict[str, Any]] = deque(maxlen=TRANSITIONS_KEPT)
+        self._next = 0.0
+        self.outcome: dict[str, Any] | None = None
+        from robokit.live.server import LiveServer
+
+        try:
+            self.server: Any = LiveServer(self, host=host, port=port)
+        except OSError as exc:
+            raise UserError(f"--live: cannot serve on {host}:{port}: {exc.strerror or exc} (choose another port with "
+                            f"--live-port, 0 for any free one)") from None
+        self.url = self.server.url
+        if announce:
+            print(f"robokit: live view at {self.url}", file=sys.stderr, flush=True)
+
+    # ----------------------------------------------------------------- lifecycle hooks
+    @hookimpl
+    def robokit_run_start(self, simulation: Any) -> None:
+        """Build the page's scene from the world as it starts, start serving, join the loop."""
+        if simulation.world.engine != "pybullet":
+            raise UserError(f"--live draws PyBullet worlds; this run's engine is {simulation.world.engine!r}")
+        from robokit.record.layout import machines_of
+
+        self.sim = simulation
+        scene, self._links = scene_payload(simulation)
+        machines = machines_of(simulation.behaviour)
+        self._states = {m["name"]: m["initial"] for m in machines}
+        for comp in simulation.components.values():
+            if hasattr(comp, "key_source"):
+                comp.key_source = self.keys
+        simulation.trace_listeners.append(self._on_trace)
+        simulation.add_monitor(self)
+        self._publish()
+        self.server.scene, self.server.machines = scene, machines
+
+    @hookimpl
+    def robokit_run_end(self, simulation: Any, result: Any) -> None:
+        """Publish the last frame with the run's outcome."""
+        self.outcome = {"outcome": result.outcome, "reason": result.reason}
+        self._publish()
+
+    # ----------------------------------------------------------------- the loop's side
+    def sample(self, tick: int) -> None:
+        """At the start of every tick: a frame if one is due, then pause / step / real-time pacing."""
+        now = time.perf_counter()
+        if now >= self._next:
+            self._next = now + 1.0 / self.fps
+            self._publish()
+        self.control.gate(self.sim.world.time, self._stopped, self._publish)
+
+    def _stopped(self) -> bool:
+        return bool(self.sim.interrupted)
+
+    def _on_trace(self, record: dict[str, Any]) -> None:
+        if record.get("kind") == "transition":
+            self._states[record.get("machine", "")] = record.get("dest_state", "")
+        if record.get("kind") in ("transition", "event") or "composite" in record or "monitor" in record:
+            self._recent.append({k: v for k, v in record.items() if isinstance(v, (str, int, float, bool))})
+
+    def frame(self) -> dict[str, Any]:
+        """The state now: tick, sim time ``t`` (s), link ``poses`` (see :func:`link_poses`), each machine's state,
+        the latest transitions, the controls, and the ``outcome`` once the run has ended."""
+        world = self.sim.world
+        return {"tick": world.tick, "t": round(world.time, 6), "poses": link_poses(world, self._links),
+                "states": dict(self._states), "recent": list(self._recent), **self.control.state(),
+                "outcome": self.outcome}
+
+    def _publish(self) -> None:
+        self.publisher.put(self.frame())
+
+    # ----------------------------------------------------------------- end
+    def close(self, grace: float = 1.0) -> None:
+        """Stop serving; first give open pages up to ``grace`` wall seconds to receive the last frame."""
+        if self.server is not None:
+            self.server.drain(self.publisher.seq, grace)
+            self.server.stop()
+            self.server = None
+        self.publisher.close()
