@@ -18,7 +18,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("robokit", "robokit.errors", "robokit.extras", "robokit.process"),
     ("robokit.config",),
     ("robokit.plugin_api", "robokit.msgs", "robokit.components"),
-    ("robokit.engines", "robokit.robot"),
+    ("robokit.engines", "robokit.robot", "robokit.planning"),
     ("robokit.core", "robokit.fsm"),
     ("robokit.report", "robokit.record"),
     ("robokit.runner", "robokit.sweep", "robokit.gym", "robokit.checks", "robokit.server"),

@@ -3,6 +3,8 @@ planner that follows the path within the drive's speed and acceleration limits.
 
 Pure numpy, no engine: behaviours use it through :class:`~robokit.planning.navigator.PlanningNavigator`
 (``planner = "astar"`` in a navigating behaviour's config). See ``docs/planning.md``.
+
+May import: ``robokit.config`` and ``robokit.msgs`` (no engine, no World).
 """
 
 from robokit.planning.dwa import DwaConfig, DynamicWindow
