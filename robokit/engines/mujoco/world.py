@@ -71,12 +71,15 @@ class MujocoWorld(MujocoBodies):
             self.motors.inertia_changed = False
         for bid, force, point in self._forces:
             mujoco.mj_applyFT(m, d, force, np.zeros(3), point, bid, d.qfrc_applied)
+        dofs, limits = self.motors.holding(m)
+        if len(dofs):  # a position motor carries its links' weight, as PyBullet's motor reaches its target
+            d.qfrc_applied[dofs] += np.clip(d.qfrc_bias[dofs], -limits, limits)
         mujoco.mj_step2(m, d)
         if self._wrenches:
             self._measure_wrenches()
         if self.motors.torques:
             self.motors.after_step(m, d)
-        if self._forces:
+        if self._forces or len(dofs):
             d.qfrc_applied[:] = 0.0
             self._forces.clear()
         mujoco.mj_step1(m, d)
