@@ -1,0 +1,88 @@
+"""Helpers of the live view's tests: a run in a thread with its live view, driven over HTTP as the page drives it."""
+
+from __future__ import annotations
+
+import json
+import math
+import threading
+import urllib.request
+from typing import Any
+
+from robokit.config import load_config
+from robokit.core.result import RunResult
+from robokit.core.simulation import Simulation
+from robokit.live import LiveView
+from robokit.plugin_api.plugins import load_plugins
+
+WAIT = 60.0
+"""Wall seconds a frame may take to come (a safety net on a loaded machine; the tests never sleep)."""
+
+
+def plain_run(config: str, max_time: float, overrides: dict[str, Any] | None = None) -> tuple[RunResult, list[Any]]:
+    """The same config run without a live view: the result and the trace."""
+    plugins = load_plugins()
+    with Simulation(load_config(config, plugins, overrides), plugins) as sim:
+        return sim.run(max_time=max_time), list(sim.trace)
+
+
+class LiveRun:
+    """A run with a live view (started paused, as fast as possible when let go) in a thread."""
+
+    def __init__(self, config: str, max_time: float, overrides: dict[str, Any] | None = None) -> None:
+        plugins = load_plugins()
+        self.max_time = max_time
+        self.view = LiveView("127.0.0.1", 0, paused=True, speed=math.inf, announce=False)
+        plugins.pm.register(self.view, name="robokit-live")
+        self.sim = Simulation(load_config(config, plugins, overrides), plugins)
+        self.result: RunResult | None = None
+        self.seen = 0
+        self.thread = threading.Thread(target=self._run, daemon=True)
+        self.thread.start()
+
+    def _run(self) -> None:
+        self.result = self.sim.run(max_time=self.max_time)
+
+    def post(self, path: str, body: dict[str, Any]) -> dict[str, Any]:
+        req = urllib.request.Request(self.view.url + path.lstrip("/"), data=json.dumps(body).encode(),
+                                     headers={"Content-Type": "application/json"})
+        with urllib.request.urlopen(req, timeout=WAIT) as reply:
+            return dict(json.loads(reply.read()))
+
+    def state(self) -> dict[str, Any]:
+        with urllib.request.urlopen(self.view.url + "state", timeout=WAIT) as reply:
+            return dict(json.loads(reply.read()))
+
+    def frame_where(self, test: Any) -> dict[str, Any]:
+        """The first newly published frame for which ``test(frame)`` holds."""
+        while True:
+            frame = self.view.publisher.take(self.seen, WAIT)
+            assert frame is not None, "no frame came"
+            self.seen = frame["seq"]
+            if test(frame):
+                return frame
+
+    def held_at(self, tick: int) -> dict[str, Any]:
+        """Wait until the run is held at ``tick``."""
+        return self.frame_where(lambda f: f["paused"] and f["tick"] == tick)
+
+    def step(self) -> int:
+        """One tick from the held one; the tick the run is held at next."""
+        tick = self.sim.world.tick
+        self.post("/control", {"action": "step"})
+        self.held_at(tick + 1)
+        return tick + 1
+
+    def finish(self) -> tuple[RunResult, list[Any]]:
+        self.post("/control", {"action": "speed", "value": "max"})
+        self.post("/control", {"action": "resume"})
+        self.thread.join(WAIT)
+        assert self.result is not None
+        return self.result, list(self.sim.trace)
+
+    def close(self) -> None:
+        if self.thread.is_alive():
+            self.sim.interrupt("test")
+            self.thread.join(WAIT)
+        self.view.close(grace=0)
+        self.sim.close()
+

@@ -1,0 +1,85 @@
+"""The live view without a browser: its state endpoint shows the world as it is, pause / step / speed / resume leave
+the run bit for bit what it is without the live view, and a key sent from the page drives the teleop robot as the
+same key scripted does. The oracles: a run of the same config and seed with no live view, and the world itself."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from tests.live_run import LiveRun, plain_run
+
+ROOT = Path(__file__).resolve().parent.parent
+SORT = str(ROOT / "configs" / "sort_robot.toml")
+DRIVE = str(ROOT / "configs" / "drive_teleop.toml")
+
+
+def test_paused_stepped_and_resumed_run_is_the_uninterrupted_run_and_the_state_shows_the_world() -> None:
+    expected, expected_trace = plain_run(SORT, 0.75)
+    live = LiveRun(SORT, 0.75)
+    try:
+        live.held_at(0)
+        for k in range(1, 4):
+            assert live.step() == k
+            assert live.sim.world.tick == k  # held: the loop waits at tick k, no further
+        live.post("/control", {"action": "speed", "value": "2"})
+        live.post("/control", {"action": "resume"})
+        live.frame_where(lambda f: f["tick"] >= 40)
+        live.post("/control", {"action": "pause"})
+        held = live.frame_where(lambda f: f["paused"])["tick"]
+        state = live.state()
+        assert state["tick"] == held == live.sim.world.tick and state["paused"]
+        links = live.view.server.scene["links"]
+        client, world = live.sim.world.client, live.sim.world
+        for name in ("red_0", "blue_0"):  # a box's base frame is its centre of mass: the world's own pose
+            i = next(n for n, path in enumerate(links) if path.startswith(name + "/"))
+            pos, orn = client.getBasePositionAndOrientation(world.body(name))
+            assert state["poses"][7 * i:7 * i + 7] == pytest.approx([*pos, *orn], abs=2e-6)
+        last = [r for r in live.sim.trace if r["kind"] == "transition" and r["machine"] == "pick_place"]
+        assert state["states"]["pick_place"] == (last[-1]["dest_state"] if last else "WAIT")
+        assert live.step() == held + 1
+        result, trace = live.finish()
+    finally:
+        live.close()
+    assert (result.outcome, result.reason, result.ticks, result.sim_time) == \
+        (expected.outcome, expected.reason, expected.ticks, expected.sim_time)
+    assert result.result == expected.result
+    assert trace == expected_trace
+    assert live.view.publisher.latest()["outcome"]["outcome"] == expected.outcome  # type: ignore[index]
+
+
+def test_a_key_from_the_page_drives_the_teleop_robot_as_the_scripted_key_does() -> None:
+    held_ticks, max_time = 48, 0.4
+    dt = 1 / 240
+    no_script = {"sensors.keys.script": []}
+    live = LiveRun(DRIVE, max_time, no_script)
+    try:
+        live.held_at(0)
+        live.post("/key", {"key": "up", "down": True})
+        for _ in range(held_ticks):
+            live.step()
+        live.post("/key", {"key": "up", "down": False})
+        live.finish()
+        client, bid = live.sim.world.client, live.sim.world.body("robot")
+        pos_live, orn_live = client.getBasePositionAndOrientation(bid)
+    finally:
+        live.close()
+    scripted = _final_pose(DRIVE, max_time, {"sensors.keys.script": [{"at": 0.0, "keys": ["up"],
+                                                                      "hold": (held_ticks - 0.5) * dt}]})
+    still = _final_pose(DRIVE, max_time, no_script)
+    assert (pos_live, orn_live) == scripted  # bit for bit
+    moved = ((pos_live[0] - still[0][0]) ** 2 + (pos_live[1] - still[0][1]) ** 2) ** 0.5
+    assert moved > 0.005, f"the key moved the robot {moved:.4f} m"
+
+
+def _final_pose(config: str, max_time: float, overrides: dict[str, object]) -> tuple[tuple[float, ...], ...]:
+    from robokit.config import load_config
+    from robokit.core.simulation import Simulation
+    from robokit.plugin_api.plugins import load_plugins
+
+    plugins = load_plugins()
+    with Simulation(load_config(config, plugins, overrides), plugins) as sim:
+        sim.run(max_time=max_time)
+        pos, orn = sim.world.client.getBasePositionAndOrientation(sim.world.body("robot"))
+        return tuple(pos), tuple(orn)
