@@ -25,6 +25,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, ClassVar, Literal
 
 import numpy as np
@@ -329,6 +330,21 @@ class Navigating:
         if self.planner is None:
             return {}
         return {"planner": "astar", "planning": self.planner.stats.as_dict()}
+
+    def close(self) -> None:
+        """At the end of a run that keeps a record: the planner's map as ``map.pgm`` + ``map.yaml`` (ROS
+        ``map_server``'s format) in the run folder."""
+        run_dir = getattr(getattr(self, "ctx", None), "run_dir", None)
+        planner = getattr(self, "planner", None)
+        if planner is not None and run_dir is not None and Path(run_dir).is_dir():
+            grid = planner.grid
+            for name, data in (("map.pgm", grid.to_pgm()), ("map.yaml", grid.map_yaml("map.pgm").encode())):
+                tmp = Path(run_dir) / f".{name}.tmp"
+                tmp.write_bytes(data)
+                tmp.replace(Path(run_dir) / name)
+        parent = getattr(super(), "close", None)
+        if parent is not None:
+            parent()
 
     def halt(self, t: float) -> Mapping[str, Any] | None:
         """Stopped before it ended (a composite's timeout, a monitor): the drive stops; never stepped again."""

@@ -135,3 +135,19 @@ def test_dwa_keeps_to_the_window_and_off_an_obstacle(seed: int) -> None:
     for _ in range(int(cfg.horizon / 0.001)):
         x, y, yaw = x + twist.v * math.cos(yaw) * 0.001, y + twist.v * math.sin(yaw) * 0.001, yaw + twist.omega * 0.001
         assert math.hypot(x - obstacle[0], y - obstacle[1]) >= 0.2 - 0.005
+
+
+def test_the_map_saves_as_a_ros_map_server_image() -> None:
+    grid = OccupancyGrid((-3, -2), (3, 2), GridConfig(resolution=0.1), clearance_cap=0.5)
+    grid.update(wall_scan((0.0, 0.0), 1.0))
+    data = grid.to_pgm()
+    magic, size, maxval, pixels = data.split(b"\n", 3)
+    width, height = (int(v) for v in size.split())
+    assert (magic, maxval, width, height) == (b"P5", b"255", 60, 40)
+    img = np.frombuffer(pixels, dtype=np.uint8).reshape(height, width)
+
+    def pixel(x: float, y: float) -> int:  # the top row is the largest y
+        return int(img[height - 1 - math.floor((y + 2) / 0.1), math.floor((x + 3) / 0.1)])
+
+    assert pixel(1.02, 0.33) == 0 and pixel(0.3, -0.4) == 254 and pixel(2.0, 0.0) == 205
+    assert "resolution: 0.1\norigin: [-3.0000, -2.0000, 0.0]" in grid.map_yaml("map.pgm")

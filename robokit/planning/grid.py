@@ -190,3 +190,19 @@ class OccupancyGrid:
         out = np.zeros(len(flat), dtype=np.float32)
         out[ok] = self._clearance[i[ok], j[ok]]
         return out.reshape(xy.shape[:-1])
+
+    # ------------------------------------------------------------------ export
+    def to_pgm(self) -> bytes:
+        """The grid as a binary PGM in ROS ``map_server``'s convention: occupied 0 (black), free 254, unknown 205;
+        the image's top row is the grid's largest y."""
+        img = np.full(self.shape, 205, dtype=np.uint8)
+        img[self.logodds < 0] = 254
+        img[self._occupied] = 0
+        rows = np.ascontiguousarray(img.T[::-1])
+        return f"P5\n{self.shape[0]} {self.shape[1]}\n255\n".encode() + rows.tobytes()
+
+    def map_yaml(self, image: str) -> str:
+        """ROS ``map_server`` metadata for :meth:`to_pgm` saved as ``image``."""
+        return (f"image: {image}\nresolution: {self.res}\norigin: [{self.origin[0]:.4f}, {self.origin[1]:.4f}, 0.0]\n"
+                "negate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n")
+
