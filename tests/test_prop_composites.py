@@ -15,6 +15,7 @@ from collections.abc import Mapping
 from types import SimpleNamespace
 from typing import Any
 
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -75,8 +76,9 @@ class Scripted(Behaviour):
 def run_tree(composite: Any, plans: dict[str, Plan]) -> tuple[str | None, int | None, ScriptedRun]:
     composite.add_children([Member.of(Scripted(name, plan)) for name, plan in plans.items()])
     run = ScriptedRun(composite)
+    run.sent = []  # type: ignore[attr-defined]  # the commands of every tick
     for k in range(HORIZON):
-        run.step({})
+        run.sent.append(run.step({}))  # type: ignore[attr-defined]
         if run.outcome is not None:
             return run.outcome.status, k, run
     return None, None, run
@@ -162,6 +164,10 @@ def test_timeout_against_every_child_outcome_and_length(c: tuple, limit_ticks: i
     else:
         assert (outcome, tick) == ("failed", first_late)
         assert plan.halts == [(0, first_late)] and plan.steps == [first_late]  # halted, never stepped again
+        assert run.sent[-1] == {"motor_c": "stopped"}  # type: ignore[attr-defined]  # its halt's commands go out
+        record = run.result()["children"][0]
+        assert record["outcome"] == "halted" and record["reason"]
+        assert record["sim_time"] == round(first_late * DT, 6)
 
 
 # ------------------------------------------------------------------------------------------ parallel
@@ -195,11 +201,16 @@ def test_parallel_against_every_outcome_combination_and_policy(children: list, s
     assert (outcome, tick) == (want, want_tick)
     got = records(run, "children")
     assert [got.get(n, "running") for n in plans] == want_children
+    full = {r["name"]: r for r in run.result()["children"]}
     for name, plan in plans.items():  # a halted child: halted in the deciding tick, never stepped again
         if got.get(name) == "halted":
             assert plan.halts == [(0, tick)] and plan.steps == [tick + 1]
+            assert run.sent[-1][f"motor_{name}"] == "stopped"  # type: ignore[attr-defined]  # its stop replaces
+            assert full[name]["reason"] and full[name]["sim_time"] == round(tick * DT, 6)  # its step's command
         else:
             assert not plan.halts
+            if plan.steps and want is not None and plan.steps[0] == tick + 1:  # stepped in the deciding tick
+                assert run.sent[-1][f"motor_{name}"] == 0  # type: ignore[attr-defined]
 
 
 # ------------------------------------------------------------------------------------------ goals
@@ -272,3 +283,52 @@ def test_composites_go_by_each_childs_goal_judged_when_it_ends(kind: str, childr
         assert verdict is None
     else:
         assert verdict is not None and verdict.met == all(children[i][3] for i in asked)
+
+
+# ------------------------------------------------------------------------------------------ a child that raises
+class Raising(Scripted):
+    """Never ends; raises in its step number ``after + 1`` (plan ``mode`` "raise-step") or in its halt."""
+
+    def step(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any]:
+        plan = self.config
+        if plan.mode == "raise-step" and plan.steps[self.instance] == self.after:
+            raise ValueError("a bug in the child")
+        return super().step(readings, t)
+
+    def halt(self, t: float) -> Mapping[str, Any]:
+        if self.config.mode == "raise-halt":
+            raise ValueError("a bug in the child's halt")
+        return super().halt(t)
+
+
+ROLES = {"sequence": "sequence step", "fallback": "fallback child", "retry": "retry child",
+         "timeout": "timeout child", "parallel": "parallel child"}
+
+
+@PROPS
+@given(st.sampled_from(list(ROLES)), st.integers(1, 4), st.sampled_from(["raise-step", "raise-halt"]))
+def test_a_child_that_raises_is_named_with_its_role_and_what_it_was_doing(kind: str, after: int, how: str) -> None:
+    """A child's exception becomes one error naming the child, its role in the composite and the call (docs:
+    errors for people; the traceback is the plugin's)."""
+    from robokit.errors import PluginError
+
+    if how == "raise-halt" and kind not in ("timeout", "parallel"):
+        how = "raise-step"  # only a timeout or a parallel decides while a child runs
+    bad = Plan([(None, after)])
+    bad.mode = how  # type: ignore[attr-defined]
+    halting = how == "raise-halt"  # the composite decides at tick `after` (halting the child), or never
+    other = Plan([("failed", after) if halting else (None, 0)])  # a parallel sibling (failure "one")
+    composite = {"sequence": lambda: Sequence("c", SequenceConfig()),
+                 "fallback": lambda: Fallback("c", FallbackConfig()),
+                 "retry": lambda: Retry("c", RetryConfig(attempts=2)),
+                 "timeout": lambda: Timeout("c", TimeoutConfig(seconds=(after - 0.5 if halting else 100) * DT)),
+                 "parallel": lambda: Parallel("c", ParallelConfig())}[kind]()
+    members = [Member.of(Raising("bad", bad))] + ([Member.of(Scripted("other", other))] if kind == "parallel" else [])
+    composite.add_children(members)
+    run = ScriptedRun(composite)
+    with pytest.raises(PluginError) as err:
+        for _ in range(HORIZON):
+            run.step({})
+    text = str(err.value)
+    assert f"{ROLES[kind]} 'bad'" in text
+    assert ("during halt" if how == "raise-halt" else "during step") in text and "a bug in the child" in text
