@@ -72,6 +72,9 @@ class Scripted(Behaviour):
         self.config.halts.append((self.instance, round(t / DT)))
         return {f"motor_{self.name}": "stopped"}
 
+    def result(self) -> dict[str, Any]:
+        return {"instance": self.instance, "steps": self.config.steps[self.instance]}
+
 
 def run_tree(composite: Any, plans: dict[str, Plan]) -> tuple[str | None, int | None, ScriptedRun]:
     composite.add_children([Member.of(Scripted(name, plan)) for name, plan in plans.items()])
@@ -122,6 +125,17 @@ def test_sequence_and_fallback_against_every_outcome_combination(kind: str, chil
     got = records(run, "steps" if kind == "sequence" else "children")
     assert [got.get(n, "not started") for n in plans] == want_children
     assert all(not p.halts for p in plans.values())  # an ordered composite ends no child early
+    start = 0  # each record: when the child started, how long it ran (sim s), and the child's own result
+    for r, (_, d), plan in zip(run.result()["steps" if kind == "sequence" else "children"], children,
+                               plans.values(), strict=True):
+        if r["outcome"] == "not started":
+            assert r["result"] == {}
+            continue
+        assert r["started_at"] == pytest.approx(start * DT, abs=2e-6)
+        assert r["result"] == {"instance": 0, "steps": plan.steps[0]}
+        if r["outcome"] != "running":
+            assert r["sim_time"] == pytest.approx(d * DT, abs=2e-6)
+        start += d + 1
 
 
 # ------------------------------------------------------------------------------------------ retry
@@ -145,7 +159,11 @@ def test_retry_against_every_sequence_of_attempt_outcomes(attempts_plan: list, a
     assert (outcome, tick) == (want, want_tick)
     assert plan.built == made  # one fresh instance per attempt, none more
     if outcome is not None:
-        assert run.result()["attempts"] == made
+        result = run.result()
+        assert result["attempts"] == made
+        # every attempt keeps its own record and result
+        assert [r["result"] for r in result["children"]] == [{"instance": a, "steps": plan.steps[a]}
+                                                              for a in range(made)]
 
 
 # ------------------------------------------------------------------------------------------ timeout
@@ -167,7 +185,7 @@ def test_timeout_against_every_child_outcome_and_length(c: tuple, limit_ticks: i
         assert run.sent[-1] == {"motor_c": "stopped"}  # type: ignore[attr-defined]  # its halt's commands go out
         record = run.result()["children"][0]
         assert record["outcome"] == "halted" and record["reason"]
-        assert record["sim_time"] == round(first_late * DT, 6)
+        assert record["sim_time"] == pytest.approx(first_late * DT, abs=2e-6)
 
 
 # ------------------------------------------------------------------------------------------ parallel
@@ -206,7 +224,7 @@ def test_parallel_against_every_outcome_combination_and_policy(children: list, s
         if got.get(name) == "halted":
             assert plan.halts == [(0, tick)] and plan.steps == [tick + 1]
             assert run.sent[-1][f"motor_{name}"] == "stopped"  # type: ignore[attr-defined]  # its stop replaces
-            assert full[name]["reason"] and full[name]["sim_time"] == round(tick * DT, 6)  # its step's command
+            assert full[name]["reason"] and full[name]["sim_time"] == pytest.approx(tick * DT, abs=2e-6)
         else:
             assert not plan.halts
             if plan.steps and want is not None and plan.steps[0] == tick + 1:  # stepped in the deciding tick
