@@ -223,7 +223,8 @@ def test_parallel_against_every_outcome_combination_and_policy(children: list, s
     for name, plan in plans.items():  # a halted child: halted in the deciding tick, never stepped again
         if got.get(name) == "halted":
             assert plan.halts == [(0, tick)] and plan.steps == [tick + 1]
-            assert run.sent[-1][f"motor_{name}"] == "stopped"  # type: ignore[attr-defined]  # its stop replaces
+            # its halt's stop command replaces the command its step sent in that tick
+            assert run.sent[-1][f"motor_{name}"] == "stopped"  # type: ignore[attr-defined]
             assert full[name]["reason"] and full[name]["sim_time"] == pytest.approx(tick * DT, abs=2e-6)
         else:
             assert not plan.halts
