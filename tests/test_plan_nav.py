@@ -5,6 +5,7 @@ scene over several seeds and shows the clearance rules failing where the planner
 from __future__ import annotations
 
 import math
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -66,3 +67,19 @@ def test_rules_fail_where_the_planner_succeeds(kind: str) -> None:
     cfg, _ = scene(kind, 0, planner="rules", timeout=60)
     status, left, _, _ = drive_to_end(cfg, 61)
     assert status == "failed" and left > 1.0
+
+
+@pytest.mark.slow
+def test_patrol_and_collect_with_the_planner() -> None:
+    """Lesson 07's patrol and project B's patrol-and-collect, planner on: every waypoint, no collision, every can."""
+    root = Path(__file__).resolve().parents[1] / "configs"
+    with make_sim(root / "patrol.toml", overrides={"behaviour.planner": "astar"}) as sim:
+        sim.run()
+        r = sim.behaviour.result()
+        assert sim.outcome.status == "succeeded"
+        assert r["waypoints_reached"] == r["waypoints_total"] == 6 and r["collisions"] == 0
+    with make_sim(root / "patrol_robot.toml", overrides={"behaviour.planner": "astar"}) as sim:
+        sim.run()
+        r = sim.behaviour.result()
+        assert sim.outcome.status == "succeeded" and r["collisions"] == 0
+        assert r["objects_collected"] == len(sim.components["truth"].names)
