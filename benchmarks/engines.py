@@ -7,10 +7,10 @@
 
 ``--loop`` counts instructions (valgrind's callgrind: the figure a shared, loaded machine does not change) of the
 main job's loop per simulated second, three ways: robokit on MuJoCo, the same compiled MuJoCo model stepped bare
-(``mj_step`` alone, the model robokit built, from its state after set-up), and robokit on PyBullet. Each is run for
-two lengths in separate processes (60 and 420 ticks: the sort approaches, grasps and carries its first cube, between
-the first two camera frames); the difference of their counts over the difference of their sim times leaves set-up,
-start-up and the first frame out.
+(``mj_step`` alone, the model robokit built, from its state after set-up), and robokit on PyBullet. Only the loop
+is counted: after set-up and the first tick (the first camera frame), ticks 1 to 421 (the sort approaches, grasps
+and carries its first cube, before its second frame) run inside a call that callgrind is told to count
+(``--toggle-collect``: libc's ``qsort`` calling back into Python once, a C frame that marks the span).
 
 ``--grasp`` measures held objects instead, per engine and seed: ``configs/pick_place.toml`` and a three-colour sort
 (``configs/sort_robot.toml`` with a green bin and two green cubes added). While a cube is off the table (its centre
@@ -167,18 +167,39 @@ def loop_only(how: str, ticks: int) -> None:
     cfg = load_config(JOBS["sort"], plugins, {"world.engine": "pybullet" if how == "pybullet" else "mujoco",
                                               "world.seed": 3})
     with Simulation(cfg, plugins) as sim:
+        sim.step(1)
         if how == "bare":
             import mujoco
 
-            sim.step(1)
             model, data = sim.world.client.model, sim.world.client.data
-            for _ in range(ticks):
-                mujoco.mj_step(model, data)
+
+            def loop() -> None:
+                for _ in range(ticks):
+                    mujoco.mj_step(model, data)
         else:
-            sim.step(ticks)
+            def loop() -> None:
+                sim.step(ticks)
+        counted(loop)
 
 
-def loop_instructions(short: int, long: int) -> None:
+def counted(run: Any) -> None:
+    """Call ``run`` from inside libc's ``qsort`` (comparing two elements: one call back), the C frame that
+    ``valgrind --toggle-collect=qsort`` counts within."""
+    import ctypes
+    import ctypes.util
+
+    libc = ctypes.CDLL(ctypes.util.find_library("c"))
+    compare = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p)
+
+    def once(_a: int, _b: int) -> int:
+        run()
+        return 0
+
+    pair = (ctypes.c_int * 2)(1, 2)
+    libc.qsort(pair, 2, ctypes.sizeof(ctypes.c_int), compare(once))
+
+
+def loop_instructions(ticks: int) -> None:
     """``--loop``: instructions per sim second of each way, from two callgrind runs of ``--loop-only``."""
     import subprocess
     import sys
@@ -188,16 +209,14 @@ def loop_instructions(short: int, long: int) -> None:
     print(f"{'loop':18} {'instructions per sim s':>24} {'x bare MuJoCo':>14}")
     per_second = {}
     for how in ("bare", "mujoco", "pybullet"):
-        counts = []
-        for ticks in (short, long):
-            with tempfile.TemporaryDirectory() as tmp:
-                out = Path(tmp) / "callgrind.out"
-                subprocess.run(["valgrind", "--tool=callgrind", f"--callgrind-out-file={out}",
-                                sys.executable, __file__, "--loop-only", how, "--ticks", str(ticks)],
-                               check=True, capture_output=True)
-                summary = [line for line in out.read_text().splitlines() if line.startswith("summary:")]
-                counts.append(int(summary[0].split()[1]))
-        per_second[how] = (counts[1] - counts[0]) / ((long - short) * time_step)
+        with tempfile.TemporaryDirectory() as tmp:
+            out = Path(tmp) / "callgrind.out"
+            subprocess.run(["valgrind", "--tool=callgrind", "--collect-atstart=no", "--toggle-collect=qsort",
+                            f"--callgrind-out-file={out}", sys.executable, __file__, "--loop-only", how, "--ticks",
+                            str(ticks)], check=True, capture_output=True)
+            summary = [line for line in out.read_text().splitlines() if line.startswith(("summary:", "totals:"))]
+            count = int(summary[0].split()[1])
+        per_second[how] = count / (ticks * time_step)
         print(f"{how:18} {per_second[how]:>24,.0f} {per_second[how] / per_second['bare']:>14.2f}", flush=True)
 
 
@@ -215,7 +234,7 @@ def main(argv: list[str] | None = None) -> int:
         loop_only(args.loop_only, args.ticks)
         return 0
     if args.loop:
-        loop_instructions(60, 420)  # 0.25 s to 1.75 s: between the first two camera frames on both engines
+        loop_instructions(420)  # ticks 1 to 421: between the first two camera frames on both engines
         return 0
     if args.grasp:
         grasp(args.trials, args.start_seed)
