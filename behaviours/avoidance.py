@@ -36,6 +36,7 @@ from robokit.config import Schema
 from robokit.errors import ConfigError
 from robokit.msgs.mobile import STOP, LaserScan, Pose2D, Twist, wrap_angle
 from robokit.planning import PlanningConfig, PlanningNavigator
+from robokit.record.atomic import atomic_output
 
 
 class AvoidanceConfig(Schema):
@@ -339,9 +340,8 @@ class Navigating:
         if planner is not None and run_dir is not None and Path(run_dir).is_dir():
             grid = planner.grid
             for name, data in (("map.pgm", grid.to_pgm()), ("map.yaml", grid.map_yaml("map.pgm").encode())):
-                tmp = Path(run_dir) / f".{name}.tmp"
-                tmp.write_bytes(data)
-                tmp.replace(Path(run_dir) / name)
+                with atomic_output(Path(run_dir) / name) as tmp:
+                    tmp.write_bytes(data)
         parent = getattr(super(), "close", None)
         if parent is not None:
             parent()
