@@ -146,7 +146,7 @@ class PageKeys:
     ``KEY_TRIGGERED`` (pressed since the last call, even if released since)."""
 
     def __init__(self) -> None:
-        self._lock = threading.Lock()
+        self._lock = threading.Condition()
         self._down: set[int] = set()
         self._triggered: set[int] = set()
 
@@ -166,6 +166,13 @@ class PageKeys:
                 self._down.add(code)
             else:
                 self._down.discard(code)
+            self._lock.notify_all()
+
+    def wait_held(self, names: set[str], timeout: float) -> bool:
+        """Wait until exactly the keys ``names`` are held in the page; False after ``timeout`` s."""
+        codes = {KEY_CODES[n] for n in names}
+        with self._lock:
+            return self._lock.wait_for(lambda: self._down == codes, timeout)
 
     def key_events(self) -> dict[int, int]:
         with self._lock:

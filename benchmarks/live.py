@@ -1,0 +1,97 @@
+"""What ``robokit run --live`` costs the loop: process CPU time per tick of the main job with and without the live
+view, interleaved in one process.
+
+Each pair runs ``configs/sort_robot.toml`` for ``--sim`` seconds (build and close outside the timing) once plainly
+and once with a live view at full speed (``as fast as possible``: pacing's sleeps would hide the cost) and one page
+reading its event stream (a socket in a thread of this process that reads and discards the frames, so the server's
+work of encoding and sending them is counted too). CPU time is the whole process's (``time.process_time``: every
+thread). Both runs of a pair must end identically (ticks, outcome, result). Prints each pair and the ratio of the
+medians, and the machine's load.
+
+    python benchmarks/live.py [--repeats 5] [--sim 6]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import socket
+import statistics
+import threading
+import time
+from pathlib import Path
+from typing import Any
+from urllib.parse import urlsplit
+
+from robokit.config import load_config
+from robokit.core.simulation import Simulation
+from robokit.live import LiveView
+from robokit.plugin_api.plugins import load_plugins
+
+CONFIG = Path(__file__).resolve().parent.parent / "configs" / "sort_robot.toml"
+
+
+def _reader(url: str, stop: threading.Event) -> None:
+    """A page that reads every frame it is sent and throws it away."""
+    parts = urlsplit(url)
+    with socket.create_connection((parts.hostname, parts.port)) as sock:
+        sock.sendall(f"GET /events HTTP/1.1\r\nHost: {parts.netloc}\r\n\r\n".encode())
+        sock.settimeout(0.5)
+        while not stop.is_set():
+            try:
+                if not sock.recv(65536):
+                    return
+            except TimeoutError:
+                continue
+
+
+def one(sim_seconds: float, live: bool) -> tuple[float, Any]:
+    """CPU seconds per tick of one run, and its result."""
+    plugins = load_plugins()
+    view = None
+    if live:
+        view = LiveView("127.0.0.1", 0, speed=math.inf, announce=False)
+        plugins.pm.register(view, name="robokit-live")
+    cfg = load_config(CONFIG, plugins)
+    stop = threading.Event()
+    with Simulation(cfg, plugins) as sim:
+        reader = None
+        if view is not None:
+            reader = threading.Thread(target=_reader, args=(view.url, stop), daemon=True)
+            reader.start()
+        c0 = time.process_time()
+        result = sim.run(max_time=sim_seconds)
+        cpu = time.process_time() - c0
+        stop.set()
+        if reader is not None:
+            reader.join(2)
+    if view is not None:
+        view.close(grace=0)
+    return cpu / max(1, result.ticks), result
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--sim", type=float, default=6.0, help="sim seconds per run")
+    args = ap.parse_args()
+    one(0.5, False)  # warm-up: imports, caches
+    plain, live = [], []
+    for i in range(args.repeats):
+        a, ra = one(args.sim, False)
+        b, rb = one(args.sim, True)
+        same = (ra.ticks, ra.outcome, ra.result) == (rb.ticks, rb.outcome, rb.result)
+        if not same:
+            raise SystemExit(f"pair {i}: the runs differ: {ra.outcome} {ra.ticks} vs {rb.outcome} {rb.ticks}")
+        plain.append(a)
+        live.append(b)
+        print(f"pair {i}: plain {a * 1e6:.1f} us/tick, live {b * 1e6:.1f} us/tick ({ra.ticks} ticks, same result)")
+    ratio = statistics.median(live) / statistics.median(plain)
+    print(f"CPU time per tick, live / plain (medians of {args.repeats}): {ratio:.3f}x "
+          f"({statistics.median(plain) * 1e6:.1f} -> {statistics.median(live) * 1e6:.1f} us/tick); "
+          f"load {os.getloadavg()[0]:.1f}")
+
+
+if __name__ == "__main__":
+    main()
