@@ -359,13 +359,15 @@ class Navigating:
         """One navigation step towards ``goal`` (world xy, m); fires aligned / misaligned / blocked / clear."""
         scan = readings[self.config.scan] if self.config.scan else None
         nav = None
+        planned = False
         if self.planner is not None:
             drive = readings[self.config.drive]
-            planned = self.planner.step(drive.pose, (drive.v, drive.omega), scan, goal, t, self.config.tolerance,
-                                        ignore)
-            if planned is not None:
+            step = self.planner.step(drive.pose, (drive.v, drive.omega), scan, goal, t, self.config.tolerance,
+                                     ignore)
+            if step is not None:
                 x, y, _ = drive.pose
-                nav = NavStep(planned[0], False, math.hypot(goal[0] - x, goal[1] - y), planned[1])
+                nav = NavStep(step[0], False, math.hypot(goal[0] - x, goal[1] - y), step[1])
+                planned = True
         if nav is None:
             nav = self.avoider.step(self.pose(readings), scan, goal, t, ignore)
         align = math.radians(self.config.align_deg)
@@ -378,8 +380,8 @@ class Navigating:
             self.fire("aligned")
         elif state == "DRIVING" and abs(nav.heading_error) > 2.5 * align and nav.distance > self.config.tolerance:
             self.fire("misaligned")
-        if self.state_name == "TURNING":
-            nav.twist = Twist(0.0, nav.twist.omega)
+        if self.state_name == "TURNING" and not planned:
+            nav.twist = Twist(0.0, nav.twist.omega)  # the rules turn in place; the local planner's command stands
         return nav
 
 

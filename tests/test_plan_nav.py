@@ -11,17 +11,22 @@ from typing import Any
 import pytest
 
 from robokit.errors import UserError
+from robokit.planning import DwaConfig
 from robokit.planning.scenes import KINDS, scene
 from robokit.testing import make_sim
 
 
-def drive_to_end(cfg: dict[str, Any], max_s: float) -> tuple[str | None, float, set[str], dict[str, Any]]:
-    """Run until the behaviour ends; the outcome, the final distance to the goal, every body touched, result."""
+def drive_to_end(cfg: dict[str, Any], max_s: float, commands: list[Any] | None = None
+                 ) -> tuple[str | None, float, set[str], dict[str, Any]]:
+    """Run until the behaviour ends; the outcome, the final distance to the goal, every body touched, result.
+    ``commands`` collects the drive's command at every drive update."""
     touched: set[str] = set()
     with make_sim(cfg) as sim:
         while sim.outcome is None and sim.world.time < max_s:
             sim.step(4)  # the drive reads contacts every 4 physics ticks (60 Hz)
             touched |= set(sim.readings["drive"].contacts)
+            if commands is not None:
+                commands.append(sim.readings["drive"].command)
         x, y, _ = sim.readings["drive"].pose
         gx, gy = cfg["behaviour"]["goal"]
         status = sim.outcome.status if sim.outcome else None
@@ -30,10 +35,17 @@ def drive_to_end(cfg: dict[str, Any], max_s: float) -> tuple[str | None, float, 
 
 def test_planner_reaches_the_goal_without_touching_a_wall() -> None:
     cfg, _ = scene("dead_end", 0, planner="astar", timeout=40)
-    status, left, touched, result = drive_to_end(cfg, 40)
+    commands: list[Any] = []
+    status, left, touched, result = drive_to_end(cfg, 40, commands)
     assert status == "succeeded" and left <= 0.2
     assert touched == set()
-    assert result["planning"]["found"] >= 1
+    assert result["planning"]["found"] == result["planning"]["plans"] >= 1
+    dwa = DwaConfig()  # the speeds change by no more than the limits allow in one behaviour step (20 Hz)
+    moving = commands[:-1]  # the last one is the stop on arrival
+    pairs = list(zip(moving, moving[1:], strict=False))
+    assert max(abs(b.v - a.v) for a, b in pairs) <= dwa.max_accel / 20 + 1e-9
+    assert max(abs(b.omega - a.omega) for a, b in pairs) <= dwa.max_yaw_accel / 20 + 1e-9
+    assert max(c.v for c in commands) <= dwa.max_speed and max(abs(c.omega) for c in commands) <= dwa.max_turn_rate
 
 
 def test_known_map_without_a_lidar() -> None:

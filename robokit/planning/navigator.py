@@ -100,6 +100,7 @@ class PlanningNavigator:
         self._scan: LaserScan | None = None
         self._seg = 0
         self._last_t: float | None = None
+        self._last_cmd: tuple[float, Twist] | None = None  # (sim time, command) of the last planned step
 
     def reset(self) -> None:
         """Forget the path (a new goal follows)."""
@@ -200,7 +201,8 @@ class PlanningNavigator:
 
         Args:
             pose: Robot pose (x, y, yaw), world frame.
-            velocity: Measured ``(v, omega)``, m/s and rad/s.
+            velocity: Measured ``(v, omega)``, m/s and rad/s (the window starts from the last command instead
+                when the previous step was planned too).
             scan: Latest scan (folded in once).
             goal: Target, world xy, m.
             t: Sim time, s.
@@ -223,9 +225,12 @@ class PlanningNavigator:
             return None
         carrot = self.carrot(pose)
         dist = math.dist(pose[:2], goal)
-        choice = self.dwa.choose(pose, velocity[0], velocity[1], carrot, dist, self.cfg.lookahead,
-                                 self.grid.clearance_at)
+        v0, w0 = velocity
+        if self._last_cmd is not None and t - self._last_cmd[0] <= 1.5 * self.dwa.period:
+            v0, w0 = self._last_cmd[1].v, self._last_cmd[1].omega  # the window moves from what was commanded
+        choice = self.dwa.choose(pose, v0, w0, carrot, dist, self.cfg.lookahead, self.grid.clearance_at)
         error = wrap_angle(math.atan2(carrot[1] - pose[1], carrot[0] - pose[0]) - pose[2])
+        self._last_cmd = (t, choice.twist)
         return choice.twist, error
 
 
