@@ -237,10 +237,14 @@ def test_a_real_worker_serves_another_student_before_a_backlog_and_submit_waits_
         done = "SELECT count(*) FROM course_submission WHERE status = 'done'"
         server.wait_for("every submission evaluated", lambda: server.query(done)[0][0] == 6, 600)
         order = [pk for (pk,) in server.query("SELECT id FROM course_submission ORDER BY claimed_at, id")]
-        spans = dict(server.query("SELECT id, (julianday(finished_at) - julianday(?)) * 86400 "
-                                  "FROM course_submission", lee_posted))
+        finished = dict(server.query("SELECT id, finished_at FROM course_submission"))
     finally:
         server.stop()
+    def utc(when: Any) -> dt.datetime:  # SQLite gives text (UTC, no zone), PostgreSQL a datetime
+        when = when if isinstance(when, dt.datetime) else dt.datetime.fromisoformat(when)
+        return when if when.tzinfo else when.replace(tzinfo=dt.timezone.utc)
+
+    spans = {pk: (utc(when) - utc(lee_posted)).total_seconds() for pk, when in finished.items()}
     assert order.index(lee_id) <= order.index(kim[1])  # at most Kim's first ran before it
     assert order[-3:] == kim[-3:] or order[-3:] == kim[1:]
     print(f"\nsubmit --wait: {alone:.1f} s alone, {behind:.1f} s behind a 4-submission backlog "
