@@ -289,6 +289,22 @@ def test_composites_go_by_each_childs_goal_judged_when_it_ends(kind: str, childr
     assert (run.outcome.status if run.outcome else None, tick) == (want, want_tick)
     got = records(run, "steps" if kind == "sequence" else "children")
     assert [got.get(n, "not started" if kind != "parallel" else "running") for n in plans] == want_children
+    # each judged child's record holds its goal, and what it claimed where the world disagreed; a goal trace each
+    full = {r["name"]: r for r in run.result()["steps" if kind == "sequence" else "children"]}
+    goals = [r for r in run.trace if r["kind"] == "goal"]
+    ended = [i for i, (_, _, g, _, _) in enumerate(children)  # stated a goal and ended (not halted)
+             if g is not None and full[f"c{i}"].get("sim_time") is not None and full[f"c{i}"]["outcome"] != "halted"]
+    assert sorted((r["child"], r["met"]) for r in goals) == sorted((f"c{i}", children[i][2]) for i in ended)
+    for i, (claimed, _, goal, _, _) in enumerate(children):
+        record = full[f"c{i}"]
+        if i in ended:
+            assert record["goal"]["met"] == goal and record["goal"]["reason"] == f"c{i} {'met' if goal else 'not met'}"
+        else:
+            assert "goal" not in record
+        if i in ended and judged(claimed, goal) != claimed:
+            assert record["claimed"]["outcome"] == claimed and record["claimed"]["reason"] == f"c{i} {claimed}"
+        else:
+            assert "claimed" not in record
     # the run's final verdict: only a composite that succeeded is asked again, about what must last
     verdict = composite.check_goal(None)
     if want != "succeeded":
@@ -302,6 +318,10 @@ def test_composites_go_by_each_childs_goal_judged_when_it_ends(kind: str, childr
         assert verdict is None
     else:
         assert verdict is not None and verdict.met == all(children[i][3] for i in asked)
+        key = "steps" if kind == "sequence" else "children"
+        assert {n: v["met"] for n, v in verdict.details[key].items()} == {f"c{i}": children[i][3] for i in asked}
+        missed = [f"c{i}: c{i} not met" for i in asked if not children[i][3]]
+        assert verdict.reason == ("; ".join(missed) if missed else "; ".join(f"c{i}: c{i} met" for i in asked))
 
 
 # ------------------------------------------------------------------------------------------ a child that raises
