@@ -207,3 +207,20 @@ def test_without_any_korean_font_one_warning_not_one_per_glyph(tmp_path: Any) ->
     assert found["font"] is None and all("<svg" in s for s in found["svgs"])
     assert not [w for w in found["warnings"] if "Glyph" in w]
     assert stderr.count("no Korean font found") == 1 and "fonts-nanum" in stderr
+
+
+def test_charts_drawn_on_many_threads_at_once_equal_the_same_charts_drawn_one_by_one() -> None:
+    """The server draws charts on its request threads: a chart must not depend on what another thread draws."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from robokit.server import charts
+
+    jobs = [lambda i=i: charts.reasons(f"실패 이유 {i}", [("물체를 놓침", i + 1), ("timeout", 2 * i + 1)])
+            for i in range(6)]
+    jobs += [lambda i=i: charts.distribution(f"학생별 성공률 {i}", [0.1 * i, 0.5, 1.0], "공식 성공률")
+             for i in range(6)]
+    alone = [job() for job in jobs]
+    with ThreadPoolExecutor(max_workers=6) as pool:
+        together = list(pool.map(lambda job: job(), jobs * 2))
+    assert together == alone * 2
+    assert len(set(alone)) == len(alone)  # every chart differs from the others: a mix-up would show

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import io
 import textwrap
+import threading
 from collections.abc import Sequence
 from datetime import datetime, timedelta
 from typing import Any
@@ -27,26 +28,47 @@ def _integer_ticks() -> Any:
     return MaxNLocator(integer=True)
 
 
-def _plt() -> Any:
-    import matplotlib
+_SETUP = threading.Lock()
+_configured = False
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
-    family = korean_font()
-    plt.rcParams.update({"font.family": "sans-serif", "font.sans-serif": [*([family] if family else []),
-                                                                          *KOREAN_FONTS],
-                         "svg.fonttype": "path", "axes.unicode_minus": False, "svg.hashsalt": "robokit"})
-    return plt
+def _configure() -> None:
+    """Set matplotlib's fonts and SVG options once per process, under a lock (requests arrive on many threads)."""
+    global _configured
+    with _SETUP:
+        if _configured:
+            return
+        import matplotlib
+
+        family = korean_font()
+        matplotlib.rcParams.update({"font.family": "sans-serif",
+                                    "font.sans-serif": [*([family] if family else []), *KOREAN_FONTS],
+                                    "svg.fonttype": "path", "axes.unicode_minus": False, "svg.hashsalt": "robokit"})
+        _configured = True
+
+
+class _Figures:
+    """Figures made without pyplot: pyplot keeps one global set of figures, which the server's request threads
+    would share; a ``Figure`` of a request's own is never seen by another thread."""
+
+    @staticmethod
+    def subplots(*args: Any, figsize: tuple[float, float], **kwargs: Any) -> tuple[Any, Any]:
+        from matplotlib.figure import Figure
+
+        _configure()
+        fig = Figure(figsize=figsize)
+        return fig, fig.subplots(*args, **kwargs)
+
+
+def _plt() -> type[_Figures]:
+    return _Figures
 
 
 def _svg(fig: Any) -> bytes:
-    plt = _plt()
     buf = io.BytesIO()
     with quiet_missing_glyphs():
         fig.tight_layout()
         fig.savefig(buf, format="svg", metadata={"Date": None})
-    plt.close(fig)
     return buf.getvalue()
 
 
