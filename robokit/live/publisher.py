@@ -150,7 +150,7 @@ class PageKeys:
         self._down: set[int] = set()
         self._triggered: set[int] = set()
 
-    def set(self, name: str, down: bool) -> None:
+    def press(self, name: str, down: bool) -> None:
         """A key pressed (``down``) or released in the page.
 
         Raises:

@@ -39,6 +39,7 @@ class LiveServer:
         self.streams: dict[int, int] = {}
         """Open event streams: thread id -> the last frame number sent."""
         self._lock = threading.Lock()
+        self._page_scene: tuple[Any, dict[str, Any]] | None = None  # the scene, and it with its meshes read
         self.httpd = ThreadingHTTPServer((host, port), _handler(self))
         self.httpd.daemon_threads = True
         self.port = self.httpd.server_address[1]
@@ -53,8 +54,14 @@ class LiveServer:
         def inline(text: str) -> str:
             return text.replace("</script", "<\\/script")
 
+        from robokit.live.view import add_meshes
+
+        with self._lock:
+            if self._page_scene is None or self._page_scene[0] is not self.scene:
+                self._page_scene = (self.scene, add_meshes(self.scene or {}))
+            scene = self._page_scene[1]
         three = viewer_script() or ""
-        data = json.dumps({"scene": self.scene, "machines": self.machines}, separators=(",", ":"))
+        data = json.dumps({"scene": scene, "machines": self.machines}, separators=(",", ":"))
         template = (DATA / "live" / "index.html").read_text(encoding="utf-8")
         return (template.replace("/*REPLAY_CSS*/", REPLAY_CSS).replace("<!--REPLAY-->", replay_markup())
                 .replace("/*THREE*/", inline(three))
@@ -172,7 +179,7 @@ def _handler(server: LiveServer) -> type[BaseHTTPRequestHandler]:
                 if route[0] == "/control":
                     server.view.control.apply(str(body.get("action", "")), str(body.get("value", "")))
                 elif route[0] == "/key":
-                    server.view.keys.set(str(body.get("key", "")), bool(body.get("down", True)))
+                    server.view.keys.press(str(body.get("key", "")), bool(body.get("down", True)))
                 else:
                     self._error(HTTPStatus.NOT_FOUND, f"no such endpoint: {route[0]}")
                     return

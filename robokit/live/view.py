@@ -38,34 +38,51 @@ def _base_frame(client: Any, bid: int) -> tuple[Any, Any]:
 def scene_payload(sim: Any) -> tuple[dict[str, Any], list[Any]]:
     """What the replay viewer (``robokit/data/replay.js``) needs to draw the live world: its ``RK_REPLAY`` payload
     with one pose sample (the scene now), and the drawn links (for :func:`link_poses`)."""
-    from robokit.record.replay import _links, read_obj
+    from robokit.record.replay import _links
     from robokit.record.scene import NAMED_VIEWS, Scene, body_boxes, orbit_view, scene_box
 
     world = sim.world
     links, shapes = _links(Scene(world, None, {name: [] for name in world.body_names}))  # type: ignore[arg-type]
-    meshes: dict[str, int] = {}
-    mesh_data: list[dict[str, str]] = []
     items = []
     for s in shapes:
         item: dict[str, Any] = {"frame": s.frame, "kind": s.kind, "size": s.size, "rgba": s.rgba,
                                 "position": s.position, "quaternion": s.quaternion}
         if s.kind == "mesh":
-            if s.mesh not in meshes:
-                got = read_obj(Path(s.mesh)) if s.mesh.lower().endswith(".obj") else None
-                if got is None:
-                    continue
-                meshes[s.mesh] = len(mesh_data)
-                mesh_data.append({"vertices": _b64(got[0]), "triangles": _b64(got[1])})
-            item["mesh"] = meshes[s.mesh]
+            if not s.mesh.lower().endswith(".obj"):
+                continue
+            item["mesh_file"] = s.mesh  # read by add_meshes, in the server's thread, when a page first asks
         items.append(item)
     lo, hi = scene_box(world)
     corners = [np.array([x, y, z]) for blo, bhi in body_boxes(world)
                for x in (blo[0], bhi[0]) for y in (blo[1], bhi[1]) for z in (blo[2], bhi[2])]
     view = orbit_view((lo + hi) / 2, corners or [lo, hi], *NAMED_VIEWS["iso"], aspect=4 / 3)
     poses = np.asarray([v if v is not None else math.nan for v in link_poses(world, links)], np.float32)
-    return ({"links": [link.path for link in links], "shapes": items, "meshes": mesh_data, "frames": [],
+    return ({"links": [link.path for link in links], "shapes": items, "meshes": [], "frames": [],
              "view": {"eye": view.eye, "target": view.target, "up": view.up, "fov": view.fov},
              "t": _b64(np.zeros(1, np.float32)), "poses": _b64(poses), "duration": 0.0, "machines": []}, links)
+
+
+def add_meshes(scene: dict[str, Any]) -> dict[str, Any]:
+    """:func:`scene_payload`'s payload with its meshes read (OBJ files, each once); a shape whose mesh cannot be read
+    is left out. Reading files takes a while: the server does it when a page first asks, not the loop."""
+    from robokit.record.replay import read_obj
+
+    index: dict[str, int | None] = {}
+    meshes: list[dict[str, str]] = []
+    shapes = []
+    for item in scene["shapes"]:
+        path = item.get("mesh_file")
+        if path is None:
+            shapes.append(item)
+            continue
+        if path not in index:
+            got = read_obj(Path(path))
+            index[path] = None if got is None else len(meshes)
+            if got is not None:
+                meshes.append({"vertices": _b64(got[0]), "triangles": _b64(got[1])})
+        if index[path] is not None:
+            shapes.append({**{k: v for k, v in item.items() if k != "mesh_file"}, "mesh": index[path]})
+    return {**scene, "shapes": shapes, "meshes": meshes}
 
 
 def _b64(a: np.ndarray) -> str:
