@@ -83,3 +83,30 @@ def _final_pose(config: str, max_time: float, overrides: dict[str, object]) -> t
         sim.run(max_time=max_time)
         pos, orn = sim.world.client.getBasePositionAndOrientation(sim.world.body("robot"))
         return tuple(pos), tuple(orn)
+
+
+def test_a_live_view_bound_beyond_loopback_answers_only_with_its_token() -> None:
+    import json
+    import urllib.error
+    import urllib.request
+
+    from robokit.live import LiveView
+
+    view = LiveView("0.0.0.0", 0, announce=False)  # noqa: S104 - the point of the test
+    try:
+        token = view.server.token
+        assert token and view.url.endswith(f"/?token={token}")
+        base = f"http://127.0.0.1:{view.server.port}"
+        for path in ("/state", "/state?token=wrong", "/"):
+            with pytest.raises(urllib.error.HTTPError) as refused:
+                urllib.request.urlopen(base + path, timeout=30)
+            assert refused.value.code == 403
+        with urllib.request.urlopen(f"{base}/state?token={token}", timeout=30) as reply:
+            assert json.loads(reply.read()) is None  # no run has started: no frame yet
+    finally:
+        view.close(grace=0)
+    loopback = LiveView("127.0.0.1", 0, announce=False)
+    try:
+        assert loopback.server.token is None
+    finally:
+        loopback.close(grace=0)
