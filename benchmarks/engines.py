@@ -10,7 +10,8 @@ main job's loop per simulated second, three ways: robokit on MuJoCo, the same co
 (``mj_step`` alone, the model robokit built, from its state after set-up), and robokit on PyBullet. Only the loop
 is counted: after set-up and the first tick (the first camera frame), ticks 1 to 421 (the sort approaches, grasps
 and carries its first cube, before its second frame) run inside a call that callgrind is told to count
-(``--toggle-collect``: libc's ``qsort`` calling back into Python once, a C frame that marks the span).
+(``--toggle-collect``: CPython's ``functools_reduce`` calling back into Python once, a C frame nothing else in the
+loop enters).
 
 ``--grasp`` measures held objects instead, per engine and seed: ``configs/pick_place.toml`` and a three-colour sort
 (``configs/sort_robot.toml`` with a green bin and two green cubes added). While a cube is off the table (its centre
@@ -183,20 +184,12 @@ def loop_only(how: str, ticks: int) -> None:
 
 
 def counted(run: Any) -> None:
-    """Call ``run`` from inside libc's ``qsort`` (comparing two elements: one call back), the C frame that
-    ``valgrind --toggle-collect=qsort`` counts within."""
-    import ctypes
-    import ctypes.util
+    """Call ``run`` from inside ``functools.reduce`` (two items: one call), the C function (CPython's
+    ``functools_reduce``) that ``valgrind --toggle-collect=functools_reduce`` counts within; nothing in the loop
+    enters it (libc's ``qsort`` would not do: MuJoCo sorts inside a step)."""
+    import functools
 
-    libc = ctypes.CDLL(ctypes.util.find_library("c"))
-    compare = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, ctypes.c_void_p)
-
-    def once(_a: int, _b: int) -> int:
-        run()
-        return 0
-
-    pair = (ctypes.c_int * 2)(1, 2)
-    libc.qsort(pair, 2, ctypes.sizeof(ctypes.c_int), compare(once))
+    functools.reduce(lambda _a, _b: run(), (None, None))
 
 
 def loop_instructions(ticks: int) -> None:
@@ -211,7 +204,7 @@ def loop_instructions(ticks: int) -> None:
     for how in ("bare", "mujoco", "pybullet"):
         with tempfile.TemporaryDirectory() as tmp:
             out = Path(tmp) / "callgrind.out"
-            subprocess.run(["valgrind", "--tool=callgrind", "--collect-atstart=no", "--toggle-collect=qsort",
+            subprocess.run(["valgrind", "--tool=callgrind", "--collect-atstart=no", "--toggle-collect=functools_reduce",
                             f"--callgrind-out-file={out}", sys.executable, __file__, "--loop-only", how, "--ticks",
                             str(ticks)], check=True, capture_output=True)
             summary = [line for line in out.read_text().splitlines() if line.startswith(("summary:", "totals:"))]
