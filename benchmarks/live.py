@@ -111,7 +111,7 @@ def main() -> None:
     print(f"CPU time per tick, live / plain (medians of {args.repeats}): {ratio:.3f}x "
           f"({statistics.median(plain) * 1e6:.1f} -> {statistics.median(live) * 1e6:.1f} us/tick); "
           f"load {os.getloadavg()[0]:.1f}")
-    print(f"the live view's start (its scene built, the server taking the page), once a run: "
+    print(f"the live view's start (its scene built from the world), once a run: "
           f"{statistics.median(starts) * 1e3:.0f} ms CPU")
 
 
