@@ -91,6 +91,29 @@ def records(run: ScriptedRun, key: str) -> dict[str, str]:
     return {r["name"]: r["outcome"] for r in run.result()[key]}
 
 
+def check_trace(run: ScriptedRun, composite: str, key: str, kind: str) -> None:
+    """docs/behaviours.md: every start, end and halt is a trace record naming the composite and the child (a
+    sequence writes step_start / step_end); each child's record has name, type, outcome, reason, started_at."""
+    label, word = ("step", "step") if kind == "sequence" else ("child", "child")
+    for r in run.result()[key]:
+        i = int(r["name"][1:])  # its place among the children ("c<i>"); records come in the order they ended
+        assert r["type"] == "Scripted" and set(r) >= {"name", "type", "outcome", "reason", "result"}
+        starts = [x for x in run.trace if x["kind"] == f"{word}_start" and x[label] == r["name"]]
+        ends = [x for x in run.trace if x["kind"] == f"{word}_end" and x[label] == r["name"]]
+        halts = [x for x in run.trace if x["kind"] == "child_halt" and x["child"] == r["name"]]
+        if r["outcome"] == "not started":
+            assert not starts and not ends and not halts
+            continue
+        assert [(x["composite"], x["index"], x["type"]) for x in starts] == [(composite, i, "Scripted")]
+        if r["outcome"] == "halted":
+            assert not ends and [x["composite"] for x in halts] == [composite]
+        elif r["outcome"] == "running":
+            assert not ends and not halts
+        else:
+            assert [(x["composite"], x["index"], x["outcome"], x["reason"]) for x in ends] == [
+                (composite, i, r["outcome"], r["reason"])]
+
+
 child = st.tuples(st.sampled_from([*ENDS, None]), st.integers(0, 4))
 
 
@@ -125,6 +148,9 @@ def test_sequence_and_fallback_against_every_outcome_combination(kind: str, chil
     got = records(run, "steps" if kind == "sequence" else "children")
     assert [got.get(n, "not started") for n in plans] == want_children
     assert all(not p.halts for p in plans.values())  # an ordered composite ends no child early
+    check_trace(run, composite.name, "steps" if kind == "sequence" else "children", kind)
+    if kind == "sequence":
+        assert run.result()["steps_completed"] == want_children.count("succeeded")
     start = 0  # each record: when the child started, how long it ran (sim s), and the child's own result
     for r, (_, d), plan in zip(run.result()["steps" if kind == "sequence" else "children"], children,
                                plans.values(), strict=True):
@@ -219,6 +245,7 @@ def test_parallel_against_every_outcome_combination_and_policy(children: list, s
     assert (outcome, tick) == (want, want_tick)
     got = records(run, "children")
     assert [got.get(n, "running") for n in plans] == want_children
+    check_trace(run, "par", "children", "parallel")
     full = {r["name"]: r for r in run.result()["children"]}
     for name, plan in plans.items():  # a halted child: halted in the deciding tick, never stepped again
         if got.get(name) == "halted":
