@@ -2,7 +2,7 @@
 
 :class:`World` holds what every engine shares (the name registry, the sim clock, the run's random generator, name
 lookups, seeded placement) and declares, as abstract methods, everything an engine must answer. An engine is a
-subclass (``robokit/engines/pybullet.py``: :class:`~robokit.engines.pybullet.PyBulletWorld`); ``World(...)``
+subclass (``robokit/engines/pybullet/``: :class:`~robokit.engines.pybullet.PyBulletWorld`); ``World(...)``
 itself builds the engine named by ``engine=`` (default ``"pybullet"``), so code written against today's World
 keeps working.
 
