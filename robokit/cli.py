@@ -110,6 +110,8 @@ _RUN_OPTIONS: tuple[tuple[str, dict[str, Any]], ...] = (
                                                 "a token)"}),
     ("--live-port", {"type": int, "default": 8765, "metavar": "PORT",
                      "help": "with --live: the page's port (default 8765; 0 = any free port)"}),
+    ("--live-foxglove", {"type": int, "metavar": "PORT", "help": "with --live: also serve the Foxglove WebSocket "
+                                                                 "protocol on PORT (robokit[foxglove])"}),
     ("--video", {"metavar": "FILE", "help": "render an MP4 of the run right after it, before the result is sent "
                                             "(robokit video)"}),
 )
@@ -251,12 +253,12 @@ def cmd_run(args: argparse.Namespace) -> int:
 def _live_view(args: argparse.Namespace, plugins: Any) -> Any:
     """``--live``: the live view, registered as a plugin of this run (it starts serving when the run starts)."""
     if not args.live:
-        if args.live_host:
-            raise UserError("--live-host needs --live")
+        if args.live_host or args.live_foxglove is not None:
+            raise UserError(f"{'--live-host' if args.live_host else '--live-foxglove'} needs --live")
         return None
     from robokit.live import LiveView
 
-    view = LiveView(args.live_host or "127.0.0.1", args.live_port)
+    view = LiveView(args.live_host or "127.0.0.1", args.live_port, foxglove_port=args.live_foxglove)
     plugins.pm.register(view, name="robokit-live")
     return view
 

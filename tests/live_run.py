@@ -28,10 +28,12 @@ def plain_run(config: str, max_time: float, overrides: dict[str, Any] | None = N
 class LiveRun:
     """A run with a live view (started paused, as fast as possible when let go) in a thread."""
 
-    def __init__(self, config: str, max_time: float, overrides: dict[str, Any] | None = None) -> None:
+    def __init__(self, config: str, max_time: float, overrides: dict[str, Any] | None = None, *,
+                 foxglove: bool = False) -> None:
         plugins = load_plugins()
         self.max_time = max_time
-        self.view = LiveView("127.0.0.1", 0, paused=True, speed=math.inf, announce=False)
+        self.view = LiveView("127.0.0.1", 0, paused=True, speed=math.inf, announce=False,
+                             foxglove_port=0 if foxglove else None)
         plugins.pm.register(self.view, name="robokit-live")
         self.sim = Simulation(load_config(config, plugins, overrides), plugins)
         self.result: RunResult | None = None

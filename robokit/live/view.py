@@ -144,6 +144,8 @@ class LiveView:
         speed: Sim seconds per wall second (``math.inf``: as fast as possible).
         fps: Frames the page is sent at most per wall second while the run goes.
         announce: Print the page's URL on stderr.
+        foxglove_port: Also serve the Foxglove WebSocket protocol on this port (0: any free one; None: not at all);
+            see :mod:`robokit.live.foxglove_bridge`.
 
     Raises:
         UserError: The address cannot be served (the port is taken).
@@ -153,14 +155,15 @@ class LiveView:
     period = 1
 
     def __init__(self, host: str = "127.0.0.1", port: int = 0, *, paused: bool = False, speed: float = 1.0,
-                 fps: float = 30.0, announce: bool = True) -> None:
+                 fps: float = 30.0, announce: bool = True, foxglove_port: int | None = None) -> None:
         self.host, self.port = host, port
         self.publisher = Publisher()
         self.control = Control(paused=paused, speed=speed)
         self.keys = PageKeys()
         self.fps = fps
         self.sim: Any = None
-        self._links: list[Any] = []
+        self.links: list[Any] = []
+        """The drawn links (:class:`robokit.record.replay.Link`), in the order of a frame's ``poses``."""
         self._states: dict[str, str] = {}
         self._recent: deque[dict[str, Any]] = deque(maxlen=TRANSITIONS_KEPT)
         self._next = 0.0
@@ -173,8 +176,16 @@ class LiveView:
             raise UserError(f"--live: cannot serve on {host}:{port}: {exc.strerror or exc} (choose another port with "
                             f"--live-port, 0 for any free one)") from None
         self.url = self.server.url
+        self.foxglove: Any = None
+        if foxglove_port is not None:
+            from robokit.live.foxglove_bridge import FoxgloveBridge
+
+            self.foxglove = FoxgloveBridge(self, host, foxglove_port)
         if announce:
             print(f"robokit: live view at {self.url}", file=sys.stderr, flush=True)
+            if self.foxglove is not None:
+                print(f"robokit: Foxglove live at {self.foxglove.url} (Foxglove app: open connection, Foxglove "
+                      f"WebSocket)", file=sys.stderr, flush=True)
 
     # ----------------------------------------------------------------- lifecycle hooks
     @hookimpl
@@ -185,7 +196,7 @@ class LiveView:
         from robokit.record.layout import machines_of
 
         self.sim = simulation
-        scene, self._links = scene_payload(simulation)
+        scene, self.links = scene_payload(simulation)
         machines = machines_of(simulation.behaviour)
         self._states = {m["name"]: m["initial"] for m in machines}
         for comp in simulation.components.values():
@@ -224,7 +235,7 @@ class LiveView:
         """The state now: tick, sim time ``t`` (s), link ``poses`` (see :func:`link_poses`), each machine's state,
         the latest transitions, the controls, and the ``outcome`` once the run has ended."""
         world = self.sim.world
-        return {"tick": world.tick, "t": round(world.time, 6), "poses": link_poses(world, self._links),
+        return {"tick": world.tick, "t": round(world.time, 6), "poses": link_poses(world, self.links),
                 "states": dict(self._states), "recent": list(self._recent), **self.control.state(),
                 "outcome": self.outcome}
 
@@ -239,3 +250,6 @@ class LiveView:
             self.server.stop()
             self.server = None
         self.publisher.close()
+        if self.foxglove is not None:
+            self.foxglove.stop()
+            self.foxglove = None

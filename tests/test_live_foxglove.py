@@ -1,0 +1,72 @@
+"""The live view over the Foxglove WebSocket protocol (foxglove-sdk's server), read by a plain WebSocket client
+speaking the protocol: the channels of the .mcap export are advertised, ``/tf`` carries the cube's pose as the world
+has it, ``/scene`` the cube's box as PyBullet holds it."""
+
+from __future__ import annotations
+
+import json
+import struct
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from tests.live_run import LiveRun
+
+pytestmark = pytest.mark.slow  # a few seconds: the default tier's budget is kept for the checks without a client
+
+pytest.importorskip("foxglove")
+websockets_sync = pytest.importorskip("websockets.sync.client")
+
+SORT = str(Path(__file__).resolve().parent.parent / "configs" / "sort_robot.toml")
+
+
+def _next(ws: Any, wanted: dict[int, str], topic: str) -> dict[str, Any]:
+    """The next message on ``topic`` (binary message data, opcode 1: subscription id, log time, JSON payload)."""
+    while True:
+        data = ws.recv(timeout=60)
+        if isinstance(data, bytes) and data[0] == 1:
+            sub, _log_time = struct.unpack_from("<IQ", data, 1)
+            if wanted[sub] == topic:
+                return dict(json.loads(data[13:]))
+
+
+def test_foxglove_clients_get_the_exports_topics_live() -> None:
+    from websockets.sync.client import connect
+
+    live = LiveRun(SORT, 20.0, foxglove=True)
+    try:
+        live.post("/control", {"action": "speed", "value": "max"})
+        live.post("/control", {"action": "resume"})
+        live.frame_where(lambda f: f["tick"] >= 1500)  # past the first pick's transitions
+        live.post("/control", {"action": "pause"})
+        live.frame_where(lambda f: f["paused"])
+        bridge = live.view.foxglove
+        with connect(f"ws://127.0.0.1:{bridge.port}", subprotocols=["foxglove.sdk.v1", "foxglove.websocket.v1"],
+                     open_timeout=60, max_size=None) as ws:  # the scene embeds its meshes
+            channels: dict[str, dict[str, Any]] = {}
+            while len(channels) < 3:
+                msg = ws.recv(timeout=60)
+                if isinstance(msg, str) and json.loads(msg).get("op") == "advertise":
+                    channels.update({c["topic"]: c for c in json.loads(msg)["channels"]})
+            assert {t: c["schemaName"] for t, c in channels.items()} == {
+                "/tf": "foxglove.FrameTransforms", "/scene": "foxglove.SceneUpdate", "/states": "foxglove.Log"}
+            subs = {i: topic for i, topic in enumerate(("/tf", "/scene"), 1)}
+            ws.send(json.dumps({"op": "subscribe", "subscriptions": [
+                {"id": i, "channelId": channels[topic]["id"]} for i, topic in subs.items()]}))
+            scene = _next(ws, subs, "/scene")  # sent on subscribing: both subscriptions hold from then on
+            tick = live.step()  # one more frame, for /tf
+            ns = round(round(tick / 240, 6) * 1e9)  # frames carry sim time to the microsecond
+            tf_msg = _next(ws, subs, "/tf")
+            while tf_msg["transforms"][0]["timestamp"] != {"sec": ns // 10**9, "nsec": ns % 10**9}:
+                tf_msg = _next(ws, subs, "/tf")  # a frame logged before the step
+        world, client = live.sim.world, live.sim.world.client
+        pos, orn = client.getBasePositionAndOrientation(world.body("red_0"))
+        tf = next(t for t in tf_msg["transforms"] if t["child_frame_id"].startswith("red_0/"))
+        assert [tf["translation"][k] for k in "xyz"] == pytest.approx(list(pos), abs=2e-6)
+        assert [tf["rotation"][k] for k in "xyzw"] == pytest.approx(list(orn), abs=2e-6)
+        cube = next(e for e in scene["entities"] if e["id"].startswith("red_0/"))
+        size = client.getVisualShapeData(world.body("red_0"))[0][3]
+        assert [cube["cubes"][0]["size"][k] for k in "xyz"] == pytest.approx(list(size))
+    finally:
+        live.close()
