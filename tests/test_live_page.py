@@ -100,7 +100,11 @@ def test_a_key_pressed_in_the_page_drives_the_teleop_robot_as_the_scripted_key()
             live.held_at(k)
         ActionChains(driver).key_up(Keys.ARROW_UP).perform()
         assert live.view.keys.wait_held(set(), 60)
-        live.finish()
+        result, _ = live.finish()
+        from selenium.webdriver.support.ui import WebDriverWait
+
+        WebDriverWait(driver, 60).until(lambda d: d.find_element(By.ID, "live-outcome").text)
+        assert driver.find_element(By.ID, "live-outcome").text == f"{result.outcome}: {result.reason}"
         pos, orn = live.sim.world.client.getBasePositionAndOrientation(live.sim.world.body("robot"))
     finally:
         driver.quit()

@@ -35,6 +35,8 @@ class LiveServer:
         self.scene: dict[str, Any] | None = None
         """The replay viewer's payload of the run's world (set when the run starts)."""
         self.machines: list[dict[str, Any]] = []
+        self.run: dict[str, Any] = {}
+        """The run's ``id`` and record ``folder`` (None when the run keeps no record)."""
         self.token = None if host in LOOPBACK else secrets.token_urlsafe(16)
         self.streams: dict[int, int] = {}
         """Open event streams: thread id -> the last frame number sent."""
@@ -61,7 +63,7 @@ class LiveServer:
                 self._page_scene = (self.scene, add_meshes(self.scene or {}))
             scene = self._page_scene[1]
         three = viewer_script() or ""
-        data = json.dumps({"scene": scene, "machines": self.machines}, separators=(",", ":"))
+        data = json.dumps({"scene": scene, "machines": self.machines, "run": self.run}, separators=(",", ":"))
         template = (DATA / "live" / "index.html").read_text(encoding="utf-8")
         return (template.replace("/*REPLAY_CSS*/", REPLAY_CSS).replace("<!--REPLAY-->", replay_markup())
                 .replace("/*THREE*/", inline(three))

@@ -206,6 +206,8 @@ class LiveView:
         simulation.add_monitor(self)
         self._publish()
         self.server.scene, self.server.machines = scene, machines
+        folder = getattr(simulation, "run_dir", None)
+        self.server.run = {"id": simulation.run_id, "folder": str(folder) if folder is not None else None}
 
     @hookimpl
     def robokit_run_end(self, simulation: Any, result: Any) -> None:

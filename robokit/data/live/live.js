@@ -65,6 +65,9 @@
     if (f.outcome) {
       outcome.textContent = f.outcome.outcome + ": " + f.outcome.reason;
       outcome.className = f.outcome.outcome;
+      // The run's page is made from its record once the run has ended.
+      if (RK_LIVE.run.folder) document.getElementById("live-after").textContent =
+        "The run's page: robokit view " + RK_LIVE.run.id + "   (record: " + RK_LIVE.run.folder + ")";
     }
     viewer.render();
   }
