@@ -11,13 +11,13 @@ import pytest
 from tests.live_run import LiveRun, plain_run
 
 ROOT = Path(__file__).resolve().parent.parent
-SORT = str(ROOT / "configs" / "sort_robot.toml")
+PICK = str(ROOT / "configs" / "pick_place.toml")
 DRIVE = str(ROOT / "configs" / "drive_teleop.toml")
 
 
 def test_paused_stepped_and_resumed_run_is_the_uninterrupted_run_and_the_state_shows_the_world() -> None:
-    expected, expected_trace = plain_run(SORT, 0.75)
-    live = LiveRun(SORT, 0.75)
+    expected, expected_trace = plain_run(PICK, 1.2)
+    live = LiveRun(PICK, 1.2)
     try:
         live.held_at(0)
         for k in range(1, 4):
@@ -25,19 +25,19 @@ def test_paused_stepped_and_resumed_run_is_the_uninterrupted_run_and_the_state_s
             assert live.sim.world.tick == k  # held: the loop waits at tick k, no further
         live.post("/control", {"action": "speed", "value": "2"})
         live.post("/control", {"action": "resume"})
-        live.frame_where(lambda f: f["tick"] >= 40)
+        live.frame_where(lambda f: f["tick"] >= 150)  # past the first transitions after the start
         live.post("/control", {"action": "pause"})
         held = live.frame_where(lambda f: f["paused"])["tick"]
         state = live.state()
         assert state["tick"] == held == live.sim.world.tick and state["paused"]
         links = live.view.server.scene["links"]
         client, world = live.sim.world.client, live.sim.world
-        for name in ("red_0", "blue_0"):  # a box's base frame is its centre of mass: the world's own pose
+        for name in ("cube",):  # a box's base frame is its centre of mass: the world's own pose
             i = next(n for n, path in enumerate(links) if path.startswith(name + "/"))
             pos, orn = client.getBasePositionAndOrientation(world.body(name))
             assert state["poses"][7 * i:7 * i + 7] == pytest.approx([*pos, *orn], abs=2e-6)
-        last = [r for r in live.sim.trace if r["kind"] == "transition" and r["machine"] == "pick_place"]
-        assert state["states"]["pick_place"] == (last[-1]["dest_state"] if last else "WAIT")
+        last = [r for r in live.sim.trace if r["kind"] == "transition" and r["machine"] == "behaviour"]
+        assert state["states"]["behaviour"] == (last[-1]["dest_state"] if last else "WAIT")
         assert live.step() == held + 1
         result, trace = live.finish()
     finally:

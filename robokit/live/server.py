@@ -47,7 +47,8 @@ class LiveServer:
         self.port = self.httpd.server_address[1]
         shown = "127.0.0.1" if host in ("0.0.0.0", "::") else host  # noqa: S104 - only names what was asked for
         self.url = f"http://{shown}:{self.port}/" + (f"?token={self.token}" if self.token else "")
-        self._thread = threading.Thread(target=self.httpd.serve_forever, name="robokit-live", daemon=True)
+        self._thread = threading.Thread(target=self.httpd.serve_forever, args=(0.1,), name="robokit-live",
+                                        daemon=True)  # polls for stop() every 0.1 s
         self._thread.start()
 
     def page(self) -> str:
