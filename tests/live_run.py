@@ -25,6 +25,15 @@ def plain_run(config: str, max_time: float, overrides: dict[str, Any] | None = N
         return sim.run(max_time=max_time), list(sim.trace)
 
 
+def final_pose(config: str, max_time: float, overrides: dict[str, object]) -> tuple[tuple[float, ...], ...]:
+    """The robot's base pose at the end of a run of ``config`` without a live view."""
+    plugins = load_plugins()
+    with Simulation(load_config(config, plugins, overrides), plugins) as sim:
+        sim.run(max_time=max_time)
+        pos, orn = sim.world.client.getBasePositionAndOrientation(sim.world.body("robot"))
+        return tuple(pos), tuple(orn)
+
+
 class LiveRun:
     """A run with a live view (started paused, as fast as possible when let go) in a thread."""
 

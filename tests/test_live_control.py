@@ -7,8 +7,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-
-from tests.live_run import LiveRun, plain_run
+from live_run import LiveRun, final_pose, plain_run
 
 ROOT = Path(__file__).resolve().parent.parent
 PICK = str(ROOT / "configs" / "pick_place.toml")
@@ -65,24 +64,12 @@ def test_a_key_from_the_page_drives_the_teleop_robot_as_the_scripted_key_does() 
         pos_live, orn_live = client.getBasePositionAndOrientation(bid)
     finally:
         live.close()
-    scripted = _final_pose(DRIVE, max_time, {"sensors.keys.script": [{"at": 0.0, "keys": ["up"],
+    scripted = final_pose(DRIVE, max_time, {"sensors.keys.script": [{"at": 0.0, "keys": ["up"],
                                                                       "hold": (held_ticks - 0.5) * dt}]})
-    still = _final_pose(DRIVE, max_time, no_script)
+    still = final_pose(DRIVE, max_time, no_script)
     assert (pos_live, orn_live) == scripted  # bit for bit
     moved = ((pos_live[0] - still[0][0]) ** 2 + (pos_live[1] - still[0][1]) ** 2) ** 0.5
     assert moved > 0.005, f"the key moved the robot {moved:.4f} m"
-
-
-def _final_pose(config: str, max_time: float, overrides: dict[str, object]) -> tuple[tuple[float, ...], ...]:
-    from robokit.config import load_config
-    from robokit.core.simulation import Simulation
-    from robokit.plugin_api.plugins import load_plugins
-
-    plugins = load_plugins()
-    with Simulation(load_config(config, plugins, overrides), plugins) as sim:
-        sim.run(max_time=max_time)
-        pos, orn = sim.world.client.getBasePositionAndOrientation(sim.world.body("robot"))
-        return tuple(pos), tuple(orn)
 
 
 def test_a_live_view_bound_beyond_loopback_answers_only_with_its_token() -> None:

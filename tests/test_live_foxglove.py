@@ -10,8 +10,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-
-from tests.live_run import LiveRun
+from live_run import LiveRun
 
 pytestmark = pytest.mark.slow  # a few seconds: the default tier's budget is kept for the checks without a client
 

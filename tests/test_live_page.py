@@ -8,10 +8,8 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-
-from tests.live_run import LiveRun, plain_run
-from tests.test_live_control import _final_pose
-from tests.test_replay_page import chromium
+from live_run import LiveRun, final_pose, plain_run
+from test_replay_page import chromium
 
 pytestmark = pytest.mark.slow
 
@@ -109,7 +107,7 @@ def test_a_key_pressed_in_the_page_drives_the_teleop_robot_as_the_scripted_key()
     finally:
         driver.quit()
         live.close()
-    scripted = _final_pose(DRIVE, max_time, {"sensors.keys.script": [{"at": 0.0, "keys": ["up"],
+    scripted = final_pose(DRIVE, max_time, {"sensors.keys.script": [{"at": 0.0, "keys": ["up"],
                                                                       "hold": (held_ticks - 0.5) * dt}]})
     assert (pos, orn) == scripted
 
