@@ -134,7 +134,8 @@ def _handler(server: LiveServer) -> type[BaseHTTPRequestHandler]:
                 return
             path = route[0]
             if path == "/" and server.scene is None:
-                self._reply(HTTPStatus.SERVICE_UNAVAILABLE, b"<p>The run is starting: reload in a moment.</p>",
+                self._reply(HTTPStatus.SERVICE_UNAVAILABLE, (b"<meta http-equiv='refresh' content='1'>"
+                                                              b"<p>The run is starting: this page reloads itself.</p>"),
                             "text/html; charset=utf-8")
             elif path == "/":
                 self._reply(HTTPStatus.OK, server.page().encode(), "text/html; charset=utf-8")
