@@ -96,7 +96,7 @@ def check_trace(run: ScriptedRun, composite: str, key: str, kind: str) -> None:
     sequence writes step_start / step_end); each child's record has name, type, outcome, reason, started_at."""
     label, word = ("step", "step") if kind == "sequence" else ("child", "child")
     for r in run.result()[key]:
-        i = int(r["name"][1:])  # its place among the children ("c<i>"); records come in the order they ended
+        i = int(r["name"][1:] or 0)  # its place among the children ("c<i>"); records come in the order they ended
         assert r["type"] == "Scripted" and set(r) >= {"name", "type", "outcome", "reason", "result"}
         starts = [x for x in run.trace if x["kind"] == f"{word}_start" and x[label] == r["name"]]
         ends = [x for x in run.trace if x["kind"] == f"{word}_end" and x[label] == r["name"]]
@@ -149,6 +149,8 @@ def test_sequence_and_fallback_against_every_outcome_combination(kind: str, chil
     assert [got.get(n, "not started") for n in plans] == want_children
     assert all(not p.halts for p in plans.values())  # an ordered composite ends no child early
     check_trace(run, composite.name, "steps" if kind == "sequence" else "children", kind)
+    if kind == "fallback" and outcome == "failed":  # every alternative failed or aborted: each one's reason named
+        assert all(f"c{i} {o}" in run.outcome.reason for i, (o, _) in enumerate(children))  # type: ignore[union-attr]
     if kind == "sequence":
         assert run.result()["steps_completed"] == want_children.count("succeeded")
     start = 0  # each record: when the child started, how long it ran (sim s), and the child's own result
@@ -190,17 +192,23 @@ def test_retry_against_every_sequence_of_attempt_outcomes(attempts_plan: list, a
         # every attempt keeps its own record and result
         assert [r["result"] for r in result["children"]] == [{"instance": a, "steps": plan.steps[a]}
                                                               for a in range(made)]
+        starts = [(x["composite"], x["index"]) for x in run.trace if x["kind"] == "child_start"]
+        ends = [(x["index"], x["outcome"]) for x in run.trace if x["kind"] == "child_end"]
+        assert starts == [("retry", a) for a in range(made)]  # each attempt's start and end, numbered
+        assert ends == [(a, r["outcome"]) for a, r in enumerate(result["children"])]
 
 
 # ------------------------------------------------------------------------------------------ timeout
 @PROPS
-@given(child, st.integers(0, 6))
-def test_timeout_against_every_child_outcome_and_length(c: tuple, limit_ticks: int) -> None:
+@given(child, st.integers(0, 6), st.sampled_from([0.0, 0.5]))
+def test_timeout_against_every_child_outcome_and_length(c: tuple, limit_ticks: int, extra: float) -> None:
     """Runs the child; when it has not ended ``seconds`` after its start, halts it and fails (checked before the
-    child's step of that tick); a child that ends in time gives its own outcome."""
+    child's step of that tick: the first step where *more* than ``seconds`` passed); a child that ends in time
+    gives its own outcome."""
     plan = Plan([c])
-    seconds = (limit_ticks + 0.5) * DT  # between two ticks: no rounding question
+    seconds = (limit_ticks + extra) * DT or 0.5 * DT  # on a tick (exactly k ticks) or between two
     outcome, tick, run = run_tree(Timeout("to", TimeoutConfig(seconds=seconds)), {"c": plan})
+    check_trace(run, "to", "children", "timeout")
     o, d = c
     first_late = limit_ticks + 1  # the first tick whose elapsed time exceeds the limit
     if o is not None and d < first_late:
@@ -321,7 +329,8 @@ def test_composites_go_by_each_childs_goal_judged_when_it_ends(kind: str, childr
     goals = [r for r in run.trace if r["kind"] == "goal"]
     ended = [i for i, (_, _, g, _, _) in enumerate(children)  # stated a goal and ended (not halted)
              if g is not None and full[f"c{i}"].get("sim_time") is not None and full[f"c{i}"]["outcome"] != "halted"]
-    assert sorted((r["child"], r["met"]) for r in goals) == sorted((f"c{i}", children[i][2]) for i in ended)
+    assert sorted((r["composite"], r["child"], r["met"], r["reason"]) for r in goals) == sorted(
+        (composite.name, f"c{i}", children[i][2], f"c{i} {'met' if children[i][2] else 'not met'}") for i in ended)
     for i, (claimed, _, goal, _, _) in enumerate(children):
         record = full[f"c{i}"]
         if i in ended:
@@ -330,6 +339,8 @@ def test_composites_go_by_each_childs_goal_judged_when_it_ends(kind: str, childr
             assert "goal" not in record
         if i in ended and judged(claimed, goal) != claimed:
             assert record["claimed"]["outcome"] == claimed and record["claimed"]["reason"] == f"c{i} {claimed}"
+            word = "goal met" if goal else "goal not met"  # the world's word first, then what the child said
+            assert record["reason"].startswith(f"{word}: c{i}") and f"c{i} reported {claimed}" in record["reason"]
         else:
             assert "claimed" not in record
     # the run's final verdict: only a composite that succeeded is asked again, about what must last
@@ -346,7 +357,8 @@ def test_composites_go_by_each_childs_goal_judged_when_it_ends(kind: str, childr
     else:
         assert verdict is not None and verdict.met == all(children[i][3] for i in asked)
         key = "steps" if kind == "sequence" else "children"
-        assert {n: v["met"] for n, v in verdict.details[key].items()} == {f"c{i}": children[i][3] for i in asked}
+        assert {n: (v["met"], v["reason"]) for n, v in verdict.details[key].items()} == {
+            f"c{i}": (children[i][3], f"c{i} {'met' if children[i][3] else 'not met'}") for i in asked}
         missed = {f"c{i}: c{i} not met" for i in asked if not children[i][3]}  # the misses, or else every goal
         assert set(verdict.reason.split("; ")) == (missed or {f"c{i}: c{i} met" for i in asked})
 
