@@ -277,6 +277,7 @@ class Goaled(Scripted):
         self.asked = 0
 
     def check_goal(self, world: Any) -> GoalCheck:
+        assert world is not None  # judged on the run's world
         self.asked += 1
         met = self.at_end if self.asked == 1 else self.later
         return GoalCheck(met, f"{self.name} {'met' if met else 'not met'}")
@@ -344,7 +345,7 @@ def test_composites_go_by_each_childs_goal_judged_when_it_ends(kind: str, childr
         else:
             assert "claimed" not in record
     # the run's final verdict: only a composite that succeeded is asked again, about what must last
-    verdict = composite.check_goal(None)
+    verdict = composite.check_goal(run.world)
     if want != "succeeded":
         assert verdict is None
         return
@@ -410,3 +411,25 @@ def test_a_child_that_raises_is_named_with_its_role_and_what_it_was_doing(kind: 
     text = str(err.value)
     assert f"{ROLES[kind]} 'bad'" in text
     assert ("during halt" if how == "raise-halt" else "during step") in text and "a bug in the child" in text
+
+
+class NoHalt(Behaviour):
+    """A child without ``halt`` (it is optional): never ends."""
+
+    def step(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any]:
+        return {f"motor_{self.name}": 1}
+
+
+@pytest.mark.parametrize("kind", ["parallel", "timeout"])
+def test_a_child_without_halt_is_halted_quietly(kind: str) -> None:
+    """docs/behaviours.md: a halted child's *optional* ``halt(t)`` runs; a child without one is just booked halted."""
+    composite = Parallel("c", ParallelConfig()) if kind == "parallel" else Timeout("c", TimeoutConfig(seconds=DT))
+    members = [Member.of(NoHalt("quiet", None))]
+    if kind == "parallel":
+        members.append(Member.of(Scripted("other", Plan([("failed", 1)]))))
+    composite.add_children(members)
+    run = ScriptedRun(composite)
+    for _ in range(5):
+        run.step({})
+    assert run.outcome is not None and run.outcome.status == "failed"
+    assert {r["name"]: r["outcome"] for r in run.result()["children"]}["quiet"] == "halted"
