@@ -21,7 +21,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("robokit.engines", "robokit.robot", "robokit.planning"),
     ("robokit.core", "robokit.fsm"),
     ("robokit.report", "robokit.record"),
-    ("robokit.runner", "robokit.sweep", "robokit.gym", "robokit.checks", "robokit.server"),
+    ("robokit.runner", "robokit.sweep", "robokit.gym", "robokit.checks", "robokit.server", "robokit.live"),
     ("robokit.testing", "robokit.checks.pytest_plugin", "robokit.cli", "robokit.entry"),
 )
 """Rooms from the bottom up: a module may import its own room and the rooms below it, never one above."""

@@ -57,7 +57,7 @@ class LiveServer:
         def inline(text: str) -> str:
             return text.replace("</script", "<\\/script")
 
-        from robokit.live.view import add_meshes
+        from robokit.live.scene import add_meshes
 
         with self._lock:
             if self._page_scene is None or self._page_scene[0] is not self.scene:
