@@ -10,7 +10,6 @@ ready for one, so the loop never waits for it either. Log times are sim time (na
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import threading
 from typing import Any
@@ -39,10 +38,11 @@ class FoxgloveBridge:
     """
 
     def __init__(self, view: Any, host: str, port: int) -> None:
-        if importlib.util.find_spec("foxglove") is None:
+        try:
+            import foxglove
+        except ImportError:
             raise UserError("--live-foxglove needs foxglove-sdk, which is not installed: "
-                            "pip install 'robokit[foxglove]'")
-        import foxglove
+                            "pip install 'robokit[foxglove]'") from None
 
         from robokit.record.export import SCHEMAS
 

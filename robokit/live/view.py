@@ -70,7 +70,11 @@ class LiveView:
         if foxglove_port is not None:
             from robokit.live.foxglove_bridge import FoxgloveBridge
 
-            self.foxglove = FoxgloveBridge(self, host, foxglove_port)
+            try:
+                self.foxglove = FoxgloveBridge(self, host, foxglove_port)
+            except BaseException:
+                self.server.stop()
+                raise
         if announce:
             print(f"robokit: live view at {self.url}", file=sys.stderr, flush=True)
             if self.foxglove is not None:
