@@ -34,7 +34,7 @@ class FoxgloveBridge:
     """Serves a :class:`robokit.live.view.LiveView`'s frames to Foxglove clients on ``host:port``.
 
     Raises:
-        UserError: ``foxglove-sdk`` is not installed.
+        UserError: ``foxglove-sdk`` is not installed, or ``host:port`` cannot be served.
     """
 
     def __init__(self, view: Any, host: str, port: int) -> None:
@@ -62,8 +62,11 @@ class FoxgloveBridge:
                 if channel.topic == "/scene":
                     bridge.send_scene()
 
-        self.server = foxglove.start_server(name="robokit", host=host, port=port, context=self.context,
-                                            server_listener=Listener())
+        try:
+            self.server = foxglove.start_server(name="robokit", host=host, port=port, context=self.context,
+                                                server_listener=Listener())
+        except RuntimeError as exc:  # the SDK's FoxgloveError: a port taken, an address that cannot be bound
+            raise UserError(f"--live-foxglove: cannot serve on {host}:{port}: {exc}") from None
         self.port = int(self.server.port)
         self.url = f"ws://{host}:{self.port}"
         self._seen_transitions: set[tuple[Any, ...]] = set()
