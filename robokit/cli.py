@@ -226,9 +226,9 @@ _run_called = False
 def cmd_run(args: argparse.Namespace) -> int:
     """``robokit run``: build, run, report; print a summary (or the RunResult JSON with ``--json``)."""
     global _run_started
-    _run_started = True
     guard = None
-    try:
+    try:  # set inside the try: a signal before it is main()'s to handle, one after is handled below
+        _run_started = True
         if args.video:  # before anything is simulated: the video needs imageio-ffmpeg
             from robokit.extras import require
 
