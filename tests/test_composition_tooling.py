@@ -127,6 +127,7 @@ def bad(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Any]:
     sys.modules.pop("bad_plugins", None)
 
 
+@pytest.mark.slow  # the slow tier: the default tier keeps its two-minute budget
 def test_check_behaviour_on_a_never_returning_step_fails_within_its_budget(bad: Any) -> None:
     budget = 1.0
     start = time.monotonic()

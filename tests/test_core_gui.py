@@ -10,6 +10,9 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
+
+
+@pytest.mark.slow  # a whole GUI run under Xvfb: the slow tier (the default tier keeps its two-minute budget)
 def test_gui_run_under_xvfb(tmp_path: Path, virtual_display: dict[str, str]) -> None:
     cmd = [sys.executable, "-m", "robokit.cli", "run",
            str(ROOT / "configs" / "drive_teleop.toml"), "--gui", "--max-time", "0.25", "--json"]

@@ -76,6 +76,7 @@ print(json.dumps(rows))
 """
 
 
+@pytest.mark.slow  # the slow tier: the default tier keeps its two-minute budget
 def test_same_seed_same_observations_across_processes() -> None:
     config = str(ROOT / "configs" / "gym" / "reach.toml")
     runs = [subprocess.run([sys.executable, "-c", SCRIPT, config], capture_output=True, text=True, check=True)

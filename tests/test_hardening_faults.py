@@ -332,6 +332,7 @@ def test_max_wall_ends_a_run_stuck_in_a_plugin_naming_it(site: Path, capsys, bud
     assert stored(site)[0]["outcome"] == "aborted"
 
 
+@pytest.mark.slow  # the slow tier: the default tier keeps its two-minute budget
 def test_world_max_wall_time_from_the_config(site: Path, capsys, budget_after_the_hang) -> None:
     fifo = site / "stuck.fifo"
     os.mkfifo(fifo)

@@ -40,6 +40,7 @@ def spec_of(config: Path, seeds: range = range(2)) -> SweepSpec:
     return SweepSpec(config, seeds, plugins=("sweep_faults",))
 
 
+@pytest.mark.slow  # the slow tier: the default tier keeps its two-minute budget
 def test_sweep_json_records_the_files_the_config_refers_to_and_the_versions(scene: Path) -> None:
     """... and growing an unchanged sweep is still accepted."""
     run_sweep(spec_of(scene), SweepOptions(out=scene.parent / "out", workers=1))
@@ -71,6 +72,7 @@ def test_growing_a_sweep_after_a_referenced_file_changed_is_refused_naming_it(sc
     assert len((out / "trials.jsonl").read_text().splitlines()) == 2  # nothing was mixed in
 
 
+@pytest.mark.slow  # the slow tier: the default tier keeps its two-minute budget
 def test_a_changed_robokit_version_is_refused_and_new_out_starts_a_folder_beside(scene: Path) -> None:
     out = scene.parent / "out"
     run_sweep(spec_of(scene), SweepOptions(out=out, workers=1))
@@ -119,6 +121,7 @@ def test_failed_trials_are_listed_with_a_command_that_reproduces_each_and_their_
     assert result["result"] == trial["result"]  # the same run, figure for figure
 
 
+@pytest.mark.slow  # the slow tier: the default tier keeps its two-minute budget
 def test_keep_none_and_all(scene: Path) -> None:
     none = run_sweep(spec_of(scene), SweepOptions(out=scene.parent / "a", workers=1, keep="none"))
     assert not (scene.parent / "a" / "runs").exists() and all("record" not in r for r in none.rows)

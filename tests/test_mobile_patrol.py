@@ -7,6 +7,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from robokit.cli import main
 from robokit.testing import PLANE, make_sim
 
@@ -81,6 +83,7 @@ def test_waypoint_inside_an_obstacle_is_one_line_at_validate(tmp_path, capsys) -
     assert "behaviour.waypoints[0]" in err and "inside obstacle 'box_c'" in err
 
 
+@pytest.mark.slow  # the whole lesson config through the CLI: the slow tier
 def test_patrol_robot_config_runs_headless_and_exits_0(tmp_path) -> None:
     proc = subprocess.run(
         [sys.executable, "-m", "robokit.cli", "run", str(ROOT / "configs" / "patrol_robot.toml"), "--seed", "4"],

@@ -52,6 +52,7 @@ def error_lines(stderr: str) -> list[str]:
     return [line for line in stderr.splitlines() if line.startswith("robokit: error:")]
 
 
+@pytest.mark.slow  # the slow tier: the default tier keeps its two-minute budget
 def test_the_trimmed_scene_itself_validates_and_sorts(tmp_path: Path) -> None:
     scene = sort_scene(tmp_path)
     assert robokit("validate", str(scene), cwd=tmp_path).returncode == 0
@@ -85,6 +86,7 @@ rgba = [0.55, 0.1, 0.9, 1]
 AVOID_PURPLE = ("min_spacing = 0.1", 'min_spacing = 0.1\navoid = ["purple"]\nclearance = 0.06')
 
 
+@pytest.mark.slow  # the slow tier: the default tier keeps its two-minute budget
 def test_a_colour_no_detector_class_knows_fails_validate_and_the_run_names_it(tmp_path: Path) -> None:
     scene = sort_scene(tmp_path, [AVOID_PURPLE], PURPLE)
     proc = robokit("validate", str(scene), cwd=tmp_path)

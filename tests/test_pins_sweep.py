@@ -158,6 +158,7 @@ def robokit_register_behaviours(register: Any) -> None:
     register("counted_fault", CountedFault, CountConfig)
 
 
+@pytest.mark.slow  # the slow tier: the default tier keeps its two-minute budget
 def test_a_trial_whose_worker_dies_is_run_exactly_twice(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.syspath_prepend(str(HERE))  # spawned workers import this module as the plugin
     cfg = tmp_path / "count.toml"

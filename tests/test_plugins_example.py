@@ -51,6 +51,9 @@ def _pip(venv_python: Path, *args: str | Path, cwd: Path) -> None:
     assert proc.returncode == 0, proc.stdout + proc.stderr
 
 
+pytestmark = pytest.mark.slow  # builds and installs two packages into a venv: the slow tier
+
+
 @pytest.fixture(scope="module")
 def venv(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     """A fresh venv with robokit and robokit-example-imu installed from copies of their sources."""

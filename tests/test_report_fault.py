@@ -38,6 +38,7 @@ def faulty_plan(seed: int):  # type: ignore[no-untyped-def]
     return plan
 
 
+@pytest.mark.slow  # 200 runs: the slow tier
 def test_200_runs_through_a_faulty_server_then_one_flush_arrive_exactly_once(tmp_path: Path) -> None:
     """Reporters do not flush after delivering here (tested elsewhere), so the final flush has real work. The
     figures go to a log record (pytest shows it with the failure, or with ``-o log_cli=true``)."""

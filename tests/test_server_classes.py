@@ -158,6 +158,7 @@ def test_deleting_a_class_removes_its_projects_and_results(client: Any, course: 
         Project.objects.get().delete()
 
 
+@pytest.mark.slow  # migrates a database from scratch: the slow tier
 @pytest.mark.django_db(transaction=True)
 def test_migration_gives_each_class_its_own_copy_of_a_shared_project() -> None:
     from django.db import connection

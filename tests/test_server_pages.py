@@ -221,6 +221,7 @@ def test_cli_errors_are_one_line_and_help_does_not_import_django(tmp_path: Path)
     assert (tmp_path / "srv" / "db.sqlite3").is_file() and (tmp_path / "srv" / "secret_key").stat().st_mode & 0o077 == 0
 
 
+@pytest.mark.slow  # the slow tier: the default tier keeps its two-minute budget
 def test_robokit_manage_creates_a_private_data_folder_and_database(tmp_path: Path) -> None:
     import os
     import stat
@@ -280,6 +281,7 @@ def test_migrations_match_the_models() -> None:
     call_command("makemigrations", "course", "--check", "--dry-run", verbosity=0)  # exits 1 if a change is missing
 
 
+@pytest.mark.slow  # the slow tier: the default tier keeps its two-minute budget
 def test_robokit_manage_narrows_a_data_folder_and_database_left_open_by_an_earlier_version(tmp_path: Path) -> None:
     import os
     import stat

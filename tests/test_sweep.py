@@ -133,6 +133,7 @@ def test_a_trial_that_raises_or_kills_its_worker_is_an_error_and_the_others_fini
     check_faults(run, tmp_path / "out", None)
 
 
+@pytest.mark.slow  # waits out real timeouts (tests/test_pins_sweep.py keeps a hanging trial in the default tier)
 def test_trials_that_never_end_are_killed_at_the_timeout_and_the_next_runs_on_a_fresh_worker(
         tmp_path: Path, fault_plugins: None) -> None:
     """Every trial here blocks forever, so a timeout however short ends each of them and never a healthy trial
@@ -171,6 +172,7 @@ def test_a_ray_address_where_nothing_listens_is_one_line_at_once(tmp_path: Path,
     assert not (tmp_path / "out" / "trials.jsonl").exists() or not read_trials(tmp_path / "out" / "trials.jsonl")
 
 
+@pytest.mark.slow  # two whole sweeps: the slow tier
 # ----------------------------------------------------------------------------------------------- resuming
 def test_stopped_and_resumed_gives_exactly_the_trials_of_one_uninterrupted_sweep(
         tmp_path: Path, fault_plugins: None) -> None:
@@ -251,6 +253,7 @@ def test_cli_writes_trials_summary_junit_and_plots(tmp_path: Path) -> None:
     assert (out / "distribution_seed_squared.png").stat().st_size > 1000
 
 
+@pytest.mark.slow  # the slow tier: the default tier keeps its two-minute budget
 def test_paths_from_a_sweep_file_are_printed_and_stored_without_dot_dot(tmp_path: Path) -> None:
     (tmp_path / "lab" / "sweeps").mkdir(parents=True)
     (tmp_path / "lab" / "scene.toml").write_text(FAULT.read_text(encoding="utf-8"), encoding="utf-8")
