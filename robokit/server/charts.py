@@ -47,21 +47,14 @@ def _configure() -> None:
         _configured = True
 
 
-class _Figures:
-    """Figures made without pyplot: pyplot keeps one global set of figures, which the server's request threads
-    would share; a ``Figure`` of a request's own is never seen by another thread."""
+def _subplots(*args: Any, figsize: tuple[float, float], **kwargs: Any) -> tuple[Any, Any]:
+    """A figure and its axes made without pyplot: pyplot keeps one global set of figures, which the server's request
+    threads would share; a ``Figure`` of a request's own is never seen by another thread."""
+    from matplotlib.figure import Figure
 
-    @staticmethod
-    def subplots(*args: Any, figsize: tuple[float, float], **kwargs: Any) -> tuple[Any, Any]:
-        from matplotlib.figure import Figure
-
-        _configure()
-        fig = Figure(figsize=figsize)
-        return fig, fig.subplots(*args, **kwargs)
-
-
-def _plt() -> type[_Figures]:
-    return _Figures
+    _configure()
+    fig = Figure(figsize=figsize)
+    return fig, fig.subplots(*args, **kwargs)
 
 
 def _svg(fig: Any) -> bytes:
@@ -101,8 +94,7 @@ def _time_axis(ax: Any, times: Sequence[datetime]) -> None:
 
 def timeline(title: str, attempts: Sequence[datetime], official: Sequence[tuple[datetime, float]]) -> bytes:
     """A student's attempts (runs posted, grey ticks) and official results (success rate, blue dots) over time."""
-    plt = _plt()
-    fig, ax = plt.subplots(figsize=(7.5, 2.8))
+    fig, ax = _subplots(figsize=(7.5, 2.8))
     if not attempts and not official:
         _empty(ax, "아직 기록이 없습니다 (no attempts yet)")
     else:
@@ -121,8 +113,7 @@ def weekly(title: str, weeks: Sequence[str], rates: Sequence[float | None], coun
            official: Sequence[float | None] = ()) -> bytes:
     """Per week: the success rate of the student's own runs (green bars, the number of runs on each) and the
     best official success rate evaluated that week (blue dots)."""
-    plt = _plt()
-    fig, ax = plt.subplots(figsize=(7.5, 2.8))
+    fig, ax = _subplots(figsize=(7.5, 2.8))
     if not weeks:
         _empty(ax, "아직 기록이 없습니다 (no runs yet)")
     else:
@@ -143,8 +134,7 @@ def weekly(title: str, weeks: Sequence[str], rates: Sequence[float | None], coun
 
 def distribution(title: str, values: Sequence[float], xlabel: str) -> bytes:
     """A histogram of the students' best official success rates (in %)."""
-    plt = _plt()
-    fig, ax = plt.subplots(figsize=(6.5, 2.8))
+    fig, ax = _subplots(figsize=(6.5, 2.8))
     if not values:
         _empty(ax, "아직 공식 결과가 없습니다 (no official results yet)")
     else:
@@ -160,8 +150,7 @@ def distribution(title: str, values: Sequence[float], xlabel: str) -> bytes:
 
 def reasons(title: str, counted: Sequence[tuple[str, int]]) -> bytes:
     """The most common failure reasons, as horizontal bars."""
-    plt = _plt()
-    fig, ax = plt.subplots(figsize=(7.5, max(2.4, 0.6 * len(counted) + 1.2)))
+    fig, ax = _subplots(figsize=(7.5, max(2.4, 0.6 * len(counted) + 1.2)))
     if not counted:
         _empty(ax, "실패가 없습니다 (no failures)")
     else:
@@ -176,8 +165,7 @@ def reasons(title: str, counted: Sequence[tuple[str, int]]) -> bytes:
 
 def training(title: str, runs: Sequence[tuple[str, Sequence[dict[str, float]]]]) -> bytes:
     """Training curves: return (left) and success rate (right) over environment steps, one line per run."""
-    plt = _plt()
-    fig, (left, right) = plt.subplots(1, 2, figsize=(8.5, 2.9))
+    fig, (left, right) = _subplots(1, 2, figsize=(8.5, 2.9))
     if not runs:
         _empty(left, "학습 기록 없음 (no training runs)")
         _empty(right, "")

@@ -41,7 +41,7 @@ def _teacher_class(request: HttpRequest, pk: int) -> Classroom:
 
 
 def session_student(request: HttpRequest) -> Student | None:
-    """The student whose token opened this session, while that token is still active."""
+    """The student whose token signed this browser in, while that token is still active."""
     token_id = request.session.get(SESSION_TOKEN)
     if token_id is None:
         return None
