@@ -83,6 +83,12 @@ class LiveRun:
         self.held_at(tick + 1)
         return tick + 1
 
+    def run_to(self, tick: int) -> dict[str, Any]:
+        """From the start (held at tick 0), let the run go ``tick`` ticks in one ``step`` and wait until it is held
+        there: a point in the run that does not depend on how fast the machine answers."""
+        self.post("/control", {"action": "step", "value": str(tick)})
+        return self.held_at(tick)
+
     def finish(self) -> tuple[RunResult, list[Any]]:
         self.post("/control", {"action": "speed", "value": "max"})
         self.post("/control", {"action": "resume"})

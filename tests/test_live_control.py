@@ -22,7 +22,7 @@ def test_paused_stepped_and_resumed_run_is_the_uninterrupted_run_and_the_state_s
         for k in range(1, 4):
             assert live.step() == k
             assert live.sim.world.tick == k  # held: the loop waits at tick k, no further
-        live.post("/control", {"action": "speed", "value": "2"})
+        live.post("/control", {"action": "speed", "value": "1"})  # real time: the pause lands long before the end
         live.post("/control", {"action": "resume"})
         live.frame_where(lambda f: f["tick"] >= 150)  # past the first transitions after the start
         live.post("/control", {"action": "pause"})

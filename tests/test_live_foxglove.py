@@ -35,11 +35,7 @@ def test_foxglove_clients_get_the_exports_topics_live() -> None:
 
     live = LiveRun(SORT, 20.0, foxglove=True)
     try:
-        live.post("/control", {"action": "speed", "value": "max"})
-        live.post("/control", {"action": "resume"})
-        live.frame_where(lambda f: f["tick"] >= 1500)  # past the first pick's transitions
-        live.post("/control", {"action": "pause"})
-        live.frame_where(lambda f: f["paused"])
+        live.run_to(1500)  # past the first pick's transitions
         bridge = live.view.foxglove
         with connect(f"ws://127.0.0.1:{bridge.port}", subprotocols=["foxglove.sdk.v1", "foxglove.websocket.v1"],
                      open_timeout=60, max_size=None) as ws:  # the scene embeds its meshes

@@ -86,8 +86,8 @@ class Control:
             return {"paused": self.paused, "speed": "max" if math.isinf(self.speed) else self.speed}
 
     def apply(self, action: str, value: str = "") -> None:
-        """``pause``, ``resume``, ``step`` (one tick, pausing first), or ``speed`` with ``value`` one of
-        :data:`SPEEDS`.
+        """``pause``, ``resume``, ``step`` (``value`` ticks, one if empty, pausing first), or ``speed`` with
+        ``value`` one of :data:`SPEEDS`.
 
         Raises:
             ValueError: An unknown action or speed.
@@ -98,8 +98,11 @@ class Control:
             elif action == "resume":
                 self.paused, self._steps, self._anchor = False, 0, None
             elif action == "step":
+                count = int(value) if value.isdigit() else 0 if value else 1
+                if count < 1:
+                    raise ValueError(f"step takes a whole number of ticks (1 or more), not {value!r}")
                 self.paused = True
-                self._steps += 1
+                self._steps += count
             elif action == "speed":
                 if value not in SPEEDS:
                     raise ValueError(f"unknown speed {value!r}; choose one of {', '.join(SPEEDS)}")

@@ -5,7 +5,8 @@ Routes (every one needs ``?token=...`` when the server binds an address other th
 - ``GET /``: the page (three.js, the replay viewer, the scene, ``live.js``, all inline);
 - ``GET /state``: the latest frame as JSON (see :meth:`robokit.live.view.LiveView.frame`);
 - ``GET /events``: the frames as Server-Sent Events, each the latest when the page is ready for it;
-- ``POST /control``: ``{"action": "pause" | "resume" | "step" | "speed", "value": "1" | "2" | "max"}``;
+- ``POST /control``: ``{"action": "pause" | "resume" | "step" | "speed", "value": ...}`` (``step``: a number of
+  ticks, one if absent; ``speed``: "1" | "2" | "max");
 - ``POST /key``: ``{"key": "up", "down": true}``, a key pressed or released in the page.
 """
 
