@@ -39,10 +39,13 @@ class EntryPoint(NamedTuple):
 
     def load(self) -> Any:
         """Import the module and return the object the entry point names (``module[:attr.attr] [extras]``)."""
-        import pkgutil
+        import importlib  # not pkgutil.resolve_name: pkgutil's own imports cost every run more than this loop
 
         module, _, attr = self.value.split("[", 1)[0].partition(":")
-        return pkgutil.resolve_name(module.strip() + (f":{attr.strip()}" if attr.strip() else ""))
+        found = importlib.import_module(module.strip())
+        for part in attr.strip().split(".") if attr.strip() else ():
+            found = getattr(found, part)
+        return found
 
 
 def cache_dir() -> str:

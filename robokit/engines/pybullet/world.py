@@ -8,8 +8,6 @@ centre-of-mass frames, its constants. The methods' contracts (units, frames) are
 
 from __future__ import annotations
 
-import ctypes
-import ctypes.util
 import math
 import os
 import sys
@@ -163,6 +161,9 @@ class PyBulletWorld(World):
         display = os.environ.get("DISPLAY")
         if not display:
             return "no display (DISPLAY is not set); run headless, or under xvfb-run for a virtual one"
+        import ctypes
+        import ctypes.util  # here, not at import: ctypes.util imports subprocess and tempfile, a cost every run paid
+
         try:
             x11 = ctypes.CDLL(ctypes.util.find_library("X11") or "libX11.so.6")
         except OSError:
