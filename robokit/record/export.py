@@ -153,13 +153,20 @@ def export_rerun(rec: RunRecord, out: Path, replay: Replay | None = None) -> dic
     with atomic_output(out) as tmp:
         stream = rr.RecordingStream("robokit", recording_id=rec.run_id)
         rr.set_log_time_enabled(False, recording=stream)  # one timeline, the run's: "sim" (sim seconds)
-        stream.save(str(tmp), default_blueprint=rrb.Blueprint(rrb.TimePanel(timeline="sim")))
+        # Rerun encodes into memory and robokit writes the bytes: Rerun's own file writer, under a file-size limit,
+        # can block for ever instead of failing; a write of ours fails at once (OSError -> OutputFailed)
+        encoded = rr.binary_stream(recording=stream)
+        stream.send_blueprint(rrb.Blueprint(rrb.TimePanel(timeline="sim")), make_active=False, make_default=True)
         counts = _log_rerun(rr, stream, rec, replay)
         try:
-            stream.flush()
-            stream.disconnect()
-        except RuntimeError as exc:  # Rerun's file writer stopped (a full disk, a file-size limit)
-            raise OutputFailed(out, f"Rerun could not finish the file ({exc}){_write_limits(out)}") from None
+            data = encoded.read(flush=True, flush_timeout_sec=600.0)
+        except RuntimeError as exc:  # Rerun's encoder stopped
+            raise OutputFailed(out, f"Rerun could not encode the recording ({exc})") from None
+        try:
+            with open(tmp, "wb") as fh:
+                fh.write(data or b"")
+        except OSError as exc:  # a full disk, a file-size limit
+            raise OutputFailed(out, f"{exc.strerror or exc}{_write_limits(out)}") from None
         _check_rrd(tmp, out, counts["transforms"])
     return counts
 
