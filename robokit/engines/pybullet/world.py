@@ -148,7 +148,11 @@ class PyBulletWorld(World):
         base frame. PyBullet cannot give a mesh's triangles back; the ray caster intersects these boxes itself."""
         self.client.setAdditionalSearchPath(pybullet_data.getDataPath())
         self.client.setGravity(*gravity)
-        self.client.setPhysicsEngineParameter(fixedTimeStep=self.time_step, numSolverIterations=solver_iterations)
+        # Bullet sorts its overlapping pairs from the build on: contacts are solved in the same order whatever the
+        # broadphase's history, so a restored world (see restore) steps as a fresh one, and reading a snapshot
+        # changes nothing
+        self.client.setPhysicsEngineParameter(fixedTimeStep=self.time_step, numSolverIterations=solver_iterations,
+                                              deterministicOverlappingPairs=1)
         if gui:
             self.client.configureDebugVisualizer(p.COV_ENABLE_GUI, 0)
 
@@ -855,12 +859,10 @@ class PyBulletWorld(World):
     def snapshot(self) -> dict[str, Any]:
         """Every registered body's base pose and velocity and joint states, for :meth:`restore` (a cheap reset).
 
-        Also makes Bullet sort its overlapping pairs, so that contacts are solved in the same order after a
-        restore whatever the broadphase's history (without it, episodes after the first differ in contact-rich
-        scenes).
+        Only reads: every PyBullet world sorts its overlapping pairs from its build on (see ``__init__``), which
+        is what makes contacts after a restore come in a fresh build's order whatever the broadphase's history.
         """
         c, out = self.client, {}
-        c.setPhysicsEngineParameter(deterministicOverlappingPairs=1)
         for name, bid in self._bodies.items():
             n = c.getNumJoints(bid)
             joints = [s[:2] for s in c.getJointStates(bid, list(range(n)))] if n else []
