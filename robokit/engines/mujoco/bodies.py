@@ -107,6 +107,7 @@ class MujocoBodies(MujocoExtras, World):
                      for rid, root in self._root.items()}
         self._owner = {bid: (rid, i - 1) for rid, ids in self._bid.items() for i, bid in enumerate(ids)}
         self.scene.apply_damping(m)
+        self.scene.grips.compiled(m)
         self._after_compile(m)
         mujoco.mj_step1(m, self.data)
 

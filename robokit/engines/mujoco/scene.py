@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from robokit.engines.mujoco.gl import mujoco
+from robokit.engines.mujoco.grip import GripAnchors
 from robokit.engines.mujoco.links import UrdfJoint
 from robokit.errors import UserError
 
@@ -62,6 +63,8 @@ class Scene:
     """Geom name -> its robokit contact parameters."""
     damping: dict[str, tuple[float | None, float | None]] = field(default_factory=dict)
     """Free body name -> (linear, angular) damping rates, 1/s."""
+    grips: GripAnchors = field(default_factory=GripAnchors)
+    """The fingers' anchors (:mod:`robokit.engines.mujoco.grip`)."""
 
     @classmethod
     def new(cls, time_step: float, gravity: Sequence[float], iterations: int) -> Scene:
@@ -128,7 +131,9 @@ class Scene:
         """A gripping surface (PyBullet's ``friction_anchor``: contacts that hold what they squeeze): its contacts
         take its own parameters (``priority``) with MuJoCo's stiffest reference, a time constant of two steps
         (``solref``; shorter is not stable), so friction stops a slip within a step; and torsional friction
-        (``condim`` 4) so a squeezed object does not pivot."""
+        (``condim`` 4) so a squeezed object does not pivot; and an anchor that holds a squeezed object where it is in
+        the fingers (:mod:`robokit.engines.mujoco.grip`)."""
+        self.grips.add(self.spec, body.name)
         for geom in body.geoms:
             geom.priority = 1
             geom.solref = [2.0 * self.spec.option.timestep, 1.0]

@@ -74,7 +74,13 @@ class MujocoWorld(MujocoBodies):
         dofs, limits = self.motors.holding(m)
         if len(dofs):  # a position motor carries its links' weight, as PyBullet's motor reaches its target
             d.qfrc_applied[dofs] += np.clip(d.qfrc_bias[dofs], -limits, limits)
-        mujoco.mj_step2(m, d)
+        grips = self.scene.grips
+        if grips.held:
+            self._step_holding(m, d)
+        else:
+            mujoco.mj_step2(m, d)
+        if grips.fingers:
+            grips.take_up(m, d)
         if self._wrenches:
             self._measure_wrenches()
         if self.motors.torques:
@@ -83,7 +89,20 @@ class MujocoWorld(MujocoBodies):
             d.qfrc_applied[:] = 0.0
             self._forces.clear()
         mujoco.mj_step1(m, d)
+        if grips.fingers:
+            grips.after_positions(m, d)
         self.tick += 1
+
+    def _step_holding(self, m: Any, d: Any) -> None:
+        """``mj_step2`` (robokit's models have no MuJoCo sensors) with the grip welds judged between the solve and
+        the integration: a weld let go is solved again without (:mod:`robokit.engines.mujoco.grip`)."""
+        mujoco.mj_fwdActuation(m, d)
+        mujoco.mj_fwdAcceleration(m, d)
+        mujoco.mj_fwdConstraint(m, d)
+        if self.scene.grips.let_go(m, d):
+            mujoco.mj_forward(m, d)
+        d.qacc_warmstart[:] = d.qacc
+        mujoco.mj_Euler(m, d)
 
     def _after_compile(self, model: Any) -> None:
         """Motor settings live in the model: put them back into a freshly compiled one. MuJoCo's ids changed: drop
@@ -108,6 +127,7 @@ class MujocoWorld(MujocoBodies):
         for actuator in list(self.scene.spec.actuators):
             if actuator.name.startswith(f"{name}/"):
                 self.scene.spec.delete(actuator)
+        self.scene.grips.remove(self.scene.spec, f"{name}/")
         self.scene.spec.delete(body)
         self._static.discard(root)
         self.scene.damping.pop(root, None)
@@ -351,6 +371,7 @@ class MujocoWorld(MujocoBodies):
         m, d = self.compiled()
         mujoco.mj_resetData(m, d)
         d.qpos[:], d.qvel[:], d.ctrl[:] = snapshot["qpos"], snapshot["qvel"], snapshot["ctrl"]
+        self.scene.grips.compiled(m)  # every anchor let go (mj_resetData switched their welds off)
         mujoco.mj_step1(m, d)
         self.tick = 0
 

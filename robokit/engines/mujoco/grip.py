@@ -1,0 +1,161 @@
+"""Grip anchors on the mujoco engine: what PyBullet's ``friction_anchor`` does for a gripper's fingers.
+
+MuJoCo's friction acts on velocities: in each step the contact forces stop a held object's slip at the fingers as
+the fingers were at the start of the step. The arm's joints then turn the fingers along an arc while the object's
+free joint carries it along a straight line, so the two part by about ``a * h**2 / 2`` per step (``a`` the hand's
+acceleration, ``h`` the time step) and nothing brings them back: 1-2 mm per transport of a Panda. PyBullet's
+friction anchor corrects that drift at the level of positions; here a soft weld does:
+
+* each finger (a link given ``friction_anchor``) has one weld equality, inactive until it holds something;
+* after each step, an object (a free body, not the robot's own) squeezed by two or more fingers for
+  :data:`SETTLE_STEPS` steps in a row is welded to the first of them, where it is now;
+* in each step the constraints are solved with the welds on first; a weld whose object the fingers no longer
+  squeeze, or whose force exceeds what the fingers' friction could carry (the sum of ``friction * normal force``
+  over their contacts with the object), is switched off and the step solved again without it, so an opening hand
+  never drags what it lets go and an object too heavy for the grip slips as friction alone would let it.
+
+The weld's reference is as stiff as the fingers' contacts (a time constant of two steps); it carries the drift, not
+the load, which friction still carries (a weld force of 1-3 N against 40-50 N the friction could carry, measured on
+a Panda carrying a 0.1 kg cube).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from robokit.engines.mujoco.gl import mujoco
+
+SETTLE_STEPS = 12
+"""Steps an object must have been squeezed by two fingers in a row before it is welded (the fingers' closing
+transient is over: a weld taken earlier holds the object where the closing fingers pushed it for a moment)."""
+
+
+class GripAnchors:
+    """The anchors of one world's fingers (see the module's docstring)."""
+
+    def __init__(self) -> None:
+        self.fingers: list[str] = []
+        """MuJoCo body names of the fingers, in the order their welds were added."""
+        self._eq: np.ndarray = np.zeros(0, dtype=np.int64)
+        self._grip_of_geom: np.ndarray = np.zeros(0, dtype=np.int64)
+        self._movable: np.ndarray = np.zeros(0, dtype=bool)
+        self._root_of_finger: np.ndarray = np.zeros(0, dtype=np.int64)
+        self.held: dict[int, int] = {}
+        """Finger index -> MuJoCo body id of the object its weld holds."""
+        self._new: list[int] = []
+        """Fingers whose weld was switched on in this step: their pose is taken after the step."""
+        self._squeezed: dict[int, int] = {}
+        """Object body id -> for how many steps in a row two or more fingers have squeezed it."""
+
+    @staticmethod
+    def weld_name(finger: str) -> str:
+        return f"grip/{finger}"
+
+    def add(self, spec: Any, finger: str) -> None:
+        """Give the finger body ``finger`` its (inactive) weld."""
+        if finger in self.fingers:
+            return
+        weld = spec.add_equality(name=self.weld_name(finger), type=mujoco.mjtEq.mjEQ_WELD,
+                                 objtype=mujoco.mjtObj.mjOBJ_BODY, name1=finger, name2="world")
+        weld.active = False
+        weld.solref = [2.0 * spec.option.timestep, 1.0]  # as stiff as the fingers' contacts (scene.set_grip)
+        self.fingers.append(finger)
+
+    def remove(self, spec: Any, prefix: str) -> None:
+        """Drop the welds of fingers whose body names start with ``prefix`` (their robot is removed)."""
+        for finger in [f for f in self.fingers if f.startswith(prefix)]:
+            spec.delete(spec.equality(self.weld_name(finger)))
+            self.fingers.remove(finger)
+
+    def compiled(self, m: Any) -> None:
+        """Look the fingers, their welds and the free bodies up in a freshly compiled model (every weld is off)."""
+        self.held.clear()
+        self._new.clear()
+        self._squeezed.clear()
+        self._eq = np.array([m.equality(self.weld_name(f)).id for f in self.fingers], dtype=np.int64)
+        finger_bodies = np.array([m.body(f).id for f in self.fingers], dtype=np.int64)
+        grip_of_body = np.full(m.nbody, -1, dtype=np.int64)
+        grip_of_body[finger_bodies] = np.arange(len(self.fingers))
+        self._grip_of_geom = grip_of_body[m.geom_bodyid]
+        roots = m.body_rootid
+        free = np.zeros(m.nbody, dtype=bool)
+        for body in range(1, m.nbody):
+            jnt = m.body_jntadr[body]
+            free[body] = bool(m.body_jntnum[body]) and m.jnt_type[jnt] == mujoco.mjtJoint.mjJNT_FREE
+        self._movable = free[roots]  # a body hangs from a free root: it can be carried
+        self._root_of_finger = roots[finger_bodies]
+
+    def let_go(self, m: Any, d: Any) -> bool:
+        """After a constraint solve with welds on: switch off each weld whose object the fingers no longer squeeze
+        or whose force exceeds the fingers' friction (the caller solves again without it). True if any."""
+        touching = self._touching(m, d)
+        released = False
+        for k, obj in list(self.held.items()):
+            fingers = {f for f, b in touching if b == obj}
+            capacity = sum(c for (_, body), (_, c) in touching.items() if body == obj)
+            force = float(np.linalg.norm(self._weld_force(d, int(self._eq[k]))))
+            if k not in fingers or len(fingers) < 2 or force > capacity:
+                d.eq_active[self._eq[k]] = 0
+                del self.held[k]
+                released = True
+        return released
+
+    def take_up(self, m: Any, d: Any) -> None:
+        """After the step's solve: count how long each object has been squeezed; weld those squeezed long enough
+        (their pose is taken by :meth:`after_positions`)."""
+        squeezed: dict[int, list[int]] = {}
+        for finger, body in sorted(self._touching(m, d)):
+            squeezed.setdefault(body, []).append(finger)
+        self._squeezed = {body: self._squeezed.get(body, 0) + 1 for body, fingers in squeezed.items()
+                          if len(fingers) >= 2}
+        held_objects = set(self.held.values())
+        for body, count in self._squeezed.items():
+            first = squeezed[body][0]
+            if count >= SETTLE_STEPS and body not in held_objects and first not in self.held:
+                self.held[first] = body
+                self._new.append(first)
+
+    def after_positions(self, m: Any, d: Any) -> None:
+        """After ``mj_step1``: weld each newly held object where it is now in its finger's frame."""
+        for k in self._new:
+            eq, finger, obj = int(self._eq[k]), int(m.eq_obj1id[self._eq[k]]), self.held[k]
+            rel_pos, rel_quat = np.zeros(3), np.zeros(4)
+            inverse_pos, inverse_quat = np.zeros(3), np.zeros(4)
+            mujoco.mju_negPose(inverse_pos, inverse_quat, d.xpos[finger], d.xquat[finger])
+            mujoco.mju_mulPose(rel_pos, rel_quat, inverse_pos, inverse_quat, d.xpos[obj], d.xquat[obj])
+            m.eq_obj2id[eq] = obj
+            m.eq_data[eq, :11] = [0.0, 0.0, 0.0, *rel_pos, *rel_quat, 1.0]
+            d.eq_active[eq] = 1
+        self._new.clear()
+
+    def _touching(self, m: Any, d: Any) -> dict[tuple[int, int], tuple[float, float]]:
+        """(finger index, object body id) -> (normal force, friction capacity) of their contacts in this step."""
+        out: dict[tuple[int, int], tuple[float, float]] = {}
+        if d.ncon == 0:
+            return out
+        geoms = d.contact.geom
+        grips = self._grip_of_geom[geoms]
+        rows = np.flatnonzero((grips >= 0).any(axis=1))
+        if not len(rows):
+            return out
+        bodies, roots = m.geom_bodyid[geoms[rows]], m.body_rootid
+        address, friction = d.contact.efc_address[rows], d.contact.friction[rows, 0]
+        for n, i in enumerate(rows.tolist()):
+            for side in (0, 1):
+                k, other = int(grips[i, side]), int(bodies[n, 1 - side])
+                if k < 0 or address[n] < 0 or not self._movable[other] or roots[other] == self._root_of_finger[k]:
+                    continue
+                normal = float(d.efc_force[address[n]])
+                if normal <= 0.0:
+                    continue
+                old = out.get((k, other), (0.0, 0.0))
+                out[(k, other)] = (old[0] + normal, old[1] + float(friction[n]) * normal)
+        return out
+
+    @staticmethod
+    def _weld_force(d: Any, eq: int) -> np.ndarray:
+        """The translational force (N) a weld applied in this step."""
+        rows = np.flatnonzero((d.efc_type == mujoco.mjtConstraint.mjCNSTR_EQUALITY) & (d.efc_id == eq))
+        return np.asarray(d.efc_force[rows[:3]])
