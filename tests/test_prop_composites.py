@@ -11,6 +11,7 @@ claim.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping
 from types import SimpleNamespace
 from typing import Any
@@ -411,6 +412,29 @@ def test_a_child_that_raises_is_named_with_its_role_and_what_it_was_doing(kind: 
     text = str(err.value)
     assert f"{ROLES[kind]} 'bad'" in text
     assert ("during halt" if how == "raise-halt" else "during step") in text and "a bug in the child" in text
+    assert text.startswith(f"{ROLES[kind]} 'bad' (<scripted>) raised during ")
+    assert re.search(r"ValueError: a bug in the child[^(]*\(at [^)]*test_prop_composites\.py:\d+\)$", text)
+    assert err.value.type_name == "Raising" and isinstance(err.value.__cause__, ValueError)
+
+
+class Same(Behaviour):
+    """Commands the actuator ``arm`` every step."""
+
+    def step(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any]:
+        return {"arm": self.name, f"own_{self.name}": 1}
+
+
+def test_two_parallel_children_commanding_one_actuator_is_an_error_naming_it() -> None:
+    from robokit.errors import PluginError
+
+    par = Parallel("par", ParallelConfig())
+    par.add_children([Member.of(Same("a", None)), Member.of(Same("b", None))])
+    with pytest.raises(PluginError) as err:
+        ScriptedRun(par).step({})
+    assert str(err.value) == "parallel 'par': two children sent a command to actuator 'arm' in the same tick"
+    one = Parallel("par", ParallelConfig())
+    one.add_children([Member.of(Same("a", None)), Member.of(Scripted("b", Plan([(None, 0)])))])
+    assert ScriptedRun(one).step({}) == {"arm": "a", "own_a": 1, "motor_b": 0}
 
 
 class NoHalt(Behaviour):
@@ -433,3 +457,257 @@ def test_a_child_without_halt_is_halted_quietly(kind: str) -> None:
         run.step({})
     assert run.outcome is not None and run.outcome.status == "failed"
     assert {r["name"]: r["outcome"] for r in run.result()["children"]}["quiet"] == "halted"
+
+
+# ------------------------------------------------------------------------------------------ rates
+class Timed(Scripted):
+    """A scripted child that also notes the tick of each of its steps."""
+
+    def step(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any]:
+        self.config.ticks.setdefault(self.instance, []).append(round(t / DT))
+        return super().step(readings, t)
+
+
+@PROPS
+@given(st.sampled_from(["sequence", "fallback", "parallel"]),
+       st.lists(st.tuples(st.sampled_from(ENDS), st.integers(0, 3), st.integers(1, 3)), min_size=2, max_size=3))
+def test_a_childs_rate_counts_from_its_own_first_tick(kind: str, children: list) -> None:
+    """docs: a child's ``rate_hz`` counts ticks from its own start. A child stepped every ``p`` ticks and ending on
+    its own step ``d + 1`` ends ``d * p`` ticks after it started; the composite's rule is the same as for p = 1."""
+    plans = {f"c{i}": Plan([(o, d)]) for i, (o, d, _) in enumerate(children)}
+    for plan in plans.values():
+        plan.ticks = {}  # type: ignore[attr-defined]
+    composite = {"sequence": lambda: Sequence("seq", SequenceConfig()),
+                 "fallback": lambda: Fallback("fb", FallbackConfig()),
+                 "parallel": lambda: Parallel("par", ParallelConfig())}[kind]()
+    composite.add_children([Member.of(Timed(n, plan), period=p) for (n, plan), (_, _, p) in zip(plans.items(), children,
+                                                                                             strict=True)])
+    run = ScriptedRun(composite)
+    tick = None
+    for k in range(HORIZON):
+        run.step({})
+        if run.outcome is not None:
+            tick = k
+            break
+    in_ticks = [(o, d * p) for o, d, p in children]
+    want, want_tick, _ = expect_parallel(in_ticks, "all", "one") if kind == "parallel" else expect_ordered(kind,
+                                                                                                          in_ticks)
+    assert (run.outcome.status if run.outcome else None, tick) == (want, want_tick)
+    for r in run.result()["steps" if kind == "sequence" else "children"]:
+        if r["outcome"] == "not started":
+            continue
+        i = int(r["name"][1:])
+        start = round(r["started_at"] / DT)
+        last = tick if r["outcome"] == "halted" else start + round(r["sim_time"] / DT)
+        steps = plans[r["name"]].ticks[0]  # type: ignore[attr-defined]
+        assert steps == list(range(start, last + 1, children[i][2]))  # every p-th tick from its start, to its end
+
+
+# ------------------------------------------------------------------------------------------ halted from outside
+@PROPS
+@given(st.sampled_from(list(ROLES)), st.lists(child, min_size=2, max_size=3), st.integers(0, 8))
+def test_a_composite_halted_from_outside_halts_exactly_its_running_children(kind: str, children: list,
+                                                                            at: int) -> None:
+    """A composite that is itself halted (a monitor's abort, an enclosing timeout) halts every child started and
+    not ended: each one's ``halt(t)`` runs once, its stop commands are returned together, its record says halted
+    with the composite's name; children not started stay not started. Judged from the children's own step counts."""
+    if kind in ("retry", "timeout"):
+        children = children[:1]
+    plans = {f"c{i}": Plan([c] if kind != "retry" else children) for i, c in enumerate(children)}
+    composite = {"sequence": lambda: Sequence("comp", SequenceConfig()),
+                 "fallback": lambda: Fallback("comp", FallbackConfig()),
+                 "retry": lambda: Retry("comp", RetryConfig(attempts=3)),
+                 "timeout": lambda: Timeout("comp", TimeoutConfig(seconds=100 * DT)),
+                 "parallel": lambda: Parallel("comp", ParallelConfig(success="all", failure="all"))}[kind]()
+    composite.add_children([Member.of(Scripted(n, plan)) for n, plan in plans.items()])
+    run = ScriptedRun(composite)
+    for _ in range(at):
+        run.step({})
+    if run.outcome is not None:
+        return
+    running = []  # the instance each plan is on was stepped and has not reached its end
+    for name, plan in plans.items():
+        instance = plan.built - 1
+        outcome, d = plan.entries[min(instance, len(plan.entries) - 1)]
+        if plan.steps[instance] and (outcome is None or plan.steps[instance] < d + 1):
+            running.append((name, instance))
+    commands = composite.halt(at * DT)
+    assert commands == ({f"motor_{n}": "stopped" for n, _ in running} or None)
+    for name, plan in plans.items():
+        assert plan.halts == [(i, at) for n, i in running if n == name]
+    key = "steps" if kind == "sequence" else "children"
+    halted = {r["name"]: r for r in run.result()[key] if r["outcome"] == "halted"}
+    assert sorted(halted) == sorted(n for n, _ in running)
+    for r in halted.values():
+        assert r["reason"] == "'comp' was halted"
+        assert r["sim_time"] == pytest.approx(at * DT - r["started_at"], abs=2e-6)
+    assert [(x["composite"], x["child"]) for x in run.trace if x["kind"] == "child_halt"] == [
+        ("comp", n) for n, _ in running]
+    assert composite.halt((at + 1) * DT) is None  # nothing runs any more
+    assert all(len(p.halts) <= 1 for p in plans.values())
+
+
+# ------------------------------------------------------------------------------------------ a child's faults
+class NoResult(Scripted):
+    """A scripted child whose ``result()`` raises."""
+
+    def result(self) -> dict[str, Any]:
+        raise ValueError(f"no result from {self.name}")
+
+
+@PROPS
+@given(st.sampled_from(list(ROLES)), st.lists(child, min_size=2, max_size=3))
+def test_a_child_whose_result_raises_leaves_every_other_record_whole(kind: str, children: list) -> None:
+    """docs: a run's result survives a faulty child. A child whose ``result()`` raises has ``result_error`` (its
+    exception's type and text) in its record's result; every other field and record stays."""
+    if kind in ("retry", "timeout"):
+        children = children[:1]
+    plans = {f"c{i}": Plan([c] if kind != "retry" else children) for i, c in enumerate(children)}
+    composite = {"sequence": lambda: Sequence("comp", SequenceConfig()),
+                 "fallback": lambda: Fallback("comp", FallbackConfig()),
+                 "retry": lambda: Retry("comp", RetryConfig(attempts=3)),
+                 "timeout": lambda: Timeout("comp", TimeoutConfig(seconds=5 * DT)),
+                 "parallel": lambda: Parallel("comp", ParallelConfig())}[kind]()
+    composite.add_children([Member.of(NoResult(n, plan)) for n, plan in plans.items()])
+    run = ScriptedRun(composite)
+    for _ in range(12):
+        run.step({})
+    records_ = run.result()["steps" if kind == "sequence" else "children"]
+    assert records_, "a composite always lists its children"
+    for r in records_:
+        assert r["result"] == ({} if r["outcome"] == "not started" else
+                               {"result_error": f"ValueError: no result from {r['name']}"})
+        assert set(r) >= {"name", "type", "outcome", "reason", "result"}
+
+
+class SetsUp(Scripted):
+    """A scripted child that counts its set-ups and writes a trace record in ``setup`` and in each step."""
+
+    def setup(self, ctx: Any) -> None:
+        super().setup(ctx)
+        self.config.setups = getattr(self.config, "setups", 0) + 1
+        ctx.trace("child_note", when="setup")
+
+    def step(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any]:
+        self.ctx.trace("child_note", when="step")
+        return super().step(readings, t)
+
+
+class BadSetup(Behaviour):
+    def setup(self, ctx: Any) -> None:
+        raise KeyError("no such arm")
+
+
+@pytest.mark.parametrize("kind", list(ROLES))
+def test_children_of_a_hand_built_tree_are_set_up_once_their_records_named(kind: str) -> None:
+    """A tree built by hand: the composite sets up each child not yet set up, once (with its own trace records
+    tagged ``child_source``); a child already set up is left as it is; a child whose setup raises is one error
+    naming its role, the call, where it raised and its type."""
+    from robokit.errors import PluginError
+
+    plan, ready = Plan([("succeeded", 1)]), Plan([("succeeded", 1)])
+    make = {"sequence": lambda: Sequence("comp", SequenceConfig()),
+            "fallback": lambda: Fallback("comp", FallbackConfig()),
+            "retry": lambda: Retry("comp", RetryConfig(attempts=2)),
+            "timeout": lambda: Timeout("comp", TimeoutConfig(seconds=1.0)),
+            "parallel": lambda: Parallel("comp", ParallelConfig())}[kind]
+    composite = make()
+    first = SetsUp("a", plan)
+    members = [Member.of(first)]
+    if kind in ("sequence", "fallback", "parallel"):
+        other = SetsUp("b", ready)
+        other.setup(ScriptedRun(Scripted("x", Plan([(None, 0)]))).ctx)  # set up elsewhere already
+        members.append(Member.of(other))
+    composite.add_children(members)
+    run = ScriptedRun(composite)
+    for _ in range(3):
+        run.step({})
+    assert plan.setups == 1 and getattr(ready, "setups", 1) == 1  # type: ignore[attr-defined]
+    notes = [(x["source"], x.get("child_source"), x["when"]) for x in run.trace if x["kind"] == "child_note"]
+    assert notes[0] == ("behaviour", "a", "setup") and ("behaviour", "a", "step") in notes  # the run's own trace
+    assert all(src == "a" for _, src, _ in notes)  # the pre-set-up child writes to its own trace, not this one
+
+    bad = make()
+    bad.add_children([Member("wrong", "bad_setup", BadSetup("wrong", None), 1, "type 'bad_setup' from tests")]
+                     + ([Member.of(Scripted("b", Plan([(None, 0)])))] if kind == "parallel" else []))
+    with pytest.raises(PluginError) as err:
+        ScriptedRun(bad)
+    text = str(err.value)
+    assert text.startswith(f"{ROLES[kind]} 'wrong' (type 'bad_setup' from tests) raised during setup: "
+                           "KeyError: 'no such arm'")
+    assert re.search(r"\(at [^)]*test_prop_composites\.py:\d+\)$", text)
+    assert err.value.type_name == "bad_setup" and isinstance(err.value.__cause__, KeyError)
+
+
+class Closes(Scripted):
+    def close(self) -> None:
+        self.config.closed.append(self.instance)
+        if self.name == "c0":
+            raise RuntimeError("close failed")
+
+
+@PROPS
+@given(st.lists(child, min_size=1, max_size=4), st.integers(1, 4))
+def test_every_attempt_and_every_child_is_closed(attempts_plan: list, attempts: int) -> None:
+    """A retry closes each attempt's instance before the next starts; closing a composite closes every child, even
+    after one child's ``close`` raised."""
+    plan = Plan(attempts_plan)
+    plan.closed = []  # type: ignore[attr-defined]
+    retry = Retry("retry", RetryConfig(attempts=attempts))
+    retry.add_children([Member.of(Closes("c0", plan))])
+    run = ScriptedRun(retry)
+    for _ in range(HORIZON):
+        run.step({})
+    assert plan.closed == list(range(plan.built - 1))  # type: ignore[attr-defined]  # all but the last attempt
+    retry.close()
+    assert plan.closed == list(range(plan.built))  # type: ignore[attr-defined]
+    plans = [Plan([(None, 0)]) for _ in range(3)]
+    for p in plans:
+        p.closed = []  # type: ignore[attr-defined]
+    par = Parallel("par", ParallelConfig())
+    par.add_children([Member.of(Closes(f"c{i}", p)) for i, p in enumerate(plans)])
+    ScriptedRun(par).step({})
+    par.close()
+    assert [p.closed for p in plans] == [[0], [0], [0]]  # type: ignore[attr-defined]
+
+
+@PROPS
+@given(st.lists(st.tuples(st.sampled_from([*ENDS, None]), st.integers(0, 2)), min_size=1, max_size=3),
+       st.lists(st.tuples(st.sampled_from(ENDS), st.integers(0, 2)), min_size=1, max_size=3), st.integers(1, 3),
+       st.integers(1, 2))
+def test_a_retry_of_a_hand_built_sequence_rebuilds_the_whole_subtree(first: list, second: list, attempts: int,
+                                                                     period: int) -> None:
+    """Each attempt of a retry is a fresh instance of its child; a composite child comes with fresh instances of
+    its own children, stepped at the same rates (a hand-built tree: each class called again with name and
+    config)."""
+    plans = {"s0": Plan(first), "s1": Plan(second)}
+    for p in plans.values():
+        p.ticks = {}  # type: ignore[attr-defined]
+    seq = Sequence("seq", SequenceConfig())
+    seq.add_children([Member.of(Timed("s0", plans["s0"]), period=period), Member.of(Timed("s1", plans["s1"]))])
+    retry = Retry("retry", RetryConfig(attempts=attempts))
+    retry.add_children([Member.of(seq)])
+    run = ScriptedRun(retry)
+    for _ in range(HORIZON):
+        run.step({})
+    # the oracle: attempt a runs s0's entry a, then (if it succeeded) s1's; a sequence attempt succeeds iff both did
+    tick, made, want = 0, 0, None
+    for a in range(attempts):
+        made += 1
+        o0, d0 = first[min(a, len(first) - 1)]
+        if o0 is None:
+            break
+        assert plans["s0"].ticks[a] == list(range(tick, tick + d0 * period + 1, period))  # type: ignore[attr-defined]
+        tick += d0 * period
+        outcome = o0
+        if o0 == "succeeded":
+            o1, d1 = second[min(a, len(second) - 1)]
+            tick += 1 + d1
+            outcome = o1
+        if outcome == "succeeded" or a == attempts - 1:
+            want = outcome
+            break
+        tick += 1
+    assert plans["s0"].built == made
+    assert (run.outcome.status if run.outcome else None) == want
+    assert [m.behaviour for m in retry.children][0] is not seq or made == 1
