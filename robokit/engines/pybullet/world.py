@@ -142,6 +142,7 @@ class PyBulletWorld(World):
                 raise UserError(f"could not start PyBullet ({'GUI: is a display available?' if gui else exc})") from exc
         self._joint_cache: dict[int, list[JointInfo]] = {}
         self._com_to_link: dict[int, Any] = {}
+        self._wrench_shifts: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}  # see enable_joint_wrench
         self._cid = int(self.client._client)
         self.mesh_boxes: dict[int, tuple[float, float, float]] = {}
         """Static boxes built as triangle meshes (``mesh_collision``): body id -> half extents (m), centred on the
@@ -568,8 +569,22 @@ class PyBulletWorld(World):
 
     # ----------------------------------------------------------------- interface additions: joints
     def joint_states(self, body: int, joints: Sequence[int]) -> Sequence[JointState]:
-        """``getJointStates``: its tuples have :class:`JointState`'s layout."""
-        return self.client.getJointStates(body, joints)  # type: ignore[no-any-return]
+        """``getJointStates``: its tuples have :class:`JointState`'s layout. PyBullet gives a measured reaction in
+        the child's centre-of-mass frame, torque about the centre of mass; it is handed back in the child link's
+        frame, torque about the link's origin (the interface's frame, see :meth:`enable_joint_wrench`)."""
+        states = self.client.getJointStates(body, joints)
+        if not self._wrench_shifts:
+            return states  # type: ignore[no-any-return]
+        out = list(states)
+        for i, joint in enumerate(joints):
+            shift = self._wrench_shifts.get((body, joint))
+            if shift is not None:
+                rot, offset = shift
+                r = states[i][2]
+                force = rot @ np.asarray(r[:3], dtype=float)
+                torque = rot @ np.asarray(r[3:], dtype=float) + np.cross(offset, force)
+                out[i] = (states[i][0], states[i][1], (*force.tolist(), *torque.tolist()), states[i][3])
+        return out
 
     def reset_joint(self, body: int, joint: int, position: float, velocity: float | None = None) -> None:
         if velocity is None:
@@ -630,7 +645,14 @@ class PyBulletWorld(World):
         self.client.setJointMotorControlArray(body, joints, _MODES[mode], **kwargs)
 
     def enable_joint_wrench(self, body: int, joint: int, enabled: bool = True) -> None:
-        self.client.enableJointForceTorqueSensor(body, joint, 1 if enabled else 0)
+        c = self.client
+        c.enableJointForceTorqueSensor(body, joint, 1 if enabled else 0)
+        if enabled:  # the child's inertial frame in its link frame: where PyBullet's reaction is given
+            position, orientation = c.getDynamicsInfo(body, joint)[3:5]
+            rot = np.asarray(c.getMatrixFromQuaternion(orientation), dtype=float).reshape(3, 3)
+            self._wrench_shifts[(body, joint)] = (rot, np.asarray(position, dtype=float))
+        else:
+            self._wrench_shifts.pop((body, joint), None)
 
     def wrench_frame(self, body: int, joint: int) -> tuple[float, ...]:
         """The child link's frame as ``getLinkState`` kept it from the last step (no forward kinematics rerun)."""

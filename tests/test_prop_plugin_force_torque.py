@@ -1,0 +1,114 @@
+"""The force-torque sensor against statics, on generated tools at random orientations, on both engines.
+
+The plugin promises (plugins/force_torque.py, robokit.msgs.sensing.Wrench): the wrench the joint's child link
+receives from its parent, in the child link's frame, torque about the child link's origin; with ``world_frame`` the
+same vectors in the world frame. A tool hanging still from a fixed joint is held up by exactly its weight, so the
+reading must be ``F = m g`` upwards and ``tau = (c - o) x F`` (``c`` its centre of mass, ``o`` its link origin),
+rotated into the link frame by the link's orientation -- all computed here from the URDF written for the example
+and the world's link pose, with a rotation matrix built from the quaternion by axis and angle. Each example's tool
+has a generated joint orientation, centre-of-mass offset and inertial-frame rotation (never the identity alone):
+a sensor that reports about the centre of mass, or in the inertial frame, fails.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from robokit.testing import make_sim
+
+ENGINES = ["pybullet", "mujoco"]
+G = 9.81
+
+
+def rotation(q: Any) -> np.ndarray:
+    """Rotation matrix of an ``(x, y, z, w)`` quaternion, from its axis and angle (Rodrigues)."""
+    x, y, z, w = (float(v) for v in q)
+    s = np.linalg.norm([x, y, z])
+    if s < 1e-12:
+        return np.eye(3)
+    k = np.array([x, y, z]) / s
+    angle = 2.0 * np.arctan2(s, w)
+    kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    return np.eye(3) + np.sin(angle) * kx + (1 - np.cos(angle)) * kx @ kx
+
+
+def rpy_matrix(r: float, p: float, y: float) -> np.ndarray:
+    """URDF's rpy: roll about fixed x, then pitch about fixed y, then yaw about fixed z."""
+    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
+    rx = np.array([[1, 0, 0], [0, cr, -sr], [0, sr, cr]])
+    ry = np.array([[cp, 0, sp], [0, 1, 0], [-sp, 0, cp]])
+    rz = np.array([[cy, -sy, 0], [sy, cy, 0], [0, 0, 1]])
+    return rz @ ry @ rx
+
+
+def tool_urdf(joint_rpy: tuple, com: tuple, inertial_rpy: tuple, mass: float) -> str:
+    fmt = " ".join
+    return f"""<?xml version="1.0"?>
+<robot name="probe">
+  <link name="base">
+    <inertial><origin xyz="0 0 0"/><mass value="1"/>
+      <inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><geometry><box size="0.1 0.1 0.1"/></geometry></collision>
+  </link>
+  <link name="tool">
+    <inertial><origin xyz="{fmt(map(str, com))}" rpy="{fmt(map(str, inertial_rpy))}"/><mass value="{mass}"/>
+      <inertia ixx="0.004" iyy="0.006" izz="0.008" ixy="0" ixz="0" iyz="0"/></inertial>
+  </link>
+  <link name="spare">
+    <inertial><origin xyz="0 0 0"/><mass value="0.1"/>
+      <inertia ixx="0.001" iyy="0.001" izz="0.001" ixy="0" ixz="0" iyz="0"/></inertial>
+  </link>
+  <joint name="spin" type="revolute">
+    <parent link="base"/><child link="spare"/><origin xyz="0 0 -0.1"/><axis xyz="0 0 1"/>
+    <limit lower="-1" upper="1" effort="10" velocity="1"/>
+  </joint>
+  <joint name="wrist" type="fixed">
+    <parent link="base"/><child link="tool"/>
+    <origin xyz="0.05 -0.02 0.3" rpy="{fmt(map(str, joint_rpy))}"/>
+  </joint>
+</robot>
+"""
+
+
+angles = st.tuples(*(st.floats(-1.4, 1.4),) * 3)
+
+
+@pytest.mark.parametrize("engine", ENGINES)
+@settings(max_examples=4, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(joint_rpy=angles, base_rpy=angles, inertial_rpy=angles, mass=st.floats(0.2, 3.0),
+       com=st.tuples(*(st.floats(-0.15, 0.15),) * 3))
+def test_a_hanging_tool_reads_its_weight_and_moment_about_the_link_origin(
+        engine: str, tmp_path: Path, joint_rpy: tuple, base_rpy: tuple, inertial_rpy: tuple, mass: float,
+        com: tuple) -> None:
+    urdf = tmp_path / "probe.urdf"
+    urdf.write_text(tool_urdf(joint_rpy, com, inertial_rpy, mass), encoding="utf-8")
+    config = {
+        "world": {"engine": engine, "gravity": [0, 0, -G]},
+        "robots": {"probe": {"urdf": str(urdf), "position": [0, 0, 0.5], "fixed_base": True,
+                             "rpy_deg": [float(v) for v in np.degrees(base_rpy)]}},
+        "sensors": {"ft": {"type": "force_torque", "body": "probe", "joint": "wrist"},
+                    "ftw": {"type": "force_torque", "body": "probe", "joint": "wrist", "world_frame": True}},
+    }
+    with make_sim(config) as sim:
+        sim.step(5)
+        w = sim.world
+        tool = w.joint("probe", "wrist").index
+        origin, orn = w.pose("probe", tool)
+        r_link = rotation(orn)
+        centre = np.array(origin) + r_link @ np.array(com)  # the URDF's inertial origin, in the world
+        force = np.array([0.0, 0.0, mass * G])  # the parent holds the tool up against its weight
+        torque = np.cross(centre - np.array(origin), force)
+        local, world = sim.readings["ft"], sim.readings["ftw"]
+        assert local.frame == "tool" and world.frame == "world"
+        np.testing.assert_allclose(world.force, force, atol=2e-3 * mass * G + 1e-6)
+        np.testing.assert_allclose(world.torque, torque, atol=2e-3 * mass * G * 0.3 + 1e-6)
+        np.testing.assert_allclose(local.force, r_link.T @ force, atol=2e-3 * mass * G + 1e-6)
+        np.testing.assert_allclose(local.torque, r_link.T @ torque, atol=2e-3 * mass * G * 0.3 + 1e-6)
+        # the link frame is the URDF's: base orientation times the joint's rpy (not the inertial frame's)
+        np.testing.assert_allclose(r_link, rpy_matrix(*base_rpy) @ rpy_matrix(*joint_rpy), atol=1e-6)

@@ -1,0 +1,187 @@
+"""The gripper against the world, as properties over generated commands and hand orientations.
+
+docs/arm.md and the plugin's docstring promise: a ``width`` command drives the fingertips to that distance (clamped
+to 0 .. the open width), ``open``/``close`` to the ends; the fingers stay symmetric; ``settled`` means the width has
+stopped changing; ``holding`` means both fingers touch the same body with the width above ``empty_width``, and
+``held`` names it; a protective stop freezes the fingers where they are. The oracle is the world: the fingertip
+distance is measured along the hand's own closing axis (the hand's rotation matrix written here from its
+quaternion, at random arm joint angles: random orientations, never only the identity), finger motion from the link
+velocities, touching from the world's unfiltered contact points.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from typing import Any
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from robokit.msgs.arm import GripperCommand
+from robokit.testing import make_sim
+
+OPEN = 0.08  # the Panda's two finger joints open to 0.04 m each (panda.urdf)
+SCENE: dict[str, Any] = {
+    "world": {"gravity": [0, 0, 0]},  # the arm stays where it is put: the hand's pose is the generated one
+    "bodies": {"cube": {"shape": "box", "size": [0.04, 0.04, 0.04], "mass": 0.0, "position": [3, 3, 0.5]}},
+    "robots": {"panda": {"urdf": "franka_panda/panda.urdf", "position": [0, 0, 0], "fixed_base": True}},
+    "actuators": {"gripper": {"type": "gripper", "body": "panda"}},
+}
+ARM = [f"panda_joint{i}" for i in range(1, 8)]
+
+
+def rotation(q: Any) -> np.ndarray:
+    """Rotation matrix of an ``(x, y, z, w)`` quaternion, from its axis and angle (Rodrigues)."""
+    x, y, z, w = (float(v) for v in q)
+    s = np.linalg.norm([x, y, z])
+    if s < 1e-12:
+        return np.eye(3)
+    k = np.array([x, y, z]) / s
+    angle = 2.0 * np.arctan2(s, w)
+    kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    return np.eye(3) + np.sin(angle) * kx + (1 - np.cos(angle)) * kx @ kx
+
+
+@pytest.fixture(scope="module")
+def sim() -> Iterator[Any]:
+    with make_sim(SCENE) as s:
+        yield s
+
+
+def link(sim: Any, name: str) -> int:
+    w = sim.world
+    return next(j.index for j in w.joints("panda") if j.child_link == name)
+
+
+def fingertips(sim: Any) -> tuple[float, float, float]:
+    """Measured in the world: the fingertip distance along the hand's closing (y) axis, how far the fingers'
+    midpoint is off the hand's centre line along it, and the fingers' speed apart (m/s)."""
+    w = sim.world
+    hand_pos, hand_orn = w.pose("panda", link(sim, "panda_hand"))
+    axis = rotation(hand_orn)[:, 1]
+    left = np.array(w.pose("panda", link(sim, "panda_leftfinger"))[0])
+    right = np.array(w.pose("panda", link(sim, "panda_rightfinger"))[0])
+    v_left = np.array(w.link_velocity("panda", link(sim, "panda_leftfinger"))[0])
+    v_right = np.array(w.link_velocity("panda", link(sim, "panda_rightfinger"))[0])
+    middle = (left + right) / 2 - np.array(hand_pos)
+    return float((left - right) @ axis), float(middle @ axis), float((v_left - v_right) @ axis)
+
+
+def put_hand(sim: Any, angles: list[float]) -> None:
+    w = sim.world
+    body = w.body("panda")
+    for name, q in zip(ARM, angles, strict=True):
+        w.reset_joint(body, w.joint("panda", name).index, q, 0.0)
+
+
+def settle(sim: Any, ticks: int = 400) -> int:
+    sim.step(1)
+    for n in range(ticks):
+        if sim.readings["gripper"].settled:
+            return n
+        sim.step(1)
+    raise AssertionError("the gripper never settled")
+
+
+arm_angles = st.lists(st.floats(-1.2, 1.2), min_size=7, max_size=7)
+
+
+@settings(max_examples=6, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(angles=arm_angles,
+       cmd=st.one_of(st.tuples(st.just("width"), st.floats(-0.05, 0.15)), st.tuples(st.sampled_from(["open", "close"]),
+                                                                                     st.just(None))),
+       force=st.one_of(st.none(), st.floats(5.0, 60.0)))
+def test_the_fingertips_go_to_the_commanded_width_in_the_world(sim: Any, angles: list[float], cmd: tuple,
+                                                               force: float | None) -> None:
+    sim.world.set_pose("cube", (3, 3, 0.5))  # out of reach: the fingers close on nothing
+    put_hand(sim, angles)
+    action, width = cmd
+    want = {"open": OPEN, "close": 0.0}.get(action, min(max(width or 0.0, 0.0), OPEN))
+    g = sim.components["gripper"]
+    g.command(GripperCommand(action, width=width, force=force))
+    settle(sim)
+    r = sim.readings["gripper"]
+    measured, off_centre, speed = fingertips(sim)
+    assert r.target_width == pytest.approx(want, abs=1e-12) and r.action == action
+    assert measured == pytest.approx(want, abs=1.5e-3), "the fingertips are where the command put them"
+    assert r.width == pytest.approx(measured, abs=5e-4), "the reading is the world's fingertip distance"
+    assert abs(off_centre) < 1e-3, "the fingers stay symmetric about the hand"
+    assert abs(speed) <= 0.011, "settled: the fingers no longer move apart or together"
+    assert not r.holding and r.held is None and r.finger_contacts == 0 and not r.stopped
+
+
+@settings(max_examples=8, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(angles=arm_angles, size=st.floats(0.015, 0.05), yaw=st.floats(-0.3, 0.3), off=st.floats(-0.025, 0.025),
+       beside=st.booleans())
+def test_holding_is_both_fingers_touching_one_body_in_the_world(sim: Any, angles: list[float], size: float,
+                                                                 yaw: float, off: float, beside: bool) -> None:
+    """A static cube of a generated size put between the fingertips, off the centre line by a generated distance
+    along the closing axis (the coupled fingers then stop when the nearer one touches it: only one finger may
+    touch), or beside the hand; then a close: holding and held agree with the world's contacts of each finger,
+    and the width with where the cube is."""
+    w = sim.world
+    g = sim.components["gripper"]
+    g.command(GripperCommand("open"))
+    settle(sim)
+    put_hand(sim, angles)
+    w.set_pose("cube", (3, 3, 0.5))
+    sim.step(1)
+    target_pos, target_orn = w.pose("panda", link(sim, "panda_grasptarget"))
+    rot = rotation(target_orn)
+    spin = np.array([[np.cos(yaw), -np.sin(yaw), 0], [np.sin(yaw), np.cos(yaw), 0], [0, 0, 1]])
+    # the cube at the grasp target moved ``off`` along the closing (y) axis, turned a little about the approach
+    # axis; or 0.3 m beside the hand
+    where = np.array(target_pos) + off * rot[:, 1] + (0.3 if beside else 0.0) * rot[:, 0]
+    m = rot @ spin
+    qw = np.sqrt(max(1e-12, 1 + np.trace(m))) / 2
+    quat = ((m[2, 1] - m[1, 2]) / (4 * qw), (m[0, 2] - m[2, 0]) / (4 * qw), (m[1, 0] - m[0, 1]) / (4 * qw), qw)
+    w.remove_body("cube")
+    w.add_primitive("cube", "box", size=[size, size, size], mass=0.0, position=list(where), orientation=quat)
+    g.command(GripperCommand("close"))
+    settle(sim)
+    r = sim.readings["gripper"]
+    cube = w.body("cube")
+    touching = [any(c.other == cube for c in w.contacts(w.body("panda"), link=link(sim, name)))
+                for name in ("panda_leftfinger", "panda_rightfinger")]
+    measured = fingertips(sim)[0]
+    half = size / 2 * (np.cos(yaw) + np.sin(abs(yaw)))  # the cube's half extent along the closing axis
+    assert r.width == pytest.approx(measured, abs=5e-4)
+    assert r.holding == (all(touching) and measured > 0.004), f"holding {r.holding}, touching {touching}"
+    assert r.held == ("cube" if r.holding else None)
+    assert r.finger_contacts == sum(len([c for c in w.contacts(w.body("panda"), link=link(sim, name))
+                                         if c.other != w.body("panda")])
+                                    for name in ("panda_leftfinger", "panda_rightfinger"))
+    if beside:
+        assert not any(touching) and not r.holding and measured < 0.004, "closed on nothing"
+    else:
+        assert any(touching), "a closing finger meets the cube between them"
+        # the coupled fingers stop when the nearer one meets the cube's face: 2 (|off| + half) apart
+        assert measured == pytest.approx(min(OPEN, 2 * (abs(off) + half)), abs=3e-3)
+        if abs(off) < 1e-3:
+            assert all(touching) and r.holding, "a centred cube is held once the fingers close"
+
+
+@settings(max_examples=4, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(start=st.floats(0.0, OPEN), goal=st.floats(0.0, OPEN), ticks=st.integers(3, 25))
+def test_a_protective_stop_freezes_the_fingers_where_they_are(sim: Any, start: float, goal: float,
+                                                              ticks: int) -> None:
+    """Stopped mid-travel on nothing: the fingers stay at the width they had, in the world, and the reading says
+    stopped until the next command."""
+    sim.world.set_pose("cube", (3, 3, 0.5))
+    g = sim.components["gripper"]
+    g.command(GripperCommand("width", width=start))
+    settle(sim)
+    g.command(GripperCommand("width", width=goal))
+    sim.step(ticks)
+    at_stop = fingertips(sim)[0]
+    g.protective_stop("test")
+    sim.step(60)
+    r = sim.readings["gripper"]
+    assert r.stopped
+    assert fingertips(sim)[0] == pytest.approx(at_stop, abs=2.5e-3), "the fingers held the width of the stop"
+    assert r.target_width == pytest.approx(at_stop, abs=2.5e-3)
+    g.command(GripperCommand("open"))
+    sim.step(1)
+    assert not sim.readings["gripper"].stopped
