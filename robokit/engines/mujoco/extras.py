@@ -5,7 +5,7 @@ not built yet, each refused with one line naming the engine (configs that need t
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import Any, NoReturn
+from typing import NoReturn
 
 from robokit.engines.interface import Pose, Quat, Vec3
 from robokit.engines.mujoco import spatial as mm
@@ -53,8 +53,3 @@ class MujocoExtras:
     def key_events(self) -> Mapping[int, int]:
         """No viewer: no keys."""
         return {}
-
-    # ----------------------------------------------------------------- not built yet
-    def inverse_kinematics(self, body: int, link: int, position: Sequence[float], orientation: Sequence[float],
-                           **_: Any) -> list[float] | None:
-        return None  # MuJoCo has no IK call: the caller solves it

@@ -87,3 +87,44 @@ def joint_wrench(model: Any, data: Any, child: int) -> tuple[tuple[float, ...], 
     rot = np.asarray(data.xmat[child]).reshape(3, 3)
     local = np.concatenate([rot.T @ force, rot.T @ torque])
     return tuple(float(v) for v in local), tuple(float(v) for v in rot.reshape(-1))
+
+
+def inverse_kinematics(world: MujocoBodies, body: int, link: int, position: Sequence[float],
+                       orientation: Sequence[float], seed: Sequence[float], damping: Sequence[float], iterations: int,
+                       tolerance: float, scratch: Any) -> list[float]:
+    """Damped least squares on MuJoCo's Jacobian (Levenberg-Marquardt: ``(J^T J + diag(damping)) dq = J^T e``,
+    ``e`` the position error and rotation vector of ``link``'s link frame), from ``seed`` (one value per movable
+    joint), each step clipped to the joints' limits, at most ``iterations`` steps, stopping once the error's norm is
+    below ``tolerance``. The caller checks the answer. Computed in ``scratch`` (the world does not move)."""
+    m, d = world.compiled()
+    movable = [j.index for j in world.joints(body) if j.movable]
+    jids = [int(m.body_jntadr[world.mj_body(body, j)]) for j in movable]
+    qadr = np.array([m.jnt_qposadr[j] for j in jids], dtype=np.int64)
+    dofs = np.array([m.jnt_dofadr[j] for j in jids], dtype=np.int64)
+    limited = m.jnt_limited[jids].astype(bool)
+    lower = np.where(limited, m.jnt_range[jids, 0], -np.inf)
+    upper = np.where(limited, m.jnt_range[jids, 1], np.inf)
+    target = world.mj_body(body, link)
+    goal_pos = np.asarray(position, dtype=float)
+    goal_quat = np.array([orientation[3], orientation[0], orientation[1], orientation[2]], dtype=float)
+    q = np.asarray(seed, dtype=float).copy()
+    scratch.qpos[:] = d.qpos
+    jacp, jacr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
+    error, rot, inverse = np.zeros(6), np.zeros(3), np.zeros(4)
+    weights = np.diag(np.asarray(damping, dtype=float))
+    for _ in range(iterations):
+        scratch.qpos[qadr] = q
+        mujoco.mj_kinematics(m, scratch)
+        error[:3] = goal_pos - scratch.xpos[target]
+        mujoco.mju_negQuat(inverse, scratch.xquat[target])
+        difference = np.zeros(4)
+        mujoco.mju_mulQuat(difference, goal_quat, inverse)
+        mujoco.mju_quat2Vel(rot, difference, 1.0)
+        error[3:] = rot
+        if np.linalg.norm(error) < tolerance:
+            break
+        mujoco.mj_comPos(m, scratch)
+        mujoco.mj_jac(m, scratch, jacp, jacr, scratch.xpos[target], target)
+        jac = np.vstack([jacp[:, dofs], jacr[:, dofs]])
+        q = np.clip(q + np.linalg.solve(jac.T @ jac + weights, jac.T @ error), lower, upper)
+    return q.tolist()

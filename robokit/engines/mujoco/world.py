@@ -311,6 +311,16 @@ class MujocoWorld(MujocoBodies):
             self._scratch = (m, mujoco.MjData(m))
         return kin.jacobian(self, body, link, positions, self._scratch[1])
 
+    def inverse_kinematics(self, body: int, link: int, position: Sequence[float], orientation: Sequence[float], *,
+                           seed: Sequence[float], damping: Sequence[float], iterations: int,
+                           tolerance: float) -> list[float] | None:
+        """Damped least squares on MuJoCo's Jacobian (see :func:`robokit.engines.mujoco.kin.inverse_kinematics`)."""
+        m, _ = self.compiled()
+        if self._scratch is None or self._scratch[0] is not m:
+            self._scratch = (m, mujoco.MjData(m))
+        return kin.inverse_kinematics(self, body, link, position, orientation, seed, damping, iterations, tolerance,
+                                      self._scratch[1])
+
     # ----------------------------------------------------------------- cameras
     def render(self, width: int, height: int, view: Sequence[float], projection: Sequence[float], *, near: float,
                far: float, segmentation: bool = True, renderer: str = "tiny") -> RenderedImage:
