@@ -32,7 +32,7 @@ import enum
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Literal
 
 from pydantic import Field, field_validator
 from robokit_behaviours.pick_place_jobs import (
@@ -57,8 +57,10 @@ from robokit.msgs.arm import (
     MoveTo,
     Vec3,
     cube_grasp_yaw,
+    down_quaternion,
     yaw_of,
 )
+from robokit.planning.arm import ArmPlanning
 
 
 class Phase(enum.Enum):
@@ -97,6 +99,8 @@ TRANSITIONS: list[dict[str, Any]] = [
 TIMEOUTS = {"APPROACH": 3.0, "DESCEND": 2.0, "GRASP": 1.0, "LIFT": 2.0, "TRANSPORT": 3.0, "LOWER": 2.0,
             "RELEASE": 1.0, "RETREAT": 2.0}
 """Sim seconds allowed per state."""
+PLANNED_TIMEOUT = 8.0
+"""Sim seconds allowed for APPROACH and TRANSPORT with ``planner = "rrt"`` (unless ``timeouts`` says otherwise)."""
 
 
 @dataclass(frozen=True)
@@ -136,6 +140,11 @@ class PickPlaceConfig(Schema):
                                         "for a drop while the arm moves; None = every tick. At the end of every "
                                         "move it is checked on each tick")
     timeouts: dict[str, float] = Field(default_factory=dict, description="state name -> sim seconds")
+    planner: Literal["straight", "rrt"] = Field("straight", description="free moves (approach, transport): "
+                                                "'straight' lines, or 'rrt': around obstacles where the straight "
+                                                "way is blocked (docs/motion_planning.md)")
+    planning: ArmPlanning = Field(default_factory=lambda: ArmPlanning.model_validate({}),
+                                  description="options of planner = 'rrt'")
 
     @field_validator("timeouts")
     @classmethod
@@ -192,6 +201,7 @@ class PickPlace(MachineBehaviour):
         self._grasp: Vec3 = (0.0, 0.0, 0.0)
         self._arm_busy_until = -math.inf  # sim time before which the arm's path cannot have ended
         self._hold_check_due = -math.inf  # sim time of the next drop check while carrying
+        self.moves: Any = None  # planner = "rrt": robokit.planning.arm_moves.PlannedMoves
 
     # ------------------------------------------------------------------ construction
     SUB_API: ClassVar[int] = 1
@@ -252,6 +262,12 @@ class PickPlace(MachineBehaviour):
             if name is not None and not ctx.world.has_body(name):
                 raise ConfigError(f"unknown body {name!r}; bodies: {', '.join(ctx.world.body_names)}", key=key)
         self.jobs = jobs_from(cfg)
+        if cfg.planner == "rrt":
+            from robokit.planning.arm_moves import PlannedMoves
+
+            self.moves = PlannedMoves.for_arm(ctx.world, ctx.components[cfg.arm], ctx.rng, cfg.planning)
+            for state in ("APPROACH", "TRANSPORT"):  # a way around takes longer than the straight one
+                self.timeouts[state] = cfg.timeouts.get(state, PLANNED_TIMEOUT)
         if not self.is_sub:  # top-level use: the job comes from the config, so all of it must be there
             if not self.jobs:
                 raise ConfigError("missing: pick_place needs the body to pick (or objects = [...], or "
@@ -369,6 +385,18 @@ class PickPlace(MachineBehaviour):
         cfg: PickPlaceConfig = self.config
         return {cfg.arm: MoveTo(pos, yaw=self._yaw, speed=cfg.slow_speed if slow else cfg.speed)}
 
+    def _free_move(self, pos: Vec3, carrying: str | None = None) -> dict[str, Any]:
+        """A free move (approach, transport): straight, or with ``planner = "rrt"`` around what blocks the straight
+        way (``carrying``: the body held, part of the moving geometry). No collision-free way fails the job."""
+        cfg: PickPlaceConfig = self.config
+        if self.moves is None:
+            return self._move(pos)
+        cmd = self.moves.move(pos, down_quaternion(self._yaw), cfg.speed, carrying=carrying)
+        if cmd is None:
+            self._fail(f"no collision-free path in {self.state_name}: {self.moves.last.reason}")
+            return {cfg.arm: HoldArm()}
+        return {cfg.arm: cmd}
+
     def _altitude(self) -> float:
         assert self.task is not None
         return max(self._grasp[2], self.task.place_position[2] + self.config.grasp_offset) + self.config.lift_height
@@ -383,7 +411,7 @@ class PickPlace(MachineBehaviour):
         (x, y, z), yaw = located
         self._yaw = cube_grasp_yaw(yaw, 0.0)
         self._grasp = (x, y, z + cfg.grasp_offset)
-        return {cfg.gripper: GripperCommand("open"), **self._move((x, y, self._grasp[2] + cfg.approach_height))}
+        return {cfg.gripper: GripperCommand("open"), **self._free_move((x, y, self._grasp[2] + cfg.approach_height))}
 
     def enter_descend(self, readings: Mapping[str, Any]) -> dict[str, Any]:
         """Go straight down to the grasp point."""
@@ -402,7 +430,7 @@ class PickPlace(MachineBehaviour):
         """Carry the object above the place spot."""
         assert self.task is not None
         x, y, _ = self.task.place_position
-        return self._move((x, y, self._altitude()))
+        return self._free_move((x, y, self._altitude()), carrying=self.task.object_name)
 
     def enter_lower(self, readings: Mapping[str, Any]) -> dict[str, Any]:
         """Lower the object to just above the place spot."""
@@ -584,6 +612,7 @@ class PickPlace(MachineBehaviour):
             "phase_times": {k: round(v, 6) for k, v in self.phase_times.items()},
             **({"jobs": [*self.done, *([] if len(self.done) == len(self.jobs) else [self._current()])],
                 "placed": len(self.done)} if len(self.jobs) > 1 else {}),
+            **({"planner": self.moves.stats.as_dict()} if self.moves is not None else {}),
         }
 
     def _current(self) -> dict[str, Any]:

@@ -27,7 +27,7 @@ import enum
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Literal
 
 from pydantic import Field
 from robokit_behaviours.pick_place import PickPlace, PickPlaceTask
@@ -37,7 +37,7 @@ from robokit.components import GoalCheck, SetupContext
 from robokit.config import Schema
 from robokit.errors import ConfigError, LookupNameError, did_you_mean
 from robokit.fsm import MachineBehaviour
-from robokit.msgs.arm import ArmState, GripperCommand, MoveTo, yaw_of
+from robokit.msgs.arm import ArmState, GripperCommand, MoveTo, down_quaternion, yaw_of
 from robokit.msgs.vision import Detection, Detections
 
 Vec3 = tuple[float, float, float]
@@ -95,6 +95,9 @@ class SortConfig(Schema):
                                 description="gripper position out of the camera's view: first look, after a miss")
     look_tolerance: float = Field(default=0.05, gt=0, description="at the start, closer than this is there")
     pick_place: dict[str, Any] = Field(default_factory=dict, description="options of the pick_place sub-machine")
+    planner: Literal["straight", "rrt"] = Field("straight", description="the arm's free moves: 'straight' lines, "
+                                                "or 'rrt': around obstacles where the straight way is blocked "
+                                                "(pick_place's planner; docs/motion_planning.md)")
 
 
 @dataclass
@@ -173,7 +176,8 @@ class Sort(MachineBehaviour):
             raise ConfigError(str(LookupNameError("sensor", cfg.truth_sensor, ctx.components)), key="truth_sensor")
         try:
             self.pp = PickPlace.sub(name="pick_place", parent_ctx=ctx, arm=cfg.arm, gripper=cfg.gripper,
-                                    max_attempts=1, api=1, key="pick_place", **cfg.pick_place)
+                                    max_attempts=1, api=1, key="pick_place",
+                                    **{"planner": cfg.planner, **cfg.pick_place})
         except ConfigError as exc:
             raise ConfigError(exc.message, key=exc.key) from None
         except (TypeError, ValueError) as exc:
@@ -366,7 +370,15 @@ class Sort(MachineBehaviour):
         arm = readings[cfg.arm]
         self._view_command = arm.command_id if isinstance(arm, ArmState) else 0
         self.fire("missed")
-        return {cfg.arm: MoveTo(cfg.look_position), cfg.gripper: GripperCommand("open")}
+        return {cfg.arm: self._look_move(), cfg.gripper: GripperCommand("open")}
+
+    def _look_move(self) -> Any:
+        """The move to ``look_position``: straight, or with ``planner = "rrt"`` around what blocks the straight
+        way (straight when no way is found: the planner's counts in the result say so)."""
+        cfg: SortConfig = self.config
+        moves = self.pp.moves
+        planned = moves.move(cfg.look_position, down_quaternion(0.0), None) if moves is not None else None
+        return planned or MoveTo(cfg.look_position)
 
     def do_clear_view(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any] | None:
         """Wait until the arm has reached the look position (its new command is done), then look.
@@ -383,7 +395,7 @@ class Sort(MachineBehaviour):
             if math.dist(arm.position, cfg.look_position) <= cfg.look_tolerance:
                 return self._view_clear(readings, t)
             self._view_command = arm.command_id
-            return {cfg.arm: MoveTo(cfg.look_position), cfg.gripper: GripperCommand("open")}
+            return {cfg.arm: self._look_move(), cfg.gripper: GripperCommand("open")}
         if arm.command_id <= self._view_command:
             return None
         if arm.failed:
@@ -438,6 +450,7 @@ class Sort(MachineBehaviour):
             "picks": self.picks,
             **({"camera_frames": frames} if frames is not None else {}),
             "objects": [o.report() for o in self.objects] + self.left,
+            **({"planner": self.pp.moves.stats.as_dict()} if self.pp.moves is not None else {}),
         }
 
     # ------------------------------------------------------------------ preflight (before the first tick)

@@ -41,6 +41,7 @@ from robokit.errors import ConfigError
 from robokit.msgs.arm import (
     ArmState,
     ContactState,
+    FollowJoints,
     HoldArm,
     MoveTo,
     Quat,
@@ -328,9 +329,10 @@ class IkArm(Actuator):
 
     # ------------------------------------------------------------------ commands
     def command(self, cmd: Any) -> None:
-        """Accept :class:`MoveTo` (plan a path, or fail with a reason) or :class:`HoldArm`. After a ``stop_on``
-        stop, commands are ignored (the arm stays stopped); after a protective stop, the next command moves it."""
-        if self.latched and isinstance(cmd, (HoldArm, MoveTo)):
+        """Accept :class:`MoveTo` (plan a path, or fail with a reason), :class:`FollowJoints` or :class:`HoldArm`.
+        After a ``stop_on`` stop, commands are ignored (the arm stays stopped); after a protective stop, the next
+        command moves it."""
+        if self.latched and isinstance(cmd, (HoldArm, MoveTo, FollowJoints)):
             return
         self.stopped = False
         if isinstance(cmd, HoldArm):
@@ -340,8 +342,13 @@ class IkArm(Actuator):
             self.command_id += 1
             self._holding = False  # send the new hold target
             return
+        if isinstance(cmd, FollowJoints):
+            self.command_id += 1
+            reason = self._follow(cmd)
+            self.status, self.reason = ("failed", reason) if reason else ("moving", "")
+            return
         if not isinstance(cmd, MoveTo):
-            raise ValueError(f"ik_arm takes MoveTo or HoldArm, got {type(cmd).__name__}")
+            raise ValueError(f"ik_arm takes MoveTo, FollowJoints or HoldArm, got {type(cmd).__name__}")
         self.command_id += 1
         pos, orn = np.asarray(cmd.position, float), cmd.quaternion()
         self.target = (tuple(float(v) for v in pos), orn)  # type: ignore[assignment]
@@ -361,6 +368,44 @@ class IkArm(Actuator):
         self.path = qs
         self.t0 = self.world.time
         self.duration = max(1.5 * dist / speed, 1.5 * ang / self.config.angular_speed, self.config.min_duration)
+        self._profile()
+        return ""
+
+    def straight_path(self, position: Vec3, orientation: Quat) -> tuple[list[np.ndarray], str]:
+        """The path a :class:`MoveTo` to this pose would take now: the arm's joint positions per waypoint (the
+        first: its commanded ones now), and "" or why the move would fail. Nothing moves."""
+        q_all = self._measured_all()
+        q_all[self.arm_cols] = self.q_cmd
+        qs, reason, _, _ = self._path(q_all, np.asarray(position, float), orientation)
+        return qs, reason
+
+    def _follow(self, cmd: FollowJoints) -> str:
+        """Take a joint-space path (:class:`FollowJoints`); returns a failure reason, or "" with ``self.path`` set."""
+        arm_names = [j.name for j in self.arm]
+        unknown = [name for name in cmd.joints if name not in arm_names]
+        if unknown:
+            self.path = None
+            return f"unknown arm joint {unknown[0]!r}; arm joints: {', '.join(arm_names)}"
+        cols = [arm_names.index(name) for name in cmd.joints]
+        qs = [self.q_cmd.copy()]
+        for point in cmd.path:
+            q = qs[-1].copy()
+            q[cols] = point
+            qs.append(q)
+        lo, hi = self.lower[self.arm_cols], self.upper[self.arm_cols]
+        if any(np.any(q < lo - 1e-6) or np.any(q > hi + 1e-6) for q in qs):
+            self.path = None
+            return "joint path outside the joint limits"
+        q_all = np.tile(self._measured_all(), (len(qs), 1))
+        q_all[:, self.arm_cols] = qs
+        positions, _ = self.chain.fk_many(q_all)
+        dist = float(np.sum(np.linalg.norm(np.diff(positions, axis=0), axis=1)))
+        travel = float(np.max(np.sum(np.abs(np.diff(np.array(qs), axis=0)), axis=0)))
+        pos, orn = self.chain.fk(q_all[-1])
+        self.target = (tuple(float(v) for v in pos), orn)  # type: ignore[assignment]
+        self.path, self.t0 = qs, self.world.time
+        speed = cmd.speed or self.config.speed
+        self.duration = max(1.5 * dist / speed, 1.5 * travel / cmd.joint_speed, self.config.min_duration)
         self._profile()
         return ""
 

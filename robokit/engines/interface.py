@@ -140,6 +140,24 @@ class ChainJoint(NamedTuple):
     type: str
 
 
+class Clash(NamedTuple):
+    """Two bodies closer than a margin in a :meth:`World.clashes` query (a configuration tried, not stepped).
+
+    Attributes:
+        body: The arm's body id, or a carried body's.
+        link: Its link (``-1`` = base).
+        other: The other body's id.
+        other_link: The other body's link.
+        distance: Signed distance between the two, metres (negative: they interpenetrate by that much).
+    """
+
+    body: int
+    link: int
+    other: int
+    other_link: int
+    distance: float
+
+
 class RayHits(NamedTuple):
     """Answers of a batch of rays, as arrays (one entry per ray).
 
@@ -818,6 +836,20 @@ class World(ABC):
     @abstractmethod
     def penetration(self, a: int, b: int) -> float:
         """How deep bodies ``a`` and ``b`` interpenetrate now, metres (0 when apart or just touching)."""
+
+    def clashes(self, body: int, joints: Sequence[int], positions: Sequence[float], *,
+                carried: Sequence[tuple[int, int, Pose]] = (), skip: Collection[int] = (),
+                margin: float = 0.0) -> list[Clash]:
+        """What would be closer than ``margin`` (m) if ``body``'s ``joints`` were at ``positions`` (rad or m) and
+        each carried body ``(id, link, pose)`` sat at ``pose`` (its centre-of-mass frame in ``body``'s ``link``'s
+        link frame, as held): the arm and the carried bodies against every other body not in ``skip``. The arm
+        against itself and against what it carries is not asked. Nothing is stepped: the world is left exactly as
+        it was (a motion planner's collision check).
+
+        Raises:
+            UserError: This engine cannot answer it.
+        """
+        raise UserError(f"the {self.engine} engine cannot check arm configurations for collisions")
 
     # ----------------------------------------------------------------- rays, cameras
     @abstractmethod

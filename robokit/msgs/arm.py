@@ -6,7 +6,7 @@ Units: metres, radians, seconds, newtons; positions are world frame ``(x, y, z)`
 Actuators and what they take:
 
 - ``joint_control``: :class:`JointCommand` in, :class:`JointStates` out.
-- ``ik_arm``: :class:`MoveTo` / :class:`HoldArm` in, :class:`ArmState` out.
+- ``ik_arm``: :class:`MoveTo` / :class:`FollowJoints` / :class:`HoldArm` in, :class:`ArmState` out.
 - ``gripper``: :class:`GripperCommand` in, :class:`GripperState` out.
 - ``contact`` (sensor): :class:`ContactState` out.
 """
@@ -25,6 +25,7 @@ __all__ = [
     "JointCommand",
     "JointStates",
     "MoveTo",
+    "FollowJoints",
     "HoldArm",
     "ArmState",
     "GripperCommand",
@@ -105,6 +106,24 @@ class MoveTo:
     def quaternion(self) -> Quat:
         """The target orientation as a quaternion."""
         return self.orientation if self.orientation is not None else down_quaternion(self.yaw)
+
+
+@dataclass(frozen=True)
+class FollowJoints:
+    """Move the arm's joints through a path of configurations (a motion planner's answer): from where the arm is to
+    each waypoint in turn, straight in joint space, equal time per segment, smooth start and stop.
+
+    Attributes:
+        joints: Names of the joints the waypoints give (the arm's joints; others keep their command).
+        path: Joint positions per waypoint, in the order of ``joints`` (rad or m).
+        speed: End-effector speed limit along the path, m/s; None = the actuator's configured speed.
+        joint_speed: Speed limit of every joint along the path, rad/s (or m/s).
+    """
+
+    joints: tuple[str, ...]
+    path: tuple[tuple[float, ...], ...]
+    speed: float | None = None
+    joint_speed: float = 1.0
 
 
 @dataclass(frozen=True)

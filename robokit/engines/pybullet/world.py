@@ -22,6 +22,7 @@ from robokit.engines.interface import (
     DATA_DIR,
     ChainFrame,
     ChainJoint,
+    Clash,
     Contact,
     JointInfo,
     JointState,
@@ -783,6 +784,32 @@ class PyBulletWorld(World):
     def penetration(self, a: int, b: int) -> float:
         """The deepest ``getClosestPoints(a, b, 0)`` distance, negated."""
         return -min((pt[8] for pt in self.client.getClosestPoints(a, b, 0.0)), default=0.0)
+
+    def clashes(self, body: int, joints: Sequence[int], positions: Sequence[float], *,
+                carried: Sequence[tuple[int, int, Pose]] = (), skip: Collection[int] = (),
+                margin: float = 0.0) -> list[Clash]:
+        """Joints and carried bodies reset to the configuration, ``getClosestPoints`` against every other body,
+        then every joint and carried body reset to its saved position and velocity."""
+        c = self.client
+        saved = c.getJointStates(body, list(joints))
+        held = [(b, c.getBasePositionAndOrientation(b), c.getBaseVelocity(b)) for b, _, _ in carried]
+        try:
+            for joint, q in zip(joints, positions, strict=True):
+                c.resetJointState(body, joint, float(q))
+            for b, link, (pos, orn) in carried:
+                c.resetBasePositionAndOrientation(b, *c.multiplyTransforms(*self.pose(body, link), pos, orn))
+            movers = [body] + [b for b, _, _ in carried]
+            others = [c.getBodyUniqueId(i) for i in range(c.getNumBodies())]
+            others = [o for o in others if o not in skip and o not in movers]
+            return [Clash(mover, pt[3], other, pt[4], pt[8])
+                    for mover in movers for other in others
+                    for pt in c.getClosestPoints(mover, other, margin)]
+        finally:
+            for joint, state in zip(joints, saved, strict=True):
+                c.resetJointState(body, joint, state[0], state[1])
+            for b, (pos, orn), (lin, ang) in held:
+                c.resetBasePositionAndOrientation(b, pos, orn)
+                c.resetBaseVelocity(b, lin, ang)
 
     # ----------------------------------------------------------------- interface additions: rays, cameras
     def ray_caster(self, *, skip: Collection[int] = (), see_hidden: bool = True, mask: int = -1,

@@ -1,0 +1,98 @@
+"""Moves of an ``ik_arm`` that go around obstacles: what ``pick_place`` and ``sort`` use with ``planner = "rrt"``.
+
+:meth:`PlannedMoves.move` is asked for a tool pose. It takes the straight path the arm would take for a
+:class:`~robokit.msgs.arm.MoveTo` and checks it with the engine's collision queries (the carried object
+included, held where it is held now); when it is free, the command is that ``MoveTo``, as without a planner. When
+it is blocked, :class:`~robokit.planning.arm.ArmPlanner` searches a joint-space path to the same final joint
+configuration and the command is a :class:`~robokit.msgs.arm.FollowJoints` along it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from robokit.engines.interface import World
+from robokit.errors import ConfigError
+from robokit.msgs.arm import FollowJoints, MoveTo, Quat, Vec3
+from robokit.planning.arm import ArmPlan, ArmPlanner, ArmPlanning
+
+
+@dataclass
+class PlanStats:
+    """What the planner did in a run (a behaviour's result reports it)."""
+
+    moves: int = 0
+    straight: int = 0
+    planned: int = 0
+    failed: int = 0
+    samples: int = 0
+    checks: int = 0
+
+    def add(self, plan: ArmPlan) -> None:
+        self.moves += 1
+        self.straight += plan.straight
+        self.planned += plan.path is not None and not plan.straight
+        self.failed += plan.path is None
+        self.samples += plan.samples
+        self.checks += plan.checks
+
+    def as_dict(self) -> dict[str, int]:
+        return dict(self.__dict__)
+
+
+@dataclass
+class PlannedMoves:
+    """Collision-free moves of one ``ik_arm`` (see the module's docstring)."""
+
+    arm: Any
+    planner: ArmPlanner
+    rng: np.random.Generator
+    stats: PlanStats = field(default_factory=PlanStats)
+    last: ArmPlan | None = None
+
+    @classmethod
+    def for_arm(cls, world: World, arm: Any, rng: np.random.Generator, options: ArmPlanning | None = None,
+                *, key: str = "planner") -> PlannedMoves:
+        """Planned moves for an ``ik_arm`` component.
+
+        Raises:
+            ConfigError: The engine cannot check arm configurations, or the arm cannot tell its straight paths.
+        """
+        if type(world).clashes is World.clashes:
+            raise ConfigError(f"planner 'rrt' needs collision checks of arm configurations, which the "
+                              f"{world.engine} engine does not have; use the pybullet engine", key=key)
+        if not hasattr(arm, "straight_path"):
+            raise ConfigError("planner 'rrt' needs an ik_arm actuator", key=key)
+        cols = arm.arm_cols
+        planner = ArmPlanner(world, arm.body, [j.index for j in arm.arm], arm.lower[cols], arm.upper[cols],
+                             options or ArmPlanning.model_validate({}))
+        return cls(arm, planner, rng)
+
+    def move(self, position: Vec3, orientation: Quat, speed: float | None, *, carrying: str | None = None) -> Any:
+        """The command that takes the tool to a pose without a collision: a :class:`MoveTo` when the straight path
+        is free (or cannot be solved: the arm then reports why), a :class:`FollowJoints` around what blocks it,
+        or None when no free path was found (:attr:`last` says why). ``speed``: m/s, None = the arm's."""
+        arm, world = self.arm, self.planner.world
+        straight, reason = arm.straight_path(position, orientation)
+        if reason:
+            return MoveTo(position, orientation, speed=speed)
+        carried = []
+        if carrying is not None:
+            held = world.body(carrying)
+            link_pose = world.pose(arm.body, arm.ee)
+            rel = world.multiply_transforms(*world.invert_transform(*link_pose), *world.com_pose(held))
+            carried.append((held, arm.ee, rel))
+        joints = [j.index for j in arm.arm]
+        now = [s[0] for s in world.joint_states(arm.body, joints)]
+        self.planner.begin(now, carried=carried)
+        plan = self.last = self.planner.plan(straight[0], straight[-1], self.rng, straight=straight)
+        self.stats.add(plan)
+        if plan.path is None:
+            return None
+        if plan.straight:
+            return MoveTo(position, orientation, speed=speed)
+        names = tuple(j.name for j in arm.arm)
+        return FollowJoints(names, tuple(tuple(float(v) for v in q) for q in plan.path[1:]), speed=speed)
