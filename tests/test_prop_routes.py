@@ -209,6 +209,47 @@ def test_every_route_answers_every_role_as_the_rules_say(world: dict[str, Any]) 
     assert not wrong, "\n".join(wrong)
 
 
+# one credential at a time: a page goes by the session (a student's opened at /me/, a teacher's login), the API by
+# the Authorization token; with only the other one a role is anonymous there
+SPLIT = {"student-session": ("student", "session"), "student-token": ("student", "token"),
+         "teacher-login": ("teacher", "session"), "teacher-token": ("teacher", "token")}
+
+
+def _split_answer(variant: str, name: str) -> Any:
+    role, holds = SPLIT[variant]
+    api = name.startswith("api-")
+    return RULES[name][1][role if (holds == "token") == api else "anonymous"]
+
+
+def test_every_route_takes_only_its_own_kind_of_credential(world: dict[str, Any]) -> None:
+    """A page is not opened by an ``Authorization`` token, nor the API by a session or a teacher's login: each
+    route against the owning student and the class's teacher holding one credential only."""
+    wrong = []
+    found = [(n, p) for n, p in routes() if n not in ("logout", "me-logout")]
+    for variant, (role, holds) in SPLIT.items():
+        c = _client(role, world) if holds == "session" else _client("anonymous", world)
+        token = world["tokens"][role] if holds == "token" else None
+        for name, pattern in found:
+            method = RULES[name][0]
+            url = _url(name, pattern, world)
+            headers = {"HTTP_AUTHORIZATION": f"Bearer {token}"} if token else {}
+            if method == "GET":
+                resp = c.get(url, **headers)
+            elif name == "api-result":
+                resp = c.post(url, data=json.dumps(world["payload"]), content_type="application/json", **headers)
+            elif name == "api-artifacts":  # bytes no other request sent
+                png = tiny_png(width=10 + list(SPLIT).index(variant))
+                resp = c.post(url, data={"f": _upload(f"{variant}.png", png)}, **headers)
+            elif name.startswith("api-"):
+                resp = c.post(url, data="{}", content_type="application/json", **headers)
+            else:
+                resp = c.post(url, {}, **headers)
+            got, expected = _answer(resp), _split_answer(variant, name)
+            if got != expected:
+                wrong.append(f"{variant} {method} {name}: {got}, expected {expected}")
+    assert not wrong, "\n".join(wrong)
+
+
 def test_a_session_ended_or_a_token_revoked_takes_the_students_access_away(world: dict[str, Any]) -> None:
     """After ``/me/logout/`` (or with the token revoked) the student's session is anonymous again on every route
     that only the session opened: the run, its file and the training chart."""
