@@ -27,6 +27,9 @@ import numpy as np
 
 from robokit.engines.mujoco.gl import mujoco
 
+EQUALITY = int(mujoco.mjtConstraint.mjCNSTR_EQUALITY)
+"""MuJoCo's constraint type of an equality's rows (as a plain int: numpy compares it element by element in C)."""
+
 SETTLE_STEPS = 12
 """Steps an object must have been squeezed by two fingers in a row before it is welded (the fingers' closing
 transient is over: a weld taken earlier holds the object where the closing fingers pushed it for a moment)."""
@@ -46,6 +49,8 @@ class GripAnchors:
         """Finger index -> MuJoCo body id of the object its weld holds."""
         self._new: list[int] = []
         """Fingers whose weld was switched on in this step: their pose is taken after the step."""
+        self._touched: dict[tuple[int, int], tuple[float, float]] | None = None
+        """The contacts :meth:`let_go` found in this step (None: none looked at, or solved again since)."""
         self._squeezed: dict[int, int] = {}
         """Object body id -> for how many steps in a row two or more fingers have squeezed it."""
 
@@ -90,7 +95,7 @@ class GripAnchors:
     def let_go(self, m: Any, d: Any) -> bool:
         """After a constraint solve with welds on: switch off each weld whose object the fingers no longer squeeze
         or whose force exceeds the fingers' friction (the caller solves again without it). True if any."""
-        touching = self._touching(m, d)
+        touching = self._touched = self._touching(m, d)
         released = False
         for k, obj in list(self.held.items()):
             fingers = {f for f, b in touching if b == obj}
@@ -100,13 +105,19 @@ class GripAnchors:
                 d.eq_active[self._eq[k]] = 0
                 del self.held[k]
                 released = True
+        if released:
+            self._touched = None  # solved again: the contacts' forces changed
         return released
 
     def take_up(self, m: Any, d: Any) -> None:
         """After the step's solve: count how long each object has been squeezed; weld those squeezed long enough
         (their pose is taken by :meth:`after_positions`)."""
+        touching = self._touched if self._touched is not None else self._touching(m, d)
+        self._touched = None
+        if not touching and not self._squeezed:
+            return
         squeezed: dict[int, list[int]] = {}
-        for finger, body in sorted(self._touching(m, d)):
+        for finger, body in sorted(touching):
             squeezed.setdefault(body, []).append(finger)
         self._squeezed = {body: self._squeezed.get(body, 0) + 1 for body, fingers in squeezed.items()
                           if len(fingers) >= 2}
@@ -140,22 +151,25 @@ class GripAnchors:
         rows = np.flatnonzero((grips >= 0).any(axis=1))
         if not len(rows):
             return out
-        bodies, roots = m.geom_bodyid[geoms[rows]], m.body_rootid
-        address, friction = d.contact.efc_address[rows], d.contact.friction[rows, 0]
-        for n, i in enumerate(rows.tolist()):
-            for side in (0, 1):
-                k, other = int(grips[i, side]), int(bodies[n, 1 - side])
-                if k < 0 or address[n] < 0 or not self._movable[other] or roots[other] == self._root_of_finger[k]:
-                    continue
-                normal = float(d.efc_force[address[n]])
-                if normal <= 0.0:
-                    continue
+        bodies = m.geom_bodyid[geoms[rows]]
+        fingers = np.concatenate([grips[rows, 0], grips[rows, 1]])  # each contact seen from either side
+        others = np.concatenate([bodies[:, 1], bodies[:, 0]])
+        address = np.tile(d.contact.efc_address[rows], 2)
+        friction = np.tile(d.contact.friction[rows, 0], 2)
+        keep = ((fingers >= 0) & (address >= 0) & self._movable[others]
+                & (m.body_rootid[others] != self._root_of_finger[fingers]))
+        if not keep.any():
+            return out
+        normals = d.efc_force[address[keep]]
+        for k, other, normal, mu in zip(fingers[keep].tolist(), others[keep].tolist(), normals.tolist(),
+                                        friction[keep].tolist(), strict=True):
+            if normal > 0.0:
                 old = out.get((k, other), (0.0, 0.0))
-                out[(k, other)] = (old[0] + normal, old[1] + float(friction[n]) * normal)
+                out[(k, other)] = (old[0] + normal, old[1] + mu * normal)
         return out
 
     @staticmethod
     def _weld_force(d: Any, eq: int) -> np.ndarray:
         """The translational force (N) a weld applied in this step."""
-        rows = np.flatnonzero((d.efc_type == mujoco.mjtConstraint.mjCNSTR_EQUALITY) & (d.efc_id == eq))
+        rows = np.flatnonzero((d.efc_type[:d.ne] == EQUALITY) & (d.efc_id[:d.ne] == eq))
         return np.asarray(d.efc_force[rows[:3]])
