@@ -44,7 +44,9 @@ class GripAnchors:
         self._eq: np.ndarray = np.zeros(0, dtype=np.int64)
         self._grip_of_geom: np.ndarray = np.zeros(0, dtype=np.int64)
         self._movable: np.ndarray = np.zeros(0, dtype=bool)
-        self._root_of_finger: np.ndarray = np.zeros(0, dtype=np.int64)
+        self._root_of_finger: list[int] = []
+        self._lists: tuple[list[int], list[int], list[bool], list[int]] = ([], [], [], [])
+        """Per geom its finger index (-1: none) and body; per body whether it can be carried, and its root."""
         self.held: dict[int, int] = {}
         """Finger index -> MuJoCo body id of the object its weld holds."""
         self._new: list[int] = []
@@ -90,7 +92,8 @@ class GripAnchors:
             jnt = m.body_jntadr[body]
             free[body] = bool(m.body_jntnum[body]) and m.jnt_type[jnt] == mujoco.mjtJoint.mjJNT_FREE
         self._movable = free[roots]  # a body hangs from a free root: it can be carried
-        self._root_of_finger = roots[finger_bodies]
+        self._root_of_finger = roots[finger_bodies].tolist()
+        self._lists = (self._grip_of_geom.tolist(), m.geom_bodyid.tolist(), self._movable.tolist(), roots.tolist())
 
     def let_go(self, m: Any, d: Any) -> bool:
         """After a constraint solve with welds on: switch off each weld whose object the fingers no longer squeeze
@@ -147,25 +150,24 @@ class GripAnchors:
         if d.ncon == 0:
             return out
         geoms = d.contact.geom
-        grips = self._grip_of_geom[geoms]
-        rows = np.flatnonzero((grips >= 0).any(axis=1))
-        if not len(rows):
+        grips = self._grip_of_geom[geoms].max(axis=1)
+        if grips.max() < 0:
             return out
-        bodies = m.geom_bodyid[geoms[rows]]
-        fingers = np.concatenate([grips[rows, 0], grips[rows, 1]])  # each contact seen from either side
-        others = np.concatenate([bodies[:, 1], bodies[:, 0]])
-        address = np.tile(d.contact.efc_address[rows], 2)
-        friction = np.tile(d.contact.friction[rows, 0], 2)
-        keep = ((fingers >= 0) & (address >= 0) & self._movable[others]
-                & (m.body_rootid[others] != self._root_of_finger[fingers]))
-        if not keep.any():
-            return out
-        normals = d.efc_force[address[keep]]
-        for k, other, normal, mu in zip(fingers[keep].tolist(), others[keep].tolist(), normals.tolist(),
-                                        friction[keep].tolist(), strict=True):
-            if normal > 0.0:
+        rows = np.flatnonzero(grips >= 0).tolist()
+        pairs = geoms[rows].tolist()
+        address, friction, force = d.contact.efc_address, d.contact.friction, d.efc_force
+        grip_of, body_of, movable, roots = self._lists
+        for row, pair in zip(rows, pairs, strict=True):
+            at = int(address[row])
+            normal = float(force[at]) if at >= 0 else 0.0
+            if normal <= 0.0:
+                continue
+            for side in (0, 1):
+                k, other = grip_of[pair[side]], body_of[pair[1 - side]]
+                if k < 0 or not movable[other] or roots[other] == self._root_of_finger[k]:
+                    continue
                 old = out.get((k, other), (0.0, 0.0))
-                out[(k, other)] = (old[0] + normal, old[1] + mu * normal)
+                out[(k, other)] = (old[0] + normal, old[1] + float(friction[row, 0]) * normal)
         return out
 
     @staticmethod
