@@ -112,6 +112,8 @@ _RUN_OPTIONS: tuple[tuple[str, dict[str, Any]], ...] = (
                      "help": "with --live: the page's port (default 8765; 0 = any free port)"}),
     ("--live-foxglove", {"type": int, "metavar": "PORT", "help": "with --live: also serve the Foxglove WebSocket "
                                                                  "protocol on PORT (robokit[foxglove])"}),
+    ("--live-sensors", {"metavar": "A,B", "help": "with --live: show these sensors' readings from the start (the "
+                                                  "page picks more)"}),
     ("--video", {"metavar": "FILE", "help": "render an MP4 of the run right after it, before the result is sent "
                                             "(robokit video)"}),
 )
@@ -250,15 +252,23 @@ def cmd_run(args: argparse.Namespace) -> int:
         return _interrupted_before_config(args, guard.signal if guard is not None else None)
 
 
-def _live_view(args: argparse.Namespace, plugins: Any) -> Any:
+def _live_view(args: argparse.Namespace, plugins: Any, cfg: Any) -> Any:
     """``--live``: the live view, registered as a plugin of this run (it starts serving when the run starts)."""
     if not args.live:
-        if args.live_host or args.live_foxglove is not None:
-            raise UserError(f"{'--live-host' if args.live_host else '--live-foxglove'} needs --live")
+        given = [o for o, v in (("--live-host", args.live_host), ("--live-foxglove", args.live_foxglove),
+                                ("--live-sensors", args.live_sensors)) if v is not None]
+        if given:
+            raise UserError(f"{given[0]} needs --live")
         return None
     from robokit.live import LiveView
 
-    view = LiveView(args.live_host or "127.0.0.1", args.live_port, foxglove_port=args.live_foxglove)
+    sensors = tuple(n.strip() for n in (args.live_sensors or "").split(",") if n.strip())
+    names = [spec.name for spec in (*cfg.sensors, *cfg.actuators)]
+    unknown = [n for n in sensors if n not in names]
+    if unknown:
+        raise UserError(f"--live-sensors: no sensor or actuator {unknown[0]!r} in {cfg.source}; it has "
+                        f"{', '.join(names) or '(none)'}")
+    view = LiveView(args.live_host or "127.0.0.1", args.live_port, foxglove_port=args.live_foxglove, sensors=sensors)
     plugins.pm.register(view, name="robokit-live")
     return view
 
@@ -289,7 +299,7 @@ def _run_loaded(args: argparse.Namespace, plugins: Any, cfg: Any, run_config: An
             show(out)
             _hold_window(hold_window, sim.world)
 
-    live = _live_view(args, plugins)
+    live = _live_view(args, plugins, cfg)
     trace = _open_trace(args.trace) if args.trace else None
     video = _video_before_send(cfg, args) if args.video else None
     global _run_called

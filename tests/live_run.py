@@ -38,11 +38,11 @@ class LiveRun:
     """A run with a live view (started paused, as fast as possible when let go) in a thread."""
 
     def __init__(self, config: str, max_time: float, overrides: dict[str, Any] | None = None, *,
-                 foxglove: bool = False) -> None:
+                 foxglove: bool = False, sensors: tuple[str, ...] = ()) -> None:
         plugins = load_plugins()
         self.max_time = max_time
         self.view = LiveView("127.0.0.1", 0, paused=True, speed=math.inf, announce=False,
-                             foxglove_port=0 if foxglove else None)
+                             foxglove_port=0 if foxglove else None, sensors=sensors)
         plugins.pm.register(self.view, name="robokit-live")
         self.sim = Simulation(load_config(config, plugins, overrides), plugins)
         self.result: RunResult | None = None
@@ -58,6 +58,11 @@ class LiveRun:
                                      headers={"Content-Type": "application/json"})
         with urllib.request.urlopen(req, timeout=WAIT) as reply:
             return dict(json.loads(reply.read()))
+
+    def get(self, path: str) -> tuple[bytes, dict[str, str]]:
+        """A GET of ``path``: the body and the headers."""
+        with urllib.request.urlopen(self.view.url + path.lstrip("/"), timeout=WAIT) as reply:
+            return reply.read(), dict(reply.headers)
 
     def state(self) -> dict[str, Any]:
         with urllib.request.urlopen(self.view.url + "state", timeout=WAIT) as reply:
@@ -103,3 +108,78 @@ class LiveRun:
         self.view.close(grace=0)
         self.sim.close()
 
+
+
+SENSORS_WORLD = """
+[world]
+seed = 1
+max_time = 5.0
+
+[bodies.floor]
+shape = "box"
+size = [4.0, 4.0, 0.1]
+mass = 0
+position = [0, 0, -0.05]
+rgba = [0.75, 0.75, 0.7, 1]
+
+[bodies.wall]
+shape = "box"
+size = [0.1, 2.0, 0.5]
+mass = 0
+position = [1.0, 0.0, 0.25]
+
+[bodies.box]
+shape = "box"
+size = [0.1, 0.1, 0.1]
+mass = 1.0
+position = [0.0, -0.6, 0.3]
+rgba = [0.9, 0.2, 0.2, 1]
+
+[robots.robot]
+urdf = "robots/diffbot.urdf"
+position = [0, 0, 0.06]
+
+[sensors.lidar]
+type = "lidar"
+robot = "robot"
+link = "lidar_link"
+rays = 36
+range_max = 3.0
+
+[sensors.touch]
+type = "contact"
+body = "box"
+
+[sensors.cam]
+type = "camera"
+width = 64
+height = 48
+eye = [0.0, -1.0, 0.35]
+target = [0.0, -0.6, 0.15]
+renderer = "tiny"
+
+[behaviour]
+type = "record"
+duration = 0
+"""
+"""A diffbot with a 36-ray lidar facing a wall whose face is the plane x = 0.95 (|y| <= 1, 0 <= z <= 0.5), a box
+dropped from 0.3 m onto the floor with a contact sensor, a small camera looking at the box; the ``record`` behaviour
+reads every sensor every tick and writes each reading into the trace."""
+WALL_FACE = 0.95
+
+
+def sensors_config(folder: Any) -> str:
+    """:data:`SENSORS_WORLD` written to ``folder``; its path."""
+    path = folder / "sensors.toml"
+    path.write_text(SENSORS_WORLD, encoding="utf-8")
+    return str(path)
+
+
+def camera_at(config: str, tick: int) -> Any:
+    """Camera ``cam``'s image (H x W x 3 uint8) at ``tick`` of a run of ``config`` without a live view: the run
+    stopped after ``tick`` ticks, then the camera read in that world."""
+    plugins = load_plugins()
+    with Simulation(load_config(config, plugins), plugins) as sim:
+        sim.run(max_time=tick * sim.world.time_step)
+        assert sim.world.tick == tick
+        return sim.components["cam"].read().rgb

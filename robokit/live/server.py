@@ -4,7 +4,10 @@ Routes (every one needs ``?token=...`` when the server binds an address other th
 
 - ``GET /``: the page (three.js, the replay viewer, the scene, ``live.js``, all inline);
 - ``GET /state``: the latest frame as JSON (see :meth:`robokit.live.view.LiveView.frame`);
-- ``GET /events``: the frames as Server-Sent Events, each the latest when the page is ready for it;
+- ``GET /events?sensors=a,b``: the frames as Server-Sent Events, each the latest when the page is ready for it,
+  carrying the readings of the sensors named (see :mod:`robokit.live.sensors`);
+- ``GET /camera/NAME``: camera ``NAME``'s latest image a frame carried, as JPEG (header ``X-Robokit-Tick``: the
+  tick it was rendered at);
 - ``POST /control``: ``{"action": "pause" | "resume" | "step" | "speed", "value": ...}`` (``step``: a number of
   ticks, one if absent; ``speed``: "1" | "2" | "max");
 - ``POST /key``: ``{"key": "up", "down": true}``, a key pressed or released in the page.
@@ -36,6 +39,8 @@ class LiveServer:
         self.scene: dict[str, Any] | None = None
         """The replay viewer's payload of the run's world (set when the run starts)."""
         self.machines: list[dict[str, Any]] = []
+        self.sensors: list[dict[str, Any]] = []
+        """What the page offers to pick (:meth:`robokit.live.sensors.SensorFeed.describe`)."""
         self.run: dict[str, Any] = {}
         """The run's ``id`` and record ``folder`` (None when the run keeps no record)."""
         self.token = None if host in LOOPBACK else secrets.token_urlsafe(16)
@@ -65,7 +70,10 @@ class LiveServer:
                 self._page_scene = (self.scene, add_meshes(self.scene or {}))
             scene = self._page_scene[1]
         three = viewer_script() or ""
-        data = json.dumps({"scene": scene, "machines": self.machines, "run": self.run}, separators=(",", ":"))
+        sim = self.view.sim
+        data = json.dumps({"scene": scene, "machines": self.machines, "run": self.run, "sensors": self.sensors,
+                           "picked": list(self.view.picked), "time_step": sim.world.time_step if sim else 0.0},
+                          separators=(",", ":"))
         template = (DATA / "live" / "index.html").read_text(encoding="utf-8")
         return (template.replace("/*REPLAY_CSS*/", REPLAY_CSS).replace("<!--REPLAY-->", replay_markup())
                 .replace("/*THREE*/", inline(three))
@@ -144,9 +152,38 @@ def _handler(server: LiveServer) -> type[BaseHTTPRequestHandler]:
                 frame = server.view.publisher.latest()
                 self._reply(HTTPStatus.OK, json.dumps(frame).encode())
             elif path == "/events":
+                names = [n for n in ",".join(route[1].get("sensors", [])).split(",") if n]
+                feed = server.view.feed
+                if names and feed is not None:
+                    try:
+                        feed.ask(threading.get_ident(), names)
+                    except ValueError as exc:
+                        self._error(HTTPStatus.BAD_REQUEST, f"?sensors=: {exc}")
+                        return
                 self._stream()
+            elif path.startswith("/camera/"):
+                self._camera(path[len("/camera/"):])
             else:
                 self._error(HTTPStatus.NOT_FOUND, f"no such page: {path}")
+
+        def _camera(self, name: str) -> None:
+            feed = server.view.feed
+            kind = None if feed is None else feed.kinds.get(name)
+            if kind != "image":
+                self._error(HTTPStatus.NOT_FOUND, f"no camera {name!r} in this run")
+                return
+            got = feed.jpeg(name)
+            if got is None:
+                self._error(HTTPStatus.NOT_FOUND, f"camera {name!r} has no image yet (the run renders it when "
+                                                  f"something reads it, and a page asked for it)")
+                return
+            self.send_response(HTTPStatus.OK)
+            self.send_header("Content-Type", "image/jpeg")
+            self.send_header("Content-Length", str(len(got[1])))
+            self.send_header("X-Robokit-Tick", str(got[0]))
+            self.send_header("Cache-Control", "no-store")
+            self.end_headers()
+            self.wfile.write(got[1])
 
         def _stream(self) -> None:
             self.send_response(HTTPStatus.OK)
@@ -171,6 +208,8 @@ def _handler(server: LiveServer) -> type[BaseHTTPRequestHandler]:
                 pass
             finally:
                 server.sent(me, None)
+                if server.view.feed is not None:
+                    server.view.feed.ask(me, None)
 
         def do_POST(self) -> None:  # noqa: N802 - the base class's name
             route = self._route()

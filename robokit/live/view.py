@@ -36,6 +36,8 @@ class LiveView:
         announce: Print the page's URL on stderr.
         foxglove_port: Also serve the Foxglove WebSocket protocol on this port (0: any free one; None: not at all);
             see :mod:`robokit.live.foxglove_bridge`.
+        sensors: Sensors (or actuators) whose readings every frame carries, besides those a page picks
+            (:mod:`robokit.live.sensors`).
 
     Raises:
         UserError: The address cannot be served (the port is taken).
@@ -45,8 +47,12 @@ class LiveView:
     period = 1
 
     def __init__(self, host: str = "127.0.0.1", port: int = 0, *, paused: bool = False, speed: float = 1.0,
-                 fps: float = 30.0, announce: bool = True, foxglove_port: int | None = None) -> None:
+                 fps: float = 30.0, announce: bool = True, foxglove_port: int | None = None,
+                 sensors: tuple[str, ...] = ()) -> None:
         self.host, self.port = host, port
+        self.picked = tuple(sensors)
+        self.feed: Any = None
+        """The run's :class:`robokit.live.sensors.SensorFeed` (set when the run starts)."""
         self.publisher = Publisher()
         self.control = Control(paused=paused, speed=speed)
         self.keys = PageKeys()
@@ -87,8 +93,10 @@ class LiveView:
         """Build the page's scene from the world as it starts, start serving, join the loop."""
         if simulation.world.engine != "pybullet":
             raise UserError(f"--live draws PyBullet worlds; this run's engine is {simulation.world.engine!r}")
+        from robokit.live.sensors import SensorFeed
         from robokit.record.layout import machines_of
 
+        self.feed = SensorFeed(simulation.scheduler.slots, self.picked)
         self.sim = simulation
         scene, self.links = scene_payload(simulation)
         machines = machines_of(simulation.behaviour)
@@ -99,6 +107,7 @@ class LiveView:
         simulation.trace_listeners.append(self._on_trace)
         simulation.add_monitor(self)
         self._publish()
+        self.server.sensors = self.feed.describe()
         self.server.scene, self.server.machines = scene, machines
         folder = getattr(simulation, "run_dir", None)
         self.server.run = {"id": simulation.run_id, "folder": str(folder) if folder is not None else None}
@@ -129,11 +138,15 @@ class LiveView:
 
     def frame(self) -> dict[str, Any]:
         """The state now: tick, sim time ``t`` (s), link ``poses`` (see :func:`link_poses`), each machine's state,
-        the latest transitions, the controls, and the ``outcome`` once the run has ended."""
+        the latest transitions, the controls, the ``outcome`` once the run has ended, and the latest reading of each
+        sensor a page picked (``sensors``, only when one did: see :mod:`robokit.live.sensors`)."""
         world = self.sim.world
-        return {"tick": world.tick, "t": round(world.time, 6), "poses": link_poses(world, self.links),
-                "states": dict(self._states), "recent": list(self._recent), **self.control.state(),
-                "outcome": self.outcome}
+        frame = {"tick": world.tick, "t": round(world.time, 6), "poses": link_poses(world, self.links),
+                 "states": dict(self._states), "recent": list(self._recent), **self.control.state(),
+                 "outcome": self.outcome}
+        if self.feed.wanted:
+            frame["sensors"] = self.feed.payload()
+        return frame
 
     def _publish(self) -> None:
         self.publisher.put(self.frame())
