@@ -10,9 +10,10 @@ friction anchor corrects that drift at the level of positions; here a soft weld 
 * after each step, an object (a free body, not the robot's own) squeezed by two or more fingers for
   :data:`SETTLE_STEPS` steps in a row is welded to the first of them, where it is now;
 * in each step the constraints are solved with the welds on first; a weld whose object the fingers no longer
-  squeeze, or whose force exceeds what the fingers' friction could carry (the sum of ``friction * normal force``
-  over their contacts with the object), is switched off and the step solved again without it, so an opening hand
-  never drags what it lets go and an object too heavy for the grip slips as friction alone would let it.
+  squeeze, or whose force together with the fingers' friction forces exceeds what that friction could carry (the
+  sum of ``friction * normal force`` over their contacts with the object), is switched off and the step solved
+  again without it, so an opening hand never drags what it lets go and an object too heavy for the grip slips as
+  friction alone would let it.
 
 The weld's reference is as stiff as the fingers' contacts (a time constant of two steps); it carries the drift, not
 the load, which friction still carries (a weld force of 1-3 N against 40-50 N the friction could carry, measured on
@@ -21,6 +22,7 @@ a Panda carrying a 0.1 kg cube).
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -51,7 +53,7 @@ class GripAnchors:
         """Finger index -> MuJoCo body id of the object its weld holds."""
         self._new: list[int] = []
         """Fingers whose weld was switched on in this step: their pose is taken after the step."""
-        self._touched: dict[tuple[int, int], tuple[float, float]] | None = None
+        self._touched: dict[tuple[int, int], tuple[float, float, float]] | None = None
         """The contacts :meth:`let_go` found in this step (None: none looked at, or solved again since)."""
         self._squeezed: dict[int, int] = {}
         """Object body id -> for how many steps in a row two or more fingers have squeezed it."""
@@ -102,8 +104,9 @@ class GripAnchors:
         released = False
         for k, obj in list(self.held.items()):
             fingers = {f for f, b in touching if b == obj}
-            capacity = sum(c for (_, body), (_, c) in touching.items() if body == obj)
-            force = float(np.linalg.norm(self._weld_force(d, int(self._eq[k]))))
+            capacity = sum(c for (_, body), (_, c, _) in touching.items() if body == obj)
+            carried = sum(t for (_, body), (_, _, t) in touching.items() if body == obj)
+            force = carried + float(np.linalg.norm(self._weld_force(d, int(self._eq[k]))))
             if k not in fingers or len(fingers) < 2 or force > capacity:
                 d.eq_active[self._eq[k]] = 0
                 del self.held[k]
@@ -144,9 +147,10 @@ class GripAnchors:
             d.eq_active[eq] = 1
         self._new.clear()
 
-    def _touching(self, m: Any, d: Any) -> dict[tuple[int, int], tuple[float, float]]:
-        """(finger index, object body id) -> (normal force, friction capacity) of their contacts in this step."""
-        out: dict[tuple[int, int], tuple[float, float]] = {}
+    def _touching(self, m: Any, d: Any) -> dict[tuple[int, int], tuple[float, float, float]]:
+        """(finger index, object body id) -> (normal force, friction capacity, friction force) of their contacts in
+        this step (N; the capacity is ``friction * normal force``, the friction force the tangential part)."""
+        out: dict[tuple[int, int], tuple[float, float, float]] = {}
         if d.ncon == 0:
             return out
         geoms = d.contact.geom
@@ -155,19 +159,20 @@ class GripAnchors:
             return out
         rows = np.flatnonzero(grips >= 0).tolist()
         pairs = geoms[rows].tolist()
-        address, friction, force = d.contact.efc_address, d.contact.friction, d.efc_force
+        address, friction, force, dims = d.contact.efc_address, d.contact.friction, d.efc_force, d.contact.dim
         grip_of, body_of, movable, roots = self._lists
         for row, pair in zip(rows, pairs, strict=True):
             at = int(address[row])
             normal = float(force[at]) if at >= 0 else 0.0
             if normal <= 0.0:
                 continue
+            tangential = math.hypot(float(force[at + 1]), float(force[at + 2])) if dims[row] > 1 else 0.0
             for side in (0, 1):
                 k, other = grip_of[pair[side]], body_of[pair[1 - side]]
                 if k < 0 or not movable[other] or roots[other] == self._root_of_finger[k]:
                     continue
-                old = out.get((k, other), (0.0, 0.0))
-                out[(k, other)] = (old[0] + normal, old[1] + float(friction[row, 0]) * normal)
+                old = out.get((k, other), (0.0, 0.0, 0.0))
+                out[(k, other)] = (old[0] + normal, old[1] + float(friction[row, 0]) * normal, old[2] + tangential)
         return out
 
     @staticmethod
