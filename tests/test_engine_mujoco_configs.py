@@ -23,7 +23,8 @@ CONFIGS = sorted([*(ROOT / "configs").glob("*.toml"), *(ROOT / "configs" / "gym"
 RUNS_ON_MUJOCO = {"drop_test", "contact_stop", "go_to_goal", "kuka_dance", "lesson04_rays", "patrol", "patrol_logged",
                   "patrol_robot", "pid_kuka", "pick_place", "sort_robot", "lesson06_collect", "camera_demo",
                   "urdf_gallery", "drive_teleop", "kuka_teleop", "go_to", "reach", "pick", "push", "pick_place_suction",
-                  "husky_go_to_goal", "contact_abort", "reach_policy", "plan_dead_end"}
+                  "husky_go_to_goal", "contact_abort", "reach_policy", "plan_dead_end",
+                  "pick_obstacle"}
 """Configs that run on mujoco today; every other one is refused (the test fails when one changes sides silently)."""
 
 

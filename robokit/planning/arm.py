@@ -2,8 +2,8 @@
 
 :class:`ArmPlanner` asks the World whether the arm at a configuration (and what it carries, held where it is held
 now) would come closer than a margin to anything (:meth:`~robokit.engines.interface.World.clashes`); nothing is
-stepped. Contacts the arm already has when a move starts (its base on the table) are allowed for that move; every
-other body, and every other link against those bodies, counts. A move first tries the straight path it would
+stepped. A pair already within the margin when a move starts (the arm's base on the table) may stay as close
+during that move, not come closer; every other pair counts. A move first tries the straight path it would
 take anyway; only when that path is blocked does :func:`~robokit.planning.rrt.rrt_connect` search the joint space,
 and the path found is shortened (:func:`~robokit.planning.rrt.shortcut`).
 
@@ -21,6 +21,9 @@ from pydantic import Field
 from robokit.config import Schema
 from robokit.engines.interface import Clash, Pose, World
 from robokit.planning.rrt import Vector, densify, path_length, resample, rrt_connect, shortcut
+
+DEEPER = 0.002
+"""How much closer (m) than at a move's start a pair already within the margin may come (contact jitter)."""
 
 
 class ArmPlanning(Schema):
@@ -79,16 +82,18 @@ class ArmPlanner:
     options: ArmPlanning = field(default_factory=lambda: ArmPlanning.model_validate({}))
     carried: list[tuple[int, int, Pose]] = field(default_factory=list)
     skip: Collection[int] = ()
-    allowed: set[tuple[int, int, int, int]] = field(default_factory=set)
+    allowed: dict[tuple[int, int, int, int], float] = field(default_factory=dict)
     checks: int = 0
 
     def begin(self, q: Vector, *, carried: Sequence[tuple[int, int, Pose]] = (),
               skip: Collection[int] = ()) -> None:
         """Start a move from configuration ``q``: what the arm carries (``(body, link, pose)``: the carried body's
-        centre-of-mass frame in the link's frame), bodies never checked, and the contacts the arm (and what it
-        carries) has at ``q`` now, which this move may keep."""
+        centre-of-mass frame in the link's frame), bodies never checked, and the pairs already within the margin
+        at ``q`` (the arm's base on the table), which this move may keep as close as they are, not closer."""
         self.carried, self.skip = list(carried), skip
-        self.allowed = {_pair(c) for c in self._clashes(q, 0.0)}
+        self.allowed = {}
+        for c in self._clashes(q, self.options.margin):
+            self.allowed[_pair(c)] = min(c.distance, self.allowed.get(_pair(c), c.distance))
 
     def _clashes(self, q: Vector, margin: float) -> list[Clash]:
         self.checks += 1
@@ -96,8 +101,11 @@ class ArmPlanner:
                                   skip=self.skip, margin=margin)
 
     def clashes(self, q: Vector) -> list[Clash]:
-        """What the arm at ``q`` would come within the margin of, leaving out the contacts allowed for this move."""
-        return [c for c in self._clashes(q, self.options.margin) if _pair(c) not in self.allowed]
+        """What the arm at ``q`` would come within the margin of, leaving out the pairs allowed for this move
+        while they stay as far apart as they were at its start (within ``DEEPER``)."""
+        allowed = self.allowed
+        return [c for c in self._clashes(q, self.options.margin)
+                if c.distance < allowed.get(_pair(c), np.inf) - DEEPER]
 
     def free(self, q: np.ndarray) -> bool:
         """The arm at ``q`` keeps the margin from everything but the allowed contacts."""

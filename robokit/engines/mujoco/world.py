@@ -15,9 +15,19 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from robokit.engines.interface import ChainFrame, ChainJoint, Contact, JointState, MotorMode, RayCaster, RenderedImage
+from robokit.engines.interface import (
+    ChainFrame,
+    ChainJoint,
+    Clash,
+    Contact,
+    JointState,
+    MotorMode,
+    Pose,
+    RayCaster,
+    RenderedImage,
+)
 from robokit.engines.mujoco import attach as attachments
-from robokit.engines.mujoco import kin, support
+from robokit.engines.mujoco import clash, kin, support
 from robokit.engines.mujoco import render as rendering
 from robokit.engines.mujoco.bodies import MujocoBodies
 from robokit.engines.mujoco.gl import mujoco
@@ -320,6 +330,16 @@ class MujocoWorld(MujocoBodies):
             self._scratch = (m, mujoco.MjData(m))
         return kin.inverse_kinematics(self, body, link, position, orientation, seed, damping, iterations, tolerance,
                                       self._scratch[1])
+
+    def clashes(self, body: int, joints: Sequence[int], positions: Sequence[float], *,
+                carried: Sequence[tuple[int, int, Pose]] = (), skip: Collection[int] = (),
+                margin: float = 0.0) -> list[Clash]:
+        """``mj_geomDistance`` in a scratch ``MjData`` (see :mod:`robokit.engines.mujoco.clash`)."""
+        m, _ = self.compiled()
+        if self._scratch is None or self._scratch[0] is not m:
+            self._scratch = (m, mujoco.MjData(m))
+        return clash.clashes(self, self._scratch[1], body, joints, positions, carried=carried, skip=skip,
+                             margin=margin)
 
     # ----------------------------------------------------------------- cameras
     def render(self, width: int, height: int, view: Sequence[float], projection: Sequence[float], *, near: float,
