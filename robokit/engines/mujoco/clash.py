@@ -43,7 +43,7 @@ def clashes(world: MujocoBodies, scratch: Any, body: int, joints: Sequence[int],
         mujoco.mj_kinematics(m, scratch)
     owners = world.owners()
     owner = np.array([owners.get(int(b), (-1, -1))[0] for b in m.geom_bodyid])
-    link = np.array([owners.get(int(b), (-1, -1))[1] for b in m.geom_bodyid])
+    links = np.array([owners.get(int(b), (-1, -1))[1] for b in m.geom_bodyid])
     solid = (m.geom_contype != 0) | (m.geom_conaffinity != 0)
     movers = [body] + [held for held, _, _ in carried]
     moving = np.flatnonzero(solid & np.isin(owner, movers))
@@ -56,5 +56,5 @@ def clashes(world: MujocoBodies, scratch: Any, body: int, joints: Sequence[int],
         for h in near:
             dist = mujoco.mj_geomDistance(m, scratch, int(g), int(h), margin + 1e-6, None)
             if dist <= margin:
-                out.append(Clash(int(owner[g]), int(link[g]), int(owner[h]), int(link[h]), float(dist)))
+                out.append(Clash(int(owner[g]), int(links[g]), int(owner[h]), int(links[h]), float(dist)))
     return out
