@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from live_run import LiveRun, final_pose, plain_run
+from live_run import LiveRun, camera_at, final_pose, plain_run, sensors_config
 from test_replay_page import chromium
 
 pytestmark = pytest.mark.slow
@@ -129,3 +129,78 @@ def test_closing_the_page_mid_run_changes_nothing_in_the_result() -> None:
     assert (result.outcome, result.reason, result.ticks, result.result) == \
         (expected.outcome, expected.reason, expected.ticks, expected.result)
     assert trace == expected_trace
+
+
+IMAGE_PIXELS = """
+const img = document.querySelector("[data-sensor='cam'] img");
+if (!img.complete || !img.naturalWidth) return null;
+const c = document.createElement("canvas");
+c.width = img.naturalWidth; c.height = img.naturalHeight;
+const ctx = c.getContext("2d");
+ctx.drawImage(img, 0, 0);
+return [c.width, c.height, Array.from(ctx.getImageData(0, 0, c.width, c.height).data)];"""
+"""The camera image the page shows: its width, height and RGBA pixels (null until it is decoded)."""
+
+
+def test_the_sensors_picked_in_the_page_are_drawn_as_the_world_and_the_trace_have_them(tmp_path: Path) -> None:
+    import math
+
+    import numpy as np
+    from selenium.webdriver.common.by import By
+    from selenium.webdriver.support.ui import WebDriverWait
+
+    config = sensors_config(tmp_path)
+    live = LiveRun(config, 1.0)
+    driver = chromium()
+    try:
+        live.held_at(0)
+        _open(driver, live, live.view.publisher.seq)
+        for name in ("lidar", "touch", "cam"):  # the page's own check boxes
+            driver.find_element(By.CSS_SELECTOR, f"#live-picks input[value='{name}']").click()
+        WebDriverWait(driver, 60).until(lambda d: live.view.feed.wanted == {"lidar", "touch", "cam"})
+        live.post("/control", {"action": "step", "value": "60"})
+        live.held_at(60)
+        for _ in range(6):  # six ticks the page is shown one by one: six points on the plot
+            live.step()
+            _shown(driver, live.view.publisher.seq)
+        stamp = live.sim.world.tick - 1  # the record behaviour read every sensor in the last tick that ran
+
+        # the plot: every point is the trace's reading at its tick
+        series = driver.execute_script("return rkLive.views.touch.series()")
+        traced = {r["tick"]: r["value"] for r in live.sim.trace if r["kind"] == "reading" and r["component"] == "touch"}
+        points = series["normal_force"]
+        assert len(points) >= 6 and points[-1][0] == stamp
+        assert any(value > 0 for _, value in points)  # the box has landed: a force to plot
+        for tick, value in points:
+            assert value == traced[tick]["normal_force"]
+        assert [v for _, v in series["points"]] == [float(traced[t]["points"]) for t, _ in series["points"]]
+
+        # the scan: each drawn hit lies where one of the lidar's rays meets the wall the world has
+        assert driver.execute_script("return rkLive.views.lidar.tick()") == stamp
+        hits = np.asarray(driver.execute_script("return rkLive.views.lidar.hits()")).reshape(-1, 3)
+        world = live.sim.world
+        lo, hi = world.body_aabb("wall")
+        lidar = live.sim.components["lidar"]
+        origin = np.asarray(live.view.publisher.latest()["sensors"]["lidar"]["origin"])  # type: ignore[index]
+        _, orn = world.client.getBasePositionAndOrientation(world.body("robot"))
+        yaw = world.client.getEulerFromQuaternion(orn)[2]
+        angles = lidar.angle_min + lidar.angle_inc * np.arange(lidar.config.rays) + yaw
+        assert len(hits) >= 5
+        for x, y, z in hits:
+            assert x == pytest.approx(lo[0], abs=1e-3)  # the face towards the robot
+            assert lo[1] <= y <= hi[1] and lo[2] <= z <= hi[2]
+            heading = math.atan2(y - origin[1], x - origin[0])
+            assert np.min(np.abs(np.angle(np.exp(1j * (angles - heading))))) < 2e-3  # along one of its rays
+
+        # the camera: the image shown is the camera's image at its tick, rendered again by a run without the page
+        shown = "return rkLive.views.cam.tick()"
+        WebDriverWait(driver, 60).until(lambda d: d.execute_script(shown) == stamp)
+        pixels = WebDriverWait(driver, 60).until(lambda d: d.execute_script(IMAGE_PIXELS))
+    finally:
+        driver.quit()
+        live.close()
+    width, height, data = pixels
+    drawn = np.asarray(data, np.uint8).reshape(height, width, 4)[:, :, :3].astype(int)
+    expected = camera_at(config, stamp).astype(int)
+    assert drawn.shape == expected.shape
+    assert np.abs(drawn - expected).mean() < 1.5  # JPEG at quality 90 (the image at tick 0 is 11 levels away)
