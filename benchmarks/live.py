@@ -9,7 +9,11 @@ thread), from the first tick to the last (the live view builds its scene once, b
 apart). Both runs of a pair must end identically (ticks, outcome, result). Prints each pair and the ratio of the
 medians, and the machine's load.
 
-    python benchmarks/live.py [--repeats 5] [--sim 6]
+With ``--sensors a,b`` the page asks for those sensors' readings (``/events?sensors=a,b``) and fetches each camera's
+image as a page does (``/camera/NAME``, five times a wall second), so the sensor payload and the JPEG encoding are
+counted too.
+
+    python benchmarks/live.py [--repeats 5] [--sim 6] [--config configs/sort_robot.toml] [--sensors camera,arm]
 """
 
 from __future__ import annotations
@@ -34,17 +38,32 @@ from robokit.plugin_api.plugins import load_plugins
 CONFIG = Path(__file__).resolve().parent.parent / "configs" / "sort_robot.toml"
 
 
-def _reader(url: str, stop: threading.Event) -> None:
+def _reader(url: str, stop: threading.Event, sensors: str) -> None:
     """A page that reads every frame it is sent and throws it away."""
     parts = urlsplit(url)
+    query = f"?sensors={sensors}" if sensors else ""
     with socket.create_connection((parts.hostname, parts.port)) as sock:
-        sock.sendall(f"GET /events HTTP/1.1\r\nHost: {parts.netloc}\r\n\r\n".encode())
+        sock.sendall(f"GET /events{query} HTTP/1.1\r\nHost: {parts.netloc}\r\n\r\n".encode())
         sock.settimeout(0.5)
         while not stop.is_set():
             try:
                 if not sock.recv(65536):
                     return
             except TimeoutError:
+                continue
+
+
+def _images(url: str, stop: threading.Event, cameras: list[str]) -> None:
+    """A page showing ``cameras``: each one's latest image, five times a wall second."""
+    import urllib.error
+    import urllib.request
+
+    while not stop.wait(0.2):
+        for name in cameras:
+            try:
+                with urllib.request.urlopen(f"{url}camera/{name}", timeout=5) as reply:
+                    reply.read()
+            except urllib.error.HTTPError:  # no image yet
                 continue
 
 
@@ -64,7 +83,7 @@ class Clock:
         self.end = time.process_time()
 
 
-def one(sim_seconds: float, live: bool) -> tuple[float, float, Any]:
+def one(sim_seconds: float, live: bool, config: Path = CONFIG, sensors: str = "") -> tuple[float, float, Any]:
     """CPU seconds per tick of one run's loop, CPU seconds of its start (run start to the first tick), its result."""
     plugins = load_plugins()
     clock = Clock()
@@ -73,17 +92,21 @@ def one(sim_seconds: float, live: bool) -> tuple[float, float, Any]:
     if live:
         view = LiveView("127.0.0.1", 0, speed=math.inf, announce=False)
         plugins.pm.register(view, name="robokit-live")
-    cfg = load_config(CONFIG, plugins)
+    cfg = load_config(config, plugins)
     stop = threading.Event()
     with Simulation(cfg, plugins) as sim:
-        reader = None
+        readers = []
         if view is not None:
-            reader = threading.Thread(target=_reader, args=(view.url, stop), daemon=True)
-            reader.start()
+            kinds = {s.name: s.type for s in cfg.sensors}
+            cameras = [n for n in sensors.split(",") if kinds.get(n) == "camera"]
+            readers = [threading.Thread(target=_reader, args=(view.url, stop, sensors), daemon=True),
+                       threading.Thread(target=_images, args=(view.url, stop, cameras), daemon=True)]
+            for reader in readers:
+                reader.start()
         c0 = time.process_time()
         result = sim.run(max_time=sim_seconds)
         stop.set()
-        if reader is not None:
+        for reader in readers:
             reader.join(2)
     if view is not None:
         view.close(grace=0)
@@ -94,12 +117,14 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--sim", type=float, default=6.0, help="sim seconds per run")
+    ap.add_argument("--config", type=Path, default=CONFIG)
+    ap.add_argument("--sensors", default="", help="sensors the page asks for, comma-separated")
     args = ap.parse_args()
-    one(0.5, False)  # warm-up: imports, caches
+    one(0.5, False, args.config)  # warm-up: imports, caches
     plain, live, starts = [], [], []
     for i in range(args.repeats):
-        a, _, ra = one(args.sim, False)
-        b, start, rb = one(args.sim, True)
+        a, _, ra = one(args.sim, False, args.config)
+        b, start, rb = one(args.sim, True, args.config, args.sensors)
         starts.append(start)
         same = (ra.ticks, ra.outcome, ra.result) == (rb.ticks, rb.outcome, rb.result)
         if not same:

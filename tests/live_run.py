@@ -168,11 +168,25 @@ reads every sensor every tick and writes each reading into the trace."""
 WALL_FACE = 0.95
 
 
-def sensors_config(folder: Any) -> str:
-    """:data:`SENSORS_WORLD` written to ``folder``; its path."""
-    path = folder / "sensors.toml"
-    path.write_text(SENSORS_WORLD, encoding="utf-8")
+def sensors_config(folder: Any, camera: bool = True) -> str:
+    """:data:`SENSORS_WORLD` written to ``folder`` (without its camera if not ``camera``); its path."""
+    text = SENSORS_WORLD
+    if not camera:
+        start = text.index("[sensors.cam]")
+        text = text[:start] + text[text.index("[behaviour]"):]
+    path = folder / ("sensors.toml" if camera else "sensors_no_camera.toml")
+    path.write_text(text, encoding="utf-8")
     return str(path)
+
+
+def pose_at(config: str, tick: int, overrides: dict[str, Any], body: str) -> tuple[float, ...]:
+    """``body``'s base pose (link frame: position, quaternion) after ``tick`` ticks of a run without a live view."""
+    plugins = load_plugins()
+    with Simulation(load_config(config, plugins, overrides), plugins) as sim:
+        sim.run(max_time=tick * sim.world.time_step)
+        assert sim.world.tick == tick
+        pos, orn = sim.world.pose(body)
+        return (*pos, *orn)
 
 
 def camera_at(config: str, tick: int) -> Any:

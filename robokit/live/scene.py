@@ -1,5 +1,10 @@
 """The live world as the page's viewer draws it: the replay viewer's payload (``robokit/data/replay.js``) built from
-a running world, and every drawn link's pose now."""
+a running world, and every drawn link's pose now.
+
+A world of another engine (MuJoCo) is drawn as ``robokit view`` draws its record: the shapes are read once from the
+config's bodies built in a PyBullet DIRECT world (the same URDFs, the same links), which is closed again at once;
+every frame's link poses are the running world's own (:meth:`robokit.core.world.World.pose`, each link's frame as
+the model file defines it)."""
 
 from __future__ import annotations
 
@@ -25,7 +30,7 @@ def scene_payload(sim: Any) -> tuple[dict[str, Any], list[Any]]:
     from robokit.record.scene import NAMED_VIEWS, body_boxes, orbit_view, scene_box
 
     world = sim.world
-    links, items = visual_links(world)
+    links, items = visual_links(world) if world.engine == "pybullet" else _mirrored_links(sim)
     lo, hi = scene_box(world)
     corners = [np.array([x, y, z]) for blo, bhi in body_boxes(world)
                for x in (blo[0], bhi[0]) for y in (blo[1], bhi[1]) for z in (blo[2], bhi[2])]
@@ -65,6 +70,35 @@ def visual_links(world: Any) -> tuple[list[Any], list[dict[str, Any]]]:
     return links, items
 
 
+def _mirrored_links(sim: Any) -> tuple[list[Any], list[dict[str, Any]]]:
+    """:func:`visual_links` of a world of another engine: its config's bodies built in a PyBullet DIRECT world give
+    the shapes; each link is named by its index in the running world (found by the link's name)."""
+    from robokit.core.simulation import spawn_bodies
+    from robokit.core.world import World
+    from robokit.record.replay import Link
+
+    world = sim.world
+    mirror = World.create("pybullet", gui=False, time_step=world.time_step, seed=world.seed,
+                          base_dir=sim.config.base_dir)
+    try:
+        spawn_bodies(mirror, sim.config)
+        links, items = visual_links(mirror)
+    finally:
+        mirror.close()
+    index: dict[int, int] = {}
+    kept: list[Any] = []
+    for k, link in enumerate(links):
+        if not world.has_body(link.body):
+            continue
+        try:
+            where = -1 if link.index < 0 else world.link(link.body, link.link)
+        except LookupError:  # a link the engine does not keep as a link of its own: not drawn
+            continue
+        index[k] = len(kept)
+        kept.append(Link(link.body, link.link, where))
+    return kept, [{**item, "frame": index[item["frame"]]} for item in items if item["frame"] in index]
+
+
 def add_meshes(scene: dict[str, Any]) -> dict[str, Any]:
     """:func:`scene_payload`'s payload with its meshes read (OBJ files, each once); a shape whose mesh cannot be read
     is left out; a textured mesh takes its texture's mean colour, as the run page's replay draws it. Reading files
@@ -101,14 +135,16 @@ def _b64(a: np.ndarray) -> str:
 def link_poses(world: Any, links: list[Any]) -> list[float | None]:
     """Every drawn link's world position (m) and quaternion (x, y, z, w), 7 numbers a link, flat; None for the links
     of a body removed during the run."""
-    client = world.client
+    client = world.client if world.engine == "pybullet" else None
     out: list[float | None] = []
     for link in links:
         if not world.has_body(link.body):
             out += [None] * 7
             continue
         bid = world.body(link.body)
-        if link.index < 0:
+        if client is None:
+            pos, orn = world.pose(bid, link.index)
+        elif link.index < 0:
             pos, orn = _base_frame(client, bid)
         else:
             state = client.getLinkState(bid, link.index, computeForwardKinematics=True)

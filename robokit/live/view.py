@@ -91,8 +91,6 @@ class LiveView:
     @hookimpl
     def robokit_run_start(self, simulation: Any) -> None:
         """Build the page's scene from the world as it starts, start serving, join the loop."""
-        if simulation.world.engine != "pybullet":
-            raise UserError(f"--live draws PyBullet worlds; this run's engine is {simulation.world.engine!r}")
         from robokit.live.sensors import SensorFeed
         from robokit.record.layout import machines_of
 
