@@ -211,6 +211,8 @@ def _timeline(trace: Artifact, end_time: float | None) -> dict[str, Any]:
     bars: dict[str, list[dict[str, Any]]] = {}
     for t in transitions:
         segs = bars.setdefault(str(t.get("machine", "")), [])
+        if not segs and float(t["t"]) > 0:  # the state it was in before: the bar starts at 0 like every other
+            segs.append({"state": str(t.get("source_state", "")), "start": 0.0, "end": end})
         if segs:
             segs[-1]["end"] = float(t["t"])
         segs.append({"state": str(t.get("dest_state", "")), "start": float(t["t"]), "end": end})
