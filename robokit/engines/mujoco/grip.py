@@ -45,6 +45,7 @@ class GripAnchors:
         """MuJoCo body names of the fingers, in the order their welds were added."""
         self._eq: np.ndarray = np.zeros(0, dtype=np.int64)
         self._grip_of_geom: np.ndarray = np.zeros(0, dtype=np.int64)
+        self._is_grip: np.ndarray = np.zeros(0, dtype=bool)
         self._movable: np.ndarray = np.zeros(0, dtype=bool)
         self._root_of_finger: list[int] = []
         self._lists: tuple[list[int], list[int], list[bool], list[int]] = ([], [], [], [])
@@ -88,6 +89,7 @@ class GripAnchors:
         grip_of_body = np.full(m.nbody, -1, dtype=np.int64)
         grip_of_body[finger_bodies] = np.arange(len(self.fingers))
         self._grip_of_geom = grip_of_body[m.geom_bodyid]
+        self._is_grip = self._grip_of_geom >= 0
         roots = m.body_rootid
         free = np.zeros(m.nbody, dtype=bool)
         for body in range(1, m.nbody):
@@ -154,10 +156,10 @@ class GripAnchors:
         if d.ncon == 0:
             return out
         geoms = d.contact.geom
-        grips = self._grip_of_geom[geoms].max(axis=1)
-        if grips.max() < 0:
+        hits = self._is_grip[geoms]
+        if not hits.any():
             return out
-        rows = np.flatnonzero(grips >= 0).tolist()
+        rows = np.flatnonzero(hits.any(axis=1)).tolist()
         pairs = geoms[rows].tolist()
         address, friction, force, dims = d.contact.efc_address, d.contact.friction, d.efc_force, d.contact.dim
         grip_of, body_of, movable, roots = self._lists
