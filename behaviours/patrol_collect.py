@@ -4,12 +4,20 @@ each one's estimated position once, drive to it, collect it, resume the patrol.
 Objects are found only in the lidar scan (:mod:`robokit_behaviours.discovery`): returns that the known map does
 not explain, in small clusters, fitted as circles. Body ids and true positions are never used to find or reach
 anything. To report the localisation error, an optional ``truth_sensor`` (a ``body_pose`` sensor) is read when an
-object is logged, and only into the result. Collection is the ``collector`` actuator (a front scoop, armed while
-approaching); the patrol resumes towards the waypoint it left.
+object is logged, and only into the result. Two ways to collect, chosen by config:
 
-The goal (:meth:`PatrolCollect.check_goal`, on the world after the last tick): every waypoint visit made, every
-collectable (a loose body the collector could take: movable, no joints, at most its ``max_mass``, not on the map)
-stowed in the robot's bin, and no collision with the map. Anything else ends ``failed`` naming what is missing.
+- ``gripper`` + ``lift`` + ``bin`` (a robot with a gripper on a lift, e.g. the bundled collectbot): drive up until
+  the object sits between the open fingers, close them, lift, carry it to the ``bin`` (an area on the floor with a
+  mouth), drive straight in, lower it, let go and back out. The object moves only by contacts. The goal asks the
+  world whether every collectable lies inside the bin's area, resting on the floor.
+- ``collector`` (the ``collector`` actuator): a scripted stow. When the object is within the scoop's reach zone the
+  simulator switches its collisions off and fixes it on the robot's bin link: it is moved by the program, not by
+  contacts. It stands in for a mechanism on robots that have none (the plain diffbot).
+
+The patrol resumes towards the waypoint it left. The goal (:meth:`PatrolCollect.check_goal`, on the world after the
+last tick): every waypoint visit made, every collectable (a loose body: movable, no joints, not on the map, with the
+stow at most the collector's ``max_mass``) in the bin, and no collision with the map. Anything else ends
+``failed`` naming what is missing.
 """
 
 from __future__ import annotations
@@ -28,7 +36,9 @@ from robokit_behaviours.patrol import PATROL_TRANSITIONS, Patrol, PatrolConfig
 from robokit import hookimpl
 from robokit.components import GoalCheck, SetupContext
 from robokit.errors import ConfigError
-from robokit.msgs.mobile import STOP, Collect
+from robokit.msgs.arm import GripperCommand, JointCommand
+from robokit.msgs.mobile import STOP, Collect, Twist
+from robokit.planning.dock import Bin, BinConfig
 
 
 class Phase(enum.Enum):
@@ -38,6 +48,11 @@ class Phase(enum.Enum):
     DRIVING = "driving"
     AVOIDING = "avoiding"
     APPROACHING = "approaching"
+    GRASPING = "grasping"
+    CARRYING = "carrying"
+    DOCKING = "docking"
+    RELEASING = "releasing"
+    LEAVING = "leaving"
     DONE = "done"
 
 
@@ -45,19 +60,36 @@ TRANSITIONS: list[dict[str, Any]] = [
     *PATROL_TRANSITIONS,
     {"trigger": "spotted", "source": MOTION_STATES, "dest": "APPROACHING"},
     {"trigger": "collected", "source": "APPROACHING", "dest": "TURNING"},
-    {"trigger": "lost", "source": "APPROACHING", "dest": "TURNING"},
+    {"trigger": "lost", "source": ["APPROACHING", "GRASPING"], "dest": "TURNING"},
+    {"trigger": "within_reach", "source": "APPROACHING", "dest": "GRASPING"},
+    {"trigger": "lifted", "source": "GRASPING", "dest": "CARRYING"},
+    {"trigger": "at_bin", "source": "CARRYING", "dest": "DOCKING"},
+    {"trigger": "over_slot", "source": "DOCKING", "dest": "RELEASING"},
+    {"trigger": "released", "source": "RELEASING", "dest": "LEAVING"},
+    {"trigger": "delivered", "source": "LEAVING", "dest": "TURNING"},
+    {"trigger": "dropped", "source": ["CARRYING", "DOCKING"], "dest": "TURNING"},
 ]
 
 
 BIN_RADIUS = 0.15
-"""m: an object centre this close (xy) to the bin link, above it, is in the bin."""
+"""m: an object centre this close (xy) to the bin link, above it, is in the robot's bin (the scripted stow)."""
+REST_HEIGHT = 0.15
+"""m: an object whose centre is lower than this (world z) rests on the floor (a 0.2 m can standing: 0.1 m)."""
 
 
 class PatrolCollectConfig(PatrolConfig):
     """Config of ``patrol_collect`` (everything ``patrol`` takes, plus the following).
 
     Attributes:
-        collector: Name of the ``collector`` actuator.
+        collector: Name of the ``collector`` actuator (the scripted stow); empty with ``gripper``.
+        gripper: Name of a ``gripper`` actuator whose fingers take the object (with ``lift`` and ``bin``).
+        lift: Name of a ``joint_control`` actuator driving the lift joint.
+        lift_joint: The lift's joint.
+        carry_height: Lift position while carrying, m (the object's bottom must clear the lidar's scan plane).
+        reach: Where an object sits between the fingers: metres ahead of the robot's base.
+        grasp_time: Sim seconds allowed for closing the fingers and for moving the lift.
+        deliver_timeout: Sim seconds allowed to carry one object into the bin.
+        bin: The bin the gripper delivers into.
         truth_sensor: A ``body_pose`` sensor on the collectibles, read only to report localisation errors.
         approach_timeout: Sim seconds allowed to reach and collect one object before giving up on it.
         max_attempts: Approaches per object.
@@ -65,6 +97,14 @@ class PatrolCollectConfig(PatrolConfig):
     """
 
     collector: str = "collector"
+    gripper: str = ""
+    lift: str = ""
+    lift_joint: str = "lift"
+    carry_height: float = Field(0.15, gt=0)
+    reach: float = Field(0.28, gt=0)
+    grasp_time: float = Field(2.0, gt=0)
+    deliver_timeout: float = Field(90.0, gt=0)
+    bin: BinConfig | None = None
     truth_sensor: str = ""
     approach_timeout: float = Field(30.0, gt=0)
     max_attempts: int = Field(2, ge=1)
@@ -73,7 +113,7 @@ class PatrolCollectConfig(PatrolConfig):
 
 class PatrolCollect(Patrol):
     """Patrol waypoints; find unknown objects on the lidar, log and collect each, resume (lesson 08B)."""
-    COMMANDS: ClassVar[tuple[str, ...]] = ("drive", "collector")
+    COMMANDS: ClassVar[tuple[str, ...]] = ("drive", "collector", "gripper", "lift")
 
     STATES = Phase
     TRANSITIONS = TRANSITIONS
@@ -82,13 +122,22 @@ class PatrolCollect(Patrol):
     def setup(self, ctx: SetupContext) -> None:
         super().setup(ctx)
         cfg = self.config
-        for key in ("collector", "truth_sensor"):
+        for key in ("collector", "gripper", "lift", "truth_sensor"):
             name = getattr(cfg, key)
             if name and name not in ctx.components:
                 raise ConfigError(f"no component named {name!r}; components: {', '.join(ctx.components)}", key=key)
         if not cfg.scan:
             raise ConfigError("patrol_collect discovers objects with a lidar: name one in 'scan'", key="scan")
-        self.discovery = Discovery(cfg.discovery, [(b.lo, b.hi) for b in self.map])
+        self.bin = self._setup_gripper() if cfg.gripper else None
+        if self.bin is None and not cfg.collector:
+            raise ConfigError("name a 'collector', or a 'gripper' with a 'lift' and a 'bin'", key="collector")
+        boxes = [(b.lo, b.hi) for b in self.map]
+        if self.bin is not None:
+            boxes.append(self.bin.cfg.area)  # objects already delivered belong to the bin
+        self.discovery = Discovery(cfg.discovery, boxes)
+        self.phase_started = 0.0
+        self.lifting = False
+        self.delivered = 0
         self.found: list[dict[str, Any]] = []
         self.target: Track | None = None
         self.approach_started = 0.0
@@ -96,11 +145,29 @@ class PatrolCollect(Patrol):
         self.scan_stamp = -1.0
         self.collectables = self._collectables(ctx)
 
+    def _setup_gripper(self) -> Bin:
+        cfg = self.config
+        if cfg.collector:
+            raise ConfigError("give either 'collector' (the scripted stow) or 'gripper', not both", key="collector")
+        if not cfg.lift or cfg.bin is None:
+            raise ConfigError("a 'gripper' needs a 'lift' (joint_control actuator) and a 'bin'",
+                              key="lift" if not cfg.lift else "bin")
+        joints = getattr(getattr(self.ctx.components[cfg.lift], "config", None), "joints", ())
+        if joints and cfg.lift_joint not in joints:
+            raise ConfigError(f"actuator {cfg.lift!r} does not drive joint {cfg.lift_joint!r}; it drives "
+                              f"{', '.join(joints)}", key="lift_joint")
+        return Bin(cfg.bin, cfg.discovery.object_radius, cfg.reach)
+
+    def _robot_name(self, ctx: SetupContext) -> str | None:
+        device = ctx.components.get(self.config.gripper or self.config.collector)
+        cfg = getattr(device, "config", None)
+        return getattr(cfg, "robot", None) or getattr(cfg, "body", None)
+
     def _collectables(self, ctx: SetupContext) -> list[str]:
-        """Ground truth for the goal: loose bodies the collector could take (not the robot, not on the map)."""
-        collector = ctx.components.get(self.config.collector)
+        """Ground truth for the goal: loose bodies the robot could take (not the robot, not on the map)."""
+        collector = ctx.components.get(self.config.collector) if self.config.collector else None
         limit = getattr(getattr(collector, "config", None), "max_mass", math.inf)
-        robot = getattr(getattr(collector, "config", None), "robot", None)
+        robot = self._robot_name(ctx)
         world, out = ctx.world, []
         for name in world.body_names:
             bid = world.body(name)
@@ -157,32 +224,159 @@ class PatrolCollect(Patrol):
         self.approach_started = t
         self.avoider.reset()
         self.fire("spotted")
-        return {self.config.collector: Collect(True)}
+        return self._tool(True)
+
+    def _tool(self, ready: bool) -> dict[str, Any]:
+        """Commands readying (or standing down) the mechanism: the stow armed, or the fingers open and lift down."""
+        cfg = self.config
+        if self.bin is None:
+            return {cfg.collector: Collect(ready)}
+        if not ready:
+            return {}
+        return {cfg.gripper: GripperCommand("open"), cfg.lift: JointCommand("position", {cfg.lift_joint: 0.0})}
 
     def do_approaching(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any] | None:
-        """Drive at the target object with the scoop armed, until the collector reports a new object."""
+        """Drive at the target object: with the stow armed until the collector reports a new object, or until the
+        object sits between the open fingers."""
         cfg, target = self.config, self.target
         assert target is not None
-        state = readings[cfg.collector]
-        if state.count > self.collected_count:
-            self.collected_count = state.count
-            taken = self.discovery.mark_collected(state.last_position or target.xy)
-            self.ctx.trace("object_collected", id=taken.id if taken else None)
-            return self._resume(t, "collected")
+        if self.bin is None:
+            state = readings[cfg.collector]
+            if state.count > self.collected_count:
+                self.collected_count = state.count
+                taken = self.discovery.mark_collected(state.last_position or target.xy)
+                self.ctx.trace("object_collected", id=taken.id if taken else None)
+                return self._resume(t, "collected")
         if t - self.approach_started > cfg.approach_timeout:
-            target.status = "found" if target.attempts < cfg.max_attempts else "abandoned"
-            return self._resume(t, "lost")
+            return self._give_up(t)
+        pose = self.pose(readings)
+        if self.bin is not None:
+            dist = math.dist(pose[:2], target.xy)
+            if dist < cfg.reach + 0.35:
+                return self._creep(pose, target, t)
         ignore = (target.x, target.y, cfg.discovery.object_radius + 0.12)
-        nav = self.avoider.step(self.pose(readings), readings[cfg.scan], target.xy, t, ignore)
+        nav = self.avoider.step(pose, readings[cfg.scan], target.xy, t, ignore)
         return {cfg.drive: nav.twist}
+
+    def _give_up(self, t: float) -> Mapping[str, Any]:
+        target = self.target
+        assert target is not None
+        target.status = "found" if target.attempts < self.config.max_attempts else "abandoned"
+        return self._resume(t, "lost")
+
+    def _creep(self, pose: tuple[float, float, float], target: Track, t: float) -> Mapping[str, Any]:
+        """The last few decimetres: point at the object and roll forward until it is ``reach`` m ahead."""
+        cfg = self.config
+        dx, dy = target.x - pose[0], target.y - pose[1]
+        dist = math.hypot(dx, dy)
+        bearing = math.atan2(dy, dx) - pose[2]
+        bearing = math.atan2(math.sin(bearing), math.cos(bearing))
+        ahead, side = dist * math.cos(bearing), dist * math.sin(bearing)
+        left = ahead - cfg.reach
+        if left <= 0.005 and abs(side) <= 0.025:
+            self.phase_started = t
+            self.fire("within_reach")
+            return {cfg.drive: STOP, cfg.gripper: GripperCommand("close")}
+        omega = max(-1.0, min(1.0, 3.0 * bearing))
+        if abs(bearing) > 0.15 or left <= 0.005:
+            if left < -0.02 or (left <= 0.005 and abs(bearing) <= 0.15):
+                return {cfg.drive: Twist(-0.05, 0.0)}  # too close to turn onto it: back off a little
+            return {cfg.drive: Twist(0.0, omega)}
+        return {cfg.drive: Twist(min(0.12, 0.02 + 0.6 * left), omega)}
+
+    def do_grasping(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any] | None:
+        """Fingers closing, then the lift rising; on to the bin once the object is held up."""
+        cfg = self.config
+        grip, lift = readings[cfg.gripper], readings[cfg.lift].positions[cfg.lift_joint]
+        elapsed = t - self.phase_started
+        if not self.lifting:
+            if grip.holding and grip.settled:
+                self.lifting, self.phase_started = True, t
+                return {cfg.lift: JointCommand("position", {cfg.lift_joint: cfg.carry_height})}
+            if elapsed > cfg.grasp_time:
+                return {**self._give_up(t), cfg.gripper: GripperCommand("open")}
+            return None
+        if not grip.holding:
+            return {**self._give_up(t), **self._tool(True)}
+        if lift >= cfg.carry_height - 0.01 or elapsed > cfg.grasp_time:
+            target = self.target
+            assert target is not None
+            self.lifting = False
+            target.status = "collected"
+            self.ctx.trace("object_lifted", id=target.id)
+            self.phase_started = t
+            self.avoider.reset()
+            self.fire("lifted")
+        return None
+
+    def do_carrying(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any] | None:
+        """Carry the held object to the stage point in front of the bin's mouth."""
+        cfg, bin_ = self.config, self.bin
+        assert bin_ is not None
+        if not readings[cfg.gripper].holding or t - self.phase_started > cfg.deliver_timeout:
+            return self._dropped(t)
+        pose = self.pose(readings)
+        if math.dist(pose[:2], bin_.stage) <= 0.06:
+            self.fire("at_bin")
+            return {cfg.drive: STOP}
+        return {cfg.drive: self.move_towards(readings, bin_.stage, t).twist}
+
+    def do_docking(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any] | None:
+        """Face the bin, drive straight in until the held object is over its slot."""
+        cfg, bin_ = self.config, self.bin
+        assert bin_ is not None
+        if not readings[cfg.gripper].holding or t - self.phase_started > cfg.deliver_timeout:
+            return self._dropped(t)
+        twist, left = bin_.dock(self.pose(readings), self.delivered)
+        if left <= 0.0:
+            self.phase_started = t
+            self.fire("over_slot")
+            return {cfg.drive: STOP, cfg.lift: JointCommand("position", {cfg.lift_joint: 0.0})}
+        return {cfg.drive: twist}
+
+    def do_releasing(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any] | None:
+        """Lower the object to the floor, then open the fingers."""
+        cfg = self.config
+        grip, lift = readings[cfg.gripper], readings[cfg.lift].positions[cfg.lift_joint]
+        elapsed = t - self.phase_started
+        if grip.action != "open":
+            if lift <= 0.005 or elapsed > cfg.grasp_time:
+                self.phase_started = t
+                return {cfg.gripper: GripperCommand("open")}
+            return None
+        if grip.settled or elapsed > cfg.grasp_time:
+            self.delivered += 1
+            self.collected_count = self.delivered
+            self.ctx.trace("object_collected", id=self.target.id if self.target else None)
+            self.fire("released")
+        return None
+
+    def do_leaving(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any] | None:
+        """Back straight out of the bin to the stage point."""
+        bin_ = self.bin
+        assert bin_ is not None
+        pose = self.pose(readings)
+        depth, _ = bin_.along(pose[0], pose[1])
+        if depth <= -bin_.cfg.stage_distance + 0.1:
+            return self._resume(t, "delivered")
+        return {self.config.drive: Twist(-bin_.cfg.dock_speed, 0.0)}
+
+    def _dropped(self, t: float) -> Mapping[str, Any]:
+        """The object left the fingers on the way: it is on the floor again, to be found and taken anew."""
+        target = self.target
+        if target is not None:
+            target.status, target.found, target.sightings = "seen", False, 0
+        self.ctx.trace("object_dropped", id=target.id if target else None)
+        return {**self._resume(t, "dropped"), **self._tool(True)}
 
     def _resume(self, t: float, trigger: str) -> Mapping[str, Any]:
         """Back to the patrol (or to the end of it) after an approach."""
         self.target = None
+        self.lifting = False
         self.avoider.reset()
         self.leg_started = t
         self.fire(trigger)
-        out = {self.config.collector: Collect(False), self.config.drive: STOP}
+        out: dict[str, Any] = {**self._tool(False), self.config.drive: STOP}
         if self.leg >= self.legs_total:
             out.update(self.end_patrol(t) or {})
         return out
@@ -195,18 +389,19 @@ class PatrolCollect(Patrol):
             return self._start_approach(pending, t)
         self.fire("finished")
         self.finish("failed" if self.missed else "succeeded", self._summary(t))
-        return {self.config.drive: STOP, self.config.collector: Collect(False)}
+        return {self.config.drive: STOP, **self._tool(False)}
 
     def _summary(self, t: float) -> str:
         return (f"{len(self.reached)}/{self.legs_total} waypoints, {len(self.found)} objects found, "
                 f"{self.collected_count} collected, t = {t:.2f} s")
 
     def check_goal(self, world: Any) -> GoalCheck:
-        """Every waypoint visited, every collectable in the robot's bin, no collision (ground truth)."""
+        """Every waypoint visited, every collectable in the bin (the robot's, or the ``bin`` area), no collision
+        (ground truth)."""
         problems = []
         if self.missed:
             problems.append(f"missed {len(self.missed)} of {self.legs_total} waypoint visits")
-        left = [n for n in self.collectables if not self._stowed(world, n)]
+        left = [n for n in self.collectables if not (self._in_bin(world, n) if self.bin else self._stowed(world, n))]
         if left:
             found = {f.get("body") for f in self.found}
             why = [f"{n} ({'found, not collected' if n in found else 'not collected'})" for n in left]
@@ -218,6 +413,17 @@ class PatrolCollect(Patrol):
         if problems:
             return GoalCheck(False, "; ".join(problems), details)
         return GoalCheck(True, f"all {len(self.collectables)} object(s) collected, no collision", details)
+
+    def _in_bin(self, world: Any, name: str) -> bool:
+        """True if a body rests in the ``bin`` area (world state): its centre inside the area, below
+        ``REST_HEIGHT``, and nothing of the robot touching it."""
+        assert self.bin is not None
+        if not world.has_body(name):
+            return False
+        x, y, z = world.pose(name)[0]
+        robot = self._robot_name(self.ctx)
+        held = robot is not None and world.has_body(robot) and bool(world.contacts(world.body(name), world.body(robot)))
+        return self.bin.contains(x, y) and z < REST_HEIGHT and not held
 
     def _stowed(self, world: Any, name: str) -> bool:
         """True if a body rides in the robot's bin (world state): attached to the robot by a constraint, or
@@ -237,6 +443,7 @@ class PatrolCollect(Patrol):
         out.update({
             "objects_found": len(self.found),
             "objects_collected": self.collected_count,
+            "mechanism": "gripper" if self.bin is not None else "stow",
             "found": self.found,
             "localisation_error_median": round(statistics.median(errors), 4) if errors else None,
         })
