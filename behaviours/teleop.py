@@ -133,6 +133,10 @@ class DriveTeleop(Behaviour):
         self.pose = tuple(readings[cfg.actuator].pose)  # type: ignore[assignment]
         return {cfg.actuator: Twist(v, omega)}
 
+    def halt(self, t: float) -> Mapping[str, Any] | None:
+        """Stopped before it ended (a composite's timeout, a monitor): the robot stops, whatever key is held."""
+        return {self.config.actuator: Twist(0.0, 0.0)}
+
     def result(self) -> dict[str, Any]:
         pose = [round(v, 4) for v in self.pose] if self.pose else None
         return {"commands": self.commands, "final_pose": pose}
