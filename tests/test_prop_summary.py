@@ -10,8 +10,10 @@ row, each reproduce command parsed back with shlex, each span against a walk of 
 
 from __future__ import annotations
 
+import html
 import json
 import math
+import re
 import shlex
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -25,6 +27,7 @@ from hypothesis import strategies as st
 from robokit.record.export import state_changes
 from robokit.record.format import RunRecord
 from robokit.record.layout import TRACE_FILE
+from robokit.record.page import build_page
 from robokit.sweep.summary import failed_trials, summarise, to_markdown, write_junit
 
 PROPS = settings(max_examples=60, deadline=None, derandomize=True,
@@ -198,6 +201,51 @@ def test_state_stays_and_state_changes_follow_the_transition_records(
     assert [(t, m) for t, m, _ in changes[len(header["machines"]):]] == [(e["t"], e["machine"]) for e in transitions]
     for (_, _, text), e in zip(changes[len(header["machines"]):], transitions, strict=True):
         assert text == f"{e['machine']}: {e['source_state']} -> {e['dest_state']} ({e['trigger']})"
+
+
+figures = st.dictionaries(
+    st.sampled_from(["placed", "error_mm", "grade", "ok", "note", "<b>"]),
+    st.one_of(st.integers(-5, 50), st.floats(-10, 10, allow_nan=False), st.booleans(), st.none(),
+              st.sampled_from(["a & b", "시간"]), st.lists(st.integers(), max_size=2)), max_size=5)
+
+
+@settings(PROPS, max_examples=30)
+@given(traces(), figures)
+def test_the_run_pages_seconds_per_state_and_figures_are_the_records(
+        tmp_path_factory: pytest.TempPathFactory, trace: tuple[dict[str, Any], list[dict[str, Any]], float],
+        result: dict[str, Any]) -> None:
+    """``robokit view``'s page: each machine's diagram fills the states the run visited with the sim seconds spent
+    there (a walk of the transitions from the initial state to the run's end, added up per state), leaves the others
+    blank; the headline table lists every scalar figure of the result, in order, as text."""
+    header, events, end = trace
+    for m in header["machines"]:
+        m.update(type="Machine", states=["IDLE", "MOVE", "GRASP", "DONE"],
+                 transitions=[{"trigger": f"to_{d.lower()}", "source": "IDLE", "dest": d} for d in ("MOVE", "DONE")])
+    folder = tmp_path_factory.mktemp("run")
+    (folder / TRACE_FILE).write_text("\n".join(json.dumps(x) for x in [header, *events]) + "\n", encoding="utf-8")
+    (folder / "result.json").write_text(json.dumps({"outcome": "succeeded", "sim_time": end, "result": result}),
+                                        encoding="utf-8")
+    page = build_page(RunRecord(folder), None, [])
+    for m in header["machines"]:
+        spent: dict[str, float] = {}
+        state, since = m["initial"], 0.0
+        for e in events:
+            if e["kind"] == "transition" and e["machine"] == m["name"]:
+                spent[state] = spent.get(state, 0.0) + e["t"] - since
+                state, since = e["dest_state"], e["t"]
+        spent[state] = spent.get(state, 0.0) + end - since
+        svg = page[page.index(f"<h3>{m['name']} (Machine)</h3>"):]
+        svg = svg[:svg.index("</svg>")]
+        boxes = re.findall(r'<g class="state( visited)?">.*?font-weight="bold">(.*?)</text>.*?fill="#555">(.*?)</text>'
+                           r"</g>", svg)
+        assert sorted(b[1] for b in boxes) == sorted(m["states"])
+        for visited, name, text in boxes:
+            assert (visited == " visited") == (name in spent)
+            assert text == (f"{spent[name]:.2f} s" if name in spent else "")
+    table = page[page.index("<table class='figs'>"):]
+    rows = re.findall(r"<tr><td>(.*?)</td><td class='num'>(.*?)</td></tr>", table[:table.index("</table>")])
+    assert [(html.unescape(k), html.unescape(v)) for k, v in rows] == [
+        (k, str(v)) for k, v in result.items() if not isinstance(v, list)]
 
 
 # ------------------------------------------------------------------------------------------ a real sweep
