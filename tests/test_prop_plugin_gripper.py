@@ -185,3 +185,54 @@ def test_a_protective_stop_freezes_the_fingers_where_they_are(sim: Any, start: f
     g.command(GripperCommand("open"))
     sim.step(1)
     assert not sim.readings["gripper"].stopped
+
+
+# ------------------------------------------------------------------------ other grippers, set up by config
+KUKA_SDF = {"sdf": "kuka_iiwa/kuka_with_gripper2.sdf", "position": [0.3, -0.2, 0.0], "fixed_base": True}
+TWO_REVOLUTE = {  # the KUKA's SDF gripper: two revolute fingers and two fingertip hinges held straight
+    "type": "gripper", "body": "kuka", "finger_joints": ["base_left_finger_joint", "base_right_finger_joint"],
+    "open_positions": [-0.22, 0.22], "closed_positions": [0.05, -0.05], "open_width": 0.084,
+    "hold_joints": {"left_base_tip_joint": 0.0, "right_base_tip_joint": 0.0},
+}
+MIMIC = {**TWO_REVOLUTE, "finger_joints": ["base_left_finger_joint"], "open_positions": [-0.22],
+         "closed_positions": [0.05], "mimic": {"base_right_finger_joint": -1.0},
+         "finger_links": [["left_finger", "left_finger_base", "left_finger_tip"],
+                          ["right_finger", "right_finger_base", "right_finger_tip"]]}
+
+
+@pytest.fixture(scope="module", params=["two_revolute", "mimic"])
+def kuka_gripper(request: pytest.FixtureRequest) -> Iterator[tuple[Any, dict[str, Any]]]:
+    gripper = TWO_REVOLUTE if request.param == "two_revolute" else MIMIC
+    config = {"world": {"gravity": [0, 0, 0]}, "robots": {"kuka": KUKA_SDF}, "actuators": {"gripper": gripper}}
+    with make_sim(config) as s:
+        yield s, gripper
+
+
+@settings(max_examples=4, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(width=st.floats(-0.02, 0.12), force=st.one_of(st.none(), st.floats(5.0, 40.0)))
+def test_configured_fingers_go_to_the_joint_positions_linear_in_the_width(kuka_gripper: tuple, width: float,
+                                                                          force: float | None) -> None:
+    """A width is linear in each finger joint's travel from closed to open (the plugin's docstring): the world's
+    joint positions are the plain interpolation, a mimic follower is its ratio times the driven joint, the
+    held hinges stay where they are held, and the reading's width is read back from the world's joints."""
+    sim, cfg = kuka_gripper
+    w = sim.world
+    kuka = w.body("kuka")
+    sim.components["gripper"].command(GripperCommand("width", width=width, force=force))
+    settle(sim, 600)
+    sim.step(30)
+    frac = min(max(width, 0.0), cfg["open_width"]) / cfg["open_width"]
+    measured = []
+    for name, o, c in zip(cfg["finger_joints"], cfg["open_positions"], cfg["closed_positions"], strict=True):
+        q = w.joint_states(kuka, [w.joint("kuka", name).index])[0][0]
+        assert q == pytest.approx(c + frac * (o - c), abs=6e-3), name
+        measured.append((q - c) / (o - c))
+    for follower, ratio in cfg.get("mimic", {}).items():
+        q_lead = w.joint_states(kuka, [w.joint("kuka", cfg["finger_joints"][0]).index])[0][0]
+        q = w.joint_states(kuka, [w.joint("kuka", follower).index])[0][0]
+        assert q == pytest.approx(ratio * q_lead, abs=0.01), follower
+    for held, q_held in cfg["hold_joints"].items():
+        assert w.joint_states(kuka, [w.joint("kuka", held).index])[0][0] == pytest.approx(q_held, abs=0.02), held
+    r = sim.readings["gripper"]
+    assert r.width == pytest.approx(cfg["open_width"] * sum(measured) / len(measured), abs=1e-6)
+    assert r.target_width == pytest.approx(frac * cfg["open_width"], abs=1e-12)
