@@ -334,12 +334,13 @@ class Navigating:
 
     def close(self) -> None:
         """At the end of a run that keeps a record: the planner's map as ``map.pgm`` + ``map.yaml`` (ROS
-        ``map_server``'s format) in the run folder."""
+        ``map_server``'s format) and the paths it planned (``map_plans.json``) in the run folder."""
         run_dir = getattr(getattr(self, "ctx", None), "run_dir", None)
         planner = getattr(self, "planner", None)
         if planner is not None and run_dir is not None and Path(run_dir).is_dir():
             grid = planner.grid
-            for name, data in (("map.pgm", grid.to_pgm()), ("map.yaml", grid.map_yaml("map.pgm").encode())):
+            for name, data in (("map.pgm", grid.to_pgm()), ("map.yaml", grid.map_yaml("map.pgm").encode()),
+                               ("map_plans.json", planner.plans_json())):
                 with atomic_output(Path(run_dir) / name) as tmp:
                     tmp.write_bytes(data)
         parent = getattr(super(), "close", None)

@@ -14,6 +14,7 @@ own rule.
 
 from __future__ import annotations
 
+import json
 import math
 import time
 from collections.abc import Sequence
@@ -72,6 +73,10 @@ class PlanStats:
                 "grid_updates": self.grid_updates, "replan_reasons": dict(sorted(self.reasons.items()))}
 
 
+MAX_LOGGED_PLANS = 2000
+"""Paths kept for the run page; a long run replans every second or two."""
+
+
 class PlanningNavigator:
     """Grid, global path and local planner for one robot (see the module docstring).
 
@@ -101,6 +106,12 @@ class PlanningNavigator:
         self._seg = 0
         self._last_t: float | None = None
         self._last_cmd: tuple[float, Twist] | None = None  # (sim time, command) of the last planned step
+        self.plans: list[dict[str, object]] = []  # every path found: sim time, goal, waypoints (see plans_json)
+
+    def plans_json(self) -> bytes:
+        """Every path found, in order (at most ``MAX_LOGGED_PLANS``): ``{"plans": [{"t", "goal", "path"}]}``,
+        times in sim s, points world xy in m. Saved beside the map as ``map_plans.json`` for the run page."""
+        return json.dumps({"plans": self.plans}, separators=(",", ":")).encode()
 
     def reset(self) -> None:
         """Forget the path (a new goal follows)."""
@@ -220,7 +231,9 @@ class PlanningNavigator:
         if reason is not None:
             self.stats.reasons[reason] = self.stats.reasons.get(reason, 0) + 1
             self._goal, self._planned_at, self._version = goal, t, self.grid.version
-            self.plan(pose[:2], goal, tolerance)
+            if self.plan(pose[:2], goal, tolerance) and len(self.plans) < MAX_LOGGED_PLANS:
+                self.plans.append({"t": round(t, 3), "goal": [round(v, 4) for v in goal],
+                                   "path": [[round(x, 4), round(y, 4)] for x, y in self.path]})
         if not self.path:
             return None
         carrot = self.carrot(pose)

@@ -14,6 +14,8 @@ from html import escape
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from robokit.record.diagram import machine_svg, mermaid_text
 from robokit.record.format import RunRecord
 from robokit.record.layout import noted_video
@@ -102,6 +104,9 @@ def build_page(rec: RunRecord, video: Path | None, plots: list[Path], replay: st
     if video is not None:
         parts.append(_section("Video", "영상", f"<video id='run-video' controls muted playsinline preload='auto' "
                               f"src='{_data_uri(video, 'video/mp4')}'></video>"))
+    occupancy = _occupancy_map(rec)
+    if occupancy:
+        parts.append(_section("Map", "지도", occupancy))
     if plots:
         imgs = "".join(f"<figure><img alt='{escape(p.stem)}' src='{_data_uri(p, _mime(p))}'>"
                        f"<figcaption class='meta'>{escape(p.name)}</figcaption></figure>" for p in plots)
@@ -121,6 +126,21 @@ def build_page(rec: RunRecord, video: Path | None, plots: list[Path], replay: st
     parts.append(_section("Config", "설정", f"<pre>{escape(config)}</pre>"))
     parts.append("</body></html>")
     return "".join(parts)
+
+
+def _occupancy_map(rec: RunRecord) -> str:
+    """The planner's saved map (``planner = "astar"``) with its planned paths and the driven path, or ''."""
+    from robokit.planning.mapview import map_caption, map_svg
+
+    driven = None
+    drives = [s for s in (rec.header.get("config", {}).get("actuators") or {}).values()
+              if isinstance(s, dict) and s.get("type") == "diff_drive"]
+    if drives and rec.has_poses:
+        track = rec.poses.get(f"base/{drives[0].get('robot', 'robot')}")
+        if track is not None:
+            driven = track[~np.isnan(track[:, 0]), :2]
+    svg = map_svg(rec.folder, driven)
+    return f"{svg}<p class='meta'>{map_caption(rec.folder)}</p>" if svg else ""
 
 
 def _mime(path: Path) -> str:
