@@ -1,0 +1,177 @@
+"""Arm motion planning against straight lines, on seeded pick-and-place scenes with obstacles between cube and bin.
+
+    python benchmarks/arm_planning.py --seeds 5
+    python benchmarks/arm_planning.py --kinds wall,boxes --seeds 10 --engine mujoco
+
+Each scene is configs/pick_obstacle.toml's table, Panda, cube and bin with the cube and the bin placed by the seed
+and, between them, by kind:
+
+- ``wall``: one thin wall, 0.15-0.3 m long, 0.2-0.3 m tall;
+- ``shelf``: a shelf unit (a back panel and a top board overhanging it by 4 cm on both sides), 0.18-0.25 m tall;
+- ``boxes``: two or three boxes, 6-10 cm wide, 0.14-0.25 m tall, in the middle fifth of the way from cube to bin;
+
+The obstacles stand clear of the cube and of the bin (the arm's vertical moves over them stay straight).
+- ``open``: nothing (what the planner costs where the straight way is clear).
+
+Every scene runs ``pick_place`` headless with ``planner = "straight"`` and ``planner = "rrt"``, and prints per kind:
+
+- success: the cube rests in the bin at the end (its centre inside the bin's box, below the rim);
+- collisions: runs in which the arm or the cube touched an obstacle (contacts read every tick);
+- joint path: the arm's joint travel over the run (sum over ticks of the Euclidean joint step, rad), median over
+  the successful runs, and its ratio to the travel of straight lines on the same scene with its obstacles taken
+  away (what the job costs with nothing in the way), median;
+- plan ms: process time per free move (approach, transport) to decide the command: the arm solving the straight
+  path and, with the planner, checking it and searching when it is blocked; mean;
+- searched: free moves where the straight way was blocked and RRT-Connect ran;
+- CPU ms / sim s: process time of the whole run per simulated second, median.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import tomllib
+
+from robokit.testing import make_sim
+
+ROOT = Path(__file__).resolve().parents[1]
+BASE = ROOT / "configs" / "pick_obstacle.toml"
+KINDS = ("wall", "shelf", "boxes", "open")
+MODES = ("straight", "rrt")
+
+
+def _box(size: list[float], position: list[float]) -> dict[str, Any]:
+    return {"shape": "box", "size": size, "mass": 0, "position": position, "rgba": [0.6, 0.6, 0.65, 1]}
+
+
+def scene(kind: str, seed: int) -> dict[str, Any]:
+    """The config of one scene (a dict as the TOML would parse it)."""
+    cfg = tomllib.loads(BASE.read_text(encoding="utf-8"))
+    rng = np.random.default_rng([seed, KINDS.index(kind)])
+    cx, cy = rng.uniform(0.42, 0.6), rng.uniform(0.22, 0.3)
+    bx, by = rng.uniform(0.42, 0.58), rng.uniform(-0.32, -0.26)
+    bodies = cfg["bodies"]
+    del bodies["wall"]
+    bodies["cube"]["position"] = [cx, cy, 0.025]
+    bodies["cube"]["rpy_deg"] = [0, 0, float(rng.uniform(-30, 30))]
+    bodies["bin"]["position"] = [bx, by, 0]
+    cfg["behaviour"]["place_position"] = [bx, by, 0.03]
+    mx, my = (cx + bx) / 2, (cy + by) / 2
+    if kind == "wall":
+        length, height = rng.uniform(0.15, 0.3), rng.uniform(0.2, 0.3)
+        bodies["obstacle_0"] = _box([length, 0.04, height], [mx, my, height / 2])
+    elif kind == "shelf":
+        height, length = rng.uniform(0.18, 0.25), rng.uniform(0.2, 0.3)
+        bodies["obstacle_0"] = _box([length, 0.02, height], [mx, my, height / 2])
+        bodies["obstacle_1"] = _box([length, 0.1, 0.02], [mx, my, height + 0.01])
+    elif kind == "boxes":
+        n = int(rng.integers(2, 4))
+        for i, f in enumerate(np.linspace(0.4, 0.6, n) if n > 1 else [0.5]):
+            side, height = rng.uniform(0.06, 0.1), rng.uniform(0.14, 0.25)
+            x, y = cx + f * (bx - cx) + rng.uniform(-0.08, 0.08), cy + f * (by - cy)
+            bodies[f"obstacle_{i}"] = _box([side, side, height], [x, y, height / 2])
+    cfg["world"]["max_time"] = 20.0
+    return cfg
+
+
+class Timed:
+    """Process time spent in methods of objects (each counted while ``when()`` holds), and the calls of the first."""
+
+    def __init__(self) -> None:
+        self.seconds, self.calls = 0.0, 0
+
+    def wrap(self, owner: Any, name: str, *, count: bool, when: Any = lambda: True) -> None:
+        inner = getattr(owner, name)
+
+        def timed(*args: Any, **kwargs: Any) -> Any:
+            if not when():
+                return inner(*args, **kwargs)
+            t0 = time.process_time()
+            try:
+                return inner(*args, **kwargs)
+            finally:
+                self.seconds += time.process_time() - t0
+                self.calls += count
+
+        setattr(owner, name, timed)
+
+
+def trial(kind: str, seed: int, mode: str, engine: str, *, bare: bool = False) -> dict[str, Any]:
+    """One run; its figures. ``bare``: the scene with its obstacles taken away."""
+    cfg = scene(kind, seed)
+    if bare:
+        cfg["bodies"] = {k: v for k, v in cfg["bodies"].items() if not k.startswith("obstacle_")}
+    cfg["behaviour"]["planner"] = mode
+    cfg["world"]["engine"] = engine
+    cpu0 = time.process_time()
+    with make_sim(cfg, base_dir=BASE.parent) as sim:
+        w, pp = sim.world, sim.behaviour
+        arm = pp.ctx.components["arm"]
+        robot, cube = w.body("panda"), w.body("cube")
+        obstacles = {w.body(n) for n in w.body_names if n.startswith("obstacle_")}
+        decide = Timed()  # the behaviour choosing the command, then the arm solving it (IK along the path)
+        decide.wrap(pp, "_free_move", count=True)
+        decide.wrap(arm, "command", count=False, when=lambda: pp.state_name in ("APPROACH", "TRANSPORT"))
+        joints = [j.index for j in arm.arm]
+        last = np.array([s[0] for s in w.joint_states(robot, joints)])
+        figures = {"travel": 0.0, "touched": False}
+
+        def watch(s: Any) -> bool:
+            nonlocal last
+            q = np.array([st[0] for st in w.joint_states(robot, joints)])
+            figures["travel"] += float(np.linalg.norm(q - last))
+            last = q
+            if not figures["touched"]:
+                figures["touched"] = any(c.other in obstacles for who in (robot, cube) for c in w.contacts(who))
+            return s.behaviour.outcome is not None
+
+        sim.run_until(watch, int(20.0 / w.time_step))
+        (x, y, z), _ = w.pose("cube")
+        lo, hi = w.body_aabb("bin")
+        placed = lo[0] < x < hi[0] and lo[1] < y < hi[1] and z < hi[2]
+        stats = pp.moves.stats.as_dict() if pp.moves is not None else {}
+        sim_time = w.time
+    return {"ok": placed, "touched": figures["touched"], "travel": figures["travel"],
+            "plan_ms": 1000.0 * decide.seconds / max(decide.calls, 1), "searched": stats.get("planned", 0),
+            "cpu": (time.process_time() - cpu0) / max(sim_time, 1e-9)}
+
+
+def _median(values: list[float]) -> str:
+    return f"{statistics.median(values):.2f}" if values else "-"
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", type=int, default=5)
+    parser.add_argument("--kinds", default=",".join(KINDS))
+    parser.add_argument("--engine", default="pybullet")
+    args = parser.parse_args(argv)
+    kinds = [k for k in args.kinds.split(",") if k]
+    unknown = [k for k in kinds if k not in KINDS]
+    if unknown:
+        print(f"unknown kind {unknown[0]!r}; kinds: {', '.join(KINDS)}", file=sys.stderr)
+        return 2
+    print("| scene | planner | success | collisions | joint path (rad) | vs no obstacle | plan ms | searched | "
+          "CPU ms / sim s |\n|---|---|---|---|---|---|---|---|---|")
+    for kind in kinds:
+        runs = {mode: [trial(kind, seed, mode, args.engine) for seed in range(args.seeds)] for mode in MODES}
+        bare = [trial(kind, seed, "straight", args.engine, bare=True) for seed in range(args.seeds)]
+        for mode in MODES:
+            rows = runs[mode]
+            ratios = [r["travel"] / b["travel"] for r, b in zip(rows, bare, strict=True) if r["ok"] and b["ok"]]
+            print(f"| {kind} | {mode} | {sum(r['ok'] for r in rows)}/{len(rows)} | "
+                  f"{sum(r['touched'] for r in rows)} | {_median([r['travel'] for r in rows if r['ok']])} | "
+                  f"{_median(ratios) + 'x' if ratios else '-'} | "
+                  f"{statistics.mean(r['plan_ms'] for r in rows):.1f} | {sum(r['searched'] for r in rows)} | "
+                  f"{statistics.median(r['cpu'] for r in rows) * 1000:.0f} |", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
