@@ -14,13 +14,16 @@ from __future__ import annotations
 
 from collections.abc import Collection, Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 from pydantic import Field
 
 from robokit.config import Schema
-from robokit.engines.interface import Clash, Pose, World
 from robokit.planning.rrt import Vector, densify, path_length, resample, rrt_connect, shortcut
+
+if TYPE_CHECKING:  # the World is handed in; this module imports no engine
+    from robokit.engines.interface import Clash, Pose, World
 
 DEEPER = 0.002
 """How much closer (m) than at a move's start a pair already within the margin may come (contact jitter)."""

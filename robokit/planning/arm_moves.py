@@ -10,14 +10,16 @@ configuration and the command is a :class:`~robokit.msgs.arm.FollowJoints` along
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from robokit.engines.interface import World
-from robokit.errors import ConfigError
+from robokit.errors import ConfigError, UserError
 from robokit.msgs.arm import FollowJoints, MoveTo, Quat, Vec3
 from robokit.planning.arm import ArmPlan, ArmPlanner, ArmPlanning
+
+if TYPE_CHECKING:
+    from robokit.engines.interface import World
 
 
 @dataclass
@@ -61,11 +63,12 @@ class PlannedMoves:
         Raises:
             ConfigError: The engine cannot check arm configurations, or the arm cannot tell its straight paths.
         """
-        if type(world).clashes is World.clashes:
-            raise ConfigError(f"planner 'rrt' needs collision checks of arm configurations, which the "
-                              f"{world.engine} engine does not have; use the pybullet engine", key=key)
         if not hasattr(arm, "straight_path"):
             raise ConfigError("planner 'rrt' needs an ik_arm actuator", key=key)
+        try:
+            world.clashes(arm.body, [], [])
+        except UserError as exc:
+            raise ConfigError(f"planner 'rrt' needs collision checks of arm configurations: {exc}", key=key) from None
         cols = arm.arm_cols
         planner = ArmPlanner(world, arm.body, [j.index for j in arm.arm], arm.lower[cols], arm.upper[cols],
                              options or ArmPlanning.model_validate({}))

@@ -791,7 +791,7 @@ class PyBulletWorld(World):
         """Joints and carried bodies reset to the configuration, ``getClosestPoints`` against every other body,
         then every joint and carried body reset to its saved position and velocity."""
         c = self.client
-        saved = c.getJointStates(body, list(joints))
+        saved = c.getJointStates(body, list(joints)) if len(joints) else []
         held = [(b, c.getBasePositionAndOrientation(b), c.getBaseVelocity(b)) for b, _, _ in carried]
         try:
             for joint, q in zip(joints, positions, strict=True):
