@@ -29,9 +29,6 @@ import numpy as np
 
 from robokit.engines.mujoco.gl import mujoco
 
-EQUALITY = int(mujoco.mjtConstraint.mjCNSTR_EQUALITY)
-"""MuJoCo's constraint type of an equality's rows (as a plain int: numpy compares it element by element in C)."""
-
 SETTLE_STEPS = 12
 """Steps an object must have been squeezed by two fingers in a row before it is welded (the fingers' closing
 transient is over: a weld taken earlier holds the object where the closing fingers pushed it for a moment)."""
@@ -108,7 +105,7 @@ class GripAnchors:
             fingers = {f for f, b in touching if b == obj}
             capacity = sum(c for (_, body), (_, c, _) in touching.items() if body == obj)
             carried = sum(t for (_, body), (_, _, t) in touching.items() if body == obj)
-            force = carried + float(np.linalg.norm(self._weld_force(d, int(self._eq[k]))))
+            force = carried + self._weld_force(d, int(self._eq[k]))
             if k not in fingers or len(fingers) < 2 or force > capacity:
                 d.eq_active[self._eq[k]] = 0
                 del self.held[k]
@@ -178,7 +175,12 @@ class GripAnchors:
         return out
 
     @staticmethod
-    def _weld_force(d: Any, eq: int) -> np.ndarray:
-        """The translational force (N) a weld applied in this step."""
-        rows = np.flatnonzero((d.efc_type[:d.ne] == EQUALITY) & (d.efc_id[:d.ne] == eq))
-        return np.asarray(d.efc_force[rows[:3]])
+    def _weld_force(d: Any, eq: int) -> float:
+        """The size of the translational force (N) weld ``eq`` applied in this step (0 if it was not in it: a weld
+        switched on after this step's constraints were made). MuJoCo puts the active equalities' rows first; a
+        weld's first three are its translation."""
+        ids = d.efc_id[:d.ne].tolist()
+        if eq not in ids:
+            return 0.0
+        row, force = ids.index(eq), d.efc_force
+        return math.hypot(float(force[row]), float(force[row + 1]), float(force[row + 2]))

@@ -125,9 +125,9 @@ class Motors:
         self.inertia_changed = False
         self.ids: dict[str, int] = {}
         """Actuator name -> id in the model as compiled now."""
-        self._holding: tuple[np.ndarray, np.ndarray] | None = None
-        """Dof addresses and force limits of the position motors (None: to be worked out again)."""
-        """An armature changed since the mass matrix was last computed (the world recomputes it before stepping)."""
+        self._holding: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        """Dof addresses and lower and upper force limits of the position motors (None: to be worked out again)."""
+        self._worked_out = False
 
     def set(self, model: Any, data: Any, name: str, setting: tuple[float, float, float, float, float],
             torque: bool) -> None:
@@ -136,7 +136,7 @@ class Motors:
         old = self.settings.get(name)
         self.settings[name] = setting
         if old is None or old[1:4] != setting[1:4]:
-            self._holding = None
+            self._worked_out = False
         if torque:
             self.torques.add(name)
         elif self.torques:
@@ -146,12 +146,15 @@ class Motors:
             return
         self._write(model, data, name)
 
-    def holding(self, model: Any) -> tuple[np.ndarray, np.ndarray]:
-        """Dof addresses and force limits of the joints a position motor drives (with a force limit)."""
-        if self._holding is None:
+    def holding(self, model: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """Dof addresses and lower and upper force limits of the joints a position motor drives (with a force
+        limit); None when there are none."""
+        if not self._worked_out:
             rows = [(int(model.jnt_dofadr[model.actuator_trnid[self._id(model, name), 0]]), s[3])
                     for name, s in self.settings.items() if s[1] != 0.0 and s[3] > 0.0]
-            self._holding = (np.array([r[0] for r in rows], dtype=np.int64), np.array([r[1] for r in rows]))
+            limits = np.array([r[1] for r in rows])
+            self._holding = (np.array([r[0] for r in rows], dtype=np.int64), -limits, limits) if rows else None
+            self._worked_out = True
         return self._holding
 
     def _id(self, model: Any, name: str) -> int:
@@ -177,7 +180,7 @@ class Motors:
     def reapply(self, model: Any, data: Any, names: Collection[str]) -> None:
         """Write every stored motor that still exists (``names``: the model's actuators) into a new model."""
         self.ids.clear()
-        self._holding = None
+        self._worked_out = False
         for name in [n for n in self.settings if n not in names]:
             del self.settings[name]
             self.torques.discard(name)

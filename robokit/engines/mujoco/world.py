@@ -75,16 +75,21 @@ class MujocoWorld(MujocoBodies):
 
     def step(self) -> None:
         """Advance physics by one step (forces applied since the last step act during it)."""
-        m, d = self.compiled()
-        if self.motors.inertia_changed:  # the mass matrix mj_step1 computed predates a new armature
+        if self._dirty:
+            self._compile()
+        m, d, motors, grips = self.model, self.data, self.motors, self.scene.grips
+        if motors.inertia_changed:  # the mass matrix mj_step1 computed predates a new armature
             mujoco.mj_step1(m, d)
-            self.motors.inertia_changed = False
+            motors.inertia_changed = False
         for bid, force, point in self._forces:
             mujoco.mj_applyFT(m, d, force, np.zeros(3), point, bid, d.qfrc_applied)
-        dofs, limits = self.motors.holding(m)
-        if len(dofs):  # a position motor carries its links' weight, as PyBullet's motor reaches its target
-            d.qfrc_applied[dofs] += np.clip(d.qfrc_bias[dofs], -limits, limits)
-        grips = self.scene.grips
+        hold = motors.holding(m)
+        if hold is not None:  # a position motor carries its links' weight, as PyBullet's motor reaches its target
+            dofs, lower, upper = hold
+            bias = d.qfrc_bias[dofs]
+            np.maximum(bias, lower, out=bias)
+            np.minimum(bias, upper, out=bias)  # np.clip's arithmetic, without its Python wrapper
+            d.qfrc_applied[dofs] += bias
         if grips.held:
             self._step_holding(m, d)
         else:
@@ -93,9 +98,9 @@ class MujocoWorld(MujocoBodies):
             grips.take_up(m, d)
         if self._wrenches:
             self._measure_wrenches()
-        if self.motors.torques:
-            self.motors.after_step(m, d)
-        if self._forces or len(dofs):
+        if motors.torques:
+            motors.after_step(m, d)
+        if self._forces or hold is not None:
             d.qfrc_applied[:] = 0.0
             self._forces.clear()
         mujoco.mj_step1(m, d)
