@@ -168,13 +168,14 @@ reads every sensor every tick and writes each reading into the trace."""
 WALL_FACE = 0.95
 
 
-def sensors_config(folder: Any, camera: bool = True) -> str:
-    """:data:`SENSORS_WORLD` written to ``folder`` (without its camera if not ``camera``); its path."""
+def sensors_config(folder: Any, camera: bool = True, contact: bool = True) -> str:
+    """:data:`SENSORS_WORLD` written to ``folder`` (without its camera, or its contact sensor, if asked); its path."""
     text = SENSORS_WORLD
-    if not camera:
-        start = text.index("[sensors.cam]")
-        text = text[:start] + text[text.index("[behaviour]"):]
-    path = folder / ("sensors.toml" if camera else "sensors_no_camera.toml")
+    for section, keep in (("[sensors.cam]", camera), ("[sensors.touch]", contact)):
+        if not keep:
+            start = text.index(section)
+            text = text[:start] + text[text.index("\n[", start + 1) + 1:]
+    path = folder / f"sensors{'' if camera else '_no_camera'}{'' if contact else '_no_contact'}.toml"
     path.write_text(text, encoding="utf-8")
     return str(path)
 

@@ -56,21 +56,23 @@ def test_the_sensors_a_page_asks_for_reach_it_as_the_run_made_them(tmp_path: Pat
 
 @pytest.mark.slow
 def test_a_mujoco_world_is_drawn_as_it_runs_and_ends_as_it_does_without_the_page(tmp_path: Path) -> None:
-    config = sensors_config(tmp_path, camera=False)
+    # no contact sensor: on MuJoCo a contact's normal force in its first tick is read before MuJoCo has solved it
+    # (memory no solve has written yet: 0.0, 2e-309 or 4e252 for this box, by what the process did before), so
+    # two runs in one process need not agree on it, with or without a page
+    config = sensors_config(tmp_path, camera=False, contact=False)
     mujoco = {"world.engine": "mujoco"}
     expected, expected_trace = plain_run(config, 0.5, mujoco)
-    live = LiveRun(config, 0.5, mujoco, sensors=("lidar", "touch"))
+    live = LiveRun(config, 0.5, mujoco, sensors=("lidar",))
     try:
         frame = live.run_to(80)
         links = live.view.server.scene["links"]
         box = links.index("box/link0")
         assert frame["poses"][7 * box:7 * box + 7] == pytest.approx(pose_at(config, 80, mujoco, "box"), abs=2e-6)
-        assert frame["poses"][7 * box + 2] == pytest.approx(0.05, abs=2e-3)  # landed: half its 0.1 m on the floor
+        assert frame["poses"][7 * box + 2] == pytest.approx(0.05, abs=2e-3)  # landed: half its 0.1 m above the floor
         assert {"robot/left_wheel_link", "robot/lidar_link"} <= set(links)  # the robot's links, each drawn
         scan = frame["sensors"]["lidar"]
         hits = np.asarray(scan["points"]).reshape(-1, 3)[[c == "1" for c in scan["hit"]]]
         assert len(hits) >= 5 and hits[:, 0] == pytest.approx(WALL_FACE, abs=1e-3)
-        assert frame["sensors"]["touch"]["values"]["normal_force"] > 0
         result, trace = live.finish()
     finally:
         live.close()
