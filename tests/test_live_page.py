@@ -204,3 +204,36 @@ def test_the_sensors_picked_in_the_page_are_drawn_as_the_world_and_the_trace_hav
     expected = camera_at(config, stamp).astype(int)
     assert drawn.shape == expected.shape
     assert np.abs(drawn - expected).mean() < 1.5  # JPEG at quality 90 (the image at tick 0 is 11 levels away)
+
+
+def test_a_mujoco_world_is_drawn_where_the_world_has_it_with_its_lidar_scan(tmp_path: Path) -> None:
+    import numpy as np
+    from selenium.webdriver.common.by import By
+
+    config = sensors_config(tmp_path, camera=False, contact=False)
+    mujoco = {"world.engine": "mujoco"}
+    live = LiveRun(config, 1.0, mujoco, sensors=("lidar",))  # ticked from the start, as --live-sensors does
+    driver = chromium()
+    try:
+        live.held_at(0)
+        _open(driver, live, live.view.publisher.seq)
+        assert driver.find_element(By.CSS_SELECTOR, "#live-picks input[value='lidar']").is_selected()
+        live.post("/control", {"action": "step", "value": "80"})
+        held = live.held_at(80)
+        _shown(driver, held["seq"])
+        drawn = driver.execute_script(
+            "return window.rkLive.groups.map(g => g ? [g.position.x, g.position.y, g.position.z, g.quaternion.x,"
+            " g.quaternion.y, g.quaternion.z, g.quaternion.w] : null)")
+        world, links = live.sim.world, live.view.server.scene["links"]
+        for path in ("box/link0", "robot/base_link", "robot/left_wheel_link"):
+            body, link = path.split("/")
+            index = -1 if link in ("link0", "base_link") else world.link(body, link)
+            pos, orn = world.pose(body, index)  # the MuJoCo world's own link frame
+            assert drawn[links.index(path)] == pytest.approx([*pos, *orn], abs=1e-5)
+        hits = np.asarray(driver.execute_script("return rkLive.views.lidar.hits()")).reshape(-1, 3)
+        lo, hi = world.body_aabb("wall")
+        assert len(hits) >= 5 and hits[:, 0] == pytest.approx(lo[0], abs=1e-3)
+        assert np.all((hits[:, 1] >= lo[1] - 1e-3) & (hits[:, 1] <= hi[1] + 1e-3))
+    finally:
+        driver.quit()
+        live.close()
