@@ -49,7 +49,7 @@ class GripAnchors:
         """Per geom its finger index (-1: none) and body; per body whether it can be carried, and its root."""
         self.held: dict[int, int] = {}
         """Finger index -> MuJoCo body id of the object its weld holds."""
-        self._new: list[int] = []
+        self.pending: list[int] = []
         """Fingers whose weld was switched on in this step: their pose is taken after the step."""
         self._touched: dict[tuple[int, int], tuple[float, float, float]] | None = None
         """The contacts :meth:`let_go` found in this step (None: none looked at, or solved again since)."""
@@ -79,7 +79,7 @@ class GripAnchors:
     def compiled(self, m: Any) -> None:
         """Look the fingers, their welds and the free bodies up in a freshly compiled model (every weld is off)."""
         self.held.clear()
-        self._new.clear()
+        self.pending.clear()
         self._squeezed.clear()
         self._eq = np.array([m.equality(self.weld_name(f)).id for f in self.fingers], dtype=np.int64)
         finger_bodies = np.array([m.body(f).id for f in self.fingers], dtype=np.int64)
@@ -131,11 +131,11 @@ class GripAnchors:
             first = squeezed[body][0]
             if count >= SETTLE_STEPS and body not in held_objects and first not in self.held:
                 self.held[first] = body
-                self._new.append(first)
+                self.pending.append(first)
 
     def after_positions(self, m: Any, d: Any) -> None:
         """After ``mj_step1``: weld each newly held object where it is now in its finger's frame."""
-        for k in self._new:
+        for k in self.pending:
             eq, finger, obj = int(self._eq[k]), int(m.eq_obj1id[self._eq[k]]), self.held[k]
             rel_pos, rel_quat = np.zeros(3), np.zeros(4)
             inverse_pos, inverse_quat = np.zeros(3), np.zeros(4)
@@ -144,7 +144,7 @@ class GripAnchors:
             m.eq_obj2id[eq] = obj
             m.eq_data[eq, :11] = [0.0, 0.0, 0.0, *rel_pos, *rel_quat, 1.0]
             d.eq_active[eq] = 1
-        self._new.clear()
+        self.pending.clear()
 
     def _touching(self, m: Any, d: Any) -> dict[tuple[int, int], tuple[float, float, float]]:
         """(finger index, object body id) -> (normal force, friction capacity, friction force) of their contacts in

@@ -112,6 +112,34 @@ steps with the Euler integrator instead, where the motor's damping is a force th
 that explicit damping stable (``time_step * damping / (inertia + armature)`` below 2 along every direction)."""
 
 
+class Holding:
+    """The joints position motors drive and their force limits, for adding the clipped bias forces (gravity,
+    Coriolis) of those joints to ``qfrc_applied`` each step: on views of ``data``'s arrays where the joints' dofs
+    are consecutive (an arm's are), else by index."""
+
+    def __init__(self, data: Any, dofs: list[int], limits: list[float]) -> None:
+        self.upper = np.array(limits)
+        self.lower = -self.upper
+        self.buffer = np.zeros(len(dofs))
+        self.dofs = np.array(dofs, dtype=np.int64)
+        consecutive = dofs == list(range(dofs[0], dofs[0] + len(dofs)))
+        end = dofs[0] + len(dofs)
+        self.bias = data.qfrc_bias[dofs[0]:end] if consecutive else None
+        self.applied = data.qfrc_applied[dofs[0]:end] if consecutive else None
+
+    def add(self, data: Any) -> None:
+        """``qfrc_applied[dofs] += clip(qfrc_bias[dofs], -limit, limit)`` (np.clip's arithmetic)."""
+        buffer = self.buffer
+        if self.bias is not None and self.applied is not None:
+            np.maximum(self.bias, self.lower, out=buffer)
+            np.minimum(buffer, self.upper, out=buffer)
+            np.add(self.applied, buffer, out=self.applied)
+            return
+        np.maximum(data.qfrc_bias[self.dofs], self.lower, out=buffer)
+        np.minimum(buffer, self.upper, out=buffer)
+        data.qfrc_applied[self.dofs] += buffer
+
+
 class Motors:
     """The joint motors' settings, kept here and written into the model: a recompile (a body added or removed)
     builds a fresh model, and :meth:`reapply` puts every motor back as it was. A driven joint also gets its
@@ -125,8 +153,8 @@ class Motors:
         self.inertia_changed = False
         self.ids: dict[str, int] = {}
         """Actuator name -> id in the model as compiled now."""
-        self._holding: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
-        """Dof addresses and lower and upper force limits of the position motors (None: to be worked out again)."""
+        self._holding: Holding | None = None
+        """The position motors' joints and force limits (worked out again when a motor changes)."""
         self._worked_out = False
 
     def set(self, model: Any, data: Any, name: str, setting: tuple[float, float, float, float, float],
@@ -146,14 +174,12 @@ class Motors:
             return
         self._write(model, data, name)
 
-    def holding(self, model: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-        """Dof addresses and lower and upper force limits of the joints a position motor drives (with a force
-        limit); None when there are none."""
+    def holding(self, model: Any, data: Any) -> Holding | None:
+        """The joints a position motor drives (with a force limit), None when there are none."""
         if not self._worked_out:
-            rows = [(int(model.jnt_dofadr[model.actuator_trnid[self._id(model, name), 0]]), s[3])
-                    for name, s in self.settings.items() if s[1] != 0.0 and s[3] > 0.0]
-            limits = np.array([r[1] for r in rows])
-            self._holding = (np.array([r[0] for r in rows], dtype=np.int64), -limits, limits) if rows else None
+            rows = sorted((int(model.jnt_dofadr[model.actuator_trnid[self._id(model, name), 0]]), s[3])
+                          for name, s in self.settings.items() if s[1] != 0.0 and s[3] > 0.0)
+            self._holding = Holding(data, [r[0] for r in rows], [r[1] for r in rows]) if rows else None
             self._worked_out = True
         return self._holding
 

@@ -83,13 +83,9 @@ class MujocoWorld(MujocoBodies):
             motors.inertia_changed = False
         for bid, force, point in self._forces:
             mujoco.mj_applyFT(m, d, force, np.zeros(3), point, bid, d.qfrc_applied)
-        hold = motors.holding(m)
+        hold = motors.holding(m, d)
         if hold is not None:  # a position motor carries its links' weight, as PyBullet's motor reaches its target
-            dofs, lower, upper = hold
-            bias = d.qfrc_bias[dofs]
-            np.maximum(bias, lower, out=bias)
-            np.minimum(bias, upper, out=bias)  # np.clip's arithmetic, without its Python wrapper
-            d.qfrc_applied[dofs] += bias
+            hold.add(d)
         if grips.held:
             self._step_holding(m, d)
         else:
@@ -104,7 +100,7 @@ class MujocoWorld(MujocoBodies):
             d.qfrc_applied[:] = 0.0
             self._forces.clear()
         mujoco.mj_step1(m, d)
-        if grips.fingers:
+        if grips.pending:
             grips.after_positions(m, d)
         self.tick += 1
 
