@@ -1,5 +1,6 @@
-"""The live view's side of the loop: a monitor that publishes the scene, the state machines and the clock, and paces
-the run to real time (or holds it, steps it, speeds it up) as the page asks.
+"""The live view's side of the loop: a monitor that publishes the scene, the state machines, the clock and the
+readings of the sensors a page picked (:mod:`robokit.live.sensors`), and paces the run to real time (or holds it,
+steps it, speeds it up) as the page asks. PyBullet and MuJoCo worlds alike (:mod:`robokit.live.scene`).
 
 It attaches to a run through the lifecycle hooks (:meth:`LiveView.robokit_run_start`), as any plugin may: a monitor
 slot in the loop (:meth:`robokit.core.simulation.Simulation.add_monitor`), a trace listener (the same records the run
