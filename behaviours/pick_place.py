@@ -385,13 +385,14 @@ class PickPlace(MachineBehaviour):
         cfg: PickPlaceConfig = self.config
         return {cfg.arm: MoveTo(pos, yaw=self._yaw, speed=cfg.slow_speed if slow else cfg.speed)}
 
-    def _free_move(self, pos: Vec3, carrying: str | None = None) -> dict[str, Any]:
+    def _free_move(self, pos: Vec3, then: Vec3, carrying: str | None = None) -> dict[str, Any]:
         """A free move (approach, transport): straight, or with ``planner = "rrt"`` around what blocks the straight
-        way (``carrying``: the body held, part of the moving geometry). No collision-free way fails the job."""
+        way (``carrying``: the body held, part of the moving geometry), ending in an arm posture from which the
+        straight move down to ``then`` keeps clear. No collision-free way fails the job."""
         cfg: PickPlaceConfig = self.config
         if self.moves is None:
             return self._move(pos)
-        cmd = self.moves.move(pos, down_quaternion(self._yaw), cfg.speed, carrying=carrying)
+        cmd = self.moves.move(pos, down_quaternion(self._yaw), cfg.speed, carrying=carrying, then=then)
         if cmd is None:
             self._fail(f"no collision-free path in {self.state_name}: {self.moves.last.reason}")
             return {cfg.arm: HoldArm()}
@@ -411,7 +412,8 @@ class PickPlace(MachineBehaviour):
         (x, y, z), yaw = located
         self._yaw = cube_grasp_yaw(yaw, 0.0)
         self._grasp = (x, y, z + cfg.grasp_offset)
-        return {cfg.gripper: GripperCommand("open"), **self._free_move((x, y, self._grasp[2] + cfg.approach_height))}
+        above = (x, y, self._grasp[2] + cfg.approach_height)
+        return {cfg.gripper: GripperCommand("open"), **self._free_move(above, then=self._grasp)}
 
     def enter_descend(self, readings: Mapping[str, Any]) -> dict[str, Any]:
         """Go straight down to the grasp point."""
@@ -429,8 +431,9 @@ class PickPlace(MachineBehaviour):
     def enter_transport(self, readings: Mapping[str, Any]) -> dict[str, Any]:
         """Carry the object above the place spot."""
         assert self.task is not None
-        x, y, _ = self.task.place_position
-        return self._free_move((x, y, self._altitude()), carrying=self.task.object_name)
+        x, y, z = self.task.place_position
+        down = (x, y, z + self.config.grasp_offset + self.config.place_clearance)
+        return self._free_move((x, y, self._altitude()), then=down, carrying=self.task.object_name)
 
     def enter_lower(self, readings: Mapping[str, Any]) -> dict[str, Any]:
         """Lower the object to just above the place spot."""

@@ -371,11 +371,12 @@ class IkArm(Actuator):
         self._profile()
         return ""
 
-    def straight_path(self, position: Vec3, orientation: Quat) -> tuple[list[np.ndarray], str]:
-        """The path a :class:`MoveTo` to this pose would take now: the arm's joint positions per waypoint (the
-        first: its commanded ones now), and "" or why the move would fail. Nothing moves."""
+    def straight_path(self, position: Vec3, orientation: Quat, start: Any = None) -> tuple[list[np.ndarray], str]:
+        """The path a :class:`MoveTo` to this pose would take from the arm's joint positions ``start`` (None: its
+        commanded ones now): the arm's joint positions per waypoint (the first: the start's), and "" or why the
+        move would fail. Nothing moves."""
         q_all = self._measured_all()
-        q_all[self.arm_cols] = self.q_cmd
+        q_all[self.arm_cols] = self.q_cmd if start is None else start
         qs, reason, _, _ = self._path(q_all, np.asarray(position, float), orientation)
         return qs, reason
 

@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+import tomllib
 
 from robokit.planning.rrt import densify
 from robokit.testing import edited_config, make_sim, validate_error
@@ -63,6 +64,34 @@ def test_the_planner_carries_the_cube_round_the_wall_into_the_bin(engine: str) -
         stats = sim.behaviour.result()["planner"]
         assert stats["planned"] >= 1 and stats["failed"] == 0  # the transport went round, the rest was straight
         assert stats["straight"] >= 1
+
+
+def test_the_posture_over_the_bin_keeps_the_elbow_clear_on_the_way_down() -> None:
+    """Three boxes between cube and bin, the last one close to the bin: the posture the straight transport would end
+    in brings the elbow down onto that box as the hand lowers the cube into the bin; the planner takes another."""
+    cfg = tomllib.loads(CONFIG.read_text(encoding="utf-8"))
+    bodies = cfg["bodies"]
+    del bodies["wall"]
+    bodies["cube"].update(position=[0.598, 0.227, 0.025], rpy_deg=[0, 0, -21.8])
+    bodies["bin"]["position"] = [0.455, -0.272, 0]
+    cfg["behaviour"]["place_position"] = [0.455, -0.272, 0.03]
+    for i, (side, (x, y), height) in enumerate([(0.071, (0.527, 0.028), 0.202), (0.064, (0.502, -0.022), 0.16),
+                                                 (0.061, (0.434, -0.072), 0.25)]):
+        bodies[f"wall_{i}"] = {"shape": "box", "size": [side, side, height], "mass": 0,
+                               "position": [x, y, height / 2]}
+    with make_sim(cfg, base_dir=CONFIG.parent) as sim:
+        w = sim.world
+        boxes = {w.body(f"wall_{i}") for i in range(3)}
+        touches: list[tuple[float, str]] = []
+
+        def watch(s: Any) -> bool:
+            for who in ("panda", "cube"):
+                touches.extend((w.time, who) for c in w.contacts(w.body(who)) if c.other in boxes)
+            return s.behaviour.outcome is not None
+
+        sim.run_until(watch, 4800)
+        assert sim.behaviour.outcome.status == "succeeded", sim.behaviour.outcome.reason
+        assert touches == [] and in_bin(w, "cube")
 
 
 def test_straight_lines_drive_the_arm_into_the_wall() -> None:

@@ -12,7 +12,7 @@ Units: joint values in radians (metres for prismatic joints), distances in metre
 
 from __future__ import annotations
 
-from collections.abc import Collection, Sequence
+from collections.abc import Callable, Collection, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -114,11 +114,12 @@ class ArmPlanner:
         """The arm at ``q`` keeps the margin from everything but the allowed contacts."""
         return not self.clashes(q)
 
-    def blocked(self, path: Sequence[Vector]) -> tuple[np.ndarray, list[Clash]] | None:
+    def blocked(self, path: Sequence[Vector], counts: Callable[[Clash], bool] | None = None
+                ) -> tuple[np.ndarray, list[Clash]] | None:
         """The first configuration along a path (straight segments, checked at ``resolution``) that is not free,
-        with what it touches; None when the whole path is free."""
+        with what it touches; None when the whole path is free. ``counts``: which clashes count (default all)."""
         for q in densify([np.asarray(p, float) for p in path], self.options.resolution):
-            hits = self.clashes(q)
+            hits = [c for c in self.clashes(q) if counts is None or counts(c)]
             if hits:
                 return q, hits
         return None

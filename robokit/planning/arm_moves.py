@@ -22,6 +22,12 @@ if TYPE_CHECKING:
     from robokit.engines.interface import World
 
 
+GOAL_TRIES = 30
+"""Other arm postures tried at a move's target when the first one's way on is blocked."""
+GOAL_SPREAD = 0.8
+"""Spread of the random starts those postures are solved from, rad per joint (normal, about the first)."""
+
+
 @dataclass
 class PlanStats:
     """What the planner did in a run (a behaviour's result reports it)."""
@@ -74,10 +80,13 @@ class PlannedMoves:
                              options or ArmPlanning.model_validate({}))
         return cls(arm, planner, rng)
 
-    def move(self, position: Vec3, orientation: Quat, speed: float | None, *, carrying: str | None = None) -> Any:
+    def move(self, position: Vec3, orientation: Quat, speed: float | None, *, carrying: str | None = None,
+             then: Vec3 | None = None) -> Any:
         """The command that takes the tool to a pose without a collision: a :class:`MoveTo` when the straight path
         is free (or cannot be solved: the arm then reports why), a :class:`FollowJoints` around what blocks it,
-        or None when no free path was found (:attr:`last` says why). ``speed``: m/s, None = the arm's."""
+        or None when no free path was found (:attr:`last` says why). ``speed``: m/s, None = the arm's.
+        ``then``: where the tool goes straight on from there (down to the cube, into the bin): the arm's posture
+        at the pose is chosen so that its links up to the wrist keep clear on that way too."""
         arm, world = self.arm, self.planner.world
         straight, reason = arm.straight_path(position, orientation)
         if reason:
@@ -89,13 +98,47 @@ class PlannedMoves:
             rel = world.multiply_transforms(*world.invert_transform(*link_pose), *world.com_pose(held))
             carried.append((held, arm.ee, rel))
         joints = [j.index for j in arm.arm]
-        now = [s[0] for s in world.joint_states(arm.body, joints)]
-        self.planner.begin(now, carried=carried)
-        plan = self.last = self.planner.plan(straight[0], straight[-1], self.rng, straight=straight)
+        self.planner.begin([s[0] for s in world.joint_states(arm.body, joints)], carried=carried)
+        checks = self.planner.checks
+        goal = self._goal(straight[-1], position, orientation, then)
+        if goal is None:
+            plan = ArmPlan(None, reason=f"no arm posture at the target whose way {'on ' if then else ''}is clear",
+                           checks=self.planner.checks - checks)
+        else:
+            plan = self.planner.plan(straight[0], goal, self.rng, straight=straight if goal is straight[-1] else None)
+            plan.checks = self.planner.checks - checks
+        self.last = plan
         self.stats.add(plan)
         if plan.path is None:
             return None
-        if plan.straight:
+        if plan.straight and goal is straight[-1]:
             return MoveTo(position, orientation, speed=speed)
         names = tuple(j.name for j in arm.arm)
         return FollowJoints(names, tuple(tuple(float(v) for v in q) for q in plan.path[1:]), speed=speed)
+
+    def _goal(self, first: np.ndarray, position: Vec3, orientation: Quat, then: Vec3 | None) -> np.ndarray | None:
+        """The arm's posture with the tool at the pose: ``first`` (where the straight path ends) when it is free
+        and its way on to ``then`` is clear, else one of up to ``GOAL_TRIES`` postures the arm's IK reaches from
+        random starts near ``first``; None when none is."""
+        if self._goal_clear(first, orientation, then):
+            return first
+        lower, upper = self.planner.lower, self.planner.upper
+        for _ in range(GOAL_TRIES):
+            start = np.clip(first + self.rng.normal(0.0, GOAL_SPREAD, len(first)), lower, upper)
+            path, reason = self.arm.straight_path(position, orientation, start=start)
+            if not reason and self._goal_clear(path[-1], orientation, then):
+                return np.asarray(path[-1])
+        return None
+
+    def _goal_clear(self, q: np.ndarray, orientation: Quat, then: Vec3 | None) -> bool:
+        """The posture is free, and on the straight way on to ``then`` the arm's links before its last joint (the
+        wrist, hand and what it holds go where the task needs them) keep the margin."""
+        if not self.planner.free(q):
+            return False
+        if then is None:
+            return True
+        way, reason = self.arm.straight_path(then, orientation, start=q)
+        if reason:
+            return True  # the arm refuses that move itself, with its reason
+        body, wrist = self.arm.body, self.arm.arm[-1].index
+        return self.planner.blocked(way, counts=lambda c: c.body == body and c.link < wrist) is None
