@@ -50,25 +50,33 @@ def kinematic_chain(world: MujocoBodies, body: int, link: int) -> list[ChainFram
     return steps
 
 
-def jacobian(world: MujocoBodies, body: int, link: int, positions: Sequence[float], scratch: Any) -> tuple[
-        np.ndarray, np.ndarray]:
-    """Linear and angular Jacobian (3 x n each) of ``link``'s link-frame origin (its MuJoCo body's frame, as
-    ``World.pose`` gives it) at the movable joints' ``positions``, columns in joint index order; computed in
-    ``scratch``, an ``MjData`` of the compiled model kept for this (the world does not move; mocap bodies stand
-    where the model puts them)."""
+def chain_rows(world: MujocoBodies, body: int, link: int) -> tuple[np.ndarray, np.ndarray, int]:
+    """qpos and dof addresses of a body's movable joints (index order) and MuJoCo's body id of ``link``."""
+    m, _ = world.compiled()
+    jids = [int(m.body_jntadr[world.mj_body(body, j.index)]) for j in world.joints(body) if j.movable]
+    return (np.array([m.jnt_qposadr[j] for j in jids], dtype=np.int64),
+            np.array([m.jnt_dofadr[j] for j in jids], dtype=np.int64), world.mj_body(body, link))
+
+
+def jacobian(world: MujocoBodies, rows: tuple[np.ndarray, np.ndarray, int], positions: Sequence[float],
+             scratch: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Linear and angular Jacobian (3 x n each) of a link's link-frame origin (its MuJoCo body's frame, as
+    ``World.pose`` gives it) at the movable joints' ``positions``, columns in joint index order (``rows``: from
+    :func:`chain_rows`). At the world's own joint positions it is read from the world's state (its kinematics are
+    those of its positions); elsewhere it is computed in ``scratch``, an ``MjData`` of the compiled model kept for
+    this (the world does not move; mocap bodies stand where the model puts them)."""
     m, d = world.compiled()
-    movable = [j.index for j in world.joints(body) if j.movable]
-    scratch.qpos[:] = d.qpos
-    dofs = []
-    for j, q in zip(movable, positions, strict=True):
-        jid = int(m.body_jntadr[world.mj_body(body, j)])
-        scratch.qpos[m.jnt_qposadr[jid]] = q
-        dofs.append(int(m.jnt_dofadr[jid]))
-    mujoco.mj_kinematics(m, scratch)
-    mujoco.mj_comPos(m, scratch)
+    qadr, dofs, target = rows
+    q = np.asarray(positions, dtype=float)
+    data = d
+    if not np.array_equal(d.qpos[qadr], q):
+        data = scratch
+        scratch.qpos[:] = d.qpos
+        scratch.qpos[qadr] = q
+        mujoco.mj_kinematics(m, scratch)
+        mujoco.mj_comPos(m, scratch)
     jacp, jacr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
-    target = world.mj_body(body, link)
-    mujoco.mj_jac(m, scratch, jacp, jacr, scratch.xpos[target], target)
+    mujoco.mj_jac(m, data, jacp, jacr, data.xpos[target], target)
     return jacp[:, dofs], jacr[:, dofs]
 
 

@@ -68,6 +68,9 @@ class MujocoWorld(MujocoBodies):
         """(body, joint, mode, force) -> actuator name and its (gain, position bias, velocity bias, force limit)."""
         self._rows: dict[tuple[Any, ...], tuple[np.ndarray, np.ndarray, list[bool]]] = {}
         """(body, joints) -> their qpos and dof addresses and which move, for :meth:`joint_states`."""
+        self._chains: dict[tuple[int, int], tuple[np.ndarray, np.ndarray, int]] = {}
+        """(body, link) -> its movable joints' qpos and dof addresses and the link's MuJoCo body (until the next
+        compile), for :meth:`jacobian`."""
         self._scratch: tuple[Any, Any] | None = None
         """(model, an MjData of it) for kinematics computed off the world's state."""
         self._geom_owner: np.ndarray | None = None
@@ -119,6 +122,7 @@ class MujocoWorld(MujocoBodies):
         """Motor settings live in the model: put them back into a freshly compiled one. MuJoCo's ids changed: drop
         what was looked up by them."""
         self._addresses.clear()
+        self._chains.clear()
         self._drives.clear()
         self._rows.clear()
         self._geom_owner = None
@@ -320,7 +324,10 @@ class MujocoWorld(MujocoBodies):
         m, _ = self.compiled()
         if self._scratch is None or self._scratch[0] is not m:  # an MjData costs ms to make: one per model
             self._scratch = (m, mujoco.MjData(m))
-        return kin.jacobian(self, body, link, positions, self._scratch[1])
+        rows = self._chains.get((body, link))
+        if rows is None:
+            rows = self._chains[(body, link)] = kin.chain_rows(self, body, link)
+        return kin.jacobian(self, rows, positions, self._scratch[1])
 
     def inverse_kinematics(self, body: int, link: int, position: Sequence[float], orientation: Sequence[float], *,
                            seed: Sequence[float], damping: Sequence[float], iterations: int,
