@@ -20,8 +20,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from robokit import hookimpl
 from robokit.checks.scripted import ScriptedRun
 from robokit.components import Behaviour, GoalCheck
+from robokit.config.sections import Section, setting
 from robokit.core.composites import (
     Fallback,
     FallbackConfig,
@@ -103,11 +105,11 @@ def check_trace(run: ScriptedRun, composite: str, key: str, kind: str) -> None:
         ends = [x for x in run.trace if x["kind"] == f"{word}_end" and x[label] == r["name"]]
         halts = [x for x in run.trace if x["kind"] == "child_halt" and x["child"] == r["name"]]
         if r["outcome"] == "not started":
-            assert not starts and not ends and not halts
+            assert not starts and not ends and not halts and r["reason"] == ""
             continue
         assert [(x["composite"], x["index"], x["type"]) for x in starts] == [(composite, i, "Scripted")]
         if r["outcome"] == "halted":
-            assert not ends and [x["composite"] for x in halts] == [composite]
+            assert not ends and [(x["composite"], x["reason"]) for x in halts] == [(composite, r["reason"])]
         elif r["outcome"] == "running":
             assert not ends and not halts
         else:
@@ -144,6 +146,7 @@ def test_sequence_and_fallback_against_every_outcome_combination(kind: str, chil
     plans = {f"c{i}": Plan([c]) for i, c in enumerate(children)}
     composite = Sequence("seq", SequenceConfig()) if kind == "sequence" else Fallback("fb", FallbackConfig())
     outcome, tick, run = run_tree(composite, plans)
+    assert composite.name == ("seq" if kind == "sequence" else "fb")
     want, want_tick, want_children = expect_ordered(kind, children)
     assert (outcome, tick) == (want, want_tick)
     got = records(run, "steps" if kind == "sequence" else "children")
@@ -174,7 +177,18 @@ def test_retry_against_every_sequence_of_attempt_outcomes(attempts_plan: list, a
     """Runs the child until it succeeds, at most ``attempts`` times, each a fresh instance; its outcome is the last
     attempt's; the next attempt starts the tick after one ends."""
     plan = Plan(attempts_plan)
-    outcome, tick, run = run_tree(Retry("retry", RetryConfig(attempts=attempts)), {"c": plan})
+    retry = Retry("retry", RetryConfig(attempts=attempts))
+    retry.add_children([Member.of(Scripted("c", plan))])
+    run = ScriptedRun(retry)
+    outcome = tick = None
+    for k in range(HORIZON):
+        run.step({})
+        # read at any tick (between two attempts too), each attempt's record keeps that attempt's own result
+        assert [(r["name"], r["type"], r["result"]) for r in run.result()["children"]] == [
+            ("c", "Scripted", {"instance": a, "steps": plan.steps[a]}) for a in range(len(run.result()["children"]))]
+        if run.outcome is not None:
+            outcome, tick = run.outcome.status, k
+            break
     t, want, want_tick, made = 0, None, None, 0
     for a in range(attempts):
         o, d = attempts_plan[min(a, len(attempts_plan) - 1)]
@@ -256,12 +270,17 @@ def test_parallel_against_every_outcome_combination_and_policy(children: list, s
     assert [got.get(n, "running") for n in plans] == want_children
     check_trace(run, "par", "children", "parallel")
     full = {r["name"]: r for r in run.result()["children"]}
+    lost = sorted((d, i, o) for i, (o, d) in enumerate(children) if o in ("failed", "aborted") and tick is not None
+                  and d <= tick)
+    if lost and (failure == "one" or len(lost) == len(children)):  # failed by the failure policy: who and why
+        assert run.outcome.reason == "; ".join(f"c{i} {o}: c{i} {o}" for _, i, o in lost)  # type: ignore[union-attr]
     for name, plan in plans.items():  # a halted child: halted in the deciding tick, never stepped again
         if got.get(name) == "halted":
             assert plan.halts == [(0, tick)] and plan.steps == [tick + 1]
             # its halt's stop command replaces the command its step sent in that tick
             assert run.sent[-1][f"motor_{name}"] == "stopped"  # type: ignore[attr-defined]
-            assert full[name]["reason"] and full[name]["sim_time"] == pytest.approx(tick * DT, abs=2e-6)
+            assert full[name]["reason"] == f"'par' {want}"
+            assert full[name]["sim_time"] == pytest.approx(tick * DT, abs=2e-6)
         else:
             assert not plan.halts
             if plan.steps and want is not None and plan.steps[0] == tick + 1:  # stepped in the deciding tick
@@ -684,12 +703,22 @@ def test_a_retry_of_a_hand_built_sequence_rebuilds_the_whole_subtree(first: list
     for p in plans.values():
         p.ticks = {}  # type: ignore[attr-defined]
     seq = Sequence("seq", SequenceConfig())
-    seq.add_children([Member.of(Timed("s0", plans["s0"]), period=period), Member.of(Timed("s1", plans["s1"]))])
+    seq.add_children([Member("s0", "timed", Timed("s0", plans["s0"]), period, "type 'timed' from s0", "spec s0"),
+                      Member("s1", "timed", Timed("s1", plans["s1"]), 1, "type 'timed' from s1", "spec s1")])
     retry = Retry("retry", RetryConfig(attempts=attempts))
-    retry.add_children([Member.of(seq)])
+    retry.add_children([Member("seq", "sequence", seq, 1, "type 'sequence' from robokit", "spec seq")])
+
+    def fields(m: Member) -> tuple[Any, ...]:
+        return m.name, m.type, m.period, m.origin, m.spec
+
     run = ScriptedRun(retry)
     for _ in range(HORIZON):
         run.step({})
+        # every attempt: the same member (name, type, rate, origin, section), its steps' the same
+        assert fields(retry.children[0]) == ("seq", "sequence", 1, "type 'sequence' from robokit", "spec seq")
+        assert [fields(m) for m in retry.children[0].behaviour.children] == [
+            ("s0", "timed", period, "type 'timed' from s0", "spec s0"),
+            ("s1", "timed", 1, "type 'timed' from s1", "spec s1")]
     # the oracle: attempt a runs s0's entry a, then (if it succeeded) s1's; a sequence attempt succeeds iff both did
     tick, made, want = 0, 0, None
     for a in range(attempts):
@@ -711,3 +740,157 @@ def test_a_retry_of_a_hand_built_sequence_rebuilds_the_whole_subtree(first: list
     assert plans["s0"].built == made
     assert (run.outcome.status if run.outcome else None) == want
     assert [m.behaviour for m in retry.children][0] is not seq or made == 1
+
+
+@PROPS
+@given(st.sampled_from(["sequence", "fallback", "parallel"]),
+       st.lists(st.tuples(st.integers(0, 3), st.booleans(), st.booleans(), st.sampled_from([True, False, None])),
+                min_size=1, max_size=4))
+def test_the_final_verdict_of_a_composite_that_succeeded(kind: str, children: list) -> None:
+    """docs ("When a goal is checked"): when the run ends, the child that decided a composite that succeeded (a
+    sequence's last step, the alternative that succeeded, every child of a parallel) and every child marked
+    ``must_last`` that succeeded are asked again; met only if all are; a child with no section (a hand-built one)
+    is not ``must_last``. Every child here succeeds, with a goal met when it ends or no goal at all."""
+    if kind == "parallel" and len(children) < 2:
+        children = children * 2
+    members = []
+    for i, (d, goal, later, must_last) in enumerate(children):
+        plan = Plan([("succeeded", d)])
+        plan.goals = (True, later)  # type: ignore[attr-defined]
+        child = Goaled(f"c{i}", plan) if goal else Scripted(f"c{i}", plan)
+        spec = None if must_last is None else SimpleNamespace(must_last=must_last)
+        members.append(Member(f"c{i}", "Scripted", child, 1, "<scripted>", spec))
+    composite = {"sequence": lambda: Sequence("seq", SequenceConfig()),
+                 "fallback": lambda: Fallback("fb", FallbackConfig()),
+                 "parallel": lambda: Parallel("par", ParallelConfig())}[kind]()
+    composite.add_children(members)
+    run = ScriptedRun(composite)
+    for _ in range(HORIZON):
+        run.step({})
+        if run.outcome is not None:
+            break
+    assert run.outcome is not None and run.outcome.status == "succeeded"
+    ran = {"sequence": range(len(children)), "fallback": range(1), "parallel": range(len(children))}[kind]
+    deciding = {"sequence": [len(children) - 1], "fallback": [0], "parallel": list(ran)}[kind]
+    final = sorted(set(deciding) | {i for i in ran if children[i][3]})
+    asked = [i for i in final if children[i][1]]
+    verdict = composite.check_goal(run.world)
+    if not asked:
+        assert verdict is None
+        return
+    assert verdict is not None and verdict.met == all(children[i][2] for i in asked)
+    key = "steps" if kind == "sequence" else "children"
+    assert {n: (v["met"], v["reason"]) for n, v in verdict.details[key].items()} == {
+        f"c{i}": (children[i][2], f"c{i} {'met' if children[i][2] else 'not met'}") for i in asked}
+    missed = [f"c{i}: c{i} not met" for i in asked if not children[i][2]]
+    assert sorted(verdict.reason.split("; ")) == sorted(missed or [f"c{i}: c{i} met" for i in asked])
+
+
+class BadGoal(Scripted):
+    """Ends succeeded after its plan; its ``check_goal`` raises, when the child ends (``at_end``) or when asked
+    again at the run's end."""
+
+    def __init__(self, name: str, config: Plan) -> None:
+        super().__init__(name, config)
+        self.asked = 0
+
+    def check_goal(self, world: Any) -> GoalCheck:
+        self.asked += 1
+        if self.config.raise_at == self.asked:  # type: ignore[attr-defined]
+            raise RuntimeError("goal check broke")
+        return GoalCheck(True, "fine")
+
+
+@pytest.mark.parametrize("kind", list(ROLES))
+@pytest.mark.parametrize("when", [1, 2])
+def test_a_goal_check_that_raises_is_named_with_the_childs_role(kind: str, when: int) -> None:
+    from robokit.errors import PluginError
+
+    plan = Plan([("succeeded", 1)])
+    plan.raise_at = when  # type: ignore[attr-defined]
+    composite = {"sequence": lambda: Sequence("c", SequenceConfig()),
+                 "fallback": lambda: Fallback("c", FallbackConfig()),
+                 "retry": lambda: Retry("c", RetryConfig(attempts=2)),
+                 "timeout": lambda: Timeout("c", TimeoutConfig(seconds=1.0)),
+                 "parallel": lambda: Parallel("c", ParallelConfig())}[kind]()
+    members = [Member("bad", "bad_goal", BadGoal("bad", plan), 1, "type 'bad_goal' from tests")]
+    if kind == "parallel":
+        members.append(Member.of(Scripted("other", Plan([("succeeded", 0)]))))
+    composite.add_children(members)
+    run = ScriptedRun(composite)
+    with pytest.raises(PluginError) as err:
+        for _ in range(HORIZON):
+            run.step({})
+            if run.outcome is not None:
+                composite.check_goal(run.world)  # the run's final verdict asks again
+                break
+    assert str(err.value).startswith(f"{ROLES[kind]} 'bad' (type 'bad_goal' from tests) raised during check_goal: "
+                                     "RuntimeError: goal check broke")
+    assert err.value.type_name == "bad_goal"
+
+
+def test_two_children_halted_together_commanding_one_actuator_is_an_error_naming_the_composite() -> None:
+    from robokit.errors import PluginError
+
+    class HaltsArm(Scripted):
+        def halt(self, t: float) -> Mapping[str, Any]:
+            return {"arm": "hold"}
+
+    par = Parallel("par", ParallelConfig())
+    par.add_children([Member.of(HaltsArm(n, Plan([(None, 0)]))) for n in ("a", "b")])
+    ScriptedRun(par).step({})
+    with pytest.raises(PluginError) as err:
+        par.halt(DT)
+    assert str(err.value) == "par: two children sent a command to actuator 'arm' in the same tick"
+
+
+# ------------------------------------------------------------------------------------------ built by the simulation
+class FlakyConfig(Section):
+    """``type = "flaky"``: fails its first ``fail_first`` instances' first step, then succeeds."""
+
+    fail_first: int = setting(2, ge=0)
+
+
+class Flaky(Behaviour):
+    built: list[Flaky] = []
+
+    def __init__(self, name: str, config: Any) -> None:
+        super().__init__(name, config)
+        self.index = len(Flaky.built)
+        Flaky.built.append(self)
+
+    def step(self, readings: Mapping[str, Any], t: float) -> None:
+        self.finish("failed" if self.index < self.config.fail_first else "succeeded", f"instance {self.index}")
+
+    def result(self) -> dict[str, Any]:
+        return {"instance": self.index, "set_up": self.ctx is not None}
+
+
+class FlakyPlugin:
+    @hookimpl
+    def robokit_register_behaviours(self, register: Any) -> None:
+        register("flaky", Flaky, FlakyConfig)
+
+
+@pytest.mark.parametrize("fail_first", [2, 5])
+def test_a_retry_built_from_a_config_runs_a_fresh_set_up_instance_from_its_section_each_attempt(
+        fail_first: int) -> None:
+    """Through the simulation (a config, not a hand-built tree): each attempt is a new instance built from the
+    child's section (its options kept), set up before its first step; the retry's record lists every attempt."""
+    from robokit.testing import make_sim
+
+    Flaky.built = []
+    config = {"behaviour": {"type": "retry", "attempts": 4,
+                            "child": {"type": "flaky", "name": "flaky_child", "fail_first": fail_first}}}
+    with make_sim(config, extra_plugins=(FlakyPlugin(),)) as sim:
+        result = sim.run(max_time=1.0)
+        member = sim.behaviour.children[0]
+        assert (member.name, member.type, member.spec.name) == ("flaky_child", "flaky", "flaky_child")
+    made = min(fail_first + 1, 4)
+    assert len(Flaky.built) == made and len({id(b) for b in Flaky.built}) == made
+    assert all(b.config.fail_first == fail_first for b in Flaky.built)
+    assert result.outcome == ("succeeded" if fail_first < 4 else "failed")
+    assert result.result["attempts"] == made
+    assert [(r["name"], r["outcome"], r["result"]) for r in result.result["children"]] == [
+        ("flaky_child", "failed" if i < fail_first else "succeeded", {"instance": i, "set_up": True})
+        for i in range(made)]
