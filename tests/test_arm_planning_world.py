@@ -22,6 +22,7 @@ pytestmark = pytest.mark.slow
 
 CONFIG = Path(__file__).resolve().parents[1] / "configs" / "pick_obstacle.toml"
 SORT = Path(__file__).resolve().parents[1] / "configs" / "sort_robot.toml"
+ROOT_PICK = Path(__file__).resolve().parents[1] / "configs" / "pick_place.toml"
 
 
 def run_watching_the_wall(sim: Any, max_ticks: int = 4000) -> dict[str, Any]:
@@ -169,3 +170,22 @@ def test_the_wall_really_stands_between_cube_and_bin() -> None:
         assert cube[1] > hi[1] and bin_centre[1] < lo[1] and lo[0] < cube[0] < hi[0]
         assert hi[2] > cube[2] + 0.08 + 0.05  # taller than the straight transport altitude plus the cube
         assert math.isclose(cube[0], bin_centre[0])
+
+
+@pytest.mark.parametrize("engine", ["pybullet", "mujoco"])
+def test_asking_about_configurations_leaves_the_run_exactly_as_it_would_have_been(engine: str) -> None:
+    """World.clashes mid-transport (the arm elsewhere, the cube in its fingers) changes nothing that follows."""
+    finals = []
+    for calls in (0, 5):
+        with make_sim(ROOT_PICK, seed=3, overrides={"world.engine": engine}) as sim:
+            w, arm = sim.world, sim.behaviour.ctx.components["arm"]
+            robot, cube, joints = w.body("panda"), w.body("cube"), [j.index for j in arm.arm]
+            assert sim.run_until(lambda s: s.behaviour.state_name == "TRANSPORT", 3000)
+            sim.step(5)
+            q = [s[0] for s in w.joint_states(robot, joints)]
+            held = w.multiply_transforms(*w.invert_transform(*w.pose(robot, arm.ee)), *w.com_pose(cube))
+            for k in range(calls):
+                w.clashes(robot, joints, [v + 0.1 * (k + 1) for v in q], carried=[(cube, arm.ee, held)], margin=0.01)
+            sim.step(300)
+            finals.append((w.pose("cube"), [s[:2] for s in w.joint_states(robot, joints)]))
+    assert finals[0] == finals[1]

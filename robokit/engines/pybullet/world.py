@@ -143,6 +143,7 @@ class PyBulletWorld(World):
                 raise UserError(f"could not start PyBullet ({'GUI: is a display available?' if gui else exc})") from exc
         self._joint_cache: dict[int, list[JointInfo]] = {}
         self._com_to_link: dict[int, Any] = {}
+        self._shape_copies: dict[int, list[tuple[int, Pose]]] = {}  # see _query_shapes
         self._wrench_shifts: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}  # see enable_joint_wrench
         self._cid = int(self.client._client)
         self.mesh_boxes: dict[int, tuple[float, float, float]] = {}
@@ -401,6 +402,7 @@ class PyBulletWorld(World):
         self._joint_cache.pop(body, None)
         self._com_to_link.pop(body, None)
         self.mesh_boxes.pop(body, None)
+        self._shape_copies.pop(body, None)
 
     # ----------------------------------------------------------------- joints and links
     def joints(self, body: str | int) -> list[JointInfo]:
@@ -788,28 +790,54 @@ class PyBulletWorld(World):
     def clashes(self, body: int, joints: Sequence[int], positions: Sequence[float], *,
                 carried: Sequence[tuple[int, int, Pose]] = (), skip: Collection[int] = (),
                 margin: float = 0.0) -> list[Clash]:
-        """Joints and carried bodies reset to the configuration, ``getClosestPoints`` against every other body,
-        then every joint and carried body reset to its saved position and velocity."""
+        """The joints reset to the configuration, ``getClosestPoints`` of the arm against every other body, the
+        joints reset to their saved positions and velocities (exactly: the run goes on as it would have). A carried
+        body is not moved: copies of its base's collision shapes are asked at the pose it would have."""
         c = self.client
         saved = c.getJointStates(body, list(joints)) if len(joints) else []
-        held = [(b, c.getBasePositionAndOrientation(b), c.getBaseVelocity(b)) for b, _, _ in carried]
+        movers = [body] + [b for b, _, _ in carried]
+        others = [c.getBodyUniqueId(i) for i in range(c.getNumBodies())]
+        others = [o for o in others if o not in skip and o not in movers]
         try:
             for joint, q in zip(joints, positions, strict=True):
                 c.resetJointState(body, joint, float(q))
+            out = [Clash(body, pt[3], other, pt[4], pt[8]) for other in others
+                   for pt in c.getClosestPoints(body, other, margin)]
             for b, link, (pos, orn) in carried:
-                c.resetBasePositionAndOrientation(b, *c.multiplyTransforms(*self.pose(body, link), pos, orn))
-            movers = [body] + [b for b, _, _ in carried]
-            others = [c.getBodyUniqueId(i) for i in range(c.getNumBodies())]
-            others = [o for o in others if o not in skip and o not in movers]
-            return [Clash(mover, pt[3], other, pt[4], pt[8])
-                    for mover in movers for other in others
-                    for pt in c.getClosestPoints(mover, other, margin)]
+                com = c.multiplyTransforms(*self.pose(body, link), pos, orn)
+                for shape, local in self._query_shapes(b):
+                    at = c.multiplyTransforms(*com, *local)
+                    out += [Clash(b, -1, other, pt[4], pt[8]) for other in others
+                            for pt in c.getClosestPoints(-1, other, margin, collisionShapeA=shape,
+                                                         collisionShapePositionA=at[0],
+                                                         collisionShapeOrientationA=at[1])]
+            return out
         finally:
             for joint, state in zip(joints, saved, strict=True):
                 c.resetJointState(body, joint, state[0], state[1])
-            for b, (pos, orn), (lin, ang) in held:
-                c.resetBasePositionAndOrientation(b, pos, orn)
-                c.resetBaseVelocity(b, lin, ang)
+
+    def _query_shapes(self, body: int) -> list[tuple[int, Pose]]:
+        """Collision shapes made once per body, copies of its base's, each with its frame in the base's
+        centre-of-mass frame (for :meth:`clashes`)."""
+        found = self._shape_copies.get(body)
+        if found is None:
+            c, found = self.client, []
+            for data in c.getCollisionShapeData(body, -1):
+                kind, dims, name = data[2], data[3], data[4]
+                if kind == c.GEOM_BOX:
+                    shape = c.createCollisionShape(kind, halfExtents=[d / 2 for d in dims])
+                elif kind == c.GEOM_SPHERE:
+                    shape = c.createCollisionShape(kind, radius=dims[0])
+                elif kind in (c.GEOM_CYLINDER, c.GEOM_CAPSULE):
+                    shape = c.createCollisionShape(kind, radius=dims[1], height=dims[0])
+                elif kind == c.GEOM_MESH and name:
+                    shape = c.createCollisionShape(kind, fileName=name.decode(), meshScale=dims)
+                else:
+                    raise UserError(f"cannot check {self._label(body)!r} carried: its collision shape "
+                                    f"(type {kind}) cannot be copied")
+                found.append((shape, (data[5], data[6])))
+            self._shape_copies[body] = found
+        return found
 
     # ----------------------------------------------------------------- interface additions: rays, cameras
     def ray_caster(self, *, skip: Collection[int] = (), see_hidden: bool = True, mask: int = -1,
