@@ -432,6 +432,11 @@ class Sort(MachineBehaviour):
         no_bin = sorted({str(o["colour"]) for o in self.left})
         return text + (f"; left {len(self.left)} whose colour has no bin ({', '.join(no_bin)})" if self.left else "")
 
+    def halt(self, t: float) -> Mapping[str, Any] | None:
+        """Stopped before it ended (a composite's timeout, a monitor): as pick_place's halt, the arm holds where it
+        is and the gripper keeps what it holds."""
+        return self.pp.halt(t)
+
     def result(self) -> dict[str, Any]:
         """Counts per colour, failures (failed pick attempts), sim time, and one record per object."""
         counts = {f"{c}_sorted": 0 for c in (*self.colours, *self.bins)}

@@ -56,6 +56,13 @@ def moving_parts(sim: Any, what: str) -> Any:
     return np.array([s[0] for s in w.joint_states(arm, joints)])
 
 
+def tool(sim: Any) -> np.ndarray:
+    """The arm's tool frame (its ``ee_link``) in the world."""
+    w, arm = sim.world, sim.components["arm"]
+    link = next(j.index for j in w.joints(arm.body) if j.child_link == arm.config.ee_link)
+    return np.array(w.pose(arm.body, link)[0])
+
+
 @pytest.mark.parametrize("name", [
     "go_to_goal", "patrol", "drive_teleop",
     pytest.param("pick_place", marks=pytest.mark.slow),  # the Panda: ~10 s of CPU a case on two loaded cores
@@ -66,14 +73,21 @@ def test_a_halted_behaviour_leaves_its_actuators_stopped(name: str, seconds: flo
     what = CASES[name][2]
     with make_sim(halted_config(name, seconds), base_dir=CONFIGS) as sim:
         hz = sim.world.physics_hz
-        sim.step(round((seconds + 0.5) * hz))  # halted at `seconds`; half a second to come to rest
-        halts = [r for r in sim.trace if r["kind"] == "child_halt"]
-        assert halts, "the timeout halted its child"
+        sim.step(round(seconds * hz))
+        while not [r for r in sim.trace if r["kind"] == "child_halt"] and sim.world.tick < (seconds + 0.2) * hz:
+            sim.step(1)
+        assert [r for r in sim.trace if r["kind"] == "child_halt"], "the timeout halted its child"
+        tool_at_halt = tool(sim) if what == "arm" else None
+        sim.step(round(0.5 * hz))  # half a second to come to rest
         before = moving_parts(sim, what)
         sim.step(round(0.4 * hz))  # the record step runs; nothing commands the actuators
         after = moving_parts(sim, what)
+        tool_after = tool(sim) if what == "arm" else None
         assert sim.outcome is None or sim.outcome.status != "error"
     if what == "base":
         assert before < 0.03 and after < 0.03, f"{name}: the base still moves at {after:.3f} m/s after its halt"
     else:
         assert np.max(np.abs(after - before)) < 0.01, f"{name}: the arm still moves after its halt"
+        # the arm holds where it was halted (a stopping distance), not where its last move was going
+        moved = float(np.linalg.norm(tool_after - tool_at_halt))
+        assert moved < 0.02, f"{name}: the tool went on {moved:.3f} m after its halt"
