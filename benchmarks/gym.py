@@ -18,7 +18,8 @@ median reported.
 ``--engines`` compares robokit's two engines instead: each task's env made with ``engine="pybullet"`` and with
 ``engine="mujoco"``, interleaved the same way, with gymnasium-robotics' ``FetchReach-v4`` / ``FetchPush-v4`` /
 ``FetchPickAndPlace-v4`` (a MuJoCo Fetch arm: 0.002 s physics steps, 20 per env step, as here) as the anchor when
-gymnasium-robotics is installed. It prints steps per second per env and MuJoCo / PyBullet per round.
+gymnasium-robotics is installed (1.4.2 needs one shim on MuJoCo 4.0: :func:`integer_joint_types`). It prints
+steps per second per env and MuJoCo / PyBullet per round.
 
 ``--random-episodes N`` compares the tasks themselves instead: the median start distance (achieved to desired goal
 at reset) and the success rate of uniformly random actions over N episodes, for each pair.
@@ -64,6 +65,26 @@ def make_engine(task: str, engine: str) -> Any:
     return gymnasium.make(f"robokit/{PAIRS[task][0]}-v0", engine=engine)
 
 
+def integer_joint_types() -> None:
+    """Let gymnasium-robotics' MuJoCo helpers read joint types on MuJoCo 4.0, whose enums compare unequal to a
+    numpy integer on their left (``mjJNT_SLIDE == np.int32(2)`` is False, so its ``joint_type in (mjJNT_HINGE,
+    mjJNT_SLIDE)`` fails an assertion): its helper module sees the joint types as plain ints. Nothing else of
+    gymnasium-robotics changes."""
+    import types
+
+    import mujoco
+    from gymnasium_robotics.utils import mujoco_utils
+
+    class Mujoco(types.ModuleType):
+        def __getattr__(self, name: str) -> Any:
+            return getattr(mujoco, name)
+
+    shim = Mujoco("mujoco")
+    shim.mjtJoint = types.SimpleNamespace(**{n: int(getattr(mujoco.mjtJoint, n))  # type: ignore[attr-defined]
+                                             for n in dir(mujoco.mjtJoint) if n.startswith("mjJNT_")})
+    mujoco_utils.mujoco = shim
+
+
 def make_fetch(task: str) -> Any | None:
     """gymnasium-robotics' Fetch env for ``task``, or None when gymnasium-robotics is not installed."""
     import gymnasium
@@ -74,6 +95,7 @@ def make_fetch(task: str) -> Any | None:
         print(f"{FETCH[task]} left out: gymnasium-robotics is not installed (pip install gymnasium-robotics)")
         return None
     gymnasium.register_envs(gymnasium_robotics)
+    integer_joint_types()
     try:
         env = gymnasium.make(FETCH[task])
         env.reset(seed=0)
@@ -92,22 +114,26 @@ def engines(task: str, args: argparse.Namespace) -> None:
         envs[f"gymnasium-robotics {FETCH[task]}"] = fetch
     names = list(envs)
     rates: dict[str, list[float]] = {n: [] for n in names}
-    ratios = []
+    ratios, anchors = [], []
     for r in range(args.rounds):
         runners = {n: Runner(envs[n], seed=r) for n in names}
         for _ in range(args.steps // args.chunk):
             for name in names:
                 runners[name].run(args.chunk)
         for name in names:
-            rates[name].append(runners[name].rate)
+            rates[name].append(runners[name].cpu_rate)
         ratios.append(runners[names[1]].cpu_rate / runners[names[0]].cpu_rate)
+        if fetch is not None:
+            anchors.append(runners[names[1]].cpu_rate / runners[names[2]].cpu_rate)
         print(f"round {r + 1}: " + "  ".join(f"{n} {rates[n][-1]:6.0f}" for n in names)
-              + f" steps/s; mujoco / pybullet by CPU time {ratios[-1]:.2f}", flush=True)
+              + f" steps per CPU s; mujoco / pybullet {ratios[-1]:.2f}", flush=True)
     for name in names:
-        print(f"{name:40s} median {statistics.median(rates[name]):6.0f} env steps/s")
+        print(f"{name:40s} median {statistics.median(rates[name]):6.0f} env steps per CPU second")
     print(f"{task}: robokit mujoco / pybullet by CPU time: median {statistics.median(ratios):.2f} "
           f"(min {min(ratios):.2f}, max {max(ratios):.2f})" + ("" if fetch is not None else
                                                                "; Fetch left out (see above)"))
+    if anchors:
+        print(f"{task}: robokit mujoco / {FETCH[task]} by CPU time: median {statistics.median(anchors):.2f}")
     for env in envs.values():
         env.close()
 
