@@ -73,8 +73,8 @@ def test_a_gui_override_is_refused_before_the_world_is_built(plugins) -> None:  
     cfg = load_config(ROOT / "configs" / "drop_test.toml", plugins, {"world.engine": "mujoco"})
     with pytest.raises(ConfigError) as info:
         Simulation(cfg, plugins, gui=True)
-    assert str(info.value) == (f"{cfg.source}: world.gui: --gui: no GUI window on the mujoco engine "
-                               "(--engine pybullet has one)")
+    assert str(info.value) == (f"{cfg.source}: world.gui: --gui: no GUI window on the mujoco engine: watch the "
+                               "run in a browser with --live (or use --engine pybullet --gui)")
     World.engine_class("mujoco").check_config(cfg, gui=False)  # headless: accepted
 
 

@@ -64,7 +64,8 @@ class MujocoBodies(MujocoExtras, World):
                  gravity: Sequence[float] = (0.0, 0.0, -9.81), solver_iterations: int = 50, seed: int = 0,
                  base_dir: str | Path = ".", engine: str | None = None) -> None:
         if gui:
-            raise UserError("world.gui: the mujoco engine runs headless in robokit (--engine pybullet has a GUI)")
+            raise UserError("world.gui: no GUI window on the mujoco engine: watch the run in a browser with --live (or "
+                            "use --engine pybullet --gui)")
         super().__init__(gui=False, time_step=time_step, gravity=gravity, solver_iterations=solver_iterations,
                          seed=seed, base_dir=base_dir, engine=engine)
         self.scene = Scene.new(self.time_step, gravity, solver_iterations)

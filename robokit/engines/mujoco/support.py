@@ -29,13 +29,13 @@ def check_config(cfg: Config, *, gui: bool | None = None) -> None:
         key, why = problem
         raise ConfigError(f"not supported on {ENGINE}: {why} (--engine pybullet runs it)", key=key, file=cfg.source)
     if gui:
-        raise ConfigError(f"--gui: no GUI window on {ENGINE} (--engine pybullet has one)", key="world.gui",
-                          file=cfg.source)
+        raise ConfigError(f"--gui: no GUI window on {ENGINE}: watch the run in a browser with --live (or use "
+                          f"--engine pybullet --gui)", key="world.gui", file=cfg.source)
 
 
 def _world(cfg: Config) -> tuple[str, str] | None:
     if cfg.world.gui:
-        return "world.gui", "no GUI window"
+        return "world.gui", "no GUI window; --live shows the run in a browser"
     return None
 
 
