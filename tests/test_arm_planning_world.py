@@ -189,3 +189,27 @@ def test_asking_about_configurations_leaves_the_run_exactly_as_it_would_have_bee
             sim.step(300)
             finals.append((w.pose("cube"), [s[:2] for s in w.joint_states(robot, joints)]))
     assert finals[0] == finals[1]
+
+
+def test_the_arm_follows_a_joint_path_and_refuses_a_bad_one() -> None:
+    from robokit.msgs.arm import FollowJoints
+
+    scene = {"robots": {"panda": {"urdf": "franka_panda/panda.urdf", "position": [0, 0, 0], "fixed_base": True}},
+             "actuators": {"arm": {"type": "ik_arm", "body": "panda", "ee_link": "panda_grasptarget",
+                                   "ready_pose": {"panda_joint2": -0.4, "panda_joint4": -2.2,
+                                                  "panda_joint6": 1.8, "panda_joint7": 0.785}}}}
+    with make_sim(scene) as sim:
+        arm, w = sim.components["arm"], sim.world
+        names = tuple(j.name for j in arm.arm)
+        start = np.array(arm.q_cmd)
+        path = [start + np.array([0.3, 0.1, 0, 0.2, 0, -0.1, 0]) * k / 4 for k in range(1, 5)]
+        arm.command(FollowJoints(names, tuple(tuple(q) for q in path)))
+        assert sim.run_until(lambda s: s.readings["arm"].reached, 2000)
+        measured = np.array([s[0] for s in w.joint_states(arm.body, [j.index for j in arm.arm])])
+        assert np.max(np.abs(measured - path[-1])) < 0.01
+        arm.command(FollowJoints(("panda_joint9",), ((0.0,),)))
+        assert sim.run_until(lambda s: s.readings["arm"].failed, 5)
+        assert "unknown arm joint 'panda_joint9'" in sim.readings["arm"].reason
+        arm.command(FollowJoints(names[:1], ((9.0,),)))
+        sim.step(1)
+        assert sim.readings["arm"].failed and "outside the joint limits" in sim.readings["arm"].reason
