@@ -1,6 +1,7 @@
 """The live view over the Foxglove WebSocket protocol (foxglove-sdk's server), read by a plain WebSocket client
 speaking the protocol: the channels of the .mcap export are advertised, ``/tf`` carries the cube's pose as the world
-has it, ``/scene`` the cube's box as PyBullet holds it."""
+has it, ``/scene`` the cube's box as PyBullet holds it; a lidar's ``/lidar/NAME`` scan ends on the wall the world
+has and a camera's ``/camera/NAME`` image is the camera's."""
 
 from __future__ import annotations
 
@@ -40,12 +41,13 @@ def test_foxglove_clients_get_the_exports_topics_live() -> None:
         with connect(f"ws://127.0.0.1:{bridge.port}", subprotocols=["foxglove.sdk.v1", "foxglove.websocket.v1"],
                      open_timeout=60, max_size=None) as ws:  # the scene embeds its meshes
             channels: dict[str, dict[str, Any]] = {}
-            while len(channels) < 3:
+            while len(channels) < 4:
                 msg = ws.recv(timeout=60)
                 if isinstance(msg, str) and json.loads(msg).get("op") == "advertise":
                     channels.update({c["topic"]: c for c in json.loads(msg)["channels"]})
             assert {t: c["schemaName"] for t, c in channels.items()} == {
-                "/tf": "foxglove.FrameTransforms", "/scene": "foxglove.SceneUpdate", "/states": "foxglove.Log"}
+                "/tf": "foxglove.FrameTransforms", "/scene": "foxglove.SceneUpdate", "/states": "foxglove.Log",
+                "/camera/camera": "foxglove.CompressedImage"}
             subs = {i: topic for i, topic in enumerate(("/tf", "/scene"), 1)}
             ws.send(json.dumps({"op": "subscribe", "subscriptions": [
                 {"id": i, "channelId": channels[topic]["id"]} for i, topic in subs.items()]}))
@@ -63,5 +65,67 @@ def test_foxglove_clients_get_the_exports_topics_live() -> None:
         cube = next(e for e in scene["entities"] if e["id"].startswith("red_0/"))
         size = client.getVisualShapeData(world.body("red_0"))[0][3]
         assert [cube["cubes"][0]["size"][k] for k in "xyz"] == pytest.approx(list(size))
+    finally:
+        live.close()
+
+
+def _until(test: Any) -> None:
+    """Wait (polling, at most a minute) until ``test()`` holds."""
+    import time
+
+    end = time.monotonic() + 60
+    while not test():
+        assert time.monotonic() < end, "it never held"
+        time.sleep(0.01)
+
+
+def test_foxglove_clients_get_the_lidar_and_the_camera_of_the_world(tmp_path: Path) -> None:
+    import base64
+    import math
+
+    import cv2
+    import numpy as np
+    from live_run import WALL_FACE, sensors_config
+    from websockets.sync.client import connect
+
+    live = LiveRun(sensors_config(tmp_path), 1.0, foxglove=True)
+    try:
+        live.held_at(0)  # the run has started: its sensors' topics exist
+        bridge = live.view.foxglove
+        with connect(f"ws://127.0.0.1:{bridge.port}", subprotocols=["foxglove.sdk.v1", "foxglove.websocket.v1"],
+                     open_timeout=60, max_size=None) as ws:
+            channels: dict[str, dict[str, Any]] = {}
+            while not {"/lidar/lidar", "/camera/cam"} <= set(channels):
+                msg = ws.recv(timeout=60)
+                if isinstance(msg, str) and json.loads(msg).get("op") == "advertise":
+                    channels.update({c["topic"]: c for c in json.loads(msg)["channels"]})
+            assert channels["/lidar/lidar"]["schemaName"] == "foxglove.LaserScan"
+            assert channels["/camera/cam"]["schemaName"] == "foxglove.CompressedImage"
+            subs = {1: "/lidar/lidar", 2: "/camera/cam"}
+            ws.send(json.dumps({"op": "subscribe", "subscriptions": [
+                {"id": i, "channelId": channels[topic]["id"]} for i, topic in subs.items()]}))
+            _until(lambda: live.view.feed.wanted == {"lidar", "cam"})  # the subscriptions reached the bridge
+            live.post("/control", {"action": "step", "value": "80"})
+            live.held_at(80)
+            stamp = {"sec": 0, "nsec": round(79 / 240 * 1e9)}
+            got: dict[str, dict[str, Any]] = {}
+            while len(got) < 2:  # each topic's message of tick 79 (the last that ran), in whatever order they come
+                data = ws.recv(timeout=60)
+                if isinstance(data, bytes) and data[0] == 1:
+                    message = json.loads(data[13:])
+                    if message["timestamp"] == stamp:
+                        got[subs[struct.unpack_from("<I", data, 1)[0]]] = message
+            scan, image = got["/lidar/lidar"], got["/camera/cam"]
+        ranges = np.asarray(scan["ranges"])
+        angles = np.linspace(scan["start_angle"], scan["end_angle"], len(ranges))
+        o, q = scan["pose"]["position"], scan["pose"]["orientation"]
+        yaw = 2 * math.atan2(q["z"], q["w"])
+        hit = ranges > 0
+        x = o["x"] + ranges[hit] * np.cos(angles[hit] + yaw)  # where each returning ray ends
+        assert hit.sum() >= 5 and x == pytest.approx(WALL_FACE, abs=3e-3)  # on the wall's face
+        assert image["format"] == "jpeg"
+        shown = cv2.imdecode(np.frombuffer(base64.b64decode(image["data"]), np.uint8), cv2.IMREAD_COLOR)
+        own = live.sim.scheduler.slots["cam"].value.rgb  # the camera's image at tick 79
+        assert np.abs(cv2.cvtColor(shown, cv2.COLOR_BGR2RGB).astype(int) - own.astype(int)).mean() < 1.5
     finally:
         live.close()

@@ -2,7 +2,9 @@
 the ``foxglove`` extra), with the topics and JSON schemas of ``robokit export --mcap``
 (:mod:`robokit.record.export`): ``/tf`` (``foxglove.FrameTransforms``, every drawn link's world pose),
 ``/scene`` (``foxglove.SceneUpdate``, each link's shapes, frame-locked; sent when a client subscribes) and
-``/states`` (``foxglove.Log``, each state machine's transitions).
+``/states`` (``foxglove.Log``, each state machine's transitions), and per sensor ``/lidar/NAME``
+(``foxglove.LaserScan``) and ``/camera/NAME`` (``foxglove.CompressedImage``, JPEG), each carried while a client is
+subscribed to it (the live view's sensor feed is asked for it as a page asks: :mod:`robokit.live.sensors`).
 
 It is a reader of the live view's one-slot buffer like a page: its own thread takes the latest frame when it is
 ready for one, so the loop never waits for it either. Log times are sim time (nanoseconds).
@@ -10,6 +12,7 @@ ready for one, so the loop never waits for it either. Log times are sim time (na
 
 from __future__ import annotations
 
+import base64
 import json
 import threading
 from typing import Any
@@ -48,11 +51,18 @@ class FoxgloveBridge:
 
         self.view = view
         self.context = foxglove.Context()
-        self.channels = {
-            topic: foxglove.Channel(topic, message_encoding="json", context=self.context, schema=foxglove.Schema(
+
+        def channel(topic: str, schema: str) -> Any:
+            return foxglove.Channel(topic, message_encoding="json", context=self.context, schema=foxglove.Schema(
                 name=schema, encoding="jsonschema",
                 data=json.dumps({"title": schema, "type": "object", "properties": SCHEMAS[schema]}).encode()))
-            for topic, schema in TOPICS.items()}
+
+        self._channel = channel
+        self.channels = {topic: channel(topic, schema) for topic, schema in TOPICS.items()}
+        self.sensor_topics: dict[str, str] = {}
+        """Sensor topic -> the sensor's name (set when the run starts: :meth:`add_sensors`)."""
+        self._subscribed: dict[str, int] = {}  # sensor name -> subscriptions to its topic
+        self._sent: dict[str, int] = {}  # sensor name -> the tick of the reading last logged
         self._scene: dict[str, Any] | None = None
         self._lock = threading.Lock()
         bridge = self
@@ -61,6 +71,10 @@ class FoxgloveBridge:
             def on_subscribe(self, client: Any, channel: Any) -> None:
                 if channel.topic == "/scene":
                     bridge.send_scene()
+                bridge.watch(channel.topic, 1)
+
+            def on_unsubscribe(self, client: Any, channel: Any) -> None:
+                bridge.watch(channel.topic, -1)
 
         try:
             self.server = foxglove.start_server(name="robokit", host=host, port=port, context=self.context,
@@ -72,6 +86,25 @@ class FoxgloveBridge:
         self._seen_transitions: set[tuple[Any, ...]] = set()
         self._thread = threading.Thread(target=self._forward, name="robokit-foxglove", daemon=True)
         self._thread.start()
+
+    def add_sensors(self, feed: Any) -> None:
+        """A topic for each lidar and camera of the run (:class:`robokit.live.sensors.SensorFeed`)."""
+        for name, kind in feed.kinds.items():
+            if kind in ("scan", "image"):
+                topic = f"/lidar/{name}" if kind == "scan" else f"/camera/{name}"
+                self.channels[topic] = self._channel(
+                    topic, "foxglove.LaserScan" if kind == "scan" else "foxglove.CompressedImage")
+                self.sensor_topics[topic] = name
+
+    def watch(self, topic: str, change: int) -> None:
+        """A client subscribed to (``change`` 1) or left (-1) ``topic``: ask the feed for the sensors watched."""
+        name = self.sensor_topics.get(topic)
+        feed = self.view.feed
+        if name is None or feed is None:
+            return
+        with self._lock:
+            self._subscribed[name] = max(0, self._subscribed.get(name, 0) + change)
+            feed.ask(id(self), [n for n, count in self._subscribed.items() if count > 0])
 
     def scene(self) -> dict[str, Any]:
         """``/scene``'s message: each drawn link's shapes as a frame-locked entity (meshes embedded), built once."""
@@ -109,6 +142,8 @@ class FoxgloveBridge:
                 "rotation": dict(zip("xyzw", poses[7 * k + 3:7 * k + 7], strict=True))}
                for k, path in enumerate(paths) if poses[7 * k] is not None]
         self.channels["/tf"].log({"transforms": tfs}, log_time=_ns(t))
+        for name, reading in (frame.get("sensors") or {}).items():
+            self.log_sensor(name, reading)
         for r in frame["recent"]:
             if r.get("kind") != "transition":
                 continue
@@ -120,6 +155,32 @@ class FoxgloveBridge:
             self.channels["/states"].log({"timestamp": _stamp(r["t"]), "level": 2, "message": message,
                                           "name": r.get("machine", ""), "file": "", "line": 0},
                                          log_time=_ns(r["t"]))
+
+    def log_sensor(self, name: str, reading: dict[str, Any]) -> None:
+        """A lidar's scan on ``/lidar/NAME`` or a camera's image on ``/camera/NAME``, once per reading."""
+        from robokit.record.export import _pose
+
+        kind, tick = reading["kind"], reading["tick"]
+        topic = f"/lidar/{name}" if kind == "scan" else f"/camera/{name}"
+        if topic not in self.sensor_topics or tick < 0 or self._sent.get(name) == tick:
+            return
+        self._sent[name] = tick
+        t = tick * self.view.sim.world.time_step
+        if kind == "scan":
+            yaw = reading["yaw"]
+            count = len(reading["ranges"])
+            self.channels[topic].log({
+                "timestamp": _stamp(t), "frame_id": "world",
+                "pose": _pose(reading["origin"], (0.0, 0.0, np.sin(yaw / 2), np.cos(yaw / 2))),
+                "start_angle": reading["angle_min"],
+                "end_angle": reading["angle_min"] + reading["angle_increment"] * (count - 1),
+                "ranges": reading["ranges"], "intensities": []}, log_time=_ns(t))
+            return
+        image = self.view.feed.jpeg(name)
+        if image is None or image[0] != tick:
+            return
+        self.channels[topic].log({"timestamp": _stamp(t), "frame_id": name, "format": "jpeg",
+                                  "data": base64.b64encode(image[1]).decode("ascii")}, log_time=_ns(t))
 
     def stop(self) -> None:
         self.server.stop()

@@ -137,9 +137,12 @@ class SensorFeed:
             return {"kind": kind, "tick": stamp}
         if kind == "scan":
             points = np.asarray(value.points, float).reshape(-1, 3)
-            hit = np.isfinite(np.asarray(value.ranges, float))
+            ranges = np.asarray(value.ranges, float)
+            hit = np.isfinite(ranges)
             return {"kind": kind, "tick": stamp, "origin": [round(float(v), 4) for v in value.origin],
-                    "points": np.round(points, 4).ravel().tolist(), "hit": "".join("1" if h else "0" for h in hit)}
+                    "points": np.round(points, 4).ravel().tolist(), "hit": "".join("1" if h else "0" for h in hit),
+                    "ranges": np.round(np.where(hit, ranges, 0.0), 4).tolist(), "yaw": round(float(value.yaw), 6),
+                    "angle_min": float(value.angle_min), "angle_increment": float(value.angle_increment)}
         if kind == "image":
             rgb = value.rgb
             self._images[name] = (stamp, rgb)  # a reference: the server encodes it when a page asks

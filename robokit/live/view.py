@@ -105,11 +105,14 @@ class LiveView:
                 comp.key_source = self.keys
         simulation.trace_listeners.append(self._on_trace)
         simulation.add_monitor(self)
-        self._publish()
         self.server.sensors = self.feed.describe()
-        self.server.scene, self.server.machines = scene, machines
         folder = getattr(simulation, "run_dir", None)
         self.server.run = {"id": simulation.run_id, "folder": str(folder) if folder is not None else None}
+        self.server.machines = machines
+        self.server.scene = scene  # the page is served from now on
+        if self.foxglove is not None:
+            self.foxglove.add_sensors(self.feed)
+        self._publish()  # the first frame: its readers find the scene set
 
     @hookimpl
     def robokit_run_end(self, simulation: Any, result: Any) -> None:
