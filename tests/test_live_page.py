@@ -174,6 +174,9 @@ def test_the_sensors_picked_in_the_page_are_drawn_as_the_world_and_the_trace_hav
         for tick, value in points:
             assert value == traced[tick]["normal_force"]
         assert [v for _, v in series["points"]] == [float(traced[t]["points"]) for t, _ in series["points"]]
+        driver.find_element(By.CSS_SELECTOR, "[data-sensor='touch'] [data-field='in_contact']").click()
+        assert set(driver.execute_script("return rkLive.views.touch.shown()")) == \
+            set(series) - {"in_contact"}  # the student took one number off the plot
 
         # the scan: each drawn hit lies where one of the lidar's rays meets the wall the world has
         assert driver.execute_script("return rkLive.views.lidar.tick()") == stamp

@@ -208,11 +208,34 @@
     p.box.insertBefore(canvas, p.note);
     p.box.insertBefore(legend, p.note);
     const series = {}; // field -> [[tick, value], ...]
+    const hidden = new Set(); // fields the student clicked off in the legend
+    const keys = {}; // field -> its legend entry
     let tick = null;
+    function legendEntry(f, colour) {
+      const span = document.createElement("span");
+      span.style.color = colour;
+      span.style.cursor = "pointer";
+      span.title = "click to hide or show · 눌러서 숨기기/보이기";
+      span.dataset.field = f;
+      span.addEventListener("click", () => {
+        if (hidden.has(f)) hidden.delete(f); else hidden.add(f);
+        span.style.opacity = hidden.has(f) ? "0.4" : "1";
+        span.style.textDecoration = hidden.has(f) ? "line-through" : "none";
+        drawPlot();
+      });
+      legend.appendChild(span);
+      return span;
+    }
     function drawPlot() {
       const ctx = canvas.getContext("2d");
       ctx.clearRect(0, 0, canvas.width, canvas.height);
-      const fields = Object.keys(series);
+      const all = Object.keys(series);
+      all.forEach((f, i) => {
+        const key = keys[f] || (keys[f] = legendEntry(f, COLOURS[i % COLOURS.length]));
+        const last = series[f][series[f].length - 1];
+        key.textContent = f + " = " + (last ? Number(last[1].toPrecision(6)) : "");
+      });
+      const fields = all.filter((f) => !hidden.has(f));
       let lo = Infinity, hi = -Infinity, k0 = Infinity, k1 = -Infinity;
       for (const f of fields) {
         for (const [k, v] of series[f]) { lo = Math.min(lo, v); hi = Math.max(hi, v); k0 = Math.min(k0, k); k1 = Math.max(k1, k); }
@@ -226,23 +249,17 @@
       ctx.font = "10px sans-serif";
       ctx.fillText(hi.toPrecision(3), 0, 12);
       ctx.fillText(lo.toPrecision(3), 0, canvas.height - 10);
-      fields.forEach((f, i) => {
-        ctx.strokeStyle = COLOURS[i % COLOURS.length];
+      fields.forEach((f) => {
+        ctx.strokeStyle = keys[f].style.color;
         ctx.beginPath();
         series[f].forEach(([k, v], j) => (j ? ctx.lineTo(X(k), Y(v)) : ctx.moveTo(X(k), Y(v))));
         ctx.stroke();
       });
-      legend.replaceChildren(...fields.map((f, i) => {
-        const span = document.createElement("span");
-        span.style.color = COLOURS[i % COLOURS.length];
-        const last = series[f][series[f].length - 1];
-        span.textContent = f + " = " + Number(last[1].toPrecision(6));
-        return span;
-      }));
     }
     return {
       tick: () => tick,
       series: () => series,
+      shown: () => Object.keys(series).filter((f) => !hidden.has(f)),
       update(s) {
         if (s.tick === tick || s.tick < 0) return;
         tick = s.tick;
