@@ -5,6 +5,11 @@
 included, held where it is held now); when it is free, the command is that ``MoveTo``, as without a planner. When
 it is blocked, :class:`~robokit.planning.arm.ArmPlanner` searches a joint-space path to the same final joint
 configuration and the command is a :class:`~robokit.msgs.arm.FollowJoints` along it.
+
+A move may name where the tool goes straight on from its pose (down to the cube, into the bin). The arm's posture
+at the pose must then keep the links up to the wrist clear on that way too; when the straight path's last posture
+does not, the arm's IK is asked again from random starts near it, and the move goes to the first posture that
+does (a 7-joint arm reaches one hand pose with its elbow in many places).
 """
 
 from __future__ import annotations
