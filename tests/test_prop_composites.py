@@ -111,7 +111,7 @@ def check_trace(run: ScriptedRun, composite: str, key: str, kind: str) -> None:
         if r["outcome"] == "halted":
             assert not ends and [(x["composite"], x["reason"]) for x in halts] == [(composite, r["reason"])]
         elif r["outcome"] == "running":
-            assert not ends and not halts
+            assert not ends and not halts and r["reason"] == ""
         else:
             assert [(x["composite"], x["index"], x["outcome"], x["reason"]) for x in ends] == [
                 (composite, i, r["outcome"], r["reason"])]
