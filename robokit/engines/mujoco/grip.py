@@ -42,7 +42,8 @@ class GripAnchors:
         """MuJoCo body names of the fingers, in the order their welds were added."""
         self._eq: np.ndarray = np.zeros(0, dtype=np.int64)
         self._grip_of_geom: np.ndarray = np.zeros(0, dtype=np.int64)
-        self._is_grip: np.ndarray = np.zeros(0, dtype=bool)
+        self._grip_geoms: frozenset[int] = frozenset()
+        """The fingers' geoms."""
         self._movable: np.ndarray = np.zeros(0, dtype=bool)
         self._root_of_finger: list[int] = []
         self._lists: tuple[list[int], list[int], list[bool], list[int]] = ([], [], [], [])
@@ -86,7 +87,7 @@ class GripAnchors:
         grip_of_body = np.full(m.nbody, -1, dtype=np.int64)
         grip_of_body[finger_bodies] = np.arange(len(self.fingers))
         self._grip_of_geom = grip_of_body[m.geom_bodyid]
-        self._is_grip = self._grip_of_geom >= 0
+        self._grip_geoms = frozenset(np.flatnonzero(self._grip_of_geom >= 0).tolist())
         roots = m.body_rootid
         free = np.zeros(m.nbody, dtype=bool)
         for body in range(1, m.nbody):
@@ -153,11 +154,12 @@ class GripAnchors:
         if d.ncon == 0:
             return out
         geoms = d.contact.geom
-        hits = self._is_grip[geoms]
-        if not hits.any():
+        flat = geoms.ravel().tolist()
+        if self._grip_geoms.isdisjoint(flat):  # the common step: no finger touches anything
             return out
-        rows = np.flatnonzero(hits.any(axis=1)).tolist()
-        pairs = geoms[rows].tolist()
+        grip_geoms = self._grip_geoms
+        rows = [i for i in range(len(flat) // 2) if flat[2 * i] in grip_geoms or flat[2 * i + 1] in grip_geoms]
+        pairs = [(flat[2 * i], flat[2 * i + 1]) for i in rows]
         address, friction, force, dims = d.contact.efc_address, d.contact.friction, d.efc_force, d.contact.dim
         grip_of, body_of, movable, roots = self._lists
         for row, pair in zip(rows, pairs, strict=True):
