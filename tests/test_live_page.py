@@ -1,6 +1,9 @@
 """The live page in a real headless Chromium (WebGL through SwiftShader): the cube is drawn where the world has it,
 the highlighted state is the trace's, pause holds the clock and step moves it one tick, a key pressed in the page
-drives the teleop robot as the scripted key does, and closing the page mid-run changes nothing in the result."""
+drives the teleop robot as the scripted key does, and closing the page mid-run changes nothing in the result. The
+sensors ticked in the page: the lidar's hits drawn on the wall the world has, each plotted number the trace's reading
+at its tick, the camera's image as a run without the page renders it, and the run watched is the run unwatched; a
+MuJoCo world drawn at its own link frames."""
 
 from __future__ import annotations
 
@@ -199,6 +202,7 @@ def test_the_sensors_picked_in_the_page_are_drawn_as_the_world_and_the_trace_hav
         shown = "return rkLive.views.cam.tick()"
         WebDriverWait(driver, 60).until(lambda d: d.execute_script(shown) == stamp)
         pixels = WebDriverWait(driver, 60).until(lambda d: d.execute_script(IMAGE_PIXELS))
+        result, trace = live.finish()  # the page still watching every sensor
     finally:
         driver.quit()
         live.close()
@@ -207,6 +211,10 @@ def test_the_sensors_picked_in_the_page_are_drawn_as_the_world_and_the_trace_hav
     expected = camera_at(config, stamp).astype(int)
     assert drawn.shape == expected.shape
     assert np.abs(drawn - expected).mean() < 1.5  # JPEG at quality 90 (the image at tick 0 is 11 levels away)
+    plain, plain_trace = plain_run(config, 1.0)  # watched or not, the run is the same bit for bit
+    assert (result.outcome, result.reason, result.ticks, result.result) == \
+        (plain.outcome, plain.reason, plain.ticks, plain.result)
+    assert trace == plain_trace
 
 
 def test_a_mujoco_world_is_drawn_where_the_world_has_it_with_its_lidar_scan(tmp_path: Path) -> None:
