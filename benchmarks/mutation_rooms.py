@@ -77,7 +77,7 @@ ROOMS: dict[str, tuple[list[str], list[str]]] = {
     "sweep": (["robokit/sweep/*"], ["tests/test_sweep.py", "tests/test_pins_sweep.py", "tests/test_prop_summary.py"]),
     "record": (["robokit/record/*"],
                ["tests/test_record.py", "tests/test_pins_record.py", "tests/test_prop_summary.py",
-                "tests/test_prop_export.py"]),
+                "tests/test_prop_export.py", "tests/test_prop_record_runs.py"]),
     "server": (["robokit/server/*"], ["tests/test_server_pages.py", "tests/test_server_rules.py",
                                       "tests/test_prop_routes.py", "tests/test_pins_server.py",
                                       "tests/test_prop_server_timeline.py", "tests/test_prop_server_csv.py",
