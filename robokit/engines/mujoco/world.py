@@ -73,6 +73,8 @@ class MujocoWorld(MujocoBodies):
         compile), for :meth:`jacobian`."""
         self._scratch: tuple[Any, Any] | None = None
         """(model, an MjData of it) for kinematics computed off the world's state."""
+        self._solved: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
+        """The contacts the last step solved: their geom pairs, points, normals and normal forces (None: none)."""
         self._geom_owner: np.ndarray | None = None
         """Per MuJoCo geom: (robokit body id, link) of its body, (-1, -1) for none (until the next compile)."""
 
@@ -99,6 +101,7 @@ class MujocoWorld(MujocoBodies):
             self._measure_wrenches()
         if motors.torques:
             motors.after_step(m, d)
+        self._keep_contacts(m, d)
         if self._forces or hold is not None:
             d.qfrc_applied[:] = 0.0
             self._forces.clear()
@@ -106,6 +109,22 @@ class MujocoWorld(MujocoBodies):
         if grips.pending:
             grips.after_positions(m, d)
         self.tick += 1
+
+    def _keep_contacts(self, m: Any, d: Any) -> None:
+        """Keep the contacts this step solved, with their forces, before ``mj_step1`` finds the next state's: the
+        constraint forces MuJoCo holds after ``mj_step1`` are not yet solved for the contacts it holds then (a new
+        contact read memory left from before; a contact list that changed length read its neighbours' forces)."""
+        n = d.ncon
+        if n == 0:
+            self._solved = None
+            return
+        c = d.contact
+        adr, dim = c.efc_address[:n], c.dim[:n]
+        rows = np.where(dim == 1, 1, 2 * (dim - 1)) if m.opt.cone == mujoco.mjtCone.mjCONE_PYRAMIDAL else 1
+        summed = np.concatenate(([0.0], np.cumsum(d.efc_force[:d.nefc])))  # the normal force: a pyramid's edges
+        start = np.maximum(adr, 0)
+        force = np.where(adr >= 0, summed[np.minimum(start + rows, d.nefc)] - summed[start], 0.0)
+        self._solved = (c.geom[:n].copy(), c.pos[:n].copy(), c.frame[:n, :3].copy(), force)
 
     def _step_holding(self, m: Any, d: Any) -> None:
         """``mj_step2`` (robokit's models have no MuJoCo sensors) with the grip welds judged between the solve and
@@ -126,6 +145,7 @@ class MujocoWorld(MujocoBodies):
         self._drives.clear()
         self._rows.clear()
         self._geom_owner = None
+        self._solved = None
         self.motors.reapply(model, self.data, {model.actuator(i).name for i in range(model.nu)})
 
     def remove_body(self, name: str) -> None:
@@ -359,14 +379,16 @@ class MujocoWorld(MujocoBodies):
     # ----------------------------------------------------------------- contacts
     def contacts(self, body: int, other: int | None = None, *, link: int | None = None,
                  other_link: int | None = None) -> list[Contact]:
-        """Contact points of ``body`` after the last step; the point is MuJoCo's (midway between the surfaces)."""
-        m, d = self.compiled()
+        """Contact points of ``body`` as the last step solved them (as PyBullet reports a step's contacts); the point
+        is MuJoCo's (midway between the surfaces), before the step moved the bodies."""
+        m, _ = self.compiled()
         rid = self.body(body)
         out: list[Contact] = []
-        if d.ncon == 0:
+        solved = self._solved
+        if solved is None:
             return out
-        owner = self._geom_owners(m)[d.contact.geom]  # (ncon, 2 sides, (body, link))
-        wrench = np.zeros(6)
+        geoms, points, normals, forces = solved
+        owner = self._geom_owners(m)[geoms]  # (ncon, 2 sides, (body, link))
         found = []
         for side in (0, 1):
             mine, theirs = owner[:, side], owner[:, 1 - side]
@@ -380,13 +402,12 @@ class MujocoWorld(MujocoBodies):
             found += [(i, side) for i in np.flatnonzero(keep).tolist()]
         if not found:
             return out
-        positions, frames, owners = d.contact.pos.tolist(), d.contact.frame[:, :3].tolist(), owner.tolist()
+        positions, frames, owners, pushes = points.tolist(), normals.tolist(), owner.tolist(), forces.tolist()
         for i, side in sorted(found):  # in MuJoCo's contact order
-            mujoco.mj_contactForce(m, d, i, wrench)
             sign = -1.0 if side == 0 else 1.0  # MuJoCo's normal points from geom 1 to geom 2
             normal = (sign * frames[i][0], sign * frames[i][1], sign * frames[i][2])
             (_, la), (b, lb) = owners[i][side], owners[i][1 - side]
-            out.append(Contact(b, la, lb, float(wrench[0]), tuple(positions[i]), normal))  # type: ignore[arg-type]
+            out.append(Contact(b, la, lb, pushes[i], tuple(positions[i]), normal))  # type: ignore[arg-type]
         return out
 
     def _geom_owners(self, m: Any) -> np.ndarray:
@@ -411,6 +432,7 @@ class MujocoWorld(MujocoBodies):
         d.qpos[:], d.qvel[:], d.ctrl[:] = snapshot["qpos"], snapshot["qvel"], snapshot["ctrl"]
         self.scene.grips.compiled(m)  # every anchor let go (mj_resetData switched their welds off)
         mujoco.mj_step1(m, d)
+        self._solved = None
         self.tick = 0
 
     def close(self) -> None:
