@@ -86,26 +86,33 @@ def record(sim: Any, ticks: int) -> list[dict[str, Any]]:
     return inputs
 
 
-def replay(model: Any, data: Any, inputs: list[dict[str, Any]]) -> None:
-    """Step ``model`` / ``data`` bare through the recorded inputs (model fields written only when they change)."""
-    from robokit.engines.mujoco.gl import mujoco
-
+def plan(inputs: list[dict[str, Any]]) -> list[tuple[Any, ...]]:
+    """The recorded inputs as the replay writes them (worked out before counting): per step, the model fields that
+    changed since the step before, the controls, applied forces, equality switches, and those of a let-go."""
+    steps: list[tuple[Any, ...]] = []
     last: dict[str, Any] = {}
     for step in inputs:
-        changed = False
-        for name in MODEL_FIELDS:
-            value = step[name]
-            if name not in last or not (last[name] == value).all():
+        writes = [(name, step[name]) for name in MODEL_FIELDS
+                  if name not in last or not (last[name] == step[name]).all()]
+        last.update(writes)
+        steps.append((writes, step["ctrl"], step["qfrc_applied"], step["eq_active"], step.get("let_go")))
+    return steps
+
+
+def replay(model: Any, data: Any, steps: list[tuple[Any, ...]]) -> None:
+    """Step ``model`` / ``data`` bare through the planned inputs, as robokit's World steps."""
+    from robokit.engines.mujoco.gl import mujoco
+
+    for writes, ctrl, applied, active, let_go in steps:
+        if writes:  # new gains or armatures: the mass matrix again, as robokit's World does
+            for name, value in writes:
                 getattr(model, name)[:] = value
-                last[name] = value
-                changed = True
-        if changed:  # a new armature: the mass matrix again, as robokit's World does
             mujoco.mj_step1(model, data)
-        data.ctrl[:] = step["ctrl"]
-        data.qfrc_applied[:] = step["qfrc_applied"]
-        data.eq_active[:] = step["eq_active"]
-        if "let_go" in step:  # solved again without the weld let go, as robokit's World does
-            data.eq_active[:] = step["let_go"]
+        data.ctrl[:] = ctrl
+        data.qfrc_applied[:] = applied
+        data.eq_active[:] = active
+        if let_go is not None:  # solved again without the weld let go, as robokit's World does
+            data.eq_active[:] = let_go
             mujoco.mj_forward(model, data)
         mujoco.mj_step2(model, data)
         mujoco.mj_step1(model, data)
@@ -123,14 +130,14 @@ def loop_only(how: str, ticks: int) -> None:
     sim = build()
     start_model, start_data = copy.copy(sim.world.client.model), copy.copy(sim.world.client.data)
     first = build()
-    inputs = record(first, ticks)
+    steps = plan(record(first, ticks))
     expected = first.world.client.data.qpos.copy()
     first.close()
     if how == "robokit":
         counted(lambda: sim.step(ticks))
         final = sim.world.client.data.qpos
     else:
-        counted(lambda: replay(start_model, start_data, inputs))
+        counted(lambda: replay(start_model, start_data, steps))
         final = start_data.qpos
     print(f"largest qpos difference from the recorded run: {float(np.abs(final - expected).max()):.3g}")
     sim.close()
