@@ -124,22 +124,26 @@ def counted(run: Any) -> None:
 
 
 def loop_only(how: str, ticks: int) -> None:
-    """``--loop-only``: record, then run the counted loop ``how`` (``robokit`` or ``bare``)."""
+    """``--loop-only``: the counted loop ``how`` (``robokit`` or ``bare``); then the comparison of its final state
+    with a recorded run's (the recording is made before a bare loop, after robokit's, so that robokit's loop runs
+    with nothing more in memory than in ``benchmarks/engines.py --loop``)."""
     import numpy as np
 
     sim = build()
-    start_model, start_data = copy.copy(sim.world.client.model), copy.copy(sim.world.client.data)
-    first = build()
-    steps = plan(record(first, ticks))
-    expected = first.world.client.data.qpos.copy()
-    first.close()
     if how == "robokit":
         counted(lambda: sim.step(ticks))
-        final = sim.world.client.data.qpos
+        final = sim.world.client.data.qpos.copy()
+        first = build()
+        record(first, ticks)
     else:
+        start_model, start_data = copy.copy(sim.world.client.model), copy.copy(sim.world.client.data)
+        first = build()
+        steps = plan(record(first, ticks))
         counted(lambda: replay(start_model, start_data, steps))
-        final = start_data.qpos
+        final = start_data.qpos.copy()
+    expected = first.world.client.data.qpos
     print(f"largest qpos difference from the recorded run: {float(np.abs(final - expected).max()):.3g}")
+    first.close()
     sim.close()
 
 
