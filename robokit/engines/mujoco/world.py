@@ -287,12 +287,21 @@ class MujocoWorld(MujocoBodies):
                          target_velocities: Sequence[float] | None = None, forces: Sequence[float] | None = None,
                          position_gains: Sequence[float] | None = None,
                          velocity_gains: Sequence[float] | None = None) -> None:
-        """:meth:`set_joint_motor` for many joints."""
+        """:meth:`set_joint_motor` for many joints (the same, in one loop: an arm sends its targets every tick)."""
+        if self._dirty:
+            self._compile()
+        m, d, motors, drives = self.model, self.data, self.motors, self._drives
+        torque = mode == "torque"
+        values = forces if torque else target_velocities if mode == "velocity" else target_positions
         for i, joint in enumerate(joints):
-            self.set_joint_motor(body, joint, mode,
-                                 target_position=None if target_positions is None else target_positions[i],
-                                 target_velocity=None if target_velocities is None else target_velocities[i],
-                                 force=None if forces is None else forces[i])
+            force = None if forces is None else forces[i]
+            drive = drives.get((body, joint, mode, force))
+            if drive is None:
+                drive = drives[(body, joint, mode, force)] = self._drive(body, joint, mode, force)
+            name, gains = drive
+            value = None if values is None else values[i]
+            ctrl = 0.0 if gains[3] == 0.0 and force is not None else float(value or 0.0)
+            motors.set(m, d, name, (*gains, ctrl), torque=torque)
 
     # ----------------------------------------------------------------- rays
     def ray_caster(self, *, skip: Collection[int] = (), see_hidden: bool = True, mask: int = -1,
