@@ -60,7 +60,9 @@ def sweeps(draw: Any) -> tuple[list[dict[str, Any]], list[str]]:
                      {cell.split("=")[0]: float(cell.split("=")[1])}, "outcome": draw(st.sampled_from(OUTCOMES)),
                      "reason": draw(st.sampled_from(["", "dropped it", "a 'quoted' reason", "시간 초과"])),
                      "run_id": f"run-{i}", "sim_time": draw(st.floats(0, 100)), "wall_time": draw(st.floats(0, 5)),
-                     "figures": figures, "worker": i % 2})
+                     "figures": figures, "worker": i % 2,
+                     **draw(st.sampled_from([{}, {"engine": "pybullet", "engine_version": "3.2.6"},
+                                             {"engine": "mujoco", "engine_version": "3.3.0"}, {"engine": "mujoco"}]))})
     return rows, cells
 
 
@@ -84,6 +86,8 @@ def test_every_summary_figure_is_recomputed_from_the_rows(sweep: tuple[list[dict
         ok = len([r for r in mine if r["outcome"] == "succeeded"])
         assert (c["trials"], c["succeeded"]) == (len(mine), ok)
         assert c["errors"] == len([r for r in mine if r["outcome"] == "error"])
+        engines = {" ".join(v for v in (r["engine"], r.get("engine_version")) if v) for r in mine if "engine" in r}
+        assert c["engine"] == (", ".join(sorted(engines)) or "?")  # what the cell's trials ran on
         if not mine:
             assert c["success_rate"] is None and c["wilson95"] == [0.0, 1.0]
             continue
@@ -118,13 +122,19 @@ def test_junit_markdown_and_failed_trials_list_every_row(tmp_path_factory: pytes
     assert int(suite.get("tests", "-1")) == len(cases) == len(rows)
     assert int(suite.get("failures", "-1")) == len([r for r in rows if r["outcome"] in ("failed", "aborted")])
     assert int(suite.get("errors", "-1")) == len([r for r in rows if r["outcome"] == "error"])
+    assert suite.get("name") == "robokit sweep"
+    assert float(suite.get("time", "-1")) == pytest.approx(sum(r["wall_time"] for r in rows), abs=6e-4)
     for case, r in zip(cases, rows, strict=True):
         assert (case.get("classname"), case.get("name")) == (r["cell"], f"seed={r['seed']}")
+        assert float(case.get("time", "-1")) == pytest.approx(r["wall_time"], abs=6e-4)
+        assert case.findtext("system-out") == f"run_id={r['run_id']} worker={r['worker']}"
         failure, error = case.find("failure"), case.find("error")
         assert (failure is not None) == (r["outcome"] in ("failed", "aborted"))
         assert (error is not None) == (r["outcome"] == "error")
         if failure is not None:
             assert failure.get("message") == f"{r['outcome']}: {r['reason']}"
+        if error is not None:
+            assert error.get("message") == r["reason"]
     failed = failed_trials(rows, "configs/my robot.toml")
     assert [f["key"] for f in failed] == [r["key"] for r in rows if r["outcome"] != "succeeded"]
     for f in failed:
