@@ -114,8 +114,12 @@ def test_every_summary_figure_is_recomputed_from_the_rows(sweep: tuple[list[dict
 def test_junit_markdown_and_failed_trials_list_every_row(tmp_path_factory: pytest.TempPathFactory,
                                                          sweep: tuple[list[dict[str, Any]], list[str]]) -> None:
     rows, cells = sweep
-    path = tmp_path_factory.mktemp("junit") / "junit.xml"
+    path = tmp_path_factory.mktemp("junit") / "a" / "b" / "junit.xml"  # folders made as needed
     write_junit(rows, path)
+    text = path.read_bytes()
+    assert text.startswith(b"<?xml version='1.0' encoding='utf-8'?>")
+    assert all(r["reason"].encode() in text for r in rows if r["outcome"] != "succeeded")  # UTF-8, not references
+    assert ET.parse(path).getroot().tag == "testsuites"
     suite = ET.parse(path).getroot().find("testsuite")
     assert suite is not None
     cases = suite.findall("testcase")
@@ -158,6 +162,27 @@ def test_junit_markdown_and_failed_trials_list_every_row(tmp_path_factory: pytes
     assert any(x.startswith(totals) for x in table)
     listed = [x for x in table if x.startswith("- `")]
     assert len(listed) == min(len(failed), 50) + (len(failed) > 50)
+
+
+toml_values = st.recursive(
+    st.one_of(st.booleans(), st.integers(-10**12, 10**12), st.floats(allow_nan=False, allow_infinity=False),
+              st.text(max_size=6)),
+    lambda inner: st.one_of(st.lists(inner, max_size=3),
+                            st.dictionaries(st.text("abc_", min_size=1, max_size=3), inner, max_size=3)),
+    max_leaves=6)
+
+
+@settings(PROPS, max_examples=150)
+@given(toml_values, st.sampled_from(["world.seed", "bodies.box.mass", "behaviour.goal"]))
+def test_a_reproduce_command_sets_every_override_back_to_its_value(value: Any, key: str) -> None:
+    """``--set KEY=VALUE`` in a failed trial's command reads back, through the command line's own ``--set`` reader,
+    to the very value the trial ran with (text of any script included)."""
+    from robokit.sweep.spec import parse_set
+    from robokit.sweep.summary import reproduce_command
+
+    argv = shlex.split(reproduce_command("c.toml", 3, {key: value}))
+    assert argv[:5] == ["robokit", "run", "c.toml", "--seed", "3"] and argv[5] == "--set" and len(argv) == 7
+    assert parse_set([argv[6]]) == ({}, {key: value})
 
 
 # ------------------------------------------------------------------------------------------ a record's state stays

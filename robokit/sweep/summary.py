@@ -105,13 +105,13 @@ def toml_literal(value: Any) -> str:
         return "true" if value else "false"
     if isinstance(value, (int, float)):
         return repr(value)
-    if isinstance(value, str):
-        return json.dumps(value)
+    if isinstance(value, str):  # TOML has no surrogate pairs: characters as they are, DEL and controls escaped
+        return json.dumps(value, ensure_ascii=False).replace("\x7f", "\\u007f")
     if isinstance(value, (list, tuple)):
         return "[" + ", ".join(toml_literal(v) for v in value) + "]"
     if isinstance(value, Mapping):
         return "{" + ", ".join(f"{k} = {toml_literal(v)}" for k, v in value.items()) + "}"
-    return json.dumps(str(value))
+    return toml_literal(str(value))
 
 
 def reproduce_command(config: str, seed: int, overrides: Mapping[str, Any]) -> str:
