@@ -41,7 +41,7 @@ from robokit.core.composites import (
 DT = 1.0 / 240.0
 HORIZON = 40  # ticks; every generated plan ends well within it, or never
 ENDS = ("succeeded", "failed", "aborted")
-PROPS = settings(max_examples=150, deadline=None, derandomize=True)
+PROPS = settings(max_examples=100, deadline=None, derandomize=True)
 
 
 class Plan:

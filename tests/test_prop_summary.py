@@ -70,7 +70,7 @@ def plain_number(v: Any) -> bool:
     return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
 
 
-@settings(PROPS, max_examples=40)
+@settings(PROPS, max_examples=25)
 @given(sweeps())
 def test_every_summary_figure_is_recomputed_from_the_rows(sweep: tuple[list[dict[str, Any]], list[str]]) -> None:
     rows, cells = sweep
@@ -109,7 +109,7 @@ def test_every_summary_figure_is_recomputed_from_the_rows(sweep: tuple[list[dict
             assert (got["n"], got["median"], got["p95"]) == (len(values), pytest.approx(median), values[rank - 1])
 
 
-@settings(PROPS, max_examples=25)
+@settings(PROPS, max_examples=15)
 @given(sweeps())
 def test_junit_markdown_and_failed_trials_list_every_row(tmp_path_factory: pytest.TempPathFactory,
                                                          sweep: tuple[list[dict[str, Any]], list[str]]) -> None:
@@ -172,7 +172,7 @@ toml_values = st.recursive(
     max_leaves=6)
 
 
-@settings(PROPS, max_examples=150)
+@settings(PROPS, max_examples=100)
 @given(toml_values, st.sampled_from(["world.seed", "bodies.box.mass", "behaviour.goal"]))
 def test_a_reproduce_command_sets_every_override_back_to_its_value(value: Any, key: str) -> None:
     """``--set KEY=VALUE`` in a failed trial's command reads back, through the command line's own ``--set`` reader,
