@@ -73,6 +73,9 @@ TRANSITIONS: list[dict[str, Any]] = [
 
 BIN_RADIUS = 0.15
 """m: an object centre this close (xy) to the bin link, above it, is in the robot's bin (the scripted stow)."""
+RELEASE_HEIGHT = 0.01
+"""m: the lift's position when the fingers let go in the bin (the object drops this far: pressed onto the floor by
+the lift, squeezed fingers can stay jammed)."""
 REST_HEIGHT = 0.15
 """m: an object whose centre is lower than this (world z) rests on the floor (a 0.2 m can standing: 0.1 m)."""
 
@@ -255,14 +258,35 @@ class PatrolCollect(Patrol):
             if dist < cfg.reach + 0.35:
                 return self._creep(pose, target, t)
         ignore = (target.x, target.y, cfg.discovery.object_radius + 0.12)
+        if self.bin is not None:  # the shared navigator (the rules, or A*) to a point short of the object
+            return {cfg.drive: self.move_towards(readings, self._pregrasp(pose, target), t, ignore).twist}
         nav = self.avoider.step(pose, readings[cfg.scan], target.xy, t, ignore)
         return {cfg.drive: nav.twist}
+
+    def _pregrasp(self, pose: tuple[float, float, float], target: Track) -> tuple[float, float]:
+        """Where to drive before creeping in: ``reach`` + 0.3 m short of the object, on the robot's side of it
+        (free space: a map that marked the object itself as an obstacle still has a way there)."""
+        dx, dy = pose[0] - target.x, pose[1] - target.y
+        d = math.hypot(dx, dy) or 1.0
+        back = self.config.reach + 0.3
+        return target.x + back * dx / d, target.y + back * dy / d
 
     def _give_up(self, t: float) -> Mapping[str, Any]:
         target = self.target
         assert target is not None
-        target.status = "found" if target.attempts < self.config.max_attempts else "abandoned"
+        again = "deferred" if self.bin is not None else "found"  # the gripper tries again from the next waypoint
+        target.status = again if target.attempts < self.config.max_attempts else "abandoned"
         return self._resume(t, "lost")
+
+    def _undefer(self) -> None:
+        for track in self.discovery.tracks:
+            if track.status == "deferred":
+                track.status = "found"
+
+    def next_leg(self, t: float, reached: bool) -> Mapping[str, Any] | None:
+        """As ``patrol``; objects given up on for now become pending again."""
+        self._undefer()
+        return super().next_leg(t, reached)
 
     def _creep(self, pose: tuple[float, float, float], target: Track, t: float) -> Mapping[str, Any]:
         """The last few decimetres: point at the object and roll forward until it is ``reach`` m ahead."""
@@ -331,7 +355,7 @@ class PatrolCollect(Patrol):
         if left <= 0.0:
             self.phase_started = t
             self.fire("over_slot")
-            return {cfg.drive: STOP, cfg.lift: JointCommand("position", {cfg.lift_joint: 0.0})}
+            return {cfg.drive: STOP, cfg.lift: JointCommand("position", {cfg.lift_joint: RELEASE_HEIGHT})}
         return {cfg.drive: twist}
 
     def do_releasing(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any] | None:
@@ -340,11 +364,12 @@ class PatrolCollect(Patrol):
         grip, lift = readings[cfg.gripper], readings[cfg.lift].positions[cfg.lift_joint]
         elapsed = t - self.phase_started
         if grip.action != "open":
-            if lift <= 0.005 or elapsed > cfg.grasp_time:
+            if lift <= RELEASE_HEIGHT + 0.003 or elapsed > cfg.grasp_time:
                 self.phase_started = t
                 return {cfg.gripper: GripperCommand("open")}
             return None
-        if grip.settled or elapsed > cfg.grasp_time:
+        opened = grip.width >= grip.target_width - 0.005  # wide open: backing out drags nothing along
+        if opened or elapsed > cfg.grasp_time:
             self.delivered += 1
             self.collected_count = self.delivered
             self.ctx.trace("object_collected", id=self.target.id if self.target else None)
@@ -384,6 +409,7 @@ class PatrolCollect(Patrol):
     def end_patrol(self, t: float) -> Mapping[str, Any] | None:
         """After the last waypoint, collect the objects already found, then finish."""
         x, y, _ = self.last.pose
+        self._undefer()
         pending = self.discovery.nearest_pending(x, y, self.config.max_attempts)
         if pending is not None:
             return self._start_approach(pending, t)

@@ -2,6 +2,7 @@
 
     python benchmarks/planning.py --seeds 5
     python benchmarks/planning.py --kinds dead_end,narrow --seeds 10 --timeout 90
+    python benchmarks/planning.py --pickup --seeds 20            # the collector that picks up (patrol_pickup.toml)
 
 For every scene kind (open, clutter, narrow passage, dead end, room behind a door) and seed it runs
 ``go_to_goal`` headless with ``planner = "rules"`` (today's clearance rules), ``"astar"`` (occupancy grid from the
@@ -16,6 +17,10 @@ side by side:
 - collisions: new contacts with a wall (the drive's contact list, read at every drive update), total;
 - plan ms: process time per A* call (path shortening included), mean;
 - CPU ms / sim s: process time of the whole run per simulated second (physics, lidar, behaviour), median.
+
+With ``--pickup`` it runs ``configs/patrol_pickup.toml`` instead (the collectbot patrols, grips each can, carries it
+into the bin), per seed and ``--modes`` (``rules``, ``astar``): success (the run's goal met), cans inside the bin's
+area at the end (read from the world here, not from the behaviour), collisions, sim time and CPU per sim s.
 """
 
 from __future__ import annotations
@@ -25,6 +30,7 @@ import math
 import statistics
 import sys
 import time
+from pathlib import Path
 from typing import Any
 
 from robokit.planning import GridConfig, OccupancyGrid
@@ -77,6 +83,43 @@ def trial(kind: str, seed: int, mode: str, timeout: float) -> dict[str, Any]:
                 .get("plans", 0), "cpu_per_s": 1e3 * cpu / max(sim.world.time, 1e-9)}
 
 
+PICKUP = Path(__file__).resolve().parents[1] / "configs" / "patrol_pickup.toml"
+BIN_AREA = ((0.7, 3.35), (1.3, 4.0))
+"""The bin of patrol_pickup.toml (inside of the pen), world xy, m: written out here, not read from the config."""
+
+
+def pickup_trial(seed: int, mode: str) -> dict[str, Any]:
+    """One patrol_pickup run; where the cans are at the end is read from the world."""
+    t0 = time.process_time()
+    overrides = {f"behaviour.{k}": v for k, v in MODES[mode].items()}
+    with make_sim(PICKUP, seed=seed, overrides=overrides) as sim:
+        result = sim.run()
+        world = sim.world
+        cans = [n for n in world.body_names if n.startswith("can")]
+        (x0, y0), (x1, y1) = BIN_AREA
+        inside = sum(1 for n in cans if x0 < world.pose(n)[0][0] < x1 and y0 < world.pose(n)[0][1] < y1
+                     and world.pose(n)[0][2] < 0.15)
+    cpu = time.process_time() - t0
+    return {"ok": result.outcome == "succeeded", "inside": inside, "cans": len(cans), "t": result.sim_time,
+            "collisions": result.result.get("collisions", 0), "cpu_per_s": 1e3 * cpu / max(result.sim_time, 1e-9)}
+
+
+def pickup(seeds: int, modes: list[str]) -> int:
+    print(f"configs/patrol_pickup.toml, seeds 0..{seeds - 1}\n")
+    header = f"{'planner':10} {'success':>8} {'cans in bin':>12} {'collisions':>10} {'sim s':>7} {'CPU ms/sim s':>13}"
+    print(header)
+    print("-" * len(header))
+    for mode in modes:
+        runs = [pickup_trial(seed, mode) for seed in range(seeds)]
+        failed = [s for s, r in enumerate(runs) if not r["ok"]]
+        print(f"{mode:10} {sum(r['ok'] for r in runs):>4}/{len(runs):<3} "
+              f"{sum(r['inside'] for r in runs):>6}/{sum(r['cans'] for r in runs):<5} "
+              f"{sum(r['collisions'] for r in runs):>10} {median([r['t'] for r in runs]):>7} "
+              f"{median([r['cpu_per_s'] for r in runs]):>13}" + (f"   failed seeds: {failed}" if failed else ""),
+              flush=True)
+    return 0
+
+
 def median(values: list[float]) -> str:
     return f"{statistics.median(values):.2f}" if values else "-"
 
@@ -87,6 +130,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--kinds", default=",".join(KINDS), help=f"comma-separated, of {', '.join(KINDS)}")
     ap.add_argument("--modes", default=",".join(MODES), help=f"comma-separated, of {', '.join(MODES)}")
     ap.add_argument("--timeout", type=float, default=60.0, help="sim seconds allowed per run")
+    ap.add_argument("--pickup", action="store_true", help="run configs/patrol_pickup.toml instead of the scenes")
     args = ap.parse_args(argv)
     kinds = args.kinds.split(",")
     modes = args.modes.split(",")
@@ -95,6 +139,8 @@ def main(argv: list[str] | None = None) -> int:
         if bad:
             print(f"unknown {name} {bad[0]!r}; expected one of {', '.join(known)}", file=sys.stderr)
             return 2
+    if args.pickup:
+        return pickup(args.seeds, [m for m in modes if m in ("rules", "astar")])
     print(f"{args.seeds} seeds per kind, timeout {args.timeout:g} sim s\n")
     header = (f"{'scene':9} {'planner':10} {'success':>8} {'path/shortest':>14} {'time to goal':>13} "
               f"{'collisions':>10} {'plan ms':>8} {'CPU ms/sim s':>13}")
