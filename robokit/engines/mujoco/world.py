@@ -35,6 +35,8 @@ from robokit.engines.mujoco.links import Motors, critical_damping, motor_gains
 from robokit.engines.mujoco.rays import HIDDEN_GROUP, MujocoRayCaster
 from robokit.errors import UserError
 
+PYRAMIDAL = int(mujoco.mjtCone.mjCONE_PYRAMIDAL)
+
 if TYPE_CHECKING:  # read by attribute only
     from robokit.config import Config
 
@@ -119,11 +121,16 @@ class MujocoWorld(MujocoBodies):
             self._solved = None
             return
         c = d.contact
-        adr, dim = c.efc_address[:n], c.dim[:n]
-        rows = np.where(dim == 1, 1, 2 * (dim - 1)) if m.opt.cone == mujoco.mjtCone.mjCONE_PYRAMIDAL else 1
-        summed = np.concatenate(([0.0], np.cumsum(d.efc_force[:d.nefc])))  # the normal force: a pyramid's edges
-        start = np.maximum(adr, 0)
-        force = np.where(adr >= 0, summed[np.minimum(start + rows, d.nefc)] - summed[start], 0.0)
+        adr = c.efc_address[:n]
+        if m.opt.cone == PYRAMIDAL:  # the normal force: the sum of a pyramid's edges
+            dim = c.dim[:n]
+            rows = np.where(dim == 1, 1, 2 * (dim - 1))
+            summed = np.concatenate(([0.0], np.cumsum(d.efc_force[:d.nefc])))
+            start = np.maximum(adr, 0)
+            force = np.where(adr >= 0, summed[np.minimum(start + rows, d.nefc)] - summed[start], 0.0)
+        else:  # an elliptic cone's first row is the normal force (robokit's scenes: see scene.Scene.new)
+            force = d.efc_force[np.maximum(adr, 0)]
+            force[adr < 0] = 0.0
         self._solved = (c.geom[:n].copy(), c.pos[:n].copy(), c.frame[:n, :3].copy(), force)
 
     def _step_holding(self, m: Any, d: Any) -> None:
