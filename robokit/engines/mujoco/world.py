@@ -76,6 +76,10 @@ class MujocoWorld(MujocoBodies):
         self._scratch: tuple[Any, Any] | None = None
         """(model, an MjData of it) for kinematics computed off the world's state."""
         self._solved: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._pyramidal = False
+        """The compiled model's friction cones are pyramids (robokit's own scenes have elliptic ones)."""
+        self._kept: tuple[Any, ...] | None = None
+        """Copies of the last step's contact arrays and constraint forces, for :meth:`_solved_contacts`."""
         """The contacts the last step solved: their geom pairs, points, normals and normal forces (None: none)."""
         self._geom_owner: np.ndarray | None = None
         """Per MuJoCo geom: (robokit body id, link) of its body, (-1, -1) for none (until the next compile)."""
@@ -115,23 +119,30 @@ class MujocoWorld(MujocoBodies):
     def _keep_contacts(self, m: Any, d: Any) -> None:
         """Keep the contacts this step solved, with their forces, before ``mj_step1`` finds the next state's: the
         constraint forces MuJoCo holds after ``mj_step1`` are not yet solved for the contacts it holds then (a new
-        contact read memory left from before; a contact list that changed length read its neighbours' forces)."""
-        n = d.ncon
-        if n == 0:
-            self._solved = None
+        contact read memory left from before; a contact list that changed length read its neighbours' forces).
+        Only copies here: the forces are worked out when contacts are read (:meth:`_solved_contacts`)."""
+        self._solved = None
+        if d.ncon == 0:
+            self._kept = None
             return
         c = d.contact
-        adr = c.efc_address[:n]
-        if m.opt.cone == PYRAMIDAL:  # the normal force: the sum of a pyramid's edges
-            dim = c.dim[:n]
-            rows = np.where(dim == 1, 1, 2 * (dim - 1))
-            summed = np.concatenate(([0.0], np.cumsum(d.efc_force[:d.nefc])))
-            start = np.maximum(adr, 0)
-            force = np.where(adr >= 0, summed[np.minimum(start + rows, d.nefc)] - summed[start], 0.0)
-        else:  # an elliptic cone's first row is the normal force (robokit's scenes: see scene.Scene.new)
-            force = d.efc_force[np.maximum(adr, 0)]
-            force[adr < 0] = 0.0
-        self._solved = (c.geom[:n].copy(), c.pos[:n].copy(), c.frame[:n, :3].copy(), force)
+        self._kept = (c.geom.copy(), c.pos.copy(), c.frame.copy(), c.efc_address.copy(),
+                      c.dim.copy() if self._pyramidal else None, d.efc_force[:d.nefc].copy())
+
+    def _solved_contacts(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+        """The kept contacts of the last step: geom pairs, points, normals and normal forces (None: none)."""
+        if self._solved is None and self._kept is not None:
+            geoms, points, frames, adr, dim, efc_force = self._kept
+            if dim is not None:  # a pyramidal cone: the normal force is the sum of its edges
+                rows = np.where(dim == 1, 1, 2 * (dim - 1))
+                summed = np.concatenate(([0.0], np.cumsum(efc_force)))
+                start = np.maximum(adr, 0)
+                force = np.where(adr >= 0, summed[np.minimum(start + rows, len(efc_force))] - summed[start], 0.0)
+            else:  # an elliptic cone's first row is the normal force (robokit's scenes: see scene.Scene.new)
+                force = efc_force[np.maximum(adr, 0)] if len(efc_force) else np.zeros(len(adr))
+                force[adr < 0] = 0.0
+            self._solved = (geoms, points, frames[:, :3], force)
+        return self._solved
 
     def _step_holding(self, m: Any, d: Any) -> None:
         """``mj_step2`` (robokit's models have no MuJoCo sensors) with the grip welds judged between the solve and
@@ -152,7 +163,8 @@ class MujocoWorld(MujocoBodies):
         self._drives.clear()
         self._rows.clear()
         self._geom_owner = None
-        self._solved = None
+        self._solved = self._kept = None
+        self._pyramidal = model.opt.cone == PYRAMIDAL
         self.motors.reapply(model, self.data, {model.actuator(i).name for i in range(model.nu)})
 
     def remove_body(self, name: str) -> None:
@@ -400,7 +412,7 @@ class MujocoWorld(MujocoBodies):
         m, _ = self.compiled()
         rid = self.body(body)
         out: list[Contact] = []
-        solved = self._solved
+        solved = self._solved_contacts()
         if solved is None:
             return out
         geoms, points, normals, forces = solved
@@ -448,7 +460,7 @@ class MujocoWorld(MujocoBodies):
         d.qpos[:], d.qvel[:], d.ctrl[:] = snapshot["qpos"], snapshot["qvel"], snapshot["ctrl"]
         self.scene.grips.compiled(m)  # every anchor let go (mj_resetData switched their welds off)
         mujoco.mj_step1(m, d)
-        self._solved = None
+        self._solved = self._kept = None
         self.tick = 0
 
     def close(self) -> None:
