@@ -104,14 +104,14 @@ def pickup_trial(seed: int, mode: str) -> dict[str, Any]:
             "collisions": result.result.get("collisions", 0), "cpu_per_s": 1e3 * cpu / max(result.sim_time, 1e-9)}
 
 
-def pickup(seeds: int, modes: list[str]) -> int:
-    print(f"configs/patrol_pickup.toml, seeds 0..{seeds - 1}\n")
+def pickup(seeds: int, modes: list[str], start: int = 0) -> int:
+    print(f"configs/patrol_pickup.toml, seeds {start}..{start + seeds - 1}\n")
     header = f"{'planner':10} {'success':>8} {'cans in bin':>12} {'collisions':>10} {'sim s':>7} {'CPU ms/sim s':>13}"
     print(header)
     print("-" * len(header))
     for mode in modes:
-        runs = [pickup_trial(seed, mode) for seed in range(seeds)]
-        failed = [s for s, r in enumerate(runs) if not r["ok"]]
+        runs = [pickup_trial(seed, mode) for seed in range(start, start + seeds)]
+        failed = [start + s for s, r in enumerate(runs) if not r["ok"]]
         print(f"{mode:10} {sum(r['ok'] for r in runs):>4}/{len(runs):<3} "
               f"{sum(r['inside'] for r in runs):>6}/{sum(r['cans'] for r in runs):<5} "
               f"{sum(r['collisions'] for r in runs):>10} {median([r['t'] for r in runs]):>7} "
@@ -131,6 +131,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--modes", default=",".join(MODES), help=f"comma-separated, of {', '.join(MODES)}")
     ap.add_argument("--timeout", type=float, default=60.0, help="sim seconds allowed per run")
     ap.add_argument("--pickup", action="store_true", help="run configs/patrol_pickup.toml instead of the scenes")
+    ap.add_argument("--start-seed", type=int, default=0, help="first seed (with --pickup)")
     args = ap.parse_args(argv)
     kinds = args.kinds.split(",")
     modes = args.modes.split(",")
@@ -140,7 +141,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"unknown {name} {bad[0]!r}; expected one of {', '.join(known)}", file=sys.stderr)
             return 2
     if args.pickup:
-        return pickup(args.seeds, [m for m in modes if m in ("rules", "astar")])
+        return pickup(args.seeds, [m for m in modes if m in ("rules", "astar")], args.start_seed)
     print(f"{args.seeds} seeds per kind, timeout {args.timeout:g} sim s\n")
     header = (f"{'scene':9} {'planner':10} {'success':>8} {'path/shortest':>14} {'time to goal':>13} "
               f"{'collisions':>10} {'plan ms':>8} {'CPU ms/sim s':>13}")
