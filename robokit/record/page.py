@@ -130,8 +130,10 @@ def build_page(rec: RunRecord, video: Path | None, plots: list[Path], replay: st
 
 def _occupancy_map(rec: RunRecord) -> str:
     """The planner's saved map (``planner = "astar"``) with its planned paths and the driven path, or ''."""
-    from robokit.planning.mapview import map_caption, map_svg
+    from robokit.planning.mapview import MAP_FILES, map_caption, map_svg
 
+    if not all((rec.folder / name).is_file() for name in MAP_FILES):
+        return ""
     driven = None
     drives = [s for s in (rec.header.get("config", {}).get("actuators") or {}).values()
               if isinstance(s, dict) and s.get("type") == "diff_drive"]
