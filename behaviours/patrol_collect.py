@@ -76,6 +76,8 @@ BIN_RADIUS = 0.15
 RELEASE_HEIGHT = 0.01
 """m: the lift's position when the fingers let go in the bin (the object drops this far: pressed onto the floor by
 the lift, squeezed fingers can stay jammed)."""
+DOCK_STALL = 2.0
+"""sim s: docking that makes no progress this long ends where it is."""
 REST_HEIGHT = 0.15
 """m: an object whose centre is lower than this (world z) rests on the floor (a 0.2 m can standing: 0.1 m)."""
 
@@ -141,6 +143,7 @@ class PatrolCollect(Patrol):
         self.phase_started = 0.0
         self.lifting = False
         self.delivered = 0
+        self.dock_best = (math.inf, -1.0)  # (least depth still to go while docking, m; sim time it was reached)
         self.found: list[dict[str, Any]] = []
         self.target: Track | None = None
         self.approach_started = 0.0
@@ -341,18 +344,22 @@ class PatrolCollect(Patrol):
             return self._dropped(t)
         pose = self.pose(readings)
         if math.dist(pose[:2], bin_.stage) <= 0.06:
+            self.dock_best = (math.inf, -1.0)
             self.fire("at_bin")
             return {cfg.drive: STOP}
         return {cfg.drive: self.move_towards(readings, bin_.stage, t).twist}
 
     def do_docking(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any] | None:
-        """Face the bin, drive straight in until the held object is over its slot."""
+        """Face the bin, drive straight in until the held object is over its slot (or, pushed against what is
+        already there, has not got 5 mm closer for ``DOCK_STALL`` sim seconds: it is let go where it is)."""
         cfg, bin_ = self.config, self.bin
         assert bin_ is not None
         if not readings[cfg.gripper].holding or t - self.phase_started > cfg.deliver_timeout:
             return self._dropped(t)
         twist, left = bin_.dock(self.pose(readings), self.delivered)
-        if left <= 0.0:
+        if left < self.dock_best[0] - 0.005 or self.dock_best[1] < 0:
+            self.dock_best = (left, t)
+        if left <= 0.0 or t - self.dock_best[1] > DOCK_STALL:
             self.phase_started = t
             self.fire("over_slot")
             return {cfg.drive: STOP, cfg.lift: JointCommand("position", {cfg.lift_joint: RELEASE_HEIGHT})}
