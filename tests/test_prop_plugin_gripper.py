@@ -16,11 +16,13 @@ from typing import Any
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, Phase, assume, given, settings
 from hypothesis import strategies as st
 
 from robokit.msgs.arm import GripperCommand
 from robokit.testing import make_sim
+
+NO_SHRINK = [Phase.explicit, Phase.generate]  # an example is a simulation: a failing one is reported as drawn
 
 OPEN = 0.08  # the Panda's two finger joints open to 0.04 m each (panda.urdf)
 SCENE: dict[str, Any] = {
@@ -88,7 +90,8 @@ def settle(sim: Any, ticks: int = 400) -> int:
 arm_angles = st.lists(st.floats(-1.2, 1.2), min_size=7, max_size=7)
 
 
-@settings(max_examples=6, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=6, deadline=None, derandomize=True, phases=NO_SHRINK,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(angles=arm_angles,
        cmd=st.one_of(st.tuples(st.just("width"), st.floats(-0.05, 0.15)), st.tuples(st.sampled_from(["open", "close"]),
                                                                                      st.just(None))),
@@ -112,7 +115,8 @@ def test_the_fingertips_go_to_the_commanded_width_in_the_world(sim: Any, angles:
     assert not r.holding and r.held is None and r.finger_contacts == 0 and not r.stopped
 
 
-@settings(max_examples=8, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=8, deadline=None, derandomize=True, phases=NO_SHRINK,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(angles=arm_angles, size=st.floats(0.015, 0.05), yaw=st.floats(-0.3, 0.3), off=st.floats(-0.025, 0.025),
        beside=st.booleans())
 def test_holding_is_both_fingers_touching_one_body_in_the_world(sim: Any, angles: list[float], size: float,
@@ -139,6 +143,9 @@ def test_holding_is_both_fingers_touching_one_body_in_the_world(sim: Any, angles
     quat = ((m[2, 1] - m[1, 2]) / (4 * qw), (m[0, 2] - m[2, 0]) / (4 * qw), (m[1, 0] - m[0, 1]) / (4 * qw), qw)
     w.remove_body("cube")
     w.add_primitive("cube", "box", size=[size, size, size], mass=0.0, position=list(where), orientation=quat)
+    fingers = {link(sim, n) for n in ("panda_leftfinger", "panda_rightfinger")}
+    near = w.client.getClosestPoints(w.body("cube"), w.body("panda"), 0.01)
+    assume(all(pt[4] in fingers for pt in near))  # only the fingers can meet the cube (not a folded arm's links)
     g.command(GripperCommand("close"))
     settle(sim)
     r = sim.readings["gripper"]
@@ -157,13 +164,16 @@ def test_holding_is_both_fingers_touching_one_body_in_the_world(sim: Any, angles
         assert not any(touching) and not r.holding and measured < 0.004, "closed on nothing"
     else:
         assert any(touching), "a closing finger meets the cube between them"
-        # the coupled fingers stop when the nearer one meets the cube's face: 2 (|off| + half) apart
-        assert measured == pytest.approx(min(OPEN, 2 * (abs(off) + half)), abs=3e-3)
+        # the coupled fingers stop when the nearer one meets the cube: never closer than 2 (|off| + size / 2) (a
+        # square reaches at least half its side in every direction), never wider than the corners allow plus the
+        # finger hulls, which widen towards the hand
+        assert 2 * (abs(off) + size / 2) - 3e-3 <= measured <= 2 * (abs(off) + half) + 0.015
         if abs(off) < 1e-3:
             assert all(touching) and r.holding, "a centred cube is held once the fingers close"
 
 
-@settings(max_examples=4, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=4, deadline=None, derandomize=True, phases=NO_SHRINK,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(start=st.floats(0.0, OPEN), goal=st.floats(0.0, OPEN), ticks=st.integers(3, 25))
 def test_a_protective_stop_freezes_the_fingers_where_they_are(sim: Any, start: float, goal: float,
                                                               ticks: int) -> None:
@@ -208,7 +218,8 @@ def kuka_gripper(request: pytest.FixtureRequest) -> Iterator[tuple[Any, dict[str
         yield s, gripper
 
 
-@settings(max_examples=4, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=4, deadline=None, derandomize=True, phases=NO_SHRINK,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(width=st.floats(-0.02, 0.12), force=st.one_of(st.none(), st.floats(5.0, 40.0)))
 def test_configured_fingers_go_to_the_joint_positions_linear_in_the_width(kuka_gripper: tuple, width: float,
                                                                           force: float | None) -> None:

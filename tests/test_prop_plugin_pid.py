@@ -15,12 +15,14 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import Phase, given, settings
 from hypothesis import strategies as st
 from robokit_plugins.pid import step_metrics
 
 from robokit.msgs import JointCommand
 from robokit.testing import make_sim
+
+NO_SHRINK = [Phase.explicit, Phase.generate]  # an example is a simulation: a failing one is reported as drawn
 
 JOINTS = ["lbr_iiwa_joint_1", "lbr_iiwa_joint_2"]  # a vertical axis and one that carries the arm's weight
 DT = 1.0 / 240.0
@@ -62,7 +64,7 @@ gains_st = st.fixed_dictionaries(
               "integral_limit": st.floats(0.5, 50.0), "feed_forward": st.floats(-10.0, 10.0)})
 
 
-@settings(max_examples=8, deadline=None, derandomize=True)
+@settings(max_examples=8, deadline=None, derandomize=True, phases=NO_SHRINK)
 @given(gains=st.tuples(gains_st, gains_st), derivative=st.sampled_from(["velocity", "difference"]),
        hz=st.floats(2.0, 100.0), period=st.sampled_from([1, 3]),
        setpoints=st.tuples(st.floats(-1.5, 1.5), st.floats(-1.0, 1.0)),
@@ -114,7 +116,7 @@ def test_every_tick_follows_the_documented_law(gains: tuple, derivative: str, hz
                 assert r.saturated[name] == saturated or abs(abs(torque) - limits[JOINTS.index(name)]) < 1e-9
 
 
-@settings(max_examples=3, deadline=None, derandomize=True)
+@settings(max_examples=3, deadline=None, derandomize=True, phases=NO_SHRINK)
 @given(setpoint=st.floats(-1.2, 1.2).filter(lambda s: abs(s) > 0.1), kp=st.floats(400.0, 700.0))
 def test_with_an_integral_the_joint_ends_at_its_setpoint_in_the_world(setpoint: float, kp: float) -> None:
     """The arm's shoulder (it carries the arm's weight) under P, I and D: two seconds later it is at its setpoint
