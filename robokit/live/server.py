@@ -46,7 +46,7 @@ class LiveServer:
         self.token = None if host in LOOPBACK else secrets.token_urlsafe(16)
         self.streams: dict[int, int] = {}
         """Open event streams: thread id -> the last frame number sent."""
-        self._lock = threading.Lock()
+        self._lock = threading.Condition()  # notified when a stream has sent a frame (drain waits on it)
         self._page_scene: tuple[Any, dict[str, Any]] | None = None  # the scene, and it with its meshes read
         self.httpd = ThreadingHTTPServer((host, port), _handler(self))
         self.httpd.daemon_threads = True
@@ -94,17 +94,12 @@ class LiveServer:
                 self.streams.pop(stream, None)
             else:
                 self.streams[stream] = seq
+            self._lock.notify_all()
 
     def drain(self, seq: int, grace: float) -> None:
         """Wait up to ``grace`` s for every open stream to have sent frame ``seq`` (the run's last)."""
-        import time
-
-        end = time.monotonic() + grace
-        while time.monotonic() < end:
-            with self._lock:
-                if all(s >= seq for s in self.streams.values()):
-                    return
-            time.sleep(0.02)  # the run is over: waiting here holds no loop
+        with self._lock:
+            self._lock.wait_for(lambda: all(s >= seq for s in self.streams.values()), grace)
 
     def stop(self) -> None:
         self.httpd.shutdown()
