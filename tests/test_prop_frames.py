@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from oracles import rodrigues
 from robokit_behaviours.avoidance import to_robot_frame
 from robokit_plugins.colour_detector import fold_yaw
 from robokit_plugins.kinematics import Chain, quaternion_of, transform
@@ -35,13 +36,6 @@ DIFFBOT = Path(__file__).resolve().parents[1] / "robokit" / "data" / "robots" / 
 
 
 # ------------------------------------------------------------------------------------------ the oracle
-def rodrigues(axis: np.ndarray, angle: float) -> np.ndarray:
-    """Rotation matrix by ``angle`` about ``axis``: the exponential of the skew matrix, written out."""
-    k = np.asarray(axis, float) / np.linalg.norm(axis)
-    skew = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
-    return np.eye(3) + math.sin(angle) * skew + (1.0 - math.cos(angle)) * skew @ skew
-
-
 def quat(axis: np.ndarray, angle: float) -> tuple[float, float, float, float]:
     """``(x, y, z, w)`` quaternion of a rotation by ``angle`` about ``axis``."""
     k = np.asarray(axis, float) / np.linalg.norm(axis)

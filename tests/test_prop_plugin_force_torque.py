@@ -13,12 +13,12 @@ a sensor that reports about the centre of mass, or in the inertial frame, fails.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
+from oracles import rotation
 
 from robokit.testing import make_sim
 
@@ -26,18 +26,6 @@ NO_SHRINK = [Phase.explicit, Phase.generate]  # an example is a simulation: a fa
 
 ENGINES = ["pybullet", "mujoco"]
 G = 9.81
-
-
-def rotation(q: Any) -> np.ndarray:
-    """Rotation matrix of an ``(x, y, z, w)`` quaternion, from its axis and angle (Rodrigues)."""
-    x, y, z, w = (float(v) for v in q)
-    s = np.linalg.norm([x, y, z])
-    if s < 1e-12:
-        return np.eye(3)
-    k = np.array([x, y, z]) / s
-    angle = 2.0 * np.arctan2(s, w)
-    kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-    return np.eye(3) + np.sin(angle) * kx + (1 - np.cos(angle)) * kx @ kx
 
 
 def rpy_matrix(r: float, p: float, y: float) -> np.ndarray:

@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, Phase, assume, given, settings
 from hypothesis import strategies as st
+from oracles import rotation
 
 from robokit.msgs.arm import GripperCommand
 from robokit.testing import make_sim
@@ -32,18 +33,6 @@ SCENE: dict[str, Any] = {
     "actuators": {"gripper": {"type": "gripper", "body": "panda"}},
 }
 ARM = [f"panda_joint{i}" for i in range(1, 8)]
-
-
-def rotation(q: Any) -> np.ndarray:
-    """Rotation matrix of an ``(x, y, z, w)`` quaternion, from its axis and angle (Rodrigues)."""
-    x, y, z, w = (float(v) for v in q)
-    s = np.linalg.norm([x, y, z])
-    if s < 1e-12:
-        return np.eye(3)
-    k = np.array([x, y, z]) / s
-    angle = 2.0 * np.arctan2(s, w)
-    kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-    return np.eye(3) + np.sin(angle) * kx + (1 - np.cos(angle)) * kx @ kx
 
 
 @pytest.fixture(scope="module")

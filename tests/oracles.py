@@ -1,0 +1,25 @@
+"""Plain second computations the property tests judge by, written out from the textbook rather than taken from
+robokit or an engine."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+
+def rodrigues(axis: Any, angle: float) -> np.ndarray:
+    """Rotation matrix by ``angle`` about ``axis``: the exponential of the skew matrix, written out."""
+    k = np.asarray(axis, float) / np.linalg.norm(axis)
+    skew = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    return np.eye(3) + math.sin(angle) * skew + (1.0 - math.cos(angle)) * skew @ skew
+
+
+def rotation(q: Any) -> np.ndarray:
+    """Rotation matrix of an ``(x, y, z, w)`` quaternion, from its axis and angle (:func:`rodrigues`)."""
+    x, y, z, w = (float(v) for v in q)
+    s = float(np.linalg.norm([x, y, z]))
+    if s < 1e-12:
+        return np.eye(3)
+    return rodrigues((x, y, z), 2.0 * math.atan2(s, w))
