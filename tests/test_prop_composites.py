@@ -90,6 +90,15 @@ def run_tree(composite: Any, plans: dict[str, Plan]) -> tuple[str | None, int | 
     return None, None, run
 
 
+def end_tick(run: ScriptedRun) -> int | None:
+    """Step ``run`` until it ends (at most ``HORIZON`` ticks): the tick it ended at, None if it did not."""
+    for k in range(HORIZON):
+        run.step({})
+        if run.outcome is not None:
+            return k
+    return None
+
+
 def records(run: ScriptedRun, key: str) -> dict[str, str]:
     return {r["name"]: r["outcome"] for r in run.result()[key]}
 
@@ -331,12 +340,7 @@ def test_composites_go_by_each_childs_goal_judged_when_it_ends(kind: str, childr
                  "parallel": lambda: Parallel("par", ParallelConfig())}[kind]()
     composite.add_children(members)
     run = ScriptedRun(composite)
-    tick = None
-    for k in range(HORIZON):
-        run.step({})
-        if run.outcome is not None:
-            tick = k
-            break
+    tick = end_tick(run)
     as_judged = [(judged(c, g), d) for c, d, g, _, _ in children]
     if kind == "parallel":
         want, want_tick, want_children = expect_parallel(as_judged, "all", "one")
@@ -502,12 +506,7 @@ def test_a_childs_rate_counts_from_its_own_first_tick(kind: str, children: list)
     composite.add_children([Member.of(Timed(n, plan), period=p) for (n, plan), (_, _, p) in zip(plans.items(), children,
                                                                                              strict=True)])
     run = ScriptedRun(composite)
-    tick = None
-    for k in range(HORIZON):
-        run.step({})
-        if run.outcome is not None:
-            tick = k
-            break
+    tick = end_tick(run)
     in_ticks = [(o, d * p) for o, d, p in children]
     want, want_tick, _ = expect_parallel(in_ticks, "all", "one") if kind == "parallel" else expect_ordered(kind,
                                                                                                           in_ticks)
