@@ -76,11 +76,12 @@ class MujocoWorld(MujocoBodies):
         self._scratch: tuple[Any, Any] | None = None
         """(model, an MjData of it) for kinematics computed off the world's state."""
         self._solved: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
+        """The contacts the last step solved: their geom pairs, points, normals and normal forces (None: not worked
+        out yet from :attr:`_kept`, or none)."""
         self._pyramidal = False
         """The compiled model's friction cones are pyramids (robokit's own scenes have elliptic ones)."""
         self._kept: tuple[Any, ...] | None = None
         """Copies of the last step's contact arrays and constraint forces, for :meth:`_solved_contacts`."""
-        """The contacts the last step solved: their geom pairs, points, normals and normal forces (None: none)."""
         self._geom_owner: np.ndarray | None = None
         """Per MuJoCo geom: (robokit body id, link) of its body, (-1, -1) for none (until the next compile)."""
 
