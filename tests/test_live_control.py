@@ -97,3 +97,27 @@ def test_a_live_view_bound_beyond_loopback_answers_only_with_its_token() -> None
         assert loopback.server.token is None
     finally:
         loopback.close(grace=0)
+
+
+@pytest.mark.parametrize("value, ticks", [("", 1), ("1", 1), ("3", 3), ("240", 240)])
+def test_a_step_lets_exactly_the_asked_ticks_through_then_holds(value: str, ticks: int) -> None:
+    from robokit.live.publisher import Control
+
+    control = Control(paused=True)
+    control.apply("step", value)
+    held = [False]
+    passed = 0
+    while passed <= ticks:  # each gate is one tick's start; the hold's callback marks the run held
+        control.gate(0.0, lambda: held[0], lambda: held.__setitem__(0, True))
+        if held[0]:
+            break
+        passed += 1
+    assert passed == ticks and control.state()["paused"]
+
+
+@pytest.mark.parametrize("value", ["0", "-2", "1.5", "two"])
+def test_a_step_of_no_whole_positive_number_of_ticks_is_refused(value: str) -> None:
+    from robokit.live.publisher import Control
+
+    with pytest.raises(ValueError, match="whole number of ticks"):
+        Control(paused=True).apply("step", value)
