@@ -219,12 +219,16 @@ def facts(case: str, run: Any, own: dict[str, Any], late: bool) -> dict[str, Any
 
 TOLERANCE = {"sim_time": 0.05, "total_time": 0.05, "final_pose": 0.01, "targets": 0.001, "ended_at": 0.06,
              "distance_travelled": 0.05, "visits": 0.1}
+# patrol_collect finds the cans with its lidar (10 scans a second) as they rest: in a world that has stood 1 s longer
+# a can may be confirmed one scan later, and each approach, stow and leg that follows starts that much later (0.25 s
+# by the last visit on the shipped scene). A clock that is not the world's would be off by the whole delay, 1 s.
+CASE_TOLERANCE = {"patrol_collect": {"visits": 0.4}}
 
 
 def _same(case: str, alone: dict[str, Any], other: dict[str, Any]) -> None:
     assert set(alone) == set(other)
     for key, value in alone.items():
-        tol = TOLERANCE.get(key)
+        tol = CASE_TOLERANCE.get(case.split(" as a ")[0], {}).get(key, TOLERANCE.get(key))
         if tol is None:
             assert other[key] == value, (case, key)
         elif isinstance(value, dict):
