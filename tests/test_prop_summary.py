@@ -61,6 +61,7 @@ def sweeps(draw: Any) -> tuple[list[dict[str, Any]], list[str]]:
                      "reason": draw(st.sampled_from(["", "dropped it", "a 'quoted' reason", "시간 초과"])),
                      "run_id": f"run-{i}", "sim_time": draw(st.floats(0, 100)), "wall_time": draw(st.floats(0, 5)),
                      "figures": figures, "worker": i % 2,
+                     **draw(st.sampled_from([{}, {"record": f"out/records/{cell}-{i}"}, {"record": None}])),
                      **draw(st.sampled_from([{}, {"engine": "pybullet", "engine_version": "3.2.6"},
                                              {"engine": "mujoco", "engine_version": "3.3.0"}, {"engine": "mujoco"}]))})
     return rows, cells
@@ -141,6 +142,9 @@ def test_junit_markdown_and_failed_trials_list_every_row(tmp_path_factory: pytes
             assert error.get("message") == r["reason"]
     failed = failed_trials(rows, "configs/my robot.toml")
     assert [f["key"] for f in failed] == [r["key"] for r in rows if r["outcome"] != "succeeded"]
+    for f, r in zip(failed, [r for r in rows if r["outcome"] != "succeeded"], strict=True):  # every field its row's
+        assert f == {"key": r["key"], "cell": r["cell"], "seed": r["seed"], "outcome": r["outcome"],
+                     "reason": r["reason"], "command": f["command"], "record": r.get("record")}
     for f in failed:
         r = next(r for r in rows if r["key"] == f["key"])
         argv = shlex.split(f["command"])
@@ -158,10 +162,52 @@ def test_junit_markdown_and_failed_trials_list_every_row(tmp_path_factory: pytes
         assert cols["trials"] == str(c["trials"]) and cols["errors"] == str(c["errors"])
         rate = "-" if c["success_rate"] is None else f"{100 * c['success_rate']:.1f} %"
         assert cols["success"] == rate
+        lo, hi = (100 * v for v in c["wilson95"])
+        assert cols["95 % CI"] == f"{lo:.1f}–{hi:.1f} %" and cols["engine"] == c["engine"]
+        for name in [*summary["metrics"], "sim_time"]:  # median / p95 of the cell's rows, at four digits
+            values = sorted(float(r["figures"].get(name, r.get(name))) for r in rows if r["cell"] == c["cell"]
+                            and plain_number(r["figures"].get(name, r.get(name))))
+            want = "-" if not values else (f"{float(np.median(values)):.4g} / "
+                                           f"{values[max(1, math.ceil(0.95 * len(values))) - 1]:.4g}")
+            assert cols[f"{name} (median / p95)"] == want
     totals = f"{len(rows)} trials, {summary['succeeded']} succeeded, {summary['errors']} errors"
     assert any(x.startswith(totals) for x in table)
-    listed = [x for x in table if x.startswith("- `")]
-    assert len(listed) == min(len(failed), 50) + (len(failed) > 50)
+    lo, hi = (100 * v for v in score_roots(summary["succeeded"], len(rows))) if rows else (0.0, 100.0)
+    assert f"{totals} (success 95 % CI {lo:.1f}–{hi:.1f} %)." in table
+    assert_failed_listed(table, rows)
+
+
+def assert_failed_listed(table: list[str], rows: list[dict[str, Any]]) -> None:
+    """The Markdown's footer: the first 50 trials that did not succeed, each with its outcome, reason, reproduce
+    command and kept record, then how many more there are."""
+    failed = [r for r in rows if r["outcome"] != "succeeded"]
+    start = [i for i, x in enumerate(table) if x.startswith("Trials that did not succeed")]
+    if not failed:
+        assert start == [] and not any(x.startswith(("- ", "  reproduce")) for x in table)
+        return
+    assert table[start[0]] == f"Trials that did not succeed ({len(failed)}):"
+    listed = table[start[0] + 2:]
+    for k, r in enumerate(failed[:50]):
+        head, command = listed[2 * k], listed[2 * k + 1]
+        assert head == f"- `{r['key']}`: {r['outcome']}: {r['reason'] or '(no reason given)'}"
+        cmd, _, record = command.removeprefix("  reproduce: `").partition("`")
+        argv = shlex.split(cmd)
+        assert argv[:5] == ["robokit", "run", "configs/my robot.toml", "--seed", str(r["seed"])]
+        assert record == (f"; record: {r['record']}" if r.get("record") else "")
+    more = listed[2 * min(len(failed), 50):]
+    assert more == ([f"- ... and {len(failed) - 50} more (every one is in summary.json)"] if len(failed) > 50 else [])
+
+
+@settings(PROPS, max_examples=8)
+@given(st.integers(45, 60), st.integers(0, 5))
+def test_the_markdown_lists_fifty_failed_trials_and_counts_the_rest(failed: int, passed: int) -> None:
+    rows = [{"key": f"base/{i}", "cell": "base", "seed": i, "overrides": {}, "reason": "" if i % 3 else "fell",
+             "outcome": "succeeded" if i < passed else ("failed", "aborted", "error")[i % 3], "figures": {},
+             "run_id": f"r{i}", "sim_time": 1.0, "wall_time": 0.1, **({"record": f"rec/{i}"} if i % 2 else {})}
+            for i in range(failed + passed)]
+    summary = summarise(rows, ["base"])
+    summary["failed_trials"] = failed_trials(rows, "configs/my robot.toml")
+    assert_failed_listed(to_markdown(summary).splitlines(), rows)
 
 
 toml_values = st.recursive(
