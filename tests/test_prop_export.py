@@ -1,10 +1,14 @@
 """Every row of an export compared with the record it came from: MCAP's transforms, scans and logs.
 
-A diffbot starts turned (143 degrees: no identity, no half turn) and drives an arc with its wheels spinning; the run is
-recorded and exported with ``robokit export --mcap``. Each ``/tf`` message is checked against the pose log sample of
-the same index -- its timestamp, and every link's world pose worked out here from the recorded base centre of mass,
-the URDF's inertial origin, joint origins and axes, and the recorded joint angles -- and each ``/states`` log line
-against the trace's transition records; each ``/lidar`` scan's pose is the lidar link's frame of that sample.
+A diffbot starts turned (143 degrees: no identity, no half turn) and drives an arc with its wheels spinning, a turned
+wall (37 degrees) within its lidar's reach; the run is recorded and exported with ``robokit export --mcap``. Each
+``/tf`` message is checked against the pose log sample of the same index -- its timestamp, and every link's world pose
+worked out here from the recorded base centre of mass, the URDF's inertial origin, joint origins and axes, and the
+recorded joint angles -- and each ``/states`` log line against the trace's transition records; each ``/lidar`` scan's
+pose is the lidar link's frame of that sample, and each of its ranges the distance along its ray to the wall, met in
+closed form. Each link's entity in ``/scene`` carries the URDF's visual (shape, size, colour, its origin in the link
+frame); the record itself: a pose sample every ``round(240 / 30)`` ticks from tick 0 to the last, ``t = tick x
+time_step``, and the trace's ``end`` record the result's.
 """
 
 from __future__ import annotations
@@ -37,6 +41,14 @@ position = [0, 0, 0]
 urdf = "{DIFFBOT}"
 position = [0.3, -0.2, 0.06]
 rpy_deg = [0, 0, 143]
+
+[bodies.wall]
+shape = "box"
+size = [0.3, 2.0, 0.6]
+mass = 0
+position = [1.2, -0.8, 0.3]
+rpy_deg = [0, 0, 37]
+rgba = [0.2, 0.7, 0.3, 1]
 
 [sensors.scan]
 type = "lidar"
@@ -171,3 +183,120 @@ def test_every_scan_sits_on_the_lidar_link_of_its_sample(exported: Any) -> None:
         assert abs(float(np.dot([o[k] for k in "xyzw"], [lidar["rotation"][k] for k in "xyzw"]))) == \
             pytest.approx(1.0, abs=1e-6)
         assert scan["timestamp"] == {"sec": stamp // 10**9, "nsec": stamp % 10**9}
+
+
+WALL = {"centre": np.array([1.2, -0.8, 0.3]), "half": np.array([0.15, 1.0, 0.3]), "yaw": math.radians(37.0)}
+
+
+def wall_distance(origin: np.ndarray, direction: np.ndarray) -> float | None:
+    """Where a ray first meets the wall (slabs in the wall's own frame), or None."""
+    r = rot([0, 0, 1], WALL["yaw"])
+    o, d = r.T @ (origin - WALL["centre"]), r.T @ direction
+    near, far = -math.inf, math.inf
+    for k in range(3):
+        if abs(d[k]) < 1e-12:
+            if abs(o[k]) > WALL["half"][k]:
+                return None
+            continue
+        a, b = sorted(((-WALL["half"][k] - o[k]) / d[k], (WALL["half"][k] - o[k]) / d[k]))
+        near, far = max(near, a), min(far, b)
+    return near if near <= far and near >= 0 else None
+
+
+def test_every_range_of_every_scan_is_the_distance_to_the_wall_along_its_ray(exported: Any) -> None:
+    """36 rays over 360 degrees from -180, in the scan's frame; 0 where the ray meets nothing within 3 m."""
+    _, messages = exported
+    hits = 0
+    for _, scan in messages["/lidar/scan"]:
+        p, o = scan["pose"]["position"], scan["pose"]["orientation"]
+        origin, frame_rot = np.array([p[k] for k in "xyz"]), matrix_of([o[k] for k in "xyzw"])
+        ranges = scan["ranges"]
+        assert len(ranges) == 36
+        assert scan["start_angle"] == pytest.approx(-math.pi) and scan["end_angle"] == pytest.approx(math.pi * 34 / 36)
+        for k, got in enumerate(ranges):
+            seen = []
+            for nudge in (-1e-3, 0.0, 1e-3):  # a ray that grazes an edge is left out
+                a = -math.pi + k * 2 * math.pi / 36 + nudge
+                d = wall_distance(origin, frame_rot @ np.array([math.cos(a), math.sin(a), 0.0]))
+                seen.append(0.0 if d is None or d > 3.0 or d < 0.05 else d)
+            if max(seen) - min(seen) > 0.01:
+                continue
+            assert got == pytest.approx(seen[1], abs=2e-3), (k, got, seen)
+            hits += got > 0
+    assert hits > len(messages["/lidar/scan"])  # the wall is in reach, several rays a scan
+
+
+def test_the_wall_stands_where_the_config_put_it_in_every_transform(exported: Any) -> None:
+    _, messages = exported
+    want = rot([0, 0, 1], WALL["yaw"])
+    for _, msg in messages["/tf"]:
+        [wall] = [x for x in msg["transforms"] if x["child_frame_id"].startswith("wall/")]
+        tr, rq = wall["translation"], wall["rotation"]
+        assert [tr[k] for k in "xyz"] == pytest.approx(list(WALL["centre"]), abs=1e-6)
+        assert np.allclose(matrix_of([rq[k] for k in "xyzw"]), want, atol=1e-6)
+
+
+def urdf_visuals() -> dict[str, dict[str, Any]]:
+    """Per link with a visual: its geometry, colour (by material name) and origin, read from the URDF."""
+    root = ET.parse(DIFFBOT).getroot()
+    colours = {m.get("name"): numbers(m.find("color").get("rgba")) for m in root.findall("material")}  # type: ignore[union-attr]
+    out = {}
+    for link in root.iter("link"):
+        visual = link.find("visual")
+        if visual is None:
+            continue
+        geometry = visual.find("geometry")[0]  # type: ignore[index]
+        origin = visual.find("origin")
+        out[link.get("name")] = {"kind": geometry.tag, **{k: numbers(v) for k, v in geometry.attrib.items()},
+                                 "rgba": colours[visual.find("material").get("name")],  # type: ignore[union-attr]
+                                 "xyz": numbers(origin.get("xyz") if origin is not None else None)}
+    return out  # type: ignore[return-value]
+
+
+def test_every_links_scene_entity_carries_its_urdf_visual(exported: Any) -> None:
+    _, messages = exported
+    [(stamp, scene)] = messages["/scene"]
+    entities = {e["id"]: e for e in scene["entities"]}
+    visuals = urdf_visuals()
+    assert stamp == 0 and {k for k in entities if k.startswith("robot/")} == {f"robot/{k}" for k in visuals}
+    for link, v in visuals.items():
+        e = entities[f"robot/{link}"]
+        assert e["frame_id"] == e["id"] and e["frame_locked"] is True
+        prims = {k: e[k] for k in ("cubes", "spheres", "cylinders", "models") if e[k]}
+        kind = {"box": "cubes", "sphere": "spheres", "cylinder": "cylinders"}[v["kind"]]
+        assert list(prims) == [kind] and len(prims[kind]) == 1
+        [shape] = prims[kind]
+        size = [shape["size"][k] for k in "xyz"]
+        want = v["size"] if kind == "cubes" else [2 * v["radius"][0]] * 3 if kind == "spheres" else \
+            [2 * v["radius"][0], 2 * v["radius"][0], v["length"][0]]
+        assert size == pytest.approx(want, abs=1e-6), link
+        assert [shape["color"][k] for k in "rgba"] == pytest.approx(v["rgba"], abs=1e-6), link
+        pos, orn = shape["pose"]["position"], shape["pose"]["orientation"]
+        assert [pos[k] for k in "xyz"] == pytest.approx(v["xyz"], abs=1e-6), link  # in the link's own frame
+        assert abs(orn["w"]) == pytest.approx(1.0, abs=1e-6), link
+    wall = entities["wall/" + next(k.split("/")[1] for k in entities if k.startswith("wall/"))]
+    [cube] = wall["cubes"]
+    assert [cube["size"][k] for k in "xyz"] == pytest.approx([0.3, 2.0, 0.6])
+    assert [cube["color"][k] for k in "rgba"] == pytest.approx([0.2, 0.7, 0.3, 1])
+
+
+def test_the_record_samples_every_eighth_tick_and_ends_with_the_results_end(exported: Any) -> None:
+    """docs/records.md: ``t = tick x time_step``, samples at pose_hz rounded to whole ticks from tick 0, a last
+    sample of the final state; every trace record's ``t`` its tick's; the ``end`` record the result's."""
+    record, _ = exported
+    poses = np.load(record / "poses.npz")
+    lines = (record / "trace.jsonl").read_text().splitlines()
+    header, events = json.loads(lines[0]), [json.loads(x) for x in lines[1:]]
+    result = json.loads((record / "result.json").read_text())
+    step = header["time_step"]
+    assert step == pytest.approx(1 / 240) and header["pose_hz"] == pytest.approx(30.0)
+    ticks = [int(k) for k in poses["tick"]]
+    assert ticks == [*range(0, result["ticks"], 8), result["ticks"]] or ticks == list(range(0, result["ticks"] + 1, 8))
+    assert list(poses["t"]) == [k * step for k in ticks]
+    assert [e["tick"] for e in events] == sorted(e["tick"] for e in events)
+    assert all(e["t"] == pytest.approx(e["tick"] * step, abs=1e-12) for e in events)
+    assert events[-1] == {"kind": "end", "tick": result["ticks"], "t": result["sim_time"],
+                          "outcome": result["outcome"], "reason": result["reason"]}
+    assert result["sim_time"] == pytest.approx(result["ticks"] * step)
+    assert header["bodies"]["robot"]["joints"] == ["left_wheel", "right_wheel", "caster_wheel"] or \
+        poses["joints/robot"].shape[1] == len(header["bodies"]["robot"]["joints"])
