@@ -300,3 +300,88 @@ def test_the_record_samples_every_eighth_tick_and_ends_with_the_results_end(expo
     assert result["sim_time"] == pytest.approx(result["ticks"] * step)
     assert header["bodies"]["robot"]["joints"] == ["left_wheel", "right_wheel", "caster_wheel"] or \
         poses["joints/robot"].shape[1] == len(header["bodies"]["robot"]["joints"])
+
+
+# ------------------------------------------------------------------------------------------ the same run as .rrd
+@pytest.fixture(scope="module")
+def rrd(exported: Any, tmp_path_factory: pytest.TempPathFactory) -> dict[str, list[dict[str, Any]]]:
+    """The ``.rrd`` export of the same record, read back with Rerun's own reader: entity -> rows of components
+    (``sim`` in nanoseconds; absent on a static row)."""
+    import pyarrow as pa
+    import rerun.chunk
+
+    record, _ = exported
+    out = tmp_path_factory.mktemp("rrd") / "run.rrd"
+    assert main(["export", str(record), "--rerun", str(out)]) == 0
+    rows: dict[str, list[dict[str, Any]]] = {}
+    for chunk in rerun.chunk.RrdReader(out).store().stream():
+        batch = chunk.to_record_batch()
+        names = [n for n in batch.schema.names if n != "rerun.controls.RowId"]
+        cols = {n: (batch.column(n).cast(pa.int64()) if n == "sim" else batch.column(n)).to_pylist() for n in names}
+        for i in range(batch.num_rows):
+            rows.setdefault(chunk.entity_path, []).append({n: cols[n][i] for n in names if cols[n][i] is not None})
+    return rows
+
+
+@pytest.mark.slow  # Rerun's encoder and reader: ~2 s
+def test_every_rerun_transform_is_the_mcap_transform_of_its_sample(exported: Any, rrd: Any) -> None:
+    """The two exports carry the same poses at the same sim times (the MCAP's are checked against the URDF above):
+    each ``world/<body>/<link>`` Transform3D at ``sim`` = the sample's time, nothing on a wall-clock timeline."""
+    _, messages = exported
+    for stamp, msg in messages["/tf"]:
+        for x in msg["transforms"]:
+            [row] = [r for r in rrd[f"/world/{x['child_frame_id']}"] if r.get("sim") == stamp
+                     and "Transform3D:translation" in r]
+            assert set(row) <= {"sim", *(k for k in row if k.startswith("Transform3D:"))}
+            assert row["Transform3D:translation"][0] == pytest.approx([x["translation"][k] for k in "xyz"], abs=1e-5)
+            q, want = row["Transform3D:quaternion"][0], [x["rotation"][k] for k in "xyzw"]
+            assert abs(float(np.dot(q, want))) == pytest.approx(1.0, abs=1e-6), (stamp, x["child_frame_id"])
+
+
+@pytest.mark.slow  # Rerun's encoder and reader: ~2 s
+def test_every_rerun_log_line_is_the_mcap_log_line(exported: Any, rrd: Any) -> None:
+    _, messages = exported
+    got = sorted((r["sim"], path.removeprefix("/states/"), r["TextLog:text"][0], r["TextLog:level"][0])
+                 for path, rows in rrd.items() if path.startswith("/states/") for r in rows if "TextLog:text" in r)
+    want = sorted((stamp, m["name"], m["message"], "INFO") for stamp, m in messages["/states"])
+    assert got == want and len(want) >= 2
+
+
+@pytest.mark.slow  # Rerun's encoder and reader: ~2 s
+def test_every_rerun_scan_point_is_a_return_of_the_mcap_scan(exported: Any, rrd: Any) -> None:
+    """Each scan's points: the returns alone, in ray order, at origin + range along the ray in the scan's frame."""
+    _, messages = exported
+    points = {r["sim"]: r["Points3D:positions"] for r in rrd["/world/lidar/scan"] if "Points3D:positions" in r}
+    assert len(points) == len(messages["/lidar/scan"])
+    for stamp, scan in messages["/lidar/scan"]:
+        p, o = scan["pose"]["position"], scan["pose"]["orientation"]
+        origin, r = np.array([p[k] for k in "xyz"]), matrix_of([o[k] for k in "xyzw"])
+        want = [origin + d * r @ np.array([math.cos(a), math.sin(a), 0.0]) for a, d in zip(
+            np.linspace(scan["start_angle"], scan["end_angle"], len(scan["ranges"])), scan["ranges"], strict=True)
+            if d > 0]
+        assert np.allclose(np.array(points[stamp]).reshape(-1, 3), np.array(want).reshape(-1, 3), atol=1e-4), stamp
+
+
+def unpacked(colour: int) -> list[float]:
+    """A colour as Rerun stores it (0xRRGGBBAA) in 0..1."""
+    return [(colour >> shift & 0xFF) / 255 for shift in (24, 16, 8, 0)]
+
+
+@pytest.mark.slow  # Rerun's encoder and reader: ~2 s
+def test_every_rerun_shape_is_its_links_urdf_visual(rrd: Any) -> None:
+    for link, v in urdf_visuals().items():
+        [row] = rrd[f"/world/robot/{link}/shape_0"]
+        kind = {"box": "Boxes3D", "sphere": "Ellipsoids3D", "cylinder": "Cylinders3D"}[v["kind"]]
+        assert {k.split(":")[0] for k in row} == {kind}, link
+        assert row[f"{kind}:centers"][0] == pytest.approx(v["xyz"], abs=1e-6), link
+        [colour] = row[f"{kind}:colors"]
+        assert unpacked(colour) == pytest.approx(v["rgba"], abs=1 / 255), link  # the colour's float32, in bytes
+        if kind == "Cylinders3D":
+            assert (row["Cylinders3D:lengths"], row["Cylinders3D:radii"]) == (pytest.approx(v["length"]),
+                                                                              pytest.approx(v["radius"])), link
+        else:
+            half = [s / 2 for s in v["size"]] if kind == "Boxes3D" else v["radius"] * 3
+            assert row[f"{kind}:half_sizes"][0] == pytest.approx(half, abs=1e-6), link
+    [wall] = [rows[0] for path, rows in rrd.items() if path.startswith("/world/wall/") and path.endswith("/shape_0")]
+    assert wall["Boxes3D:half_sizes"][0] == pytest.approx([0.15, 1.0, 0.3], abs=1e-6)
+    assert unpacked(wall["Boxes3D:colors"][0]) == pytest.approx([0.2, 0.7, 0.3, 1], abs=1 / 255)

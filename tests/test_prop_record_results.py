@@ -84,7 +84,7 @@ def cut(line: str, start: int, width: int | None) -> str:
     return "".join(out)
 
 
-@PROPS
+@settings(PROPS, max_examples=25)
 @given(runs, st.sampled_from([0, 1, 3, 20]))
 def test_every_row_of_the_list_is_its_runs_own_result(tmp_path_factory: pytest.TempPathFactory,
                                                       made: list[tuple[str, str, dict[str, Any], int]],
