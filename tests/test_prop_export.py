@@ -185,7 +185,8 @@ def test_every_scan_sits_on_the_lidar_link_of_its_sample(exported: Any) -> None:
         assert scan["timestamp"] == {"sec": stamp // 10**9, "nsec": stamp % 10**9}
 
 
-WALL = {"centre": np.array([1.2, -0.8, 0.3]), "half": np.array([0.15, 1.0, 0.3]), "yaw": math.radians(37.0)}
+WALL: dict[str, Any] = {"centre": np.array([1.2, -0.8, 0.3]), "half": np.array([0.15, 1.0, 0.3]),
+                        "yaw": math.radians(37.0)}
 
 
 def wall_distance(origin: np.ndarray, direction: np.ndarray) -> float | None:
