@@ -11,14 +11,15 @@ worked out tick by tick below from those rules alone, and compared call for call
 from __future__ import annotations
 
 from collections.abc import Mapping
+from pathlib import Path
 from typing import Any
 
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from robokit.core.scheduler import Slot, TickScheduler, period_ticks
-from robokit.errors import PluginError
+from robokit.core.scheduler import Readings, Slot, TickScheduler, period_ticks
+from robokit.errors import Interrupted, PluginError
 
 DT = 1.0 / 240.0
 TICKS = 13
@@ -175,3 +176,173 @@ def test_a_command_to_an_unknown_actuator_names_it_and_the_actuators_there_are()
     assert str(err.value) == ("behaviour (type 'b' from tests) sent a command to unknown actuator 'gripper'; "
                               "actuators: arm, base")
     assert err.value.type_name == "type 'b' from tests"
+
+
+# ------------------------------------------------------------------------------------------ faults
+def boom(exc: BaseException) -> None:
+    raise exc
+
+
+BOOM_AT = f"{boom.__code__.co_filename}:{boom.__code__.co_firstlineno + 1}"
+
+
+def where(path_line: str) -> str:
+    """``file:line`` as an error shows it: relative to the working directory when under it."""
+    path, line = path_line.rsplit(":", 1)
+    try:
+        return f"{Path(path).resolve().relative_to(Path.cwd())}:{line}"
+    except ValueError:
+        return path_line
+
+
+class Faulty:
+    """A sensor, actuator or behaviour whose ``read``/``update``/``command``/``step`` raises at a given tick."""
+
+    def __init__(self, kind: str, world: World, method: str, at: int, exc: BaseException) -> None:
+        self.kind, self.world, self.method, self.at, self.exc = kind, world, method, at, exc
+        self.outcome: Any = None
+        self.commands: dict[str, Any] = {}
+
+    def _maybe(self, method: str) -> None:
+        if method == self.method and self.world.tick == self.at:
+            boom(self.exc)
+
+    def read(self) -> int:
+        self._maybe("read")
+        return self.world.tick
+
+    def update(self) -> None:
+        self._maybe("update")
+
+    def command(self, cmd: Any) -> None:
+        self._maybe("command")
+
+    def step(self, readings: Mapping[str, Any], t: float) -> dict[str, Any]:
+        self._maybe("step")
+        for name in readings:
+            readings[name]
+        return self.commands
+
+
+faults = st.sampled_from([ValueError("bad value"), KeyError("gone"), ZeroDivisionError("division by zero"),
+                          SystemExit(3), KeyboardInterrupt(), RuntimeError("")])
+
+
+@PROPS
+@given(st.sampled_from(["read", "update", "command", "step"]), st.integers(0, 5), faults,
+       st.sampled_from(["cam", "arm_1"]), st.sampled_from(["type 'x' from pkg 1.0", "lidar (robokit)"]))
+def test_a_component_that_raises_is_named_with_its_origin_and_where_it_raised(method: str, at: int,
+                                                                            exc: BaseException, name: str,
+                                                                            origin: str) -> None:
+    """The loop turns anything a plugin raises (SystemExit and KeyboardInterrupt too) into a PluginError naming the
+    component, its origin, the call, the exception and the file and line that raised, at the tick it raised."""
+    log: list[tuple[Any, ...]] = []
+    world = World(log)
+    sensors: dict[str, Slot] = {}
+    actuators: dict[str, Slot] = {}
+    behaviour: Any = Behaviour([], [], None, world)
+    if method == "read":
+        sensors[name] = Slot(name, Faulty("sensor", world, "read", at, exc), 1, origin, lambda: world.tick)
+        behaviour = Behaviour([name], [], None, world)
+    elif method in ("update", "command"):
+        actuators[name] = Slot(name, Faulty("actuator", world, method, at, exc), 1, origin, lambda: world.tick)
+        behaviour = Behaviour([], [name], None, world)
+    else:
+        behaviour = Faulty("behaviour", world, "step", at, exc)
+    scheduler = TickScheduler(world, sensors, actuators, behaviour, 1, origin)
+    with pytest.raises(PluginError) as err:
+        for _ in range(8):
+            scheduler.tick()
+    assert world.tick == at  # raised in that tick, before its physics step
+    text = str(exc)
+    fault = f"{type(exc).__name__}: {text}" if text and not isinstance(exc, KeyError) else (
+        f"{type(exc).__name__}: {exc.args[0]!r}" if isinstance(exc, KeyError) else type(exc).__name__)
+    fault += f" (at {where(BOOM_AT)})"
+    if method == "step":
+        assert str(err.value) == f"behaviour ({origin}) raised during step: {fault}"
+    else:
+        kind = "sensor" if method == "read" else "actuator"
+        assert str(err.value) == f"{kind} {name!r} ({origin}) raised during {method}: {fault}"
+    assert err.value.type_name == origin
+    assert err.value.__cause__ is exc
+
+
+@PROPS
+@given(st.sampled_from(["read", "update", "command", "step"]),
+       st.sampled_from([PluginError("already said", type_name="inner"), Interrupted("stop")]))
+def test_plugin_errors_and_interrupts_pass_through_as_they_are(method: str, exc: BaseException) -> None:
+    log: list[tuple[Any, ...]] = []
+    world = World(log)
+    comp = Faulty("sensor" if method == "read" else "actuator", world, method, 0, exc)
+    slots = {"c": Slot("c", comp, 1, "o", lambda: world.tick)}
+    if method == "step":
+        scheduler = TickScheduler(world, {}, {}, Faulty("behaviour", world, "step", 0, exc), 1, "o")
+    elif method == "read":
+        scheduler = TickScheduler(world, slots, {}, Behaviour(["c"], [], None, world), 1, "o")
+    else:
+        scheduler = TickScheduler(world, {}, slots, Behaviour([], ["c"], None, world), 1, "o")
+    with pytest.raises(type(exc)) as err:
+        scheduler.tick()
+    assert err.value is exc
+
+
+def test_a_command_with_no_actuators_at_all_says_none() -> None:
+    world = World([])
+    scheduler = TickScheduler(world, {}, {}, Behaviour([], ["x"], None, world), 1, "b")
+    with pytest.raises(PluginError, match=r"unknown actuator 'x'; actuators: \(none\)$"):
+        scheduler.tick()
+
+
+# ------------------------------------------------------------------------------------------ a slot alone
+@PROPS
+@given(st.integers(0, 6), st.integers(1, 4))
+def test_a_new_slot_is_lazy_stale_never_stamped_and_checked_after_each_reading(start: int, reads: int) -> None:
+    """Before anything reads it a slot has no stamp (-1) and nothing computed; the first read computes it (at the
+    clock's tick) and calls ``check`` with the slot; further reads in the same tick compute nothing. A slot built
+    without ``lazy`` is lazy: the loop computes it only when read."""
+    log: list[tuple[Any, ...]] = []
+    world = World(log)
+    world.tick = start
+    checked: list[tuple[str, Any, int]] = []
+    slot = Slot("s", Sensor("s", world), 1, "o", lambda: world.tick,
+                check=lambda s: checked.append((s.name, s.value, s.stamp)))
+    assert (slot.stamp, slot.computed, slot.lazy) == (-1, 0, True)
+    assert Readings({"s": slot}).stamp("s") == -1
+    for _ in range(reads):
+        assert slot.get() == ("s", start)
+    assert (slot.stamp, slot.computed) == (start, 1)
+    assert checked == [("s", ("s", start), start)]
+    scheduler = TickScheduler(world, {"s": slot}, {}, None, 1, "o")
+    scheduler.tick()
+    scheduler.tick()
+    assert slot.computed == 1  # marked stale twice, never read: nothing computed
+    assert slot.get() == ("s", start + 2) and checked[-1] == ("s", ("s", start + 2), start + 2)
+
+
+# ------------------------------------------------------------------------------------------ GUI pacing
+STEP = 1.0 / 256.0  # a physics step and wall-clock times in powers of two: every sum here is exact
+
+
+@PROPS
+@given(st.integers(0, 50), st.lists(st.sampled_from([0.0, STEP / 2, STEP, 2 * STEP, 16 * STEP]), min_size=1,
+                                    max_size=12))
+def test_pacing_sleeps_exactly_as_far_as_sim_time_is_ahead_of_the_wall_clock(start_tick: int,
+                                                                            wall_steps: list[float]) -> None:
+    """``pace`` takes the wall-clock time matching the sim time at its first call, then sleeps by how far sim time
+    has run ahead of the wall clock since, and not at all when it is not ahead."""
+    world = World([])
+    world.tick, world.time_step = start_tick, STEP
+    wall = [64.0]
+    sleeps: list[float] = []
+    scheduler = TickScheduler(world, {}, {}, None, 1, "o", wall_clock=lambda: wall[0], sleep=sleeps.append)
+    scheduler.pace()  # the first call starts pacing and never sleeps
+    assert sleeps == []
+    want = []
+    for step in wall_steps:
+        world.step()
+        wall[0] += step
+        scheduler.pace()
+        ahead = (world.tick - start_tick) * STEP - (wall[0] - 64.0)
+        if ahead > 0:
+            want.append(ahead)
+    assert sleeps == want
