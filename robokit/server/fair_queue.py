@@ -26,7 +26,7 @@ from django.db import transaction
 from django.db.models import Count, Max, Q
 from django.utils import timezone
 
-from robokit.server.assignments import Assignment, Submission
+from robokit.server.assignments import Assignment, ModerationEvent, Submission
 
 FINISHED = (Submission.DONE, Submission.ERROR)
 DAY = dt.timedelta(hours=24)
@@ -52,7 +52,9 @@ def admit(assignment: Assignment, student_id: int, now: dt.datetime | None = Non
     now = now or timezone.now()
     list(Student.objects.select_for_update().filter(pk=student_id).values_list("pk", flat=True))
     mine = Submission.objects.filter(assignment=assignment, student_id=student_id)
-    waiting = list(mine.exclude(status__in=FINISHED).order_by("submitted_at").values_list("pk", flat=True))
+    # a graded submission the teacher had evaluated again waits once more, but on the teacher's account
+    waiting = list(mine.exclude(status__in=FINISHED).exclude(moderation__action=ModerationEvent.REEVALUATE)
+                   .order_by("submitted_at").values_list("pk", flat=True))
     if assignment.max_waiting and len(waiting) >= assignment.max_waiting:
         ids = ", ".join(str(pk) for pk in waiting)
         raise LimitReached("max_waiting", f"you already have {len(waiting)} submission(s) of {assignment.name!r} "
@@ -61,11 +63,15 @@ def admit(assignment: Assignment, student_id: int, now: dt.datetime | None = Non
                            f"(follow it with 'robokit submit --wait')", 60)
     if assignment.max_per_day:
         recent = list(mine.filter(submitted_at__gt=now - DAY).order_by("submitted_at")
-                      .values_list("submitted_at", flat=True)[:assignment.max_per_day])
-        if len(recent) >= assignment.max_per_day:
-            again = recent[0] + DAY
+                      .values_list("submitted_at", flat=True))
+        over = len(recent) - assignment.max_per_day
+        if over >= 0:
+            # the window has room once the oldest `over + 1` of them are older than a day (a teacher may have
+            # lowered the limit below what the student had made)
+            again = recent[over] + DAY
+            limit = "the limit" if not over else f"the limit is {assignment.max_per_day}"
             raise LimitReached("max_per_day", f"you have made {len(recent)} submissions of {assignment.name!r} in "
-                               f"the last 24 hours (the limit); you may submit again at "
+                               f"the last 24 hours ({limit}); you may submit again at "
                                f"{again.isoformat(timespec='seconds')}", max(1, int((again - now).total_seconds())))
 
 
