@@ -50,6 +50,17 @@ position = [1.2, -0.8, 0.3]
 rpy_deg = [0, 0, 37]
 rgba = [0.2, 0.7, 0.3, 1]
 
+[bodies.post]
+shape = "box"
+size = [0.1, 0.1, 0.6]
+mass = 0
+position = [0.3, -0.9, 0.3]
+
+[[events]]
+at = 0.4
+type = "remove"
+body = "post"
+
 [sensors.scan]
 type = "lidar"
 rate_hz = 10
@@ -189,26 +200,54 @@ WALL: dict[str, Any] = {"centre": np.array([1.2, -0.8, 0.3]), "half": np.array([
                         "yaw": math.radians(37.0)}
 
 
-def wall_distance(origin: np.ndarray, direction: np.ndarray) -> float | None:
-    """Where a ray first meets the wall (slabs in the wall's own frame), or None."""
-    r = rot([0, 0, 1], WALL["yaw"])
-    o, d = r.T @ (origin - WALL["centre"]), r.T @ direction
+POST: dict[str, Any] = {"centre": np.array([0.3, -0.9, 0.3]), "half": np.array([0.05, 0.05, 0.3]), "yaw": 0.0}
+
+
+def box_distance(box: dict[str, Any], origin: np.ndarray, direction: np.ndarray) -> float | None:
+    """Where a ray first meets a box (slabs in the box's own frame), or None."""
+    r = rot([0, 0, 1], box["yaw"]) if box["yaw"] else np.eye(3)
+    o, d = r.T @ (origin - box["centre"]), r.T @ direction
     near, far = -math.inf, math.inf
     for k in range(3):
         if abs(d[k]) < 1e-12:
-            if abs(o[k]) > WALL["half"][k]:
+            if abs(o[k]) > box["half"][k]:
                 return None
             continue
-        a, b = sorted(((-WALL["half"][k] - o[k]) / d[k], (WALL["half"][k] - o[k]) / d[k]))
+        a, b = sorted(((-box["half"][k] - o[k]) / d[k], (box["half"][k] - o[k]) / d[k]))
         near, far = max(near, a), min(far, b)
     return near if near <= far and near >= 0 else None
 
 
+def post_present(record: Path) -> dict[int, bool]:
+    """Per sample time (ns), whether the post was still in the world (its pose log row is not NaN)."""
+    poses = np.load(record / "poses.npz")
+    return {round(float(t) * 1e9): not np.isnan(row[0]) for t, row in zip(poses["t"], poses["base/post"], strict=True)}
+
+
+def test_the_post_is_removed_at_its_event_and_drawn_until_then(exported: Any) -> None:
+    """The pose log's rows of a removed body are NaN from the first sample after its removal; /tf names it
+    exactly while it stands."""
+    record, messages = exported
+    present = post_present(record)
+    stamps = sorted(present)
+    gone = [s for s in stamps if not present[s]]
+    assert gone and gone == stamps[len(stamps) - len(gone):]  # NaN from one sample on, to the end
+    assert 0.4e9 <= gone[0] <= 0.4e9 + 1e9 / 30 + 1  # the first sample at or after the removal at 0.4 s
+    for stamp, msg in messages["/tf"]:
+        posts = [x for x in msg["transforms"] if x["child_frame_id"].startswith("post/")]
+        assert len(posts) == present[stamp], stamp
+        for x in posts:
+            assert [x["translation"][k] for k in "xyz"] == pytest.approx(list(POST["centre"]), abs=1e-6)
+
+
 def test_every_range_of_every_scan_is_the_distance_to_the_wall_along_its_ray(exported: Any) -> None:
-    """36 rays over 360 degrees from -180, in the scan's frame; 0 where the ray meets nothing within 3 m."""
-    _, messages = exported
-    hits = 0
-    for _, scan in messages["/lidar/scan"]:
+    """36 rays over 360 degrees from -180, in the scan's frame; 0 where the ray meets nothing within 3 m; the post
+    stops rays until it is removed."""
+    record, messages = exported
+    present = post_present(record)
+    hits = post_hits = 0
+    for stamp, scan in messages["/lidar/scan"]:
+        boxes = [WALL, POST] if present[stamp] else [WALL]  # a removed post stops no ray
         p, o = scan["pose"]["position"], scan["pose"]["orientation"]
         origin, frame_rot = np.array([p[k] for k in "xyz"]), matrix_of([o[k] for k in "xyzw"])
         ranges = scan["ranges"]
@@ -218,13 +257,16 @@ def test_every_range_of_every_scan_is_the_distance_to_the_wall_along_its_ray(exp
             seen = []
             for nudge in (-1e-3, 0.0, 1e-3):  # a ray that grazes an edge is left out
                 a = -math.pi + k * 2 * math.pi / 36 + nudge
-                d = wall_distance(origin, frame_rot @ np.array([math.cos(a), math.sin(a), 0.0]))
+                met = [box_distance(b, origin, frame_rot @ np.array([math.cos(a), math.sin(a), 0.0])) for b in boxes]
+                d = min((x for x in met if x is not None), default=None)
+                post_hits += len(boxes) == 2 and met[1] is not None and d == met[1] and d < 3.0 and nudge == 0.0
                 seen.append(0.0 if d is None or d > 3.0 or d < 0.05 else d)
             if max(seen) - min(seen) > 0.01:
                 continue
             assert got == pytest.approx(seen[1], abs=2e-3), (k, got, seen)
             hits += got > 0
     assert hits > len(messages["/lidar/scan"])  # the wall is in reach, several rays a scan
+    assert post_hits >= sum(present.values()) // 2  # and the post, while it stands (between two rays at times)
 
 
 def test_the_wall_stands_where_the_config_put_it_in_every_transform(exported: Any) -> None:
