@@ -428,3 +428,40 @@ def test_every_rerun_shape_is_its_links_urdf_visual(rrd: Any) -> None:
     [wall] = [rows[0] for path, rows in rrd.items() if path.startswith("/world/wall/") and path.endswith("/shape_0")]
     assert wall["Boxes3D:half_sizes"][0] == pytest.approx([0.15, 1.0, 0.3], abs=1e-6)
     assert unpacked(wall["Boxes3D:colors"][0]) == pytest.approx([0.2, 0.7, 0.3, 1], abs=1 / 255)
+
+
+def test_the_pages_replay_is_every_sample_of_the_checked_transforms(exported: Any) -> None:
+    """``robokit view``'s replay data: sample times, and per sample every link's pose as the (checked) MCAP
+    transforms give it, NaN for the removed post; each machine's stays; a thinned replay (every n-th sample and the
+    last) is the same rows."""
+    import base64
+
+    from robokit.record.format import RunRecord
+    from robokit.record.replay import payload, replay_of
+
+    record, messages = exported
+    rec = RunRecord(record)
+    full = replay_of(rec)
+    data = payload(rec, full)
+    t = np.frombuffer(base64.b64decode(data["t"]), np.float32)
+    poses = np.frombuffer(base64.b64decode(data["poses"]), np.float32).reshape(len(t), len(data["links"]), 7)
+    assert np.array_equal(t, np.load(record / "poses.npz")["t"].astype(np.float32))
+    tf = messages["/tf"]
+    assert len(tf) == len(t)
+    for (stamp, msg), row in zip(tf, poses, strict=True):
+        got = {x["child_frame_id"]: x for x in msg["transforms"]}
+        for path, pose in zip(data["links"], row, strict=True):
+            if path not in got:
+                assert path.startswith("post/") and np.isnan(pose).all(), (stamp, path)
+                continue
+            x = got[path]
+            assert pose[:3] == pytest.approx([x["translation"][k] for k in "xyz"], abs=1e-5)
+            assert abs(float(np.dot(pose[3:], [x["rotation"][k] for k in "xyzw"]))) == pytest.approx(1.0, abs=1e-5)
+    result = json.loads((record / "result.json").read_text())
+    assert data["duration"] == pytest.approx(max(result["sim_time"], float(t[-1])))
+    assert data["machines"] == [{"name": name, "spans": [[s.state, s.start, s.end] for s in stays]}
+                                for name, stays in rec.spans().items()]
+    thin = replay_of(rec, every=5)
+    picked = sorted({*range(0, len(t), 5), len(t) - 1})
+    assert np.array_equal(thin.t, full.t[picked])
+    assert np.array_equal(thin.poses, full.poses[picked], equal_nan=True)
