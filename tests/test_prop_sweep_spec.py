@@ -13,6 +13,7 @@ from __future__ import annotations
 import io
 import itertools
 import json
+import math
 import uuid
 from pathlib import Path
 from typing import Any
@@ -187,3 +188,54 @@ def test_progress_lines_count_what_is_done(total: int, data: st.DataObject) -> N
     for line, head in zip(got, want, strict=True):
         assert line == head or line.startswith(head + ", ")
     assert (bar.done, bar.failed) == (total, bad)
+
+
+# ------------------------------------------------------------------------------------------ one trial, in-process
+@pytest.mark.slow  # a world built and run per example: ~0.2 s each
+@settings(max_examples=10, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(st.integers(0, 4), st.sampled_from([0.05, 0.3, 2.0]), st.lists(st.integers(0, 4), max_size=2),
+       st.sampled_from([0.5, 1.0]), st.sampled_from(["none", "failed", "all"]), st.booleans())
+def test_a_trials_row_is_its_own_run(tmp_path_factory: pytest.TempPathFactory, monkeypatch: pytest.MonkeyPatch,
+                                     seed: int, duration: float, raise_seeds: list[int], max_time: float, keep: str,
+                                     misspelt: bool) -> None:
+    """Every field of a trial's row: the task's key, cell, overrides, seed and run id; the outcome the test
+    behaviour must reach (it raises on its raise seeds at 0.05 s, succeeds at ``duration``, else runs out of time);
+    its figure from its own seed; the sim time in whole ticks; the record kept as ``keep`` says, holding the same."""
+    from robokit.sweep.trial import TrialTask, run_trial
+
+    plugins = Path(__file__).resolve().parent / "sweep_plugins"
+    monkeypatch.syspath_prepend(str(plugins))
+    overrides = {"behaviour.duration": duration, "behaviour.raise_seeds": raise_seeds, "world.max_time": max_time}
+    if misspelt:
+        overrides["behaviour.duratoin"] = 1.0
+    records = tmp_path_factory.mktemp("records")
+    run_id = trial_run_id("6f1c2d3e-0000-4000-8000-000000000000", f"c/seed={seed}")
+    task = TrialTask(key=f"c/seed={seed}", cell="c", overrides=overrides, seed=seed, run_id=run_id,
+                     config_text=(plugins / "fault.toml").read_text(), source="fault.toml", base_dir=str(plugins),
+                     plugins=("sweep_faults",), keep=keep, record_dir=str(records))
+    row = run_trial(task)
+    assert (row["key"], row["cell"], row["overrides"], row["seed"], row["run_id"]) == (
+        f"c/seed={seed}", "c", overrides, seed, run_id)
+    if misspelt:  # refused before anything runs: one line naming the key
+        assert row["outcome"] == "error" and row["reason"].startswith("config: ") and "duratoin" in row["reason"]
+        assert row["figures"] == {} and row["sim_time"] is None and not list(records.iterdir())
+        return
+    if seed in raise_seeds:
+        outcome, end = "error", 0.05
+    elif duration <= max_time:
+        outcome, end = "succeeded", duration
+    else:
+        outcome, end = "aborted", max_time
+    assert row["outcome"] == outcome, row["reason"]
+    assert row["figures"]["seed_squared"] == seed * seed
+    assert row["ticks"] == math.ceil(end * 240 - 1e-9) + (outcome != "aborted") or row["ticks"] == round(end * 240)
+    assert row["sim_time"] == pytest.approx(row["ticks"] / 240, abs=1e-6)  # kept to the microsecond
+    assert row["result"]["outcome"] == outcome and row["result"]["seed"] == seed
+    kept = keep == "all" or keep == "failed" and outcome != "succeeded"
+    assert ("record" in row) == kept and (records / run_id).is_dir() == kept
+    if kept:
+        saved = json.loads((records / run_id / "result.json").read_text())
+        assert (saved["outcome"], saved["seed"], saved["ticks"]) == (outcome, seed, row["ticks"])
+        lines = (records / run_id / "trace.jsonl").read_text().splitlines()
+        assert json.loads(lines[-1])["kind"] == "end" and json.loads(lines[-1])["outcome"] == outcome
