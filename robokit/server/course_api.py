@@ -97,6 +97,9 @@ def submit(request: HttpRequest, name: str) -> JsonResponse:
             raise PayloadError("config", f"the config is {size} bytes; the limit is {settings.MAX_CONFIG_BYTES}")
     except PayloadError as exc:
         return error(413 if "limit" in exc.message else 400, exc.field, exc.message)
+    repeat = _repeated(key, token, assignment, text)  # a resend is the submission it made, also after the due time
+    if repeat is not None:
+        return repeat
     plugin_files = body.get("plugin_files")
     if plugin_files and not assignment.allow_plugins:
         return error(403, "plugin", f"{assignment.name!r} does not accept plugin packages: submit the config alone "
