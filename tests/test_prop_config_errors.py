@@ -23,9 +23,13 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from robokit.cli import main
+from robokit.config import load_config
+from robokit.errors import ConfigError
+from robokit.plugin_api.plugins import load_plugins
 
 PROPS = settings(max_examples=60, deadline=None, derandomize=True, database=None,
                  suppress_health_check=[HealthCheck.function_scoped_fixture])
+CLI = settings(PROPS, max_examples=40)  # through `robokit validate` itself
 
 BASE: dict[str, dict[str, Any]] = {
     "world": {"max_time": 1.0, "time_step": 1.0 / 240.0, "solver_iterations": 50, "seed": 0,
@@ -70,6 +74,7 @@ NUMBERS: list[tuple[str, str, int | None, str, dict[str, float]]] = [
     ("actuators.arm", "ik_iterations", None, "int", {"ge": 1, "le": 1000}),
     ("actuators.arm", "position_gain", None, "float", {"gt": 0, "le": 1}),
 ]
+PLUGINS = load_plugins()
 WORDS = {"ge": "greater than or equal to", "gt": "greater than", "le": "less than or equal to"}
 
 
@@ -102,13 +107,23 @@ def bound_text(b: float) -> tuple[str, ...]:
     return (str(int(b)), repr(float(b))) if float(b).is_integer() else (repr(float(b)),)
 
 
-def test_the_base_config_is_valid(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def load(path: Path) -> tuple[int, str]:
+    """``(0, "")`` if the file loads as a config (without building its world: cheap), else ``(2, the error line)``
+    as the command line prints it."""
+    try:
+        load_config(path, PLUGINS)
+    except ConfigError as exc:
+        return 2, f"robokit: error: {exc}"
+    return 0, ""
+
+
+def test_the_base_config_is_valid(tmp_path: Path) -> None:
     path = tmp_path / "base.toml"
     write(path, BASE)
-    assert validate(path, capsys)[0] == 0
+    assert load(path) == (0, "")
 
 
-@PROPS
+@CLI
 @given(st.sampled_from(NUMBERS), st.sampled_from(["bool", "string", "nan", "inf", "-inf", "below", "above"]),
        st.floats(0.001, 3.0))
 def test_a_wrong_number_names_the_file_the_key_path_the_rule_and_the_value(
@@ -168,7 +183,7 @@ def typos(word: str) -> st.SearchStrategy[str]:
     )
 
 
-@PROPS
+@CLI
 @given(st.data(), st.sampled_from([(t, k) for t, table in BASE.items() for k in table if k != "type"]))
 def test_a_misspelt_key_is_named_with_the_key_it_is_closest_to_and_the_valid_keys(
         tmp_path: Path, capsys: pytest.CaptureFixture[str], data: Any, entry: tuple[str, str]) -> None:
@@ -194,3 +209,85 @@ def test_a_misspelt_key_is_named_with_the_key_it_is_closest_to_and_the_valid_key
     ratio = difflib.SequenceMatcher(None, typo, key).ratio()
     assert difflib.SequenceMatcher(None, typo, suggested).ratio() >= ratio - 1e-12  # no worse than the key meant
     assert valid == sorted(valid)
+
+
+# ------------------------------------------------------------------------------------------ [randomize]
+# docs/randomize.md: "a reversed range, a restitution outside 0-1, an unknown sensor in dropout, an unknown setting in
+# params (with the plugin's valid ones) ... are each one line naming the key"; factors and damping are not negative
+RANGES = {"mass_scale": (0.0, None), "friction_scale": (0.0, None), "restitution": (0.0, 1.0),
+          "joint_damping": (0.0, None), "light_azimuth_deg": (None, None), "light_elevation_deg": (None, None)}
+ends = st.sampled_from([-0.5, 0.0, 0.3, 1.0, 1.5, 2.0])
+
+
+@PROPS
+@given(st.sampled_from(sorted(RANGES)), ends, ends)
+def test_a_randomize_range_is_refused_exactly_when_reversed_or_out_of_its_bounds(
+        tmp_path: Path, key: str, low: float, high: float) -> None:
+    tables = {name: dict(t) for name, t in BASE.items()}
+    tables["randomize"] = {key: [low, high]}
+    path = tmp_path / "randomize.toml"
+    write(path, tables)
+    code, line = load(path)
+    lo_bound, hi_bound = RANGES[key]
+    if low > high:
+        assert code == 2
+        assert line == (f"robokit: error: {path}: randomize: {key} [{low!r}, {high!r}]: the first value must be "
+                        "<= the second")
+    elif lo_bound is not None and low < lo_bound:
+        assert code == 2
+        assert line == f"robokit: error: {path}: randomize: {key} [{low!r}, {high!r}]: values must be >= {lo_bound:g}"
+    elif hi_bound is not None and high > hi_bound:
+        assert code == 2
+        assert line == f"robokit: error: {path}: randomize: {key} [{low!r}, {high!r}]: values must be <= {hi_bound:g}"
+    else:
+        assert code == 0, line
+
+
+@PROPS
+@given(ends, ends, st.sampled_from(["scan", "ft", "scna", "hand", "cam"]))
+def test_a_dropout_is_a_probability_range_of_a_sensor_there_is(
+        tmp_path: Path, low: float, high: float, sensor: str) -> None:
+    tables = {name: dict(t) for name, t in BASE.items()}
+    tables["randomize.dropout"] = {sensor: [low, high]}
+    path = tmp_path / "dropout.toml"
+    write(path, tables)
+    code, line = load(path)
+    head = f"robokit: error: {path}: randomize.dropout.{sensor}"
+    bad = [i for i, v in enumerate((low, high)) if not 0.0 <= v <= 1.0]
+    if bad:
+        word = "greater than or equal to 0" if (low, high)[bad[0]] < 0 else "less than or equal to 1"
+        assert line == f"{head}.{bad[0]}: input should be {word}, got {(low, high)[bad[0]]!r}"
+    elif low > high:
+        assert line == (f"robokit: error: {path}: randomize: dropout.{sensor} [{low!r}, {high!r}]: the first value "
+                        "must be <= the second")
+    elif sensor not in ("scan", "ft"):  # an actuator is not a sensor either
+        hint = " (did you mean 'scan'?)" if sensor == "scna" else ""
+        assert line == f"{head}: unknown sensor {sensor!r}{hint}; sensors: scan, ft"
+    else:
+        assert code == 0, line
+        return
+    assert code == 2
+
+
+@PROPS
+@given(st.data(), st.sampled_from([("sensors", "scan", "range_max"), ("sensors", "ft", "noise_std"),
+                                   ("actuators", "hand", "force"), ("actuators", "arm", "speed")]))
+def test_a_misspelt_randomized_setting_names_its_plugin_and_the_settings_it_has(
+        tmp_path: Path, data: Any, entry: tuple[str, str, str]) -> None:
+    section, name, key = entry
+    table = BASE[f"{section}.{name}"]
+    typo = data.draw(typos(key).filter(lambda t: t != key))
+    tables = {n: dict(t) for n, t in BASE.items()}
+    tables["randomize.params"] = {}
+    path = tmp_path / "params.toml"
+    text = "".join(f"[{n}]\n" + "".join(f"{k} = {toml_value(v)}\n" for k, v in t.items()) + "\n"
+                   for n, t in tables.items() if n != "randomize.params")
+    path.write_text(text + f'[randomize.params]\n"{section}.{name}.{typo}" = {{ scale = [0.9, 1.1] }}\n',
+                    encoding="utf-8")
+    code, line = load(path)
+    assert code == 2
+    head = f"robokit: error: {path}: randomize.params.{section}.{name}.{typo}: unknown setting {typo!r} (did you mean "
+    assert line.startswith(head), line
+    assert f"?) of {table['type']} {name!r}; valid: " in line
+    valid = line.split("; valid: ", 1)[1].split(", ")
+    assert key in valid and set(k for k in table if k != "type") <= set(valid)
