@@ -70,8 +70,10 @@ class MujocoBodies(MujocoExtras, World):
                          seed=seed, base_dir=base_dir, engine=engine)
         self.scene = Scene.new(self.time_step, gravity, solver_iterations)
         self.client: Any = MujocoHandle(self)
-        self.model: Any = None
-        self.data: Any = None
+        self._model: Any = None
+        self._data: Any = None
+        self._unsettled = False
+        """The last step's positions stage (``mj_step1``) is still to run: see :meth:`_settle`."""
         self._dirty = True
         self._added = 0
         self._root: dict[int, str] = {}  # robokit id -> MuJoCo root body name
@@ -83,6 +85,26 @@ class MujocoBodies(MujocoExtras, World):
         self._owner: dict[int, tuple[int, int]] = {}  # MuJoCo body id -> (robokit id, link)
 
     # ----------------------------------------------------------------- stepping and compiling
+    @property
+    def model(self) -> Any:
+        """MuJoCo's model, with the state brought up to date first (:meth:`_settle`)."""
+        if self._unsettled:
+            self._settle()
+        return self._model
+
+    @property
+    def data(self) -> Any:
+        """MuJoCo's data, with the state brought up to date first (:meth:`_settle`)."""
+        if self._unsettled:
+            self._settle()
+        return self._data
+
+    def _settle(self) -> None:
+        """Run the last step's positions stage (``mj_step1``), left until something looks at the model or data: a
+        step that follows a step with nothing read in between runs it itself, on the same state."""
+        self._unsettled = False
+        mujoco.mj_step1(self._model, self._data)
+
     def compiled(self) -> tuple[Any, Any]:
         """The MuJoCo model and data, compiled first if bodies were added or removed since the last look."""
         if self._dirty:
@@ -96,10 +118,10 @@ class MujocoBodies(MujocoExtras, World):
         self.scene.add_restitution_pairs(self._static)
         try:
             if self.model is None:
-                self.model = spec.compile()
-                self.data = mujoco.MjData(self.model)
+                self._model = spec.compile()
+                self._data = mujoco.MjData(self._model)
             else:
-                self.model, self.data = spec.recompile(self.model, self.data)
+                self._model, self._data = spec.recompile(self.model, self.data)
         except Exception as exc:  # noqa: BLE001 - MuJoCo's compiler raises plain exceptions
             raise UserError(f"MuJoCo could not compile the scene: {str(exc).strip().splitlines()[0]}") from None
         self._dirty = False

@@ -139,6 +139,17 @@ class Holding:
         np.minimum(buffer, self.upper, out=buffer)
         data.qfrc_applied[self.dofs] += buffer
 
+    def put(self, data: Any) -> None:
+        """``qfrc_applied[dofs] = clip(qfrc_bias[dofs], -limit, limit)``: where nothing else is applied in the step
+        (zero plus a force is that force), over what the last step put there."""
+        if self.bias is not None and self.applied is not None:
+            np.maximum(self.bias, self.lower, out=self.buffer)
+            np.minimum(self.buffer, self.upper, out=self.applied)
+            return
+        np.maximum(data.qfrc_bias[self.dofs], self.lower, out=self.buffer)
+        np.minimum(self.buffer, self.upper, out=self.buffer)
+        data.qfrc_applied[self.dofs] = self.buffer
+
 
 class Motors:
     """The joint motors' settings, kept here and written into the model: a recompile (a body added or removed)

@@ -84,20 +84,35 @@ class MujocoWorld(MujocoBodies):
         """Copies of the last step's contact arrays and constraint forces, for :meth:`_solved_contacts`."""
         self._geom_owner: np.ndarray | None = None
         """Per MuJoCo geom: (robokit body id, link) of its body, (-1, -1) for none (until the next compile)."""
+        self._applied: Any = None
+        """The holding forces ``qfrc_applied`` still holds from the last step (nothing else is in it), or None: it
+        is zero."""
 
     def step(self) -> None:
         """Advance physics by one step (forces applied since the last step act during it)."""
         if self._dirty:
             self._compile()
-        m, d, motors, grips = self.model, self.data, self.motors, self.scene.grips
-        if motors.inertia_changed:  # the mass matrix mj_step1 computed predates a new armature
+        m, d, motors, grips = self._model, self._data, self.motors, self.scene.grips
+        if self._unsettled:  # nothing looked at the last step's state: its positions stage runs now, on it
+            self._unsettled = False
+            mujoco.mj_step1(m, d)
+            if grips.pending:
+                grips.after_positions(m, d)
+            motors.inertia_changed = False  # that stage computed the mass matrix with the new armature
+        elif motors.inertia_changed:  # the mass matrix mj_step1 computed predates a new armature
             mujoco.mj_step1(m, d)
             motors.inertia_changed = False
-        for bid, force, point in self._forces:
-            mujoco.mj_applyFT(m, d, force, np.zeros(3), point, bid, d.qfrc_applied)
-        hold = motors.holding(m, d)
-        if hold is not None:  # a position motor carries its links' weight, as PyBullet's motor reaches its target
-            hold.add(d)
+        hold = motors.holding(m, d)  # a position motor carries its links' weight, as PyBullet's motor its target
+        if self._forces or hold is not self._applied:  # applied forces start from zero
+            if self._applied is not None:
+                d.qfrc_applied[:] = 0.0
+                self._applied = None
+            for bid, force, point in self._forces:
+                mujoco.mj_applyFT(m, d, force, np.zeros(3), point, bid, d.qfrc_applied)
+            if hold is not None:
+                hold.add(d)
+        elif hold is not None:  # only the holding forces, on the joints of the last step's: written over
+            hold.put(d)
         if grips.held:
             self._step_holding(m, d)
         else:
@@ -105,20 +120,30 @@ class MujocoWorld(MujocoBodies):
         if grips.fingers:
             grips.take_up(m, d)
         if self._wrenches:
-            self._measure_wrenches()
+            self._measure_wrenches(m, d)
         if motors.torques:
             motors.after_step(m, d)
-        self._keep_contacts(m, d)
-        if self._forces or hold is not None:
+        if self._forces:
             d.qfrc_applied[:] = 0.0
             self._forces.clear()
-        mujoco.mj_step1(m, d)
-        if grips.pending:
-            grips.after_positions(m, d)
+        else:
+            self._applied = hold
+        self._solved = self._kept = None
+        self._unsettled = True  # mj_step1 runs when something looks, or at the next step (see _settle)
         self.tick += 1
 
+    def _settle(self) -> None:
+        """The last step's positions stage, its solved contacts kept first (:meth:`_keep_contacts`), and the grip
+        anchors taken up in it welded where they are now."""
+        self._unsettled = False
+        m, d = self._model, self._data
+        self._keep_contacts(m, d)
+        mujoco.mj_step1(m, d)
+        if self.scene.grips.pending:
+            self.scene.grips.after_positions(m, d)
+
     def _keep_contacts(self, m: Any, d: Any) -> None:
-        """Keep the contacts this step solved, with their forces, before ``mj_step1`` finds the next state's: the
+        """Keep the contacts the last step solved, with their forces, before ``mj_step1`` finds the next state's: the
         constraint forces MuJoCo holds after ``mj_step1`` are not yet solved for the contacts it holds then (a new
         contact read memory left from before; a contact list that changed length read its neighbours' forces).
         Only copies here: the forces are worked out when contacts are read (:meth:`_solved_contacts`)."""
@@ -251,8 +276,7 @@ class MujocoWorld(MujocoBodies):
         """Rotation (world from child link frame) the joint's reaction was given in, as of the last step."""
         return self._wrenches.get((self.body(body), joint), ((), (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)))[1]
 
-    def _measure_wrenches(self) -> None:
-        m, d = self.model, self.data
+    def _measure_wrenches(self, m: Any, d: Any) -> None:
         mujoco.mj_rnePostConstraint(m, d)
         for (rid, joint) in self._wrenches:
             self._wrenches[(rid, joint)] = kin.joint_wrench(m, d, self._mj(rid, joint))
@@ -310,7 +334,8 @@ class MujocoWorld(MujocoBodies):
         """:meth:`set_joint_motor` for many joints (the same, in one loop: an arm sends its targets every tick)."""
         if self._dirty:
             self._compile()
-        m, d, motors, drives = self.model, self.data, self.motors, self._drives
+        # controls and gains only: mj_step1 reads neither (an armature is flagged), so the state need not be settled
+        m, d, motors, drives = self._model, self._data, self.motors, self._drives
         torque = mode == "torque"
         values = forces if torque else target_velocities if mode == "velocity" else target_positions
         for i, joint in enumerate(joints):
@@ -458,6 +483,7 @@ class MujocoWorld(MujocoBodies):
         """Put a :meth:`snapshot` back exactly, warm starts cleared, and the clock to tick 0."""
         m, d = self.compiled()
         mujoco.mj_resetData(m, d)
+        self._applied = None
         d.qpos[:], d.qvel[:], d.ctrl[:] = snapshot["qpos"], snapshot["qvel"], snapshot["ctrl"]
         self.scene.grips.compiled(m)  # every anchor let go (mj_resetData switched their welds off)
         mujoco.mj_step1(m, d)
@@ -467,4 +493,5 @@ class MujocoWorld(MujocoBodies):
     def close(self) -> None:
         """Close the renderers, drop the model and data. Safe to call twice."""
         self.cameras.close()
-        self.model = self.data = self.client = None
+        self._model = self._data = self.client = None
+        self._unsettled = False
