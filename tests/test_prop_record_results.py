@@ -271,3 +271,47 @@ def test_frames_note_says_where_the_frames_went_or_why_there_are_none(tmp_path: 
     (tmp_path / FRAMES_DIR / "notes.txt").write_text("not a frame")
     assert frames_note(tmp_path, False) == f"frames: 3 PNG(s) in {tmp_path / FRAMES_DIR}/"
     assert run_folders(tmp_path / "absent") == []
+
+
+folders = st.lists(st.tuples(st.sampled_from(["", "configs", "configs/sweeps", "a/b", "a/b/c", "a/b/c/d", ".venv",
+                                              "node_modules/x", ".hidden", "results/inner"]),
+                             st.integers(0, 2)), max_size=5, unique_by=lambda f: f[0])
+
+
+@PROPS
+@given(folders, st.sampled_from(["", "configs", "a/b"]))
+def test_the_list_says_where_it_read_and_every_other_results_folder_of_the_checkout(
+        tmp_path_factory: pytest.TempPathFactory, made: list[tuple[str, int]], here: str) -> None:
+    """``results list``'s note: the folder it read (when it holds runs), then every other ``results`` folder with
+    runs at most three folders below the checkout's root (the ``results`` folder itself the third), outside hidden,
+    virtual-environment and package folders and outside other ``results`` folders, with its count and the command
+    that lists it, in the order of a walk of the sorted folders."""
+    from robokit.record.results import where_note
+
+    root = tmp_path_factory.mktemp("checkout")
+    (root / "pyproject.toml").write_text("[project]\nname = 'x'\n")
+    for parent, runs in made:
+        for k in range(runs):
+            run = root / parent / "results" / f"run{k}"
+            run.mkdir(parents=True)
+            (run / RESULT_FILE).write_text("{}")
+    start = root / here
+    start.mkdir(parents=True, exist_ok=True)
+    cwd = os.getcwd()
+    os.chdir(start)
+    try:
+        note = where_note(None, start).splitlines()
+    finally:
+        os.chdir(cwd)
+    read = start / "results"
+    counts = {p: n for p, n in made if n}
+    want = [f"(runs in {'results'}/)"] if counts.get(here) else []
+    skip = (".venv", "node_modules", ".hidden", "results")
+    for parent in sorted(counts, key=lambda p: Path(p).parts):  # a walk: a folder's own, then its sub-folders'
+        parts = Path(parent).parts
+        if (root / parent / "results") == read or len(parts) > 2 or any(p in skip for p in parts):
+            continue
+        shown = os.path.relpath(root / parent / "results", start) if (root / parent).is_relative_to(start) \
+            else str(root / parent / "results")
+        want.append(f"(also {counts[parent]} run(s) in {shown}/: robokit results list --dir {shown})")
+    assert note == want
