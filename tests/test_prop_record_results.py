@@ -11,6 +11,7 @@ last pose sample; each machine's stays, including a machine the header does not 
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 from pathlib import Path
@@ -315,3 +316,36 @@ def test_the_list_says_where_it_read_and_every_other_results_folder_of_the_check
             else str(root / parent / "results")
         want.append(f"(also {counts[parent]} run(s) in {shown}/: robokit results list --dir {shown})")
     assert note == want
+
+
+@PROPS
+@given(st.lists(st.tuples(st.binary(max_size=64), st.sampled_from(["ok", "raise", "oserror", "interrupt"])),
+                min_size=1, max_size=6), st.sampled_from(["out.mp4", "deep/er/page.html", "run.rrd"]))
+def test_an_output_is_whole_or_absent_after_any_sequence_of_writes(
+        tmp_path_factory: pytest.TempPathFactory, writes: list[tuple[bytes, str]], name: str) -> None:
+    """docs/records.md "Outputs are whole or absent": the name asked for holds the last write that ended normally
+    (or nothing), never part of a later one; no temporary file is left; a failed write is one line naming the file."""
+    from robokit.record.atomic import OutputFailed, atomic_output, file_digest, write_bytes
+
+    folder = tmp_path_factory.mktemp("out")
+    out = folder / name
+    last: bytes | None = None
+    for data, how in writes:
+        if how == "ok":
+            write_bytes(out, data)
+            last = data
+            continue
+        error = {"raise": ValueError("stopped"), "oserror": OSError(28, "No space left on device"),
+                 "interrupt": KeyboardInterrupt()}[how]
+        with pytest.raises((OutputFailed, ValueError, KeyboardInterrupt)) as err:
+            with atomic_output(out) as tmp:
+                tmp.write_bytes(data[: len(data) // 2])  # half written, then it fails
+                raise error
+        if how == "oserror":
+            assert str(err.value) == f"{out}: not written: No space left on device"
+        else:
+            assert err.value is error
+    assert (out.read_bytes() if out.exists() else None) == last
+    if last is not None:
+        assert file_digest(out) == "sha256:" + hashlib.sha256(last).hexdigest()
+    assert sorted(p.name for p in out.parent.iterdir()) == ([out.name] if last is not None else [])
