@@ -15,22 +15,27 @@ Wilson bounds as the roots of the score equation.
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import datetime as dt
 import html
 import io
+import os
 import re
+import time
+from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
 import pytest
 from course_helpers import PASSWORD
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 
 pytest_plugins = ["course_fixtures"]
 
 PROPS = settings(max_examples=8, deadline=None, derandomize=True, database=None,
+                 phases=[Phase.explicit, Phase.generate],
                  suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 Z = 1.959963984540054
 T0 = dt.datetime(2026, 11, 2, 9, 0, tzinfo=dt.timezone.utc)
@@ -70,6 +75,22 @@ def ranked(subs: list[dict[str, Any]], ranking: str) -> list[dict[str, Any]]:
 
 def safe(text: str) -> str:
     return "'" + text if text[:1] in ("=", "+", "-", "@", "\t", "\r") else text
+
+
+@contextlib.contextmanager
+def local_time(zone: str) -> Iterator[None]:
+    """The process's local time zone set to ``zone`` for a while (``TZ`` and ``time.tzset``)."""
+    was = os.environ.get("TZ")
+    os.environ["TZ"] = zone
+    time.tzset()
+    try:
+        yield
+    finally:
+        if was is None:
+            del os.environ["TZ"]
+        else:
+            os.environ["TZ"] = was
+        time.tzset()
 
 
 @pytest.fixture
@@ -141,8 +162,17 @@ def test_grades_board_and_who_submitted_are_the_stored_submissions(teacher_clien
     cols = ("success_rate", "wilson_low", "wilson_high", "submitted_at", "late", "submissions")
     assert table[0] == ["student"] + [f"{a.name}: {c}" for a in by_due for c in cols]
     assert sorted(r[0] for r in table[1:]) == sorted(safe(s.name) for s in students)
-    book = load_workbook(io.BytesIO(teacher_client.get(f"/classes/{course.room.pk}/grades.xlsx").content))
+    with local_time("Asia/Seoul"):  # a server whose clock is set to Korea: the workbook's times stay UTC
+        book = load_workbook(io.BytesIO(teacher_client.get(f"/classes/{course.room.pk}/grades.xlsx").content))
     sheet = list(book["grades"].iter_rows(values_only=True))
+    ws = book["grades"]
+    assert ws.freeze_panes == "B2" and all(c.font.bold for c in ws[1])  # the header frozen (and bold)
+    for cells_ in ws.iter_rows(min_row=2):
+        for c in cells_:
+            if isinstance(c.value, float):
+                assert c.number_format == "0.0000"  # rates shown as in the CSV
+            if isinstance(c.value, dt.datetime):
+                assert c.is_date and "hh:mm:ss" in c.number_format  # a time, to the second
     assert list(sheet[0]) == table[0] and len(sheet) == len(table)
     by_csv = {r[0]: r for r in table[1:]}
     by_xlsx = {r[0]: r for r in sheet[1:]}
