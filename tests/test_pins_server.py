@@ -141,3 +141,24 @@ def test_uploads_are_capped_at_the_limit_exactly_and_only_for_the_runs_owner(
     # docs/server.md (uploads): 401 without a token, 403 with a token that is not allowed
     assert upload(client, payload["run_id"], {"d.mp4": video}).status_code == 401  # verified run: no anonymous files
     assert upload(client, payload["run_id"], {"e.mp4": video}, course.lee_token).status_code == 403
+
+
+@pytest.mark.django_db
+def test_every_chart_is_an_svg_that_runs_nothing_and_no_shared_cache_keeps(client: Any, course: Course) -> None:
+    """Charts show a class's and a student's results: served as SVG with a sandboxing Content-Security-Policy (no
+    script, nothing fetched) and kept by no shared cache."""
+    from course_helpers import PASSWORD
+    from course_work import make_assignment
+
+    a = make_assignment(course.room)
+    room, kim = course.room.pk, course.kim.pk
+    client.login(username="teacher", password=PASSWORD)
+    urls = [f"/classes/{room}/assignments/{a.pk}/{k}.svg" for k in ("distribution", "reasons")] + [
+        f"/classes/{room}/students/{kim}/{k}.svg" for k in ("timeline", "weekly", "training")]
+    for url in urls:
+        got = client.get(url)
+        assert got.status_code == 200 and got["Content-Type"] == "image/svg+xml", url
+        policy = {p.split()[0]: p.split()[1:] for p in got["Content-Security-Policy"].split(";") if p.strip()}
+        assert policy["default-src"] == ["'none'"] and "sandbox" in policy, url
+        assert set(got["Cache-Control"].replace(" ", "").split(",")) == {"private", "no-cache"}, url
+        assert got.content.lstrip().startswith((b"<?xml", b"<svg")), url
