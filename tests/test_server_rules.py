@@ -200,7 +200,7 @@ _run = st.fixed_dictionaries({
     "outcome": st.sampled_from([None, "succeeded", "failed", "aborted"])})
 
 
-@settings(max_examples=25, deadline=None, derandomize=True, database=None,
+@settings(max_examples=10, deadline=None, derandomize=True, database=None,
           suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @given(runs=st.lists(_run, min_size=1, max_size=7))
 def test_leaderboard_follows_the_documented_ranking(client: Any, course: Course, runs: list[dict[str, Any]]) -> None:
