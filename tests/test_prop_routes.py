@@ -124,6 +124,7 @@ def world(course: Any, settings: Any, tmp_path: Any, client: Any) -> dict[str, A
     sub = Submission.objects.create(assignment=assignment, student=course.kim, config_text=OFFICIAL)
     project = Project.objects.get(classroom=course.room, name="A")
     return {"tokens": tok, "payload": payload, "users": {"teacher": course.teacher, "other_teacher": other},
+            "other_class": room_b.pk,
             "args": {"pk": course.room.pk, "project_pk": project.pk, "student_pk": course.kim.pk,
                      "spk": course.kim.pk, "apk": assignment.pk, "run_id": payload["run_id"],
                      "name": assignment.name},
@@ -266,3 +267,25 @@ def test_a_session_ended_or_a_token_revoked_takes_the_students_access_away(world
     Token.objects.filter(kind=Token.STUDENT, student__name="김민준").update(revoked_at="2026-01-01T00:00:00Z")
     revoked = {n: _answer(c.get(u)) for n, u in urls.items()}
     assert revoked == {n: RULES[n][1]["anonymous"] for n in gated}
+
+
+def test_another_teacher_naming_their_own_class_finds_none_of_this_class_objects(world: dict[str, Any]) -> None:
+    """Every route whose URL names a class and an object in it (a project, a student, an assignment): another
+    teacher putting their own class in the URL, with this class's object, gets 404 -- the object is looked up in
+    the class named, not anywhere."""
+    from django.urls import reverse
+    from django.urls.resolvers import RoutePattern
+
+    c = _client("other_teacher", world)
+    wrong, tried = [], 0
+    for name, pattern in routes():
+        params = list(RoutePattern(pattern).converters) if name != "admin" else []
+        if "pk" not in params or len(params) < 2 or name.startswith("api-"):
+            continue
+        values = {**world["args"], **world["by_route"].get(name, {}), "pk": world["other_class"]}
+        url = reverse(name, kwargs={p: values[p] for p in params})
+        got = _answer(_request(c, "other_teacher", name, RULES[name][0], url, world))
+        tried += 1
+        if got != 404:
+            wrong.append(f"other_teacher {name} {url}: {got}, expected 404")
+    assert tried >= 6 and not wrong, "\n".join(wrong)
