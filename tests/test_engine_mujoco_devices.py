@@ -189,3 +189,39 @@ def test_the_patrol_robot_reruns_identically_on_mujoco() -> None:
             runs.append((out.result, sim.world.pose("robot"), sim.world.tick))
     assert runs[0] == runs[1]
     assert runs[0][0]["distance_travelled"] > 1.0  # it did drive
+
+
+def test_a_position_motor_keeps_to_its_velocity_cap_and_still_squeezes_when_held_back() -> None:
+    """The collectbot's lift (a prismatic joint) sent 0.15 m up at 0.15 m/s rises at that speed, read from the world
+    tick by tick, not in one jump; its fingers closed on a can at 0.1 m/s stop on it and press it from both sides."""
+    scene = {"world": {"engine": "mujoco"},
+             "bodies": {"plane": PLANE,
+                        "can": {"shape": "cylinder", "radius": 0.05, "height": 0.2, "mass": 0.2,
+                                "position": [3.0, 0, 0.1]}},
+             "robots": {"robot": {"urdf": "robots/collectbot.urdf", "position": [0, 0, 0.06]}}}
+    with build(scene) as sim:
+        world = sim.world
+        robot = world.body("robot")
+        lift, left, right = (world.joint(robot, name).index for name in ("lift", "left_finger", "right_finger"))
+        for finger in (left, right):
+            world.set_joint_motor(robot, finger, "position", target_position=0.06, force=15.0)
+        sim.step(120)
+        (lx, ly, _), _ = world.pose(robot, left)
+        (rx, ry, _), _ = world.pose(robot, right)
+        world.set_pose("can", [(lx + rx) / 2 + 0.07, (ly + ry) / 2, 0.1])  # between the open fingers
+        for finger in (left, right):
+            world.set_joint_motor(robot, finger, "position", target_position=0.0, force=15.0, max_velocity=0.1)
+        sim.step(round(0.8 / world.time_step))
+        fingers = [s[0] for s in world.joint_states(robot, [left, right])]
+        squeeze = sum(c.normal_force for c in world.contacts(robot, world.body("can")))
+        start = world.joint_states(robot, [lift])[0][0]
+        world.set_joint_motor(robot, lift, "position", target_position=0.15, force=30.0, max_velocity=0.15)
+        heights = []
+        for _ in range(round(0.5 / world.time_step)):
+            sim.step(1)
+            heights.append(world.joint_states(robot, [lift])[0][0])
+    speeds = [(b - a) / world.time_step for a, b in zip([start, *heights], heights, strict=False)]
+    assert max(speeds) < 0.15 * 1.1  # never faster than the cap (uncapped, the lift jumped 4 cm in 6 ticks)
+    assert heights[-1] - start == pytest.approx(0.15 * 0.5, abs=0.01)  # 0.5 s at 0.15 m/s, less the start
+    assert all(0.0 < f < 0.06 for f in fingers)  # stopped on the can, not closed
+    assert squeeze > 2.0  # both fingers press on it (N)

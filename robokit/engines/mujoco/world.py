@@ -9,6 +9,7 @@ forces and motor commands set then act during the next step.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Collection, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -36,6 +37,9 @@ from robokit.engines.mujoco.rays import HIDDEN_GROUP, MujocoRayCaster
 from robokit.errors import UserError
 
 PYRAMIDAL = int(mujoco.mjtCone.mjCONE_PYRAMIDAL)
+RAMP_LAG = 6.0
+"""Steps of a capped motor's setpoint a joint may lag behind before it counts as held back (a free joint tracks
+the moving setpoint about 4 steps behind: critically damped, ``omega * time_step = 0.5``)."""
 
 if TYPE_CHECKING:  # read by attribute only
     from robokit.config import Config
@@ -84,6 +88,9 @@ class MujocoWorld(MujocoBodies):
         """Copies of the last step's contact arrays and constraint forces, for :meth:`_solved_contacts`."""
         self._geom_owner: np.ndarray | None = None
         """Per MuJoCo geom: (robokit body id, link) of its body, (-1, -1) for none (until the next compile)."""
+        self._ramps: dict[str, tuple[tuple[float, float, float, float], float, float, float, int]] = {}
+        """Position motors capped at a velocity: actuator name -> (gains, setpoint now, target, largest move a
+        step, the joint's qpos address), until the setpoint reaches the target (:meth:`_ramp`)."""
         self._applied: Any = None
         """The holding forces ``qfrc_applied`` still holds from the last step (nothing else is in it), or None: it
         is zero."""
@@ -102,6 +109,8 @@ class MujocoWorld(MujocoBodies):
         elif motors.inertia_changed:  # the mass matrix mj_step1 computed predates a new armature
             mujoco.mj_step1(m, d)
             motors.inertia_changed = False
+        if self._ramps:
+            self._advance_ramps(m, d)
         hold = motors.holding(m, d)  # a position motor carries its links' weight, as PyBullet's motor its target
         if self._forces or hold is not self._applied:  # applied forces start from zero
             if self._applied is not None:
@@ -305,7 +314,52 @@ class MujocoWorld(MujocoBodies):
             ctrl = float((target_velocity if mode == "velocity" else target_position) or 0.0)
         if gains[3] == 0.0 and force is not None:  # force 0: the motor is off (a passive joint)
             ctrl = 0.0
+        if mode == "position" and max_velocity is not None and max_velocity > 0.0 and gains[3] != 0.0:
+            self._ramp(name, gains, ctrl, max_velocity, body, joint)
+            return
+        if self._ramps:
+            self._ramps.pop(name, None)
         self.motors.set(m, d, name, (*gains, ctrl), torque=mode == "torque")
+
+    def _ramp(self, name: str, gains: tuple[float, float, float, float], target: float, max_velocity: float,
+              body: int, joint: int) -> None:
+        """A position motor capped at ``max_velocity``: its setpoint moves towards ``target`` by at most
+        ``max_velocity * time_step`` a step, from where the motor's setpoint was if it was already a position motor
+        and the joint follows it, else from where the joint is. PyBullet caps the velocity its motor asks for, not
+        its force: a joint held back (fingers closed on an object, a load beyond the force) is pushed as an uncapped
+        motor pushes, so a joint that falls behind its setpoint by more than :data:`RAMP_LAG` steps gets the
+        target at once."""
+        old = self.motors.settings.get(name)
+        qadr = self._joint(body, joint)[1]
+        step = max_velocity * self.time_step
+        start = at = float(self.data.qpos[qadr])
+        ramp = self._ramps.get(name)
+        if ramp is not None:
+            start = ramp[1]
+        elif old is not None and old[1] != 0.0 and old[:4] == gains:
+            start = old[4]
+        if abs(start - at) > RAMP_LAG * step:  # held back (closed on something): from where the joint is
+            start = at
+        self._ramps[name] = (gains, start, target, step, qadr)
+        self.motors.set(self._model, self._data, name, (*gains, start), torque=False)
+
+    def _advance_ramps(self, m: Any, d: Any) -> None:
+        """Move each capped position motor's setpoint one step towards its target (see :meth:`_ramp`)."""
+        qpos = d.qpos
+        for name, (gains, at, target, step, qadr) in list(self._ramps.items()):
+            if name not in self.motors.settings:  # its body was removed
+                del self._ramps[name]
+                continue
+            ahead = math.copysign(1.0, target - at)
+            if abs(target - at) <= step or (at - qpos[qadr]) * ahead > RAMP_LAG * step:
+                at = target
+            else:
+                at += ahead * step
+            self.motors.set(m, d, name, (*gains, at), torque=False)
+            if at == target:
+                del self._ramps[name]
+            else:
+                self._ramps[name] = (gains, at, target, step, qadr)
 
     def _drive(self, body: int, joint: int, mode: MotorMode, force: float | None) -> tuple[
             str, tuple[float, float, float, float]]:
@@ -344,6 +398,8 @@ class MujocoWorld(MujocoBodies):
             if drive is None:
                 drive = drives[(body, joint, mode, force)] = self._drive(body, joint, mode, force)
             name, gains = drive
+            if self._ramps:
+                self._ramps.pop(name, None)
             value = None if values is None else values[i]
             ctrl = 0.0 if gains[3] == 0.0 and force is not None else float(value or 0.0)
             motors.set(m, d, name, (*gains, ctrl), torque=torque)
@@ -484,6 +540,7 @@ class MujocoWorld(MujocoBodies):
         m, d = self.compiled()
         mujoco.mj_resetData(m, d)
         self._applied = None
+        self._ramps.clear()
         d.qpos[:], d.qvel[:], d.ctrl[:] = snapshot["qpos"], snapshot["qvel"], snapshot["ctrl"]
         self.scene.grips.compiled(m)  # every anchor let go (mj_resetData switched their welds off)
         mujoco.mj_step1(m, d)
