@@ -3,9 +3,10 @@ the teacher sees").
 
 Each student's best run, best first, in three tables: students' runs (posted with a student's token, counted for the
 token's owner -- also after the teacher renames the student), official runs (a teacher's token) and runs posted
-without a token (under the name posted, or the student of that name); "best" follows the project's ranking:
-successful runs (and outcome-less posts) first, then the ranking's figures in order (a missing one last), then the
-earlier run. The columns are the ranking's figures first, then every other figure the runs reported.
+without a token (under the name posted, or the student of that name); an excluded run is on no table. "Best"
+follows the project's ranking: successful runs (and outcome-less posts) first, then the ranking's figures in order (a
+missing one last), then the earlier run. The columns are the ranking's figures first, then every other figure the
+runs reported.
 
 Expected here: each run's owner as the post made it, the best by a chain of stable sorts (the ranking's last key
 first), every cell the figure as posted.
@@ -31,7 +32,8 @@ FIGURES = {"collected": st.integers(0, 3), "failures": st.integers(0, 2),
 run = st.fixed_dictionaries({
     "who": st.sampled_from(["kim", "lee", "teacher", None]), "name": st.sampled_from(["김민준", "민서", "Kim"]),
     "outcome": st.sampled_from([None, "succeeded", "failed", "aborted"]),
-    "figures": st.fixed_dictionaries({}, optional=FIGURES), "rename_before": st.booleans()})
+    "figures": st.fixed_dictionaries({}, optional=FIGURES), "rename_before": st.booleans(),
+    "excluded": st.sampled_from([False, False, False, True])})
 
 
 def ranked(runs: list[dict[str, Any]], ranking: str) -> list[dict[str, Any]]:
@@ -64,6 +66,8 @@ def test_every_table_of_the_leaderboard_is_each_owners_best_run(client: Any, cou
         if r["outcome"]:
             body["outcome"] = r["outcome"]
         assert post(client, body, tokens[r["who"]]).status_code == 201
+        if r["excluded"]:  # the teacher excluded it (moderation): off the board
+            Result.objects.filter(run_id=f"lb-{i}").update(excluded=True)
         names = dict(Student.objects.filter(classroom=course.room).values_list("name", "pk"))
         r["i"], r["run_id"] = i, f"lb-{i}"
         r["owner"] = ({"kim": course.kim.pk, "lee": course.lee.pk}[r["who"]] if r["who"] in ("kim", "lee")
@@ -75,11 +79,11 @@ def test_every_table_of_the_leaderboard_is_each_owners_best_run(client: Any, cou
     keys = ranking.split(",")
     students = page[page.index('id="students"'):]
     head = re.findall(r'<th class="num"><a href="\?sort=[^"]*">([^<]+)</a>', students[:students.index("</thead>")])
-    seen = {k for r in runs for k in r["figures"]}
+    seen = {k for r in runs if not r["excluded"] for k in r["figures"]}
     wanted = [k.lstrip("-") for k in keys]
     assert head[:len(wanted)] == wanted and set(head) == set(wanted) | seen  # at most 4 figures: all shown
     for table in ("students", "official", "unverified"):
-        mine = [r for r in runs if r["table"] == table]
+        mine = [r for r in runs if r["table"] == table and not r["excluded"]]
         if not mine and table != "students":
             assert f'id="{table}"' not in page
             continue
