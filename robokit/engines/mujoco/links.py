@@ -194,6 +194,10 @@ class Motors:
             self._worked_out = True
         return self._holding
 
+    def actuator(self, model: Any, name: str) -> int:
+        """The id of actuator ``name`` in ``model`` (looked up once per compile)."""
+        return self._id(model, name)
+
     def _id(self, model: Any, name: str) -> int:
         act = self.ids.get(name)
         if act is None:

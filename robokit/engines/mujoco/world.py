@@ -9,7 +9,6 @@ forces and motor commands set then act during the next step.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Collection, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -88,9 +87,9 @@ class MujocoWorld(MujocoBodies):
         """Copies of the last step's contact arrays and constraint forces, for :meth:`_solved_contacts`."""
         self._geom_owner: np.ndarray | None = None
         """Per MuJoCo geom: (robokit body id, link) of its body, (-1, -1) for none (until the next compile)."""
-        self._ramps: dict[str, tuple[tuple[float, float, float, float], float, float, float, int]] = {}
+        self._ramps: dict[str, tuple[tuple[float, float, float, float], float, float, float, int, int]] = {}
         """Position motors capped at a velocity: actuator name -> (gains, setpoint now, target, largest move a
-        step, the joint's qpos address), until the setpoint reaches the target (:meth:`_ramp`)."""
+        step, body, joint), until the setpoint reaches the target (:meth:`_ramp`)."""
         self._applied: Any = None
         """The holding forces ``qfrc_applied`` still holds from the last step (nothing else is in it), or None: it
         is zero."""
@@ -340,26 +339,25 @@ class MujocoWorld(MujocoBodies):
             start = old[4]
         if abs(start - at) > RAMP_LAG * step:  # held back (closed on something): from where the joint is
             start = at
-        self._ramps[name] = (gains, start, target, step, qadr)
+        self._ramps[name] = (gains, start, target, step, body, joint)
         self.motors.set(self._model, self._data, name, (*gains, start), torque=False)
 
     def _advance_ramps(self, m: Any, d: Any) -> None:
-        """Move each capped position motor's setpoint one step towards its target (see :meth:`_ramp`)."""
-        qpos = d.qpos
-        for name, (gains, at, target, step, qadr) in list(self._ramps.items()):
-            if name not in self.motors.settings:  # its body was removed
-                del self._ramps[name]
+        """Move each capped position motor's setpoint one step towards its target (see :meth:`_ramp`): its control
+        only, the motor's stored setting once the target is reached (a recompile in between puts back the start)."""
+        ctrl, qpos, motors, ramps = d.ctrl, d.qpos, self.motors, self._ramps
+        for name, (gains, at, target, step, body, joint) in list(ramps.items()):
+            if name not in motors.settings:  # its body was removed
+                del ramps[name]
                 continue
-            ahead = math.copysign(1.0, target - at)
-            if abs(target - at) <= step or (at - qpos[qadr]) * ahead > RAMP_LAG * step:
-                at = target
-            else:
-                at += ahead * step
-            self.motors.set(m, d, name, (*gains, at), torque=False)
-            if at == target:
-                del self._ramps[name]
-            else:
-                self._ramps[name] = (gains, at, target, step, qadr)
+            ahead = 1.0 if target > at else -1.0
+            if abs(target - at) <= step or (at - qpos[self._joint(body, joint)[1]]) * ahead > RAMP_LAG * step:
+                del ramps[name]
+                motors.set(m, d, name, (*gains, target), torque=False)
+                continue
+            at += ahead * step
+            ctrl[motors.actuator(m, name)] = at
+            ramps[name] = (gains, at, target, step, body, joint)
 
     def _drive(self, body: int, joint: int, mode: MotorMode, force: float | None) -> tuple[
             str, tuple[float, float, float, float]]:
