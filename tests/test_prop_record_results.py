@@ -218,20 +218,25 @@ def test_a_tree_reads_back_to_its_value(value: Any) -> None:
 @PROPS
 @given(st.sampled_from(["result", "end", "poses", "none"]), st.floats(0.1, 50), st.lists(
     st.tuples(st.sampled_from(["arm", "base", "other"]), st.sampled_from(["A", "B", "C"]), st.floats(0, 60)),
-    max_size=6))
+    max_size=6), st.booleans(), st.booleans())
 def test_a_records_sim_time_and_stays_come_from_its_own_files(
         tmp_path_factory: pytest.TempPathFactory, source: str, end: float,
-        moves: list[tuple[str, str, float]]) -> None:
+        moves: list[tuple[str, str, float]], named: bool, readings: bool) -> None:
     """The run's length comes from ``result.json``, else the trace's ``end`` record, else the last pose sample, else
     0; each machine stays in a state from its transition (or t = 0) to the next one or to that length -- "other", a
-    machine the header does not name, starts in the state its first transition leaves, at t = 0."""
+    machine the header does not name (or every machine of a header without ``machines``), starts in the state its
+    first transition leaves, at t = 0; other records between transitions change nothing."""
     folder = tmp_path_factory.mktemp("run")
     header = {**HEADER, "machines": [{"name": "arm", "initial": "A"}, {"name": "base", "initial": "C"}]}
+    if not named:
+        del header["machines"]
     moves = sorted(moves, key=lambda m: m[2])
     current = {"arm": "A", "base": "C"}
-    events = []
+    events: list[dict[str, Any]] = []
     for machine, dest, t in moves:
         src = current.get(machine, "B")
+        if readings:
+            events.append({"kind": "reading", "t": t, "tick": int(t * 240), "source": "cam", "value": {}})
         events.append({"kind": "transition", "t": t, "tick": int(t * 240), "machine": machine,
                        "source_state": src, "dest_state": dest, "trigger": "go"})
         current[machine] = dest
@@ -247,10 +252,10 @@ def test_a_records_sim_time_and_stays_come_from_its_own_files(
     length = 0.0 if source == "none" else end
     assert rec.sim_time == pytest.approx(length)
     spans = rec.spans()
-    assert set(spans) == {"arm", "base"} | {m for m, _, _ in moves}
+    assert set(spans) == ({"arm", "base"} if named else set()) | {m for m, _, _ in moves}
     for name, first in (("arm", "A"), ("base", "C"), ("other", "B")):
         mine = [(d, t) for m, d, t in moves if m == name]
-        if name == "other" and not mine:
+        if name not in spans:
             continue
         states = [first, *[d for d, _ in mine]]
         starts = [0.0, *[t for _, t in mine]]
@@ -259,6 +264,28 @@ def test_a_records_sim_time_and_stays_come_from_its_own_files(
         for state, start, stop in zip(states, starts, ends, strict=True):
             if stop - start > 1e-9 and starts.count(start) == 1:  # a stay of its own: its state in its middle
                 assert rec.state_at(spans, (start + stop) / 2)[name] == state
+
+
+def test_a_folder_without_a_record_is_not_a_run_and_an_ambiguous_prefix_lists_five(tmp_path: Path) -> None:
+    """A folder named by its path is a run only with a trace or a result in it; a prefix that matches several runs
+    is refused naming the first five (12 characters each, oldest first) and "..." when there are more."""
+    from robokit.errors import UserError
+    from robokit.record.format import find_run
+
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(UserError, match="no run"):
+        find_run(str(tmp_path / "empty"), tmp_path)
+    for count in (2, 5, 6, 7):
+        root = tmp_path / f"runs{count}"
+        names = [f"abcdef{k:02d}ghijklmnop" for k in range(count)] + ["zzzz"]
+        for age, name in enumerate(names):
+            (root / name).mkdir(parents=True)
+            (root / name / RESULT_FILE).write_text("{}")
+            os.utime(root / name / RESULT_FILE, (1000 + age, 1000 + age))  # made in order: the first is the oldest
+        with pytest.raises(UserError) as err:
+            find_run("abcdef", root)
+        assert str(err.value) == (f"run id prefix 'abcdef' matches {count} runs in {root}/: "
+                                  + ", ".join(n[:12] for n in names[:min(count, 5)]) + (" ..." if count > 5 else ""))
 
 
 def test_frames_note_says_where_the_frames_went_or_why_there_are_none(tmp_path: Path) -> None:
