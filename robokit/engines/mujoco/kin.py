@@ -67,12 +67,11 @@ def jacobian(world: MujocoBodies, rows: tuple[np.ndarray, np.ndarray, int], posi
     this (the world does not move; mocap bodies stand where the model puts them)."""
     m, d = world.compiled()
     qadr, dofs, target = rows
-    q = np.asarray(positions, dtype=float)
     data = d
-    if not np.array_equal(d.qpos[qadr], q):
+    if d.qpos[qadr].tolist() != [float(v) for v in positions]:
         data = scratch
         scratch.qpos[:] = d.qpos
-        scratch.qpos[qadr] = q
+        scratch.qpos[qadr] = np.asarray(positions, dtype=float)
         mujoco.mj_kinematics(m, scratch)
         mujoco.mj_comPos(m, scratch)
     jacp, jacr = np.zeros((3, m.nv)), np.zeros((3, m.nv))

@@ -10,6 +10,7 @@ forces and motor commands set then act during the next step.
 from __future__ import annotations
 
 from collections.abc import Collection, Sequence
+from itertools import repeat
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -71,7 +72,7 @@ class MujocoWorld(MujocoBodies):
         """(body, joint) -> MuJoCo joint id, qpos and dof address (until the next compile)."""
         self._drives: dict[tuple[Any, ...], tuple[str, tuple[float, float, float, float]]] = {}
         """(body, joint, mode, force) -> actuator name and its (gain, position bias, velocity bias, force limit)."""
-        self._rows: dict[tuple[Any, ...], tuple[np.ndarray, np.ndarray, list[bool]]] = {}
+        self._rows: dict[tuple[Any, ...], tuple[np.ndarray | slice, np.ndarray | slice, list[bool]]] = {}
         """(body, joints) -> their qpos and dof addresses and which move, for :meth:`joint_states`."""
         self._chains: dict[tuple[int, int], tuple[np.ndarray, np.ndarray, int]] = {}
         """(body, link) -> its movable joints' qpos and dof addresses and the link's MuJoCo body (until the next
@@ -256,20 +257,28 @@ class MujocoWorld(MujocoBodies):
         qadr, dadr, movable = rows
         qpos, qvel, torque = d.qpos[qadr].tolist(), d.qvel[dadr].tolist(), d.qfrc_actuator[dadr].tolist()
         zero = (0.0,) * 6
+        if not self._wrenches and False not in movable:  # the common read: an arm's joints, no wrench measured
+            return list(map(JointState, qpos, qvel, repeat(zero), torque))
         rid = self.body(body) if self._wrenches else -1
         return [JointState(qpos[i] if moves else 0.0, qvel[i] if moves else 0.0,
                            self._wrenches[(rid, j)][0] if (rid, j) in self._wrenches else zero,  # type: ignore[arg-type]
                            torque[i] if moves else 0.0)
                 for i, (j, moves) in enumerate(zip(joints, movable, strict=True))]
 
-    def _state_rows(self, body: int, joints: Sequence[int]) -> tuple[np.ndarray, np.ndarray, list[bool]]:
-        """qpos and dof addresses of ``joints`` (0 for a fixed one) and which of them move (until the next
-        compile)."""
+    def _state_rows(self, body: int, joints: Sequence[int]) -> tuple[np.ndarray | slice, np.ndarray | slice,
+                                                                       list[bool]]:
+        """qpos and dof addresses of ``joints`` (0 for a fixed one; a slice where they run on one by one, as an
+        arm's do) and which of them move (until the next compile)."""
         m = self.model
         movable = [bool(m.body_jntnum[self._mj(body, j)]) for j in joints]
         addresses = [self._joint(body, j)[1:] if moves else (0, 0) for j, moves in zip(joints, movable, strict=True)]
-        qadr = np.array([a[0] for a in addresses], dtype=np.int64)
-        return qadr, np.array([a[1] for a in addresses], dtype=np.int64), movable
+
+        def rows(values: list[int]) -> np.ndarray | slice:
+            if values and values == list(range(values[0], values[0] + len(values))):
+                return slice(values[0], values[0] + len(values))
+            return np.array(values, dtype=np.int64)
+
+        return rows([a[0] for a in addresses]), rows([a[1] for a in addresses]), movable
 
     def enable_joint_wrench(self, body: int, joint: int, enabled: bool = True) -> None:
         """Measure (or stop measuring) a joint's reaction wrench at every step."""
