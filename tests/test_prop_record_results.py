@@ -306,7 +306,7 @@ folders = st.lists(st.tuples(st.sampled_from(["", "configs", "configs/sweeps", "
                              st.integers(0, 2)), max_size=5, unique_by=lambda f: f[0])
 
 
-@PROPS
+@settings(PROPS, max_examples=15)
 @given(folders, st.sampled_from(["", "configs", "a/b"]))
 def test_the_list_says_where_it_read_and_every_other_results_folder_of_the_checkout(
         tmp_path_factory: pytest.TempPathFactory, made: list[tuple[str, int]], here: str) -> None:
@@ -345,7 +345,7 @@ def test_the_list_says_where_it_read_and_every_other_results_folder_of_the_check
     assert note == want
 
 
-@PROPS
+@settings(PROPS, max_examples=15)
 @given(st.lists(st.tuples(st.binary(max_size=64), st.sampled_from(["ok", "raise", "oserror", "interrupt"])),
                 min_size=1, max_size=6), st.sampled_from(["out.mp4", "deep/er/page.html", "run.rrd"]))
 def test_an_output_is_whole_or_absent_after_any_sequence_of_writes(
