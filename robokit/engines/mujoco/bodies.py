@@ -73,7 +73,10 @@ class MujocoBodies(MujocoExtras, World):
         self._model: Any = None
         self._data: Any = None
         self._unsettled = False
-        """The last step's positions stage (``mj_step1``) is still to run: see :meth:`_settle`."""
+        """The positions stage (``mj_step1``) of the last step, or of positions written since, is still to run: see
+        :meth:`_settle`."""
+        self._stepped = False
+        """The data holds the contacts a step solved, not yet kept (:meth:`_settle` keeps them first)."""
         self._dirty = True
         self._added = 0
         self._root: dict[int, str] = {}  # robokit id -> MuJoCo root body name
@@ -100,10 +103,15 @@ class MujocoBodies(MujocoExtras, World):
         return self._data
 
     def _settle(self) -> None:
-        """Run the last step's positions stage (``mj_step1``), left until something looks at the model or data: a
-        step that follows a step with nothing read in between runs it itself, on the same state."""
-        self._unsettled = False
+        """Run the positions stage (``mj_step1``) of the last step or of written positions, left until something
+        looks at the model or data: a step that follows with nothing read in between runs it itself, on the same
+        state."""
+        self._unsettled = self._stepped = False
         mujoco.mj_step1(self._model, self._data)
+
+    def _positions_written(self) -> None:
+        """Joint positions or velocities were written: the positions stage runs when something next looks."""
+        self._unsettled = True
 
     def compiled(self) -> tuple[Any, Any]:
         """The MuJoCo model and data, compiled first if bodies were added or removed since the last look."""
@@ -387,7 +395,7 @@ class MujocoBodies(MujocoExtras, World):
         if orientation is not None:
             d.qpos[qadr + 3:qadr + 7] = mj_quat(orientation)
         d.qvel[dadr:dadr + 6] = 0.0
-        mujoco.mj_step1(m, d)
+        self._positions_written()
 
     def _move_static(self, body: str | int, position: Sequence[float], orientation: Sequence[float] | None) -> None:
         spec_body = self.scene.spec.body(self._root[self.body(body)])
@@ -399,7 +407,7 @@ class MujocoBodies(MujocoExtras, World):
         d.mocap_pos[mocap] = list(position)
         if orientation is not None:
             d.mocap_quat[mocap] = mj_quat(orientation)
-        mujoco.mj_step1(m, d)
+        self._positions_written()
 
     def set_com_pose(self, body: str | int, position: Sequence[float], orientation: Sequence[float]) -> None:
         """Teleport a free body so that its centre-of-mass frame is at ``position`` / ``orientation``; velocity kept."""
@@ -410,8 +418,8 @@ class MujocoBodies(MujocoExtras, World):
         _, d = self.compiled()
         qvel = d.qvel.copy()
         self.set_pose(body, pos, orn)
-        d.qvel[:] = qvel
-        mujoco.mj_step1(self.model, d)
+        self.data.qvel[:] = qvel
+        self._positions_written()
 
     def aabb(self, body: str | int, link: int = -1) -> tuple[Vec3, Vec3]:
         """Axis-aligned box ``(min, max)`` around one link's geoms (m, world frame)."""

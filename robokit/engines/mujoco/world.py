@@ -4,7 +4,9 @@ and wrenches, rays, attachments, kinematics, cameras, contacts and episodes.
 
 The state after :meth:`MujocoWorld.step` is consistent: ``mj_step2`` integrates, then ``mj_step1`` computes the
 positions and velocities of the new state, so poses read between two steps are those of the current state, and
-forces and motor commands set then act during the next step.
+forces and motor commands set then act during the next step. ``mj_step1`` (and the copy of the solved contacts it
+would overwrite) runs when something first looks at the model or data; when nothing does before the next step, that
+step runs it, on the same state (a gym env's ticks between two actions read nothing).
 """
 
 from __future__ import annotations
@@ -100,8 +102,8 @@ class MujocoWorld(MujocoBodies):
         if self._dirty:
             self._compile()
         m, d, motors, grips = self._model, self._data, self.motors, self.scene.grips
-        if self._unsettled:  # nothing looked at the last step's state: its positions stage runs now, on it
-            self._unsettled = False
+        if self._unsettled:  # nothing looked at the state since it changed: its positions stage runs now, on it
+            self._unsettled = self._stepped = False
             mujoco.mj_step1(m, d)
             if grips.pending:
                 grips.after_positions(m, d)
@@ -138,15 +140,16 @@ class MujocoWorld(MujocoBodies):
         else:
             self._applied = hold
         self._solved = self._kept = None
-        self._unsettled = True  # mj_step1 runs when something looks, or at the next step (see _settle)
+        self._unsettled = self._stepped = True  # mj_step1 runs when something looks, or at the next step (_settle)
         self.tick += 1
 
     def _settle(self) -> None:
         """The last step's positions stage, its solved contacts kept first (:meth:`_keep_contacts`), and the grip
         anchors taken up in it welded where they are now."""
-        self._unsettled = False
         m, d = self._model, self._data
-        self._keep_contacts(m, d)
+        if self._stepped:
+            self._keep_contacts(m, d)
+        self._unsettled = self._stepped = False
         mujoco.mj_step1(m, d)
         if self.scene.grips.pending:
             self.scene.grips.after_positions(m, d)
@@ -301,9 +304,10 @@ class MujocoWorld(MujocoBodies):
     def reset_joint(self, body: int, joint: int, position: float, velocity: float | None = None) -> None:
         """Set a joint's position and velocity at once (set-up and resets)."""
         _, qadr, dadr = self._joint(body, joint)
-        self.data.qpos[qadr] = position
-        self.data.qvel[dadr] = velocity or 0.0
-        mujoco.mj_step1(self.model, self.data)
+        d = self.data
+        d.qpos[qadr] = position
+        d.qvel[dadr] = velocity or 0.0
+        self._positions_written()
 
     def set_joint_motor(self, body: int, joint: int, mode: MotorMode, *, target_position: float | None = None,
                         target_velocity: float | None = None, force: float | None = None,
@@ -550,7 +554,7 @@ class MujocoWorld(MujocoBodies):
         self._ramps.clear()
         d.qpos[:], d.qvel[:], d.ctrl[:] = snapshot["qpos"], snapshot["qvel"], snapshot["ctrl"]
         self.scene.grips.compiled(m)  # every anchor let go (mj_resetData switched their welds off)
-        mujoco.mj_step1(m, d)
+        self._positions_written()
         self._solved = self._kept = None
         self.tick = 0
 
