@@ -109,6 +109,15 @@ class MujocoBodies(MujocoExtras, World):
         self._unsettled = self._stepped = False
         mujoco.mj_step1(self._model, self._data)
 
+    def _for_writing(self) -> tuple[Any, Any]:
+        """The model and data to write positions into: compiled, a step's solved contacts kept (:meth:`_settle`),
+        and the positions stage of earlier writes left to run once after these."""
+        if self._dirty:
+            self._compile()
+        if self._stepped:
+            self._settle()
+        return self._model, self._data
+
     def _positions_written(self) -> None:
         """Joint positions or velocities were written: the positions stage runs when something next looks."""
         self._unsettled = True
@@ -383,7 +392,7 @@ class MujocoBodies(MujocoExtras, World):
         """Teleport a body's base (velocity zeroed). For set-up and tests, not for control. A static body becomes a
         MuJoCo mocap body the first time it is moved (recompiled once): still static to the physics, now movable."""
         bid = self._mj(body)
-        m, d = self.model, self.data
+        m, d = self._for_writing()
         if m.body_jntnum[bid] == 0:
             self._move_static(body, position, orientation)
             return
@@ -402,7 +411,7 @@ class MujocoBodies(MujocoExtras, World):
         if not spec_body.mocap:
             spec_body.mocap = True
             self._dirty = True
-        m, d = self.compiled()
+        m, d = self._for_writing()
         mocap = int(m.body_mocapid[self._mj(body)])
         d.mocap_pos[mocap] = list(position)
         if orientation is not None:
@@ -415,10 +424,10 @@ class MujocoBodies(MujocoExtras, World):
 
         offset = self.link_offset(body)
         pos, orn = (position, orientation) if offset is None else multiply(position, orientation, *offset)
-        _, d = self.compiled()
+        _, d = self._for_writing()
         qvel = d.qvel.copy()
         self.set_pose(body, pos, orn)
-        self.data.qvel[:] = qvel
+        self._for_writing()[1].qvel[:] = qvel
         self._positions_written()
 
     def aabb(self, body: str | int, link: int = -1) -> tuple[Vec3, Vec3]:

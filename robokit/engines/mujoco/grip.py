@@ -77,11 +77,16 @@ class GripAnchors:
             spec.delete(spec.equality(self.weld_name(finger)))
             self.fingers.remove(finger)
 
-    def compiled(self, m: Any) -> None:
-        """Look the fingers, their welds and the free bodies up in a freshly compiled model (every weld is off)."""
+    def let_go_of_all(self) -> None:
+        """Forget every hold (the data's welds were switched off: ``mj_resetData``)."""
         self.held.clear()
         self.pending.clear()
         self._squeezed.clear()
+        self._touched = None
+
+    def compiled(self, m: Any) -> None:
+        """Look the fingers, their welds and the free bodies up in a freshly compiled model (every weld is off)."""
+        self.let_go_of_all()
         self._eq = np.array([m.equality(self.weld_name(f)).id for f in self.fingers], dtype=np.int64)
         finger_bodies = np.array([m.body(f).id for f in self.fingers], dtype=np.int64)
         grip_of_body = np.full(m.nbody, -1, dtype=np.int64)

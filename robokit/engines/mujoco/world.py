@@ -304,7 +304,7 @@ class MujocoWorld(MujocoBodies):
     def reset_joint(self, body: int, joint: int, position: float, velocity: float | None = None) -> None:
         """Set a joint's position and velocity at once (set-up and resets)."""
         _, qadr, dadr = self._joint(body, joint)
-        d = self.data
+        _, d = self._for_writing()
         d.qpos[qadr] = position
         d.qvel[dadr] = velocity or 0.0
         self._positions_written()
@@ -553,7 +553,7 @@ class MujocoWorld(MujocoBodies):
         self._applied = None
         self._ramps.clear()
         d.qpos[:], d.qvel[:], d.ctrl[:] = snapshot["qpos"], snapshot["qvel"], snapshot["ctrl"]
-        self.scene.grips.compiled(m)  # every anchor let go (mj_resetData switched their welds off)
+        self.scene.grips.let_go_of_all()  # mj_resetData switched their welds off
         self._positions_written()
         self._solved = self._kept = None
         self.tick = 0
