@@ -62,7 +62,8 @@ def test_a_failing_config_is_evaluated_with_its_reason(client: Any, course: Cour
     assert reasons == {("aborted", "max_time 0.2 s reached before the behaviour finished")}
 
 
-def test_evaluating_again_changes_nothing_and_a_partial_evaluation_resumes(client: Any, course: Course) -> None:
+def test_evaluating_again_changes_nothing_and_a_partial_evaluation_resumes(client: Any, course: Course,
+                                                                          caplog: Any) -> None:
     from robokit.server.evaluation import evaluate_submission
     from robokit.server.models import Result, Submission
 
@@ -75,7 +76,9 @@ def test_evaluating_again_changes_nothing_and_a_partial_evaluation_resumes(clien
     # A worker killed after seed 1 was stored: seed 2 missing, the submission still running.
     Result.objects.filter(submission=sub, seed=2).delete()
     Submission.objects.filter(pk=sub.pk).update(status="running", trials=0, succeeded=0, success_rate=None)
-    assert evaluate_submission(sub.pk) == "done"
+    with caplog.at_level("INFO", logger="robokit.server.evaluation"):
+        assert evaluate_submission(sub.pk) == "done"
+    assert not [r for r in caplog.records if "already stored" in r.getMessage()]  # seeds 0 and 1 never ran again
     sub.refresh_from_db()
     assert sub.attempts == 2 and sub.status == "done" and sub.trials == 3
     now = {r.seed: r.pk for r in sub.results.all()}
