@@ -162,23 +162,24 @@ class GripAnchors:
         flat = geoms.ravel().tolist()
         if self._grip_geoms.isdisjoint(flat):  # the common step: no finger touches anything
             return out
-        grip_geoms = self._grip_geoms
-        rows = [i for i in range(len(flat) // 2) if flat[2 * i] in grip_geoms or flat[2 * i + 1] in grip_geoms]
-        pairs = [(flat[2 * i], flat[2 * i + 1]) for i in rows]
-        address, friction, force, dims = d.contact.efc_address, d.contact.friction, d.efc_force, d.contact.dim
+        found = np.flatnonzero(self._grip_of_geom[geoms].max(axis=1) >= 0)  # the rows with a finger in them
+        pairs = geoms[found].tolist()
+        contact = d.contact
+        addresses, mus, dims = (contact.efc_address[found].tolist(), contact.friction[found, 0].tolist(),
+                                contact.dim[found].tolist())
+        force = d.efc_force
         grip_of, body_of, movable, roots = self._lists
-        for row, pair in zip(rows, pairs, strict=True):
-            at = int(address[row])
+        for pair, at, mu, dim in zip(pairs, addresses, mus, dims, strict=True):
             normal = float(force[at]) if at >= 0 else 0.0
             if normal <= 0.0:
                 continue
-            tangential = math.hypot(float(force[at + 1]), float(force[at + 2])) if dims[row] > 1 else 0.0
+            tangential = math.hypot(float(force[at + 1]), float(force[at + 2])) if dim > 1 else 0.0
             for side in (0, 1):
                 k, other = grip_of[pair[side]], body_of[pair[1 - side]]
                 if k < 0 or not movable[other] or roots[other] == self._root_of_finger[k]:
                     continue
                 old = out.get((k, other), (0.0, 0.0, 0.0))
-                out[(k, other)] = (old[0] + normal, old[1] + float(friction[row, 0]) * normal, old[2] + tangential)
+                out[(k, other)] = (old[0] + normal, old[1] + mu * normal, old[2] + tangential)
         return out
 
     @staticmethod
