@@ -262,8 +262,9 @@ def test_a_records_sim_time_and_stays_come_from_its_own_files(
         ends = [*[t for _, t in mine], max(length, starts[-1])]
         assert [(s.state, s.start, s.end) for s in spans[name]] == list(zip(states, starts, ends, strict=True))
         for state, start, stop in zip(states, starts, ends, strict=True):
-            if stop - start > 1e-9 and starts.count(start) == 1:  # a stay of its own: its state in its middle
+            if stop - start > 1e-9 and starts.count(start) == 1:  # a stay of its own: its state from its start on
                 assert rec.state_at(spans, (start + stop) / 2)[name] == state
+                assert rec.state_at(spans, start)[name] == state
 
 
 def test_a_folder_without_a_record_is_not_a_run_and_an_ambiguous_prefix_lists_five(tmp_path: Path) -> None:
@@ -286,6 +287,17 @@ def test_a_folder_without_a_record_is_not_a_run_and_an_ambiguous_prefix_lists_fi
             find_run("abcdef", root)
         assert str(err.value) == (f"run id prefix 'abcdef' matches {count} runs in {root}/: "
                                   + ", ".join(n[:12] for n in names[:min(count, 5)]) + (" ..." if count > 5 else ""))
+
+
+def test_the_list_shows_the_newest_twenty_by_default(tmp_path: Path) -> None:
+    """``robokit results list`` without ``-n``: the 20 newest runs, oldest first; ``-n 0``: every run."""
+    names = [f"run{k:03d}xyz" for k in range(23)]
+    for age, name in enumerate(names):
+        (tmp_path / name).mkdir()
+        (tmp_path / name / RESULT_FILE).write_text(json.dumps({"outcome": "succeeded"}))
+        os.utime(tmp_path / name / RESULT_FILE, (1000 + age, 1000 + age))
+    assert [x.split()[0] for x in list_runs(str(tmp_path)).splitlines()[1:]] == [n[:8] for n in names[-20:]]
+    assert [x.split()[0] for x in list_runs(str(tmp_path), 0).splitlines()[1:]] == [n[:8] for n in names]
 
 
 def test_frames_note_says_where_the_frames_went_or_why_there_are_none(tmp_path: Path) -> None:
