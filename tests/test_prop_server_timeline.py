@@ -119,3 +119,40 @@ def test_every_timeline_row_and_segment_is_its_transition_record(teacher_client:
             assert float(width) == pytest.approx((w_end - w_start) / end * 100, abs=1e-3)
             assert colour.setdefault(w_state, c) == c  # one state, one colour, in every lane
         assert sum(float(s[1]) for s in segs) == pytest.approx(100.0, abs=0.01)  # a lane spans the whole run
+
+
+def test_a_long_trace_and_a_long_korean_config_are_shown_whole(teacher_client: Any, course: Any, settings: Any,
+                                                                tmp_path: Any) -> None:
+    """Traces are taken up to 20 MiB and configs up to 256 KiB: a trace whose transitions come after 250 KB of
+    other records still has them all on the page, for a run that reported no sim time (the bars end at the last
+    transition); a config of Korean text cut for display inside a character still shows (never a 500)."""
+    from django.core.files.uploadedfile import SimpleUploadedFile
+
+    settings.MEDIA_ROOT = tmp_path / "media"
+    payload = robokit_payload(next(_runs))
+    for key in ("sim_time", "total_time"):
+        payload.pop(key, None)
+        payload.get("result", {}).pop(key, None)
+    assert post(teacher_client, payload, course.kim_token).status_code == 201
+    ticks = [json.dumps({"kind": "sample", "t": i / 100, "pad": "x" * 100}) for i in range(2200)]
+    moves = [{"kind": "transition", "t": t, "machine": "arm", "source_state": a, "dest_state": b, "trigger": "go"}
+             for t, a, b in ((0.2, "idle", "reach"), (0.4, "reach", "grip"), (0.6, "grip", "lift"))]
+    trace = "\n".join([json.dumps({"kind": "header"}), *ticks, *map(json.dumps, moves)]).encode()
+    assert len(trace) > 250_000
+    config = ("#  " + "가" * 70_000 + "\n[world]\nmax_time = 1.0\n").encode()  # byte 200,000 is inside a character
+    assert 200_000 < len(config) < 256 * 1024 and (200_000 - 3) % 3
+    up = teacher_client.post(f"/api/robotics/result/{payload['run_id']}/artifacts/",
+                             data={"t": SimpleUploadedFile("trace.jsonl", trace),
+                                   "c": SimpleUploadedFile("mine.toml", config)},
+                             HTTP_AUTHORIZATION=f"Bearer {course.kim_token}")
+    assert up.status_code == 201, up.content
+    got = teacher_client.get(f"/runs/{payload['run_id']}/")
+    assert got.status_code == 200
+    page = got.content.decode()
+    timeline = page[page.index("<h2>State timeline</h2>"):page.index("<h2>Config</h2>")]
+    rows = [(float(t), *map(html.unescape, rest)) for t, *rest in ROW.findall(timeline)]
+    assert rows == [(m["t"], "arm", m["source_state"], m["dest_state"], "go") for m in moves]
+    (bar,) = [SEG.findall(b) for _, b in LANE.findall(timeline)]
+    widths = [float(s[1]) for s in bar]  # idle 0-0.2, reach 0.2-0.4, grip 0.4-0.6, lift 0.6-0.6 of 0.6 s
+    assert widths == pytest.approx([100 / 3, 100 / 3, 100 / 3, 0.0], abs=1e-3)
+    assert "가" * 100 in page[page.index("<h2>Config</h2>"):]
