@@ -22,6 +22,8 @@ from typing import Any
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from robokit.cli import main
 from robokit.record.format import find_run
@@ -465,3 +467,60 @@ def test_the_pages_replay_is_every_sample_of_the_checked_transforms(exported: An
     picked = sorted({*range(0, len(t), 5), len(t) - 1})
     assert np.array_equal(thin.t, full.t[picked])
     assert np.array_equal(thin.poses, full.poses[picked], equal_nan=True)
+
+
+# ------------------------------------------------------------------------------------------ generated long records
+@settings(max_examples=15, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(st.lists(st.floats(0, 5e4, allow_nan=False), min_size=1, max_size=6, unique=True),
+       st.lists(st.tuples(st.floats(0, 5e4, allow_nan=False), st.sampled_from(["arm", "base"]),
+                          st.sampled_from(["IDLE", "MOVE"])), max_size=4),
+       st.integers(0, 2**16), st.booleans())
+def test_every_message_of_a_long_record_keeps_its_time_and_pose(
+        tmp_path_factory: pytest.TempPathFactory, times: list[float], moves: list[tuple[float, str, str]],
+        seed: int, named: bool) -> None:
+    """Sample and transition times past one second (up to half a day): each message's log time is the sim time in
+    nanoseconds and its timestamp ``sec`` / ``nsec`` that split; each transform the pose given, a link whose body is
+    removed (NaN) left out; a header without machines logs its transitions alone."""
+    from mcap.reader import make_reader
+
+    from robokit.record.export import export_mcap
+    from robokit.record.format import RunRecord
+    from robokit.record.replay import Link, Replay
+
+    rng = np.random.default_rng(seed)
+    t = np.array(sorted(times))
+    poses = rng.normal(size=(len(t), 2, 7))
+    poses[:, :, 3:] /= np.linalg.norm(poses[:, :, 3:], axis=2, keepdims=True)
+    poses[rng.random(len(t)) < 0.3, 1] = np.nan  # the second link's body removed at some samples
+    folder = tmp_path_factory.mktemp("run")
+    header = {"kind": "header", "schema": "robokit.record/1", "config": {}, "time_step": 1 / 240}
+    if named:
+        header["machines"] = [{"name": "arm", "initial": "IDLE"}, {"name": "base", "initial": "MOVE"}]
+    events = [{"kind": "transition", "t": at, "tick": round(at * 240), "machine": m, "source_state": "X",
+               "dest_state": d, "trigger": "go"} for at, m, d in sorted(moves)]
+    (folder / "trace.jsonl").write_text("\n".join(json.dumps(x) for x in [header, *events]) + "\n")
+    replay = Replay([Link("a", "base", -1), Link("b", "tip", 3)], [], t, poses)
+    out = folder / "long.mcap"
+    export_mcap(RunRecord(folder), out, replay)
+    with out.open("rb") as f:
+        messages = [(c.topic, m.log_time, m.publish_time, json.loads(m.data)) for _, c, m in
+                    make_reader(f).iter_messages()]
+
+    def stamp(seconds: float) -> dict[str, int]:
+        ns = round(seconds * 1e9)
+        return {"sec": ns // 10**9, "nsec": ns % 10**9}
+
+    tf = [(log, msg) for topic, log, pub, msg in messages if topic == "/tf" and log == pub]
+    assert [log for log, _ in tf] == [round(x * 1e9) for x in t]
+    for (_, msg), row, at in zip(tf, poses, t, strict=True):
+        want = [(path, p) for path, p in zip(["a/base", "b/tip"], row, strict=True) if not np.isnan(p[0])]
+        assert [x["child_frame_id"] for x in msg["transforms"]] == [path for path, _ in want]
+        for x, (_, p) in zip(msg["transforms"], want, strict=True):
+            assert x["timestamp"] == stamp(at) and x["parent_frame_id"] == "world"
+            assert [x["translation"][k] for k in "xyz"] + [x["rotation"][k] for k in "xyzw"] == list(p)
+    logs = [(log, msg) for topic, log, _, msg in messages if topic == "/states"]
+    want_logs = [(0.0, m, f"{m}: start in {s}") for m, s in ([("arm", "IDLE"), ("base", "MOVE")] if named else [])]
+    want_logs += [(at, m, f"{m}: X -> {d} (go)") for at, m, d in sorted(moves)]
+    assert [(log, msg["timestamp"], msg["name"], msg["message"]) for log, msg in logs] == [
+        (round(at * 1e9), stamp(at), m, text) for at, m, text in want_logs]
