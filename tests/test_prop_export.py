@@ -13,6 +13,7 @@ time_step``, and the trace's ``end`` record the result's.
 
 from __future__ import annotations
 
+import base64
 import json
 import math
 import os
@@ -21,6 +22,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pybullet_data
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -307,11 +309,17 @@ def test_every_links_scene_entity_carries_its_urdf_visual(exported: Any) -> None
     for link, v in visuals.items():
         e = entities[f"robot/{link}"]
         assert e["frame_id"] == e["id"] and e["frame_locked"] is True
+        assert e["timestamp"] == e["lifetime"] == {"sec": 0, "nsec": 0}  # from the start, for ever
+        assert set(e) == {"timestamp", "frame_id", "id", "lifetime", "frame_locked", "metadata", "arrows", "lines",
+                          "triangles", "texts", "cubes", "spheres", "cylinders", "models"}  # Foxglove's fields
         prims = {k: e[k] for k in ("cubes", "spheres", "cylinders", "models") if e[k]}
         kind = {"box": "cubes", "sphere": "spheres", "cylinder": "cylinders"}[v["kind"]]
         assert list(prims) == [kind] and len(prims[kind]) == 1
         [shape] = prims[kind]
         size = [shape["size"][k] for k in "xyz"]
+        assert set(shape["size"]) == set("xyz")
+        if kind == "cylinders":  # a cylinder, not a cone
+            assert (shape["bottom_scale"], shape["top_scale"]) == (1.0, 1.0)
         want = v["size"] if kind == "cubes" else [2 * v["radius"][0]] * 3 if kind == "spheres" else \
             [2 * v["radius"][0], 2 * v["radius"][0], v["length"][0]]
         assert size == pytest.approx(want, abs=1e-6), link
@@ -319,6 +327,18 @@ def test_every_links_scene_entity_carries_its_urdf_visual(exported: Any) -> None
         pos, orn = shape["pose"]["position"], shape["pose"]["orientation"]
         assert [pos[k] for k in "xyz"] == pytest.approx(v["xyz"], abs=1e-6), link  # in the link's own frame
         assert abs(orn["w"]) == pytest.approx(1.0, abs=1e-6), link
+    [plane] = [e for k, e in entities.items() if k.startswith("plane/")]  # plane.urdf: plane100.obj, scale 1
+    [model] = plane["models"]
+    assert (model["media_type"], model["url"], model["override_color"]) == ("model/stl", "", True)
+    assert [model["scale"][k] for k in "xyz"] == [1.0, 1.0, 1.0]
+    obj = (Path(pybullet_data.getDataPath()) / "plane100.obj").read_text().splitlines()
+    vertices = {tuple(np.float32(float(v)) for v in x.split()[1:4]) for x in obj if x.startswith("v ")}
+    faces = [x.split()[1:] for x in obj if x.startswith("f ")]
+    stl = base64.b64decode(model["data"])  # binary STL: 80-byte header, count, 50 bytes a triangle
+    count = int(np.frombuffer(stl[80:84], "<u4")[0])
+    assert count == sum(len(f) - 2 for f in faces) and len(stl) == 84 + 50 * count
+    corners = np.frombuffer(stl[84:], np.dtype([("n", "<f4", 3), ("v", "<f4", (3, 3)), ("a", "<u2")]))["v"]
+    assert {tuple(c) for c in corners.reshape(-1, 3)} <= vertices  # every corner one of the OBJ's vertices
     wall = entities["wall/" + next(k.split("/")[1] for k in entities if k.startswith("wall/"))]
     [cube] = wall["cubes"]
     assert [cube["size"][k] for k in "xyz"] == pytest.approx([0.3, 2.0, 0.6])
