@@ -385,16 +385,22 @@ class PickPlace(MachineBehaviour):
         cfg: PickPlaceConfig = self.config
         return {cfg.arm: MoveTo(pos, yaw=self._yaw, speed=cfg.slow_speed if slow else cfg.speed)}
 
-    def _free_move(self, pos: Vec3, then: Vec3, carrying: str | None = None) -> dict[str, Any]:
+    def _free_move(self, pos: Vec3, then: Any, carrying: str | None = None, touching: str | None = None,
+                   fail: bool = True) -> dict[str, Any] | None:
         """A free move (approach, transport): straight, or with ``planner = "rrt"`` around what blocks the straight
         way (``carrying``: the body held, part of the moving geometry), ending in an arm posture from which the
-        straight move down to ``then`` keeps clear. No collision-free way fails the job."""
+        straight moves on through ``then`` (down and up again) keep clear, hand, fingers and held body included
+        (``touching``: the body about to be grasped). No collision-free way fails the job (None if not ``fail``)."""
         cfg: PickPlaceConfig = self.config
         if self.moves is None:
             return self._move(pos)
-        cmd = self.moves.move(pos, down_quaternion(self._yaw), cfg.speed, carrying=carrying, then=then)
+        cmd = self.moves.move(pos, down_quaternion(self._yaw), cfg.speed, carrying=carrying, then=then,
+                              touching=touching)
         if cmd is None:
-            self._fail(f"no collision-free path in {self.state_name}: {self.moves.last.reason}")
+            if not fail:
+                return None
+            what = self.task.object_name if self.task is not None and self.task.object_name else "the object"
+            self._fail(f"{what}: no collision-free way in {self.state_name}: {self.moves.last.reason}")
             return {cfg.arm: HoldArm()}
         return {cfg.arm: cmd}
 
@@ -410,10 +416,22 @@ class PickPlace(MachineBehaviour):
             return None
         self.attempts += 1
         (x, y, z), yaw = located
-        self._yaw = cube_grasp_yaw(yaw, 0.0)
         self._grasp = (x, y, z + cfg.grasp_offset)
-        above = (x, y, self._grasp[2] + cfg.approach_height)
-        return {cfg.gripper: GripperCommand("open"), **self._free_move(above, then=self._grasp)}
+        if self.moves is None:
+            self._yaw = cube_grasp_yaw(yaw, 0.0)
+            return {cfg.gripper: GripperCommand("open"), **self._move((x, y, self._grasp[2] + cfg.approach_height))}
+        # planned: the other grasp of the cube (a quarter turn about the vertical), then a higher approach
+        for rise in (1.0, 2.0):
+            for turn in (0.0, math.pi / 2):
+                self._yaw = cube_grasp_yaw(yaw, 0.0) + turn
+                above = (x, y, self._grasp[2] + rise * cfg.approach_height)
+                up = (x, y, self._altitude())
+                last = rise == 2.0 and turn
+                cmd = self._free_move(above, then=[self._grasp, up], touching=self.task.object_name if self.task
+                                      else None, fail=bool(last))
+                if cmd is not None:
+                    return {cfg.gripper: GripperCommand("open"), **cmd}
+        return None
 
     def enter_descend(self, readings: Mapping[str, Any]) -> dict[str, Any]:
         """Go straight down to the grasp point."""
@@ -433,7 +451,10 @@ class PickPlace(MachineBehaviour):
         assert self.task is not None
         x, y, z = self.task.place_position
         down = (x, y, z + self.config.grasp_offset + self.config.place_clearance)
-        return self._free_move((x, y, self._altitude()), then=down, carrying=self.task.object_name)
+        retreat = (x, y, z + self.config.grasp_offset + self.config.retreat_height)
+        cmd = self._free_move((x, y, self._altitude()), then=[down, retreat], carrying=self.task.object_name)
+        assert cmd is not None
+        return cmd
 
     def enter_lower(self, readings: Mapping[str, Any]) -> dict[str, Any]:
         """Lower the object to just above the place spot."""

@@ -11,12 +11,18 @@ and, between them, by kind:
 - ``boxes``: two or three boxes, 6-10 cm wide, 0.14-0.25 m tall, in the middle fifth of the way from cube to bin;
 
 The obstacles stand clear of the cube and of the bin (the arm's vertical moves over them stay straight).
+- ``gap``: two boxes 6-8 cm tall on both sides of the cube (along y), leaving 8-9.5 cm between them: a hand
+  whose fingers open across the gap meets a box on the way down, one turned a quarter turn fits;
+- ``low_shelf``: a board 16-20 cm above the table over the bin's far half (on two posts beyond the bin).
 - ``open``: nothing (what the planner costs where the straight way is clear).
 
-Every scene runs ``pick_place`` headless with ``planner = "straight"`` and ``planner = "rrt"``, and prints per kind:
+Every scene runs ``pick_place`` headless with ``planner = "straight"``, ``planner = "rrt"`` with
+``check_descents = false`` (``rrt-unchecked``: the straight moves down and up at the cube and bin checked for the
+links up to the wrist only) and ``planner = "rrt"``, and prints per kind:
 
 - success: the cube rests in the bin at the end (its centre inside the bin's box, below the rim);
 - collisions: runs in which the arm or the cube touched an obstacle (contacts read every tick);
+- refused: runs the behaviour failed at once with no collision-free way (one line naming what is in the way);
 - joint path: the arm's joint travel over the run (sum over ticks of the Euclidean joint step, rad), median over
   the successful runs, and its ratio to the travel of straight lines on the same scene with its obstacles taken
   away (what the job costs with nothing in the way), median;
@@ -42,8 +48,8 @@ from robokit.testing import make_sim
 
 ROOT = Path(__file__).resolve().parents[1]
 BASE = ROOT / "configs" / "pick_obstacle.toml"
-KINDS = ("wall", "shelf", "boxes", "open")
-MODES = ("straight", "rrt")
+KINDS = ("wall", "shelf", "boxes", "gap", "low_shelf", "open")
+MODES = ("straight", "rrt-unchecked", "rrt")
 
 
 def _box(size: list[float], position: list[float]) -> dict[str, Any]:
@@ -76,6 +82,16 @@ def scene(kind: str, seed: int) -> dict[str, Any]:
             side, height = rng.uniform(0.06, 0.1), rng.uniform(0.14, 0.25)
             x, y = cx + f * (bx - cx) + rng.uniform(-0.08, 0.08), cy + f * (by - cy)
             bodies[f"obstacle_{i}"] = _box([side, side, height], [x, y, height / 2])
+    elif kind == "gap":
+        height, gap = rng.uniform(0.06, 0.08), rng.uniform(0.08, 0.095)
+        bodies["cube"]["rpy_deg"] = [0, 0, float(rng.uniform(-10, 10))]
+        for i, side in enumerate((-1, 1)):
+            bodies[f"obstacle_{i}"] = _box([0.12, 0.06, height], [cx, cy + side * (gap / 2 + 0.03), height / 2])
+    elif kind == "low_shelf":
+        height = rng.uniform(0.16, 0.2)
+        bodies["obstacle_0"] = _box([0.34, 0.14, 0.02], [bx, by - 0.08, height + 0.01])
+        for i, side in enumerate((-1, 1)):
+            bodies[f"obstacle_{i + 1}"] = _box([0.02, 0.02, height], [bx + side * 0.19, by - 0.13, height / 2])
     cfg["world"]["max_time"] = 20.0
     return cfg
 
@@ -107,7 +123,9 @@ def trial(kind: str, seed: int, mode: str, engine: str, *, bare: bool = False) -
     cfg = scene(kind, seed)
     if bare:
         cfg["bodies"] = {k: v for k, v in cfg["bodies"].items() if not k.startswith("obstacle_")}
-    cfg["behaviour"]["planner"] = mode
+    cfg["behaviour"]["planner"] = "rrt" if mode.startswith("rrt") else mode
+    if mode == "rrt-unchecked":
+        cfg["behaviour"]["planning"] = {"check_descents": False}
     cfg["world"]["engine"] = engine
     cpu0 = time.process_time()
     with make_sim(cfg, base_dir=BASE.parent) as sim:
@@ -137,7 +155,9 @@ def trial(kind: str, seed: int, mode: str, engine: str, *, bare: bool = False) -
         placed = lo[0] < x < hi[0] and lo[1] < y < hi[1] and z < hi[2]
         stats = pp.moves.stats.as_dict() if pp.moves is not None else {}
         sim_time = w.time
-    return {"ok": placed, "touched": figures["touched"], "travel": figures["travel"],
+        failed = pp.outcome is not None and pp.outcome.status == "failed"
+        refused = failed and any("no collision-free way" in f for f in pp.failures)
+    return {"ok": placed, "refused": refused, "touched": figures["touched"], "travel": figures["travel"],
             "plan_ms": 1000.0 * decide.seconds / max(decide.calls, 1), "searched": stats.get("planned", 0),
             "cpu": (time.process_time() - cpu0) / max(sim_time, 1e-9)}
 
@@ -157,8 +177,8 @@ def main(argv: list[str] | None = None) -> int:
     if unknown:
         print(f"unknown kind {unknown[0]!r}; kinds: {', '.join(KINDS)}", file=sys.stderr)
         return 2
-    print("| scene | planner | success | collisions | joint path (rad) | vs no obstacle | plan ms | searched | "
-          "CPU ms / sim s |\n|---|---|---|---|---|---|---|---|---|")
+    print("| scene | planner | success | collisions | refused | joint path (rad) | vs no obstacle | plan ms | "
+          "searched | CPU ms / sim s |\n|---|---|---|---|---|---|---|---|---|---|")
     for kind in kinds:
         runs = {mode: [trial(kind, seed, mode, args.engine) for seed in range(args.seeds)] for mode in MODES}
         bare = [trial(kind, seed, "straight", args.engine, bare=True) for seed in range(args.seeds)]
@@ -166,7 +186,8 @@ def main(argv: list[str] | None = None) -> int:
             rows = runs[mode]
             ratios = [r["travel"] / b["travel"] for r, b in zip(rows, bare, strict=True) if r["ok"] and b["ok"]]
             print(f"| {kind} | {mode} | {sum(r['ok'] for r in rows)}/{len(rows)} | "
-                  f"{sum(r['touched'] for r in rows)} | {_median([r['travel'] for r in rows if r['ok']])} | "
+                  f"{sum(r['touched'] for r in rows)} | {sum(r['refused'] for r in rows)} | "
+                  f"{_median([r['travel'] for r in rows if r['ok']])} | "
                   f"{_median(ratios) + 'x' if ratios else '-'} | "
                   f"{statistics.mean(r['plan_ms'] for r in rows):.1f} | {sum(r['searched'] for r in rows)} | "
                   f"{statistics.median(r['cpu'] for r in rows) * 1000:.0f} |", flush=True)

@@ -14,6 +14,7 @@ does (a 7-joint arm reaches one hand pose with its elbow in many places).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -21,7 +22,7 @@ import numpy as np
 
 from robokit.errors import ConfigError, UserError
 from robokit.msgs.arm import FollowJoints, MoveTo, Quat, Vec3
-from robokit.planning.arm import ArmPlan, ArmPlanner, ArmPlanning
+from robokit.planning.arm import DEEPER, ArmPlan, ArmPlanner, ArmPlanning
 
 if TYPE_CHECKING:
     from robokit.engines.interface import World
@@ -65,6 +66,7 @@ class PlannedMoves:
     rng: np.random.Generator
     stats: PlanStats = field(default_factory=PlanStats)
     last: ArmPlan | None = None
+    in_way: str = ""
 
     @classmethod
     def for_arm(cls, world: World, arm: Any, rng: np.random.Generator, options: ArmPlanning | None = None,
@@ -86,12 +88,15 @@ class PlannedMoves:
         return cls(arm, planner, rng)
 
     def move(self, position: Vec3, orientation: Quat, speed: float | None, *, carrying: str | None = None,
-             then: Vec3 | None = None) -> Any:
+             then: Vec3 | Sequence[Vec3] | None = None, touching: str | None = None) -> Any:
         """The command that takes the tool to a pose without a collision: a :class:`MoveTo` when the straight path
         is free (or cannot be solved: the arm then reports why), a :class:`FollowJoints` around what blocks it,
         or None when no free path was found (:attr:`last` says why). ``speed``: m/s, None = the arm's.
-        ``then``: where the tool goes straight on from there (down to the cube, into the bin): the arm's posture
-        at the pose is chosen so that its links up to the wrist keep clear on that way too."""
+        ``then``: where the tool goes straight on from there (down to the cube and up again, into the bin): one
+        point or a chain of them. The arm's posture at the pose is chosen so that the whole arm (hand, fingers
+        and what it carries included) keeps clear on that way too; only the last ``margin`` of the first stretch,
+        where the hand or the carried object meets what it grasps or is put on, is not held to the margin.
+        ``touching``: a body the hand is about to grasp, not counted on that way."""
         arm, world = self.arm, self.planner.world
         straight, reason = arm.straight_path(position, orientation)
         if reason:
@@ -105,10 +110,16 @@ class PlannedMoves:
         joints = [j.index for j in arm.arm]
         self.planner.begin([s[0] for s in world.joint_states(arm.body, joints)], carried=carried)
         checks = self.planner.checks
-        goal = self._goal(straight[-1], position, orientation, then)
+        ways: list[Vec3] = []
+        if then is not None:
+            ways = [then] if isinstance(then[0], (int, float)) else list(then)  # type: ignore[list-item, arg-type]
+        skip = [] if touching is None else [world.body(touching)]
+        self.in_way = ""
+        goal = self._goal(straight[-1], position, orientation, ways, skip)
         if goal is None:
-            plan = ArmPlan(None, reason=f"no arm posture at the target whose way {'on ' if then else ''}is clear",
-                           checks=self.planner.checks - checks)
+            what = f" ({self.in_way} in the way)" if self.in_way else ""
+            plan = ArmPlan(None, reason=f"no arm posture at the target whose way {'on ' if then else ''}is "
+                           f"clear{what}", checks=self.planner.checks - checks)
         else:
             plan = self.planner.plan(straight[0], goal, self.rng, straight=straight if goal is straight[-1] else None)
             plan.checks = self.planner.checks - checks
@@ -121,29 +132,52 @@ class PlannedMoves:
         names = tuple(j.name for j in arm.arm)
         return FollowJoints(names, tuple(tuple(float(v) for v in q) for q in plan.path[1:]), speed=speed)
 
-    def _goal(self, first: np.ndarray, position: Vec3, orientation: Quat, then: Vec3 | None) -> np.ndarray | None:
+    def _goal(self, first: np.ndarray, position: Vec3, orientation: Quat, then: list[Vec3],
+              skip: list[int]) -> np.ndarray | None:
         """The arm's posture with the tool at the pose: ``first`` (where the straight path ends) when it is free
         and its way on to ``then`` is clear, else one of up to ``GOAL_TRIES`` postures the arm's IK reaches from
         random starts near ``first``; None when none is."""
-        if self._goal_clear(first, orientation, then):
+        if self._goal_clear(first, orientation, then, skip):
             return first
         lower, upper = self.planner.lower, self.planner.upper
         for _ in range(GOAL_TRIES):
             start = np.clip(first + self.rng.normal(0.0, GOAL_SPREAD, len(first)), lower, upper)
             path, reason = self.arm.straight_path(position, orientation, start=start)
-            if not reason and self._goal_clear(path[-1], orientation, then):
+            if not reason and self._goal_clear(path[-1], orientation, then, skip):
                 return np.asarray(path[-1])
         return None
 
-    def _goal_clear(self, q: np.ndarray, orientation: Quat, then: Vec3 | None) -> bool:
-        """The posture is free, and on the straight way on to ``then`` the arm's links before its last joint (the
-        wrist, hand and what it holds go where the task needs them) keep the margin."""
-        if not self.planner.free(q):
+    def _goal_clear(self, q: np.ndarray, orientation: Quat, then: list[Vec3], skip: list[int]) -> bool:
+        """The posture is free, and so is the whole arm (hand, fingers, what it carries) on the straight way on
+        through ``then`` (``skip``: bodies not counted there; the first stretch is checked down to ``margin`` +
+        ``DEEPER`` short of its end, where the hand or the carried object comes into contact)."""
+        hits = self.planner.clashes(q)
+        if hits:
+            self.in_way = self.planner.world.body_name(hits[0].other) or f"body {hits[0].other}"
             return False
-        if then is None:
-            return True
-        way, reason = self.arm.straight_path(then, orientation, start=q)
-        if reason:
-            return True  # the arm refuses that move itself, with its reason
-        body, wrist = self.arm.body, self.arm.arm[-1].index
-        return self.planner.blocked(way, counts=lambda c: c.body == body and c.link < wrist) is None
+        if not self.planner.options.check_descents:
+            if not then:
+                return True
+            way, reason = self.arm.straight_path(then[0], orientation, start=q)
+            body, wrist = self.arm.body, self.arm.arm[-1].index
+            return bool(reason) or self.planner.blocked(way, counts=lambda c: c.body == body and c.link < wrist) is None
+        start = q
+        short = self.planner.options.margin + DEEPER
+        for i, point in enumerate(then):
+            if i == 0:
+                point = (point[0], point[1], point[2] + short)
+            way, reason = self.arm.straight_path(point, orientation, start=start)
+            if reason:
+                return True  # the arm refuses that move itself, with its reason
+            saved = self.planner.skip
+            self.planner.skip = [*saved, *skip]
+            try:
+                hit = self.planner.blocked(way)
+            finally:
+                self.planner.skip = saved
+            if hit is not None:
+                other = hit[1][0].other
+                self.in_way = self.planner.world.body_name(other) or f"body {other}"
+                return False
+            start = way[-1]
+        return True
