@@ -117,7 +117,7 @@ ROOMS: dict[str, tuple[list[str], list[str]]] = {
                        "tests/test_prop_server_tokens.py", "tests/test_prop_course_deadlines.py",
                        "tests/test_prop_course_allowed_keys.py", "tests/test_prop_course_student_view.py",
                        "tests/test_prop_server_leaderboard.py", "tests/test_prop_server_timeline.py",
-                       "tests/test_course_dashboard.py"]),
+                       "tests/test_course_dashboard.py", "tests/test_prop_server_ranges.py"]),
     "engines": (["robokit/engines/*"], ["tests/test_engine_contract.py", "tests/test_prop_frames.py",
                                         "tests/test_prop_reset.py"]),
     "gym": (["robokit/gym/*"], ["tests/test_gym.py", "tests/test_pins_gym.py", "tests/test_prop_reset.py"]),
