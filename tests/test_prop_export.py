@@ -329,6 +329,7 @@ def test_every_links_scene_entity_carries_its_urdf_visual(exported: Any) -> None
         assert abs(orn["w"]) == pytest.approx(1.0, abs=1e-6), link
     [plane] = [e for k, e in entities.items() if k.startswith("plane/")]  # plane.urdf: plane100.obj, scale 1
     [model] = plane["models"]
+    assert set(model) == {"pose", "scale", "color", "override_color", "url", "media_type", "data"}
     assert (model["media_type"], model["url"], model["override_color"]) == ("model/stl", "", True)
     assert [model["scale"][k] for k in "xyz"] == [1.0, 1.0, 1.0]
     obj = (Path(pybullet_data.getDataPath()) / "plane100.obj").read_text().splitlines()
