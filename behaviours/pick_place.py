@@ -201,6 +201,7 @@ class PickPlace(MachineBehaviour):
         self._grasp: Vec3 = (0.0, 0.0, 0.0)
         self._arm_busy_until = -math.inf  # sim time before which the arm's path cannot have ended
         self._hold_check_due = -math.inf  # sim time of the next drop check while carrying
+        self._recheck_due = -math.inf  # sim time of the next check of a planned move's rest (planning.recheck_hz)
         self.moves: Any = None  # planner = "rrt": robokit.planning.arm_moves.PlannedMoves
 
     # ------------------------------------------------------------------ construction
@@ -358,6 +359,7 @@ class PickPlace(MachineBehaviour):
         if self.fire(trigger):
             self._entry_due = True
             self._arm_busy_until = self._hold_check_due = -math.inf  # the new state's commands start a new path
+            self._recheck_due = -math.inf
 
     def _fail(self, reason: str) -> None:
         self.failures.append(reason)
@@ -494,7 +496,24 @@ class PickPlace(MachineBehaviour):
     def _holding(self, readings: Mapping[str, Any]) -> bool:
         return bool(readings[self.config.gripper].holding)
 
+    def _recheck(self) -> bool:
+        """With ``planning.recheck_hz``: the rest of the planned free move checked against the world now; a body
+        in its way fails the job at once. False then."""
+        moves = self.moves
+        hz = self.config.planning.recheck_hz
+        if moves is None or not hz or self.t < self._recheck_due:
+            return True
+        self._recheck_due = self.t + 1.0 / hz
+        what = moves.in_way_ahead()
+        if not what:
+            return True
+        name = self.task.object_name if self.task is not None and self.task.object_name else "the object"
+        self._fail(f"{name}: {what} came into the planned way in {self.state_name}; stopped")
+        return False
+
     def do_approach(self, readings: Mapping[str, Any], t: float) -> None:
+        if not self._recheck():
+            return
         arm = self._arm(readings)
         if arm is not None and arm.reached:
             self._go("above_object")
@@ -517,7 +536,8 @@ class PickPlace(MachineBehaviour):
         self._carry(readings, "hold_verified")  # reached the transport altitude still holding: hold verified
 
     def do_transport(self, readings: Mapping[str, Any], t: float) -> None:
-        self._carry(readings, "above_place")
+        if self._recheck():
+            self._carry(readings, "above_place")
 
     def do_lower(self, readings: Mapping[str, Any], t: float) -> None:
         self._carry(readings, "at_place")

@@ -73,3 +73,40 @@ def test_a_board_low_over_the_bin_stops_the_job_at_once_naming_it_and_nothing_is
         (x, y, _), _ = sim.world.pose("cube")  # lifted straight up in the gap, not carried anywhere
         assert abs(x - x0) < 0.01 and abs(y - y0) < 0.01
         assert sim.behaviour.attempts == 1
+
+
+OBSTACLE = Path(__file__).resolve().parents[1] / "configs" / "pick_obstacle.toml"
+
+
+def carry_while_a_box_comes_into_the_way(recheck_hz: float) -> tuple[Any, int]:
+    """configs/pick_obstacle.toml; 0.3 s into the transport a box is put over the bin, in the planned way. The
+    outcome, and the contacts of the arm or the cube with that box over the whole run."""
+    box = {"shape": "box", "size": [0.08, 0.08, 0.08], "mass": 0, "position": [1.5, 1.5, 0.04]}
+    with make_sim(OBSTACLE, overrides={"bodies.intruder": box, "behaviour.planning": {"recheck_hz": recheck_hz}}
+                  ) as sim:
+        w = sim.world
+        robot, cube, intruder = w.body("panda"), w.body("cube"), w.body("intruder")
+        moved, touches = [False], [0]
+
+        def watch(s: Any) -> bool:
+            if s.behaviour.state_name == "TRANSPORT" and s.behaviour.time_in_state > 0.3 and not moved[0]:
+                w.set_pose("intruder", [0.5, -0.25, 0.2])
+                moved[0] = True
+            touches[0] += sum(len(w.contacts(who, intruder)) for who in (robot, cube))
+            return s.behaviour.outcome is not None
+
+        sim.run_until(watch, 4000)
+        assert moved[0]
+        return sim.behaviour.outcome, touches[0]
+
+
+def test_a_box_put_into_the_planned_way_stops_the_job_before_it_is_touched() -> None:
+    outcome, touches = carry_while_a_box_comes_into_the_way(10.0)
+    assert outcome.status == "failed"
+    assert outcome.reason == "cube: intruder came into the planned way in TRANSPORT; stopped"
+    assert touches == 0
+
+
+def test_without_rechecks_the_arm_carries_the_cube_into_the_box_that_came() -> None:
+    outcome, touches = carry_while_a_box_comes_into_the_way(0.0)
+    assert touches > 0

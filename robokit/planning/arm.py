@@ -41,6 +41,9 @@ class ArmPlanning(Schema):
     max_samples: int = Field(3000, ge=1, le=100000, description="random samples before a search gives up")
     shortcut_rounds: int = Field(60, ge=0, le=10000, description="random shortcuts tried on a path found")
     spacing: float = Field(0.05, gt=0, le=1.0, description="spacing of the waypoints handed to the arm, rad")
+    recheck_hz: float = Field(0.0, ge=0, le=1000, description="how often (sim Hz) the rest of a planned free move "
+                              "is checked against the world while the arm is on it; a body that has come into its "
+                              "way stops the job (0: never)")
     check_descents: bool = Field(True, description="check the whole arm (hand, fingers, held object) on the "
                                  "straight moves down and up at the cube and the bin; false: only the links up to "
                                  "the wrist on the way down (what the hand meets there is not checked)")

@@ -181,3 +181,18 @@ class PlannedMoves:
                 return False
             start = way[-1]
         return True
+
+    def in_way_ahead(self) -> str:
+        """What now stands within the margin of the rest of the last move's path (from the waypoint nearest the
+        arm's measured joints on), checked against the world as it is now; "" when the rest is free."""
+        plan = self.last
+        if plan is None or plan.path is None:
+            return ""
+        world, arm = self.planner.world, self.arm
+        q = np.array([s[0] for s in world.joint_states(arm.body, [j.index for j in arm.arm])])
+        rest = plan.path[int(np.argmin(np.linalg.norm(plan.path - q, axis=1))):]
+        hit = self.planner.blocked(list(rest))
+        if hit is None:
+            return ""
+        other = hit[1][0].other
+        return world.body_name(other) or f"body {other}"
