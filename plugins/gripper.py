@@ -9,8 +9,8 @@ Defaults fit the Panda (two prismatic finger joints). Other grippers are describ
   (default: upper limit open, 0 closed, the Panda's convention);
 - ``hold_joints``: other joints held at a fixed position (e.g. fingertip hinges), so they do not flop;
 - ``open_width``: the distance between the fingertips when fully open, metres (default for prismatic fingers: the
-  sum of their open positions). Widths in commands and readings are metres; in between, width is taken as linear
-  in the fingers' travel from closed to open.
+  sum of their travels from closed to open, their open positions when they close at 0). Widths in commands and
+  readings are metres; in between, width is taken as linear in the fingers' travel from closed to open.
 
 With two fingers they are coupled by a gear constraint (ratio from their travel directions) so they stay symmetric
 when contact forces push them unevenly; each is position-controlled with a moderate force limit. Finger lateral

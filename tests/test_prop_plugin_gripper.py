@@ -16,10 +16,11 @@ from typing import Any
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, Phase, assume, given, settings
+from hypothesis import HealthCheck, Phase, assume, example, given, settings
 from hypothesis import strategies as st
 from oracles import rotation
 
+from robokit.errors import ConfigError
 from robokit.msgs.arm import GripperCommand
 from robokit.testing import make_sim
 
@@ -161,29 +162,69 @@ def test_holding_is_both_fingers_touching_one_body_in_the_world(sim: Any, angles
             assert all(touching) and r.holding, "a centred cube is held once the fingers close"
 
 
-@settings(max_examples=4, deadline=None, derandomize=True, phases=NO_SHRINK,
+@settings(max_examples=5, deadline=None, derandomize=True, phases=NO_SHRINK,
           suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(start=st.floats(0.0, OPEN), goal=st.floats(0.0, OPEN), ticks=st.integers(3, 25))
-def test_a_protective_stop_freezes_the_fingers_where_they_are(sim: Any, start: float, goal: float,
+@given(start=st.floats(0.0, OPEN), goal=st.one_of(st.floats(0.0, OPEN), st.sampled_from(["open", "close"])),
+       ticks=st.integers(3, 25))
+@example(start=0.07, goal="close", ticks=8)
+@example(start=0.01, goal="open", ticks=8)
+def test_a_protective_stop_freezes_the_fingers_where_they_are(sim: Any, start: float, goal: float | str,
                                                               ticks: int) -> None:
-    """Stopped mid-travel on nothing: the fingers stay at the width they had, in the world, and the reading says
-    stopped until the next command."""
+    """Stopped mid-travel on nothing (towards a width, or opening, or closing): the fingers stay at the width they
+    had, in the world, the reading says stopped until the next command, and the run's trace records the stop."""
     sim.world.set_pose("cube", (3, 3, 0.5))
     g = sim.components["gripper"]
     g.command(GripperCommand("width", width=start))
     settle(sim)
-    g.command(GripperCommand("width", width=goal))
+    g.command(GripperCommand(goal, width=None) if isinstance(goal, str) else GripperCommand("width", width=goal))
     sim.step(ticks)
     at_stop = fingertips(sim)[0]
-    g.protective_stop("test")
+    before = len(sim.trace)
+    g.protective_stop("a test")
+    assert [(r["kind"], r["actuator"], r["reason"]) for r in sim.trace[before:]] == [
+        ("protective_stop", "gripper", "a test")]
     sim.step(60)
     r = sim.readings["gripper"]
-    assert r.stopped
+    assert r.stopped and r.action == "width"
     assert fingertips(sim)[0] == pytest.approx(at_stop, abs=2.5e-3), "the fingers held the width of the stop"
     assert r.target_width == pytest.approx(at_stop, abs=2.5e-3)
     g.command(GripperCommand("open"))
     sim.step(1)
     assert not sim.readings["gripper"].stopped
+
+
+@settings(max_examples=3, deadline=None, derandomize=True, phases=NO_SHRINK,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(size=st.floats(0.02, 0.045), ticks=st.integers(0, 30))
+def test_a_protective_stop_keeps_a_grip_on_what_the_fingers_hold(sim: Any, size: float, ticks: int) -> None:
+    """Closed on a cube and holding it, a protective stop keeps the grip (dropping it is not safe): the command stays
+    ``close``, the fingers keep squeezing the cube, the reading still holds it."""
+    w = sim.world
+    g = sim.components["gripper"]
+    g.command(GripperCommand("open"))
+    settle(sim)
+    put_hand(sim, [0.0, 0.3, 0.0, -1.8, 0.0, 2.1, 0.785])
+    w.set_pose("cube", (3, 3, 0.5))
+    sim.step(1)
+    target_pos, target_orn = w.pose("panda", link(sim, "panda_grasptarget"))
+    w.remove_body("cube")
+    w.add_primitive("cube", "box", size=[size] * 3, mass=0.0, position=list(target_pos), orientation=target_orn)
+    g.command(GripperCommand("close"))
+    settle(sim)
+    sim.step(ticks)
+    assert sim.readings["gripper"].holding
+    g.protective_stop("a test")
+    sim.step(60)
+    r = sim.readings["gripper"]
+    cube = w.body("cube")
+    touching = [any(c.other == cube for c in w.contacts(w.body("panda"), link=link(sim, name)))
+                for name in ("panda_leftfinger", "panda_rightfinger")]
+    assert r.stopped and r.action == "close" and r.target_width == 0.0
+    assert all(touching) and r.holding and r.held == "cube"
+    assert fingertips(sim)[0] == pytest.approx(size, abs=3e-3), "squeezing the cube, not closed past it"
+    w.set_pose("cube", (3, 3, 0.5))
+    g.command(GripperCommand("open"))
+    settle(sim)
 
 
 # ------------------------------------------------------------------------ other grippers, set up by config
@@ -236,3 +277,58 @@ def test_configured_fingers_go_to_the_joint_positions_linear_in_the_width(kuka_g
     r = sim.readings["gripper"]
     assert r.width == pytest.approx(cfg["open_width"] * sum(measured) / len(measured), abs=1e-6)
     assert r.target_width == pytest.approx(frac * cfg["open_width"], abs=1e-12)
+
+
+# ------------------------------------------------------------------------ set-up mistakes, and closing
+PANDA = {"urdf": "franka_panda/panda.urdf", "position": [0, 0, 0], "fixed_base": True}
+FINGERS = ["panda_finger_joint1", "panda_finger_joint2"]
+MISTAKES = [  # (robot, gripper settings, the key named, the message, or its start up to the list that follows)
+    (PANDA, {"finger_joints": ["panda_finger_joint1", "panda_hand_joint"]}, "finger_joints[1]",
+     "finger joint 'panda_hand_joint' must be prismatic or revolute, got fixed"),
+    (PANDA, {"finger_joints": ["panda_finger_joint1", "panda_finger_joint3"]}, "finger_joints[1]",
+     "unknown joint 'panda_finger_joint3'"),
+    (PANDA, {"open_positions": [0.04, 0.0], "closed_positions": [0.0, 0.0]}, "open_positions",
+     "each finger joint's open and closed positions must differ"),
+    (KUKA_SDF, {k: v for k, v in TWO_REVOLUTE.items() if k not in ("open_width", "type")}, "open_width",
+     "give 'open_width' (fingertip distance when open, metres) for revolute or single-joint fingers"),
+    (PANDA, {"finger_joints": ["panda_finger_joint1"], "finger_links": [["panda_leftfinger"], ["panda_rightfinger"]]},
+     "open_width", "give 'open_width' (fingertip distance when open, metres) for revolute or single-joint fingers"),
+    (PANDA, {"finger_joints": ["panda_finger_joint1"], "open_width": 0.08, "mimic": {"panda_finger_jont2": 1.0},
+             "finger_links": [["panda_leftfinger"], ["panda_rightfinger"]]}, "mimic.panda_finger_jont2",
+     "unknown joint 'panda_finger_jont2'"),
+    (PANDA, {"hold_joints": {"panda_joint9": 0.0}}, "hold_joints.panda_joint9", "unknown joint 'panda_joint9'"),
+    (PANDA, {"stop_on": "arm"}, "stop_on", "'arm' is not a contact sensor; components: "),
+]
+
+
+@pytest.mark.parametrize(("robot", "settings_", "key", "message"), MISTAKES,
+                         ids=[m[2] + "-" + m[3][:12] for m in MISTAKES])
+def test_a_gripper_set_up_wrongly_names_the_key_and_the_fix(robot: dict, settings_: dict, key: str,
+                                                            message: str) -> None:
+    body = "kuka" if robot is KUKA_SDF else "panda"
+    config = {"world": {"gravity": [0, 0, 0]}, "robots": {body: robot},
+              "actuators": {"arm": {"type": "joint_control", "body": body},
+                            "gripper": {"type": "gripper", "body": body, **settings_}}}
+    with pytest.raises(ConfigError) as err:
+        with make_sim(config):
+            pass
+    assert err.value.key == f"actuators.gripper.{key}"
+    assert err.value.message.startswith(message), err.value.message
+
+
+@pytest.mark.parametrize("closed", [0.0, 0.01])
+def test_the_default_open_width_is_the_fingers_travel_and_close_lets_the_fingers_go(closed: float) -> None:
+    """Prismatic fingers' open width is the sum of their travels from closed to open (the width is linear in the
+    travel: a width of 0 is the closed positions); closing the gripper removes the gear that coupled its fingers
+    (a closed gripper leaves no constraint behind in the world)."""
+    config = {"world": {"gravity": [0, 0, 0]}, "robots": {"panda": PANDA},
+              "actuators": {"gripper": {"type": "gripper", "body": "panda", "closed_positions": [closed, closed]}}}
+    with make_sim(config) as s:
+        w = s.world
+        upper = [w.joint("panda", n).upper for n in FINGERS]
+        assert s.readings["gripper"].width == pytest.approx(sum(u - closed for u in upper), abs=1e-9)
+        gears = w.client.getNumConstraints()
+        s.components["gripper"].close()
+        assert w.client.getNumConstraints() == gears - 1
+        s.components["gripper"].close()  # twice is harmless
+        assert w.client.getNumConstraints() == gears - 1
