@@ -152,6 +152,7 @@ class PatrolCollect(Patrol):
         self.found: list[dict[str, Any]] = []
         self.target: Track | None = None
         self.approach_started = 0.0
+        self.stage: tuple[float, float] | None = None
         self.collected_count = 0
         self.scan_stamp = -1.0
         self.collectables = self._collectables(ctx)
@@ -233,6 +234,7 @@ class PatrolCollect(Patrol):
         self.target = target
         target.attempts += 1
         self.approach_started = t
+        self.stage = None
         self.avoider.reset()
         self.fire("spotted")
         return self._tool(True)
@@ -273,11 +275,18 @@ class PatrolCollect(Patrol):
 
     def _pregrasp(self, pose: tuple[float, float, float], target: Track) -> tuple[float, float]:
         """Where to drive before creeping in: ``reach`` + 0.3 m short of the object, on the robot's side of it
-        (free space: a map that marked the object itself as an obstacle still has a way there)."""
+        (free space: a map that marked the object itself as an obstacle still has a way there). A later attempt
+        stages a quarter turn round the object (left, then right), so a way that timed out is not driven again."""
         dx, dy = pose[0] - target.x, pose[1] - target.y
         d = math.hypot(dx, dy) or 1.0
         back = self.config.reach + 0.3
-        return target.x + back * dx / d, target.y + back * dy / d
+        if target.attempts < 2:
+            return target.x + back * dx / d, target.y + back * dy / d
+        if self.stage is None:  # fixed for the attempt: a side chosen from where the robot stood when it began
+            turn = math.pi / 2 if target.attempts % 2 == 0 else -math.pi / 2
+            c, s = math.cos(turn), math.sin(turn)
+            self.stage = (target.x + back * (c * dx - s * dy) / d, target.y + back * (s * dx + c * dy) / d)
+        return self.stage
 
     def _give_up(self, t: float) -> Mapping[str, Any]:
         target = self.target
