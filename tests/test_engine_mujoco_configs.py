@@ -24,7 +24,7 @@ RUNS_ON_MUJOCO = {"drop_test", "contact_stop", "go_to_goal", "kuka_dance", "less
                   "patrol_robot", "pid_kuka", "pick_place", "sort_robot", "lesson06_collect", "camera_demo",
                   "urdf_gallery", "drive_teleop", "kuka_teleop", "go_to", "reach", "pick", "push", "pick_place_suction",
                   "husky_go_to_goal", "contact_abort", "reach_policy", "plan_dead_end",
-                  "pick_obstacle", "patrol_pickup"}
+                  "pick_obstacle", "patrol_pickup", "pick_gap"}
 """Configs that run on mujoco today; every other one is refused (the test fails when one changes sides silently)."""
 
 
