@@ -26,6 +26,7 @@ import pybullet_data
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from oracles import rodrigues, rotation
 
 from robokit.cli import main
 from robokit.record.format import find_run
@@ -80,18 +81,6 @@ goal = [-1.43, 0.8]
 """
 
 
-def rot(axis: Any, angle: float) -> np.ndarray:
-    k = np.asarray(axis, float) / np.linalg.norm(axis)
-    skew = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
-    return np.eye(3) + math.sin(angle) * skew + (1.0 - math.cos(angle)) * skew @ skew
-
-
-def matrix_of(q: Any) -> np.ndarray:
-    x, y, z, w = (float(v) for v in q)
-    n = math.sqrt(x * x + y * y + z * z)
-    return np.eye(3) if n < 1e-12 else rot([x, y, z], 2.0 * math.atan2(n, w))
-
-
 def frame(p: Any, r: np.ndarray) -> np.ndarray:
     out = np.eye(4)
     out[:3, :3], out[:3, 3] = r, p
@@ -114,8 +103,8 @@ def urdf() -> tuple[np.ndarray, dict[str, dict[str, Any]]]:
         r, p, y = numbers(o.get("rpy") if o is not None else None)
         joints[j.find("child").get("link")] = {  # type: ignore[union-attr]
             "name": j.get("name"), "type": j.get("type"), "axis": numbers(a.get("xyz") if a is not None else "1 0 0"),
-            "origin": frame(numbers(o.get("xyz") if o is not None else None), rot([0, 0, 1], y) @ rot([0, 1, 0], p)
-                            @ rot([1, 0, 0], r))}
+            "origin": frame(numbers(o.get("xyz") if o is not None else None),
+                            rodrigues([0, 0, 1], y) @ rodrigues([0, 1, 0], p) @ rodrigues([1, 0, 0], r))}
     return inertial, joints
 
 
@@ -155,17 +144,17 @@ def test_every_transform_is_the_recorded_sample_composed_with_the_urdf(exported:
         got = {x["child_frame_id"]: x for x in msg["transforms"]}
         for x in msg["transforms"]:
             assert x["timestamp"] == {"sec": stamp // 10**9, "nsec": stamp % 10**9}
-        com = frame(base[i, :3], matrix_of(base[i, 3:]))
+        com = frame(base[i, :3], rotation(base[i, 3:]))
         link = com @ frame(-inertial, np.eye(3))  # the link frame seen from the centre of mass
         expected = {"robot/base_link": link}
         q = dict(zip(order, joints[i], strict=False))
         for child, j in chain.items():
-            motion = rot(j["axis"], float(q[j["name"]])) if j["type"] == "continuous" else np.eye(3)
+            motion = rodrigues(j["axis"], float(q[j["name"]])) if j["type"] == "continuous" else np.eye(3)
             expected[f"robot/{child}"] = link @ j["origin"] @ frame(np.zeros(3), motion)
         for path, want in expected.items():
             tr, rq = got[path]["translation"], got[path]["rotation"]
             assert np.allclose([tr["x"], tr["y"], tr["z"]], want[:3, 3], atol=2e-4), (i, path)
-            r = matrix_of([rq["x"], rq["y"], rq["z"], rq["w"]])
+            r = rotation([rq["x"], rq["y"], rq["z"], rq["w"]])
             assert np.degrees(math.acos(max(-1.0, min(1.0, (np.trace(r.T @ want[:3, :3]) - 1) / 2)))) < 0.05, (i, path)
         turned = math.atan2(link[1, 0], link[0, 0])
         if i == 0:  # it starts where the config put it: turned 143 degrees
@@ -209,7 +198,7 @@ POST: dict[str, Any] = {"centre": np.array([0.3, -0.9, 0.3]), "half": np.array([
 
 def box_distance(box: dict[str, Any], origin: np.ndarray, direction: np.ndarray) -> float | None:
     """Where a ray first meets a box (slabs in the box's own frame), or None."""
-    r = rot([0, 0, 1], box["yaw"]) if box["yaw"] else np.eye(3)
+    r = rodrigues([0, 0, 1], box["yaw"]) if box["yaw"] else np.eye(3)
     o, d = r.T @ (origin - box["centre"]), r.T @ direction
     near, far = -math.inf, math.inf
     for k in range(3):
@@ -253,7 +242,7 @@ def test_every_range_of_every_scan_is_the_distance_to_the_wall_along_its_ray(exp
     for stamp, scan in messages["/lidar/scan"]:
         boxes = [WALL, POST] if present[stamp] else [WALL]  # a removed post stops no ray
         p, o = scan["pose"]["position"], scan["pose"]["orientation"]
-        origin, frame_rot = np.array([p[k] for k in "xyz"]), matrix_of([o[k] for k in "xyzw"])
+        origin, frame_rot = np.array([p[k] for k in "xyz"]), rotation([o[k] for k in "xyzw"])
         ranges = scan["ranges"]
         assert len(ranges) == 36
         assert scan["start_angle"] == pytest.approx(-math.pi) and scan["end_angle"] == pytest.approx(math.pi * 34 / 36)
@@ -275,12 +264,12 @@ def test_every_range_of_every_scan_is_the_distance_to_the_wall_along_its_ray(exp
 
 def test_the_wall_stands_where_the_config_put_it_in_every_transform(exported: Any) -> None:
     _, messages = exported
-    want = rot([0, 0, 1], WALL["yaw"])
+    want = rodrigues([0, 0, 1], WALL["yaw"])
     for _, msg in messages["/tf"]:
         [wall] = [x for x in msg["transforms"] if x["child_frame_id"].startswith("wall/")]
         tr, rq = wall["translation"], wall["rotation"]
         assert [tr[k] for k in "xyz"] == pytest.approx(list(WALL["centre"]), abs=1e-6)
-        assert np.allclose(matrix_of([rq[k] for k in "xyzw"]), want, atol=1e-6)
+        assert np.allclose(rotation([rq[k] for k in "xyzw"]), want, atol=1e-6)
 
 
 def urdf_visuals() -> dict[str, dict[str, Any]]:
@@ -421,7 +410,7 @@ def test_every_rerun_scan_point_is_a_return_of_the_mcap_scan(exported: Any, rrd:
     assert len(points) == len(messages["/lidar/scan"])
     for stamp, scan in messages["/lidar/scan"]:
         p, o = scan["pose"]["position"], scan["pose"]["orientation"]
-        origin, r = np.array([p[k] for k in "xyz"]), matrix_of([o[k] for k in "xyzw"])
+        origin, r = np.array([p[k] for k in "xyz"]), rotation([o[k] for k in "xyzw"])
         want = [origin + d * r @ np.array([math.cos(a), math.sin(a), 0.0]) for a, d in zip(
             np.linspace(scan["start_angle"], scan["end_angle"], len(scan["ranges"])), scan["ranges"], strict=True)
             if d > 0]

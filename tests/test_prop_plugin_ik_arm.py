@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from oracles import rodrigues
+from oracles import rodrigues, rotation
 
 from robokit.msgs.arm import MoveTo
 from robokit.testing import make_sim
@@ -46,12 +46,6 @@ def rpy_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
 TOOL = rpy_matrix(*np.radians(RPY))
 
 
-def matrix_of(q) -> np.ndarray:  # type: ignore[no-untyped-def]
-    x, y, z, w = (float(v) for v in q)
-    n = math.sqrt(x * x + y * y + z * z)
-    return np.eye(3) if n < 1e-12 else rodrigues((x, y, z), 2.0 * math.atan2(n, w))
-
-
 def axis_angle_quaternion(axis: np.ndarray, angle: float) -> tuple[float, float, float, float]:
     k = np.asarray(axis, float) / np.linalg.norm(axis) * math.sin(angle / 2.0)
     return (float(k[0]), float(k[1]), float(k[2]), math.cos(angle / 2.0))
@@ -74,7 +68,7 @@ def tool_pose(sim) -> tuple[np.ndarray, np.ndarray]:  # type: ignore[no-untyped-
     w = sim.world
     panda = w.body("panda")
     pos, orn = w.pose(panda, w.link(panda, "panda_hand"))
-    r = matrix_of(orn)
+    r = rotation(orn)
     return np.asarray(pos) + r @ OFFSET, r @ TOOL
 
 
@@ -110,7 +104,7 @@ def test_the_reading_is_the_tool_frame_at_any_joint_angles(sim, deltas: list[flo
         pos, rot = tool_pose(sim)
         state = sim.components["arm"].read()
         assert np.allclose(state.position, pos, atol=1e-6)
-        assert math.degrees(angle_between(matrix_of(state.orientation), rot)) < 1e-3
+        assert math.degrees(angle_between(rotation(state.orientation), rot)) < 1e-3
     finally:
         for i, q in enumerate(start, start=1):
             w.reset_joint(panda, w.joint(panda, f"panda_joint{i}").index, float(q))
@@ -138,7 +132,7 @@ def test_a_target_pose_is_where_the_tool_frame_ends(fresh_sim, x: float, y: floa
     assert np.allclose(pos, [x, y, z], atol=0.006)
     assert math.degrees(angle_between(rot, want)) < 3.0
     assert np.allclose(state.target_position, [x, y, z])
-    assert math.degrees(angle_between(matrix_of(state.target_orientation), want)) < 1e-3
+    assert math.degrees(angle_between(rotation(state.target_orientation), want)) < 1e-3
 
 
 @PROPS
