@@ -54,6 +54,7 @@ SAMPLE = ["world max_time absurd", "body missing urdf", "lidar unknown link", "h
           "event force inf", "behaviour unknown type"]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", SAMPLE)
 def test_the_real_command_refuses_a_sample(name: str, tmp_path: Path) -> None:
     case = CASES[name]

@@ -289,6 +289,7 @@ def _check_sorts_as_alone(seed: int) -> None:
     assert seq.result["goal"]["met"] and alone.result["goal"]["met"]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [1])  # 20 seeds in the slow tier below
 def test_the_main_job_as_the_second_step_after_a_record_step_sorts_as_it_does_alone(seed: int) -> None:
     _check_sorts_as_alone(seed)

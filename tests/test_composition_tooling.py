@@ -178,6 +178,7 @@ def test_check_behaviour_works_on_mujoco_and_catches_a_teleport_there(bad: Any) 
         check_behaviour("teleport", {}, scene=scene, extra_plugins=[bad])
 
 
+@pytest.mark.slow
 def test_the_built_in_force_torque_sensor_and_guard_are_not_flagged() -> None:
     check_sensor("force_torque")
     check_behaviour("pick_place")  # moves the cube only through the arm and gripper

@@ -80,6 +80,7 @@ def _run_json(tmp_path: Path, *extra: str) -> dict:
     return json.loads(proc.stdout)
 
 
+@pytest.mark.slow
 def test_drop_test_is_deterministic_and_keeps_its_result(tmp_path: Path) -> None:
     first, second = _run_json(tmp_path), _run_json(tmp_path, "--trace", str(tmp_path / "trace.jsonl"))
     assert first["schema"] == "robokit.run/1" and first["outcome"] == "succeeded"
@@ -103,6 +104,7 @@ def test_higher_restitution_bounces_higher() -> None:
     assert bodies["box"]["final_position"][0] > 0.2  # the push at t = 2 s moved it
 
 
+@pytest.mark.slow
 def test_two_worlds_in_one_process_match_separate_processes() -> None:
     code = (
         "import json,sys\nfrom robokit.testing import make_sim\n"

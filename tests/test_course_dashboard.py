@@ -186,6 +186,7 @@ def _charts_without_system_korean(tmp_path: Any, mode: str) -> tuple[dict[str, A
     return json.loads(out.stdout), out.stderr
 
 
+@pytest.mark.slow
 def test_korean_charts_need_no_system_font_and_no_font_cache(tmp_path: Any) -> None:
     """With no Korean font on the system and a fresh font cache, charts still draw every Hangul glyph from the
     packaged Noto Sans KR: each character's glyph (its index looked up in the font file) is in the SVG."""
@@ -209,6 +210,7 @@ def test_without_any_korean_font_one_warning_not_one_per_glyph(tmp_path: Any) ->
     assert stderr.count("no Korean font found") == 1 and "fonts-nanum" in stderr
 
 
+@pytest.mark.slow
 def test_charts_drawn_on_many_threads_at_once_equal_the_same_charts_drawn_one_by_one() -> None:
     """The server draws charts on its request threads: a chart must not depend on what another thread draws."""
     from concurrent.futures import ThreadPoolExecutor

@@ -62,6 +62,7 @@ def test_a_failing_config_is_evaluated_with_its_reason(client: Any, course: Cour
     assert reasons == {("aborted", "max_time 0.2 s reached before the behaviour finished")}
 
 
+@pytest.mark.slow
 def test_evaluating_again_changes_nothing_and_a_partial_evaluation_resumes(client: Any, course: Course,
                                                                           caplog: Any) -> None:
     from robokit.server.evaluation import evaluate_submission
@@ -85,6 +86,7 @@ def test_evaluating_again_changes_nothing_and_a_partial_evaluation_resumes(clien
     assert now[0] == kept[0] and now[1] == kept[1] and now[2] != kept[2]  # only the missing trial ran again
 
 
+@pytest.mark.slow
 def test_a_trial_over_its_cpu_budget_ends_aborted(client: Any, course: Course) -> None:
     from robokit.server.models import Result, Submission
 

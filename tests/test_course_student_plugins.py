@@ -103,6 +103,7 @@ def test_the_official_trials_run_with_the_students_plugin_in_the_sandbox(client:
     ("cair = 3", "behaviour.cair", "'care'"),                            # unknown: did you mean the plugin's own
     ('care = "much"', "behaviour.care", "integer"),
 ])
+@pytest.mark.slow
 def test_a_bad_option_of_the_plugins_own_type_is_refused_at_submit(client: Any, course: Course, line: str,
                                                                    field: str, words: str) -> None:
     import sys
@@ -119,6 +120,7 @@ def test_a_bad_option_of_the_plugins_own_type_is_refused_at_submit(client: Any, 
     assert "careful_drop" not in sys.modules  # loaded in the sandbox's process, never in the server's
 
 
+@pytest.mark.slow
 def test_a_good_option_of_the_plugins_own_type_is_accepted_and_used(client: Any, course: Course) -> None:
     from robokit.server.models import Result, Submission
 
@@ -146,6 +148,7 @@ def test_a_plugin_that_fails_to_import_is_refused_at_submit(client: Any, course:
     assert not Submission.objects.exists()
 
 
+@pytest.mark.slow
 def test_a_plugin_that_never_finishes_loading_is_refused_after_the_check_time_limit(
         client: Any, course: Course, monkeypatch: pytest.MonkeyPatch) -> None:
     from robokit.server import sandbox
@@ -167,6 +170,7 @@ def write_package(folder: Path) -> None:
         (folder / rel).write_text(source, encoding="utf-8")
 
 
+@pytest.mark.slow
 def test_robokit_submit_sends_a_package_folder(live_server: Any, course: Course, tmp_path: Path,
                                                monkeypatch: pytest.MonkeyPatch,
                                                capsys: pytest.CaptureFixture[str]) -> None:

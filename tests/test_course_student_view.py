@@ -60,6 +60,7 @@ def test_a_student_sees_each_official_trial_of_their_own_submissions(client: Any
     assert "max_time 0.2 s" not in client.get("/me/").content.decode()
 
 
+@pytest.mark.slow
 @pytest.mark.django_db
 def test_a_teacher_evaluates_a_submission_again_and_the_log_says_so(client: Any, course: Course) -> None:
     from django.contrib.auth import get_user_model

@@ -59,6 +59,7 @@ def _vertices(svg: bytes, gid: str) -> list[tuple[float, float]]:
     return list(zip(numbers[::2], numbers[1::2], strict=True))
 
 
+@pytest.mark.slow
 def test_a_training_log_posted_by_the_student_is_plotted_on_their_dashboard(
         live_server: Any, course: Course, client: Any, progress: Path, monkeypatch: pytest.MonkeyPatch,
         capsys: pytest.CaptureFixture[str]) -> None:

@@ -30,6 +30,7 @@ def test_the_pages_that_picture_a_still_are_found_with_their_commands() -> None:
         ["video", "last", "--time", "end", "--size", "480x360", "-o", "04-contacts-rays.png"]]
 
 
+@pytest.mark.slow
 def test_lesson_04_s_picture_is_what_its_commands_make(tmp_path: Path) -> None:
     script = _script()
     [lesson] = script.lessons(["04"])

@@ -109,6 +109,7 @@ def test_without_mujoco_the_engine_says_what_to_install(tmp_path) -> None:  # ty
                                                 "installed: pip install 'robokit[mujoco]'"]
 
 
+@pytest.mark.slow
 def test_a_mujoco_run_is_recorded_and_its_video_rebuilt(tmp_path, monkeypatch) -> None:  # type: ignore[no-untyped-def]
     from robokit.record.format import find_run
 

@@ -119,6 +119,7 @@ def test_entry_point_load_with_attributes_extras_and_comments(tmp_path: Path, mo
         assert (found["whole"].distribution, found["whole"].version) == ("probe", "0.1")
 
 
+@pytest.mark.slow
 def test_a_zip_on_sys_path(tmp_path: Path) -> None:
     archive = tmp_path / "zipped.zip"
     with zipfile.ZipFile(archive, "w") as zf:

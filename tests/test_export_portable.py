@@ -176,6 +176,7 @@ def test_the_rrd_draws_every_body_on_the_sim_timeline_alone(exports: tuple[Path,
     assert got["transforms"] == samples * len(frames)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", ["rerun", "mcap"])
 def test_an_export_that_cannot_be_finished_leaves_nothing_and_exits_6(exports: tuple[Path, Path], kind: str) -> None:
     made, _ = exports

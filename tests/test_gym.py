@@ -45,6 +45,7 @@ def test_check_env_passes(config: Path) -> None:
     env.close()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("config", ENV_CONFIGS, ids=lambda p: p.stem)
 def test_same_seed_same_episode_after_other_episodes(config: Path) -> None:
     """A fresh env and one that ran other episodes first give bit-identical observations for the same seed."""

@@ -42,6 +42,7 @@ def transitions(env_id: str, n: int, seed: int = 0) -> list[tuple[dict, float, d
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("name", "n"), [("Reach", 1000), ("Push", 150), ("Pick", 150), ("GoTo", 150)])
 def test_compute_reward_equals_the_env_reward(name: str, n: int) -> None:
     """Sparse by default in a goal env: 0 within the threshold, else -1 (by hand from the two goals); compute_reward,

@@ -152,6 +152,7 @@ def wait_until_stuck(fifo: Path, proc: subprocess.Popen[str]) -> None:
 
 
 # ----------------------------------------------------------------- Ctrl-C and SIGTERM at any point
+@pytest.mark.slow
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
 @pytest.mark.parametrize("where", ["start-up", "loop"])
 def test_a_signal_while_a_plugin_hangs_stops_the_run_and_keeps_the_result(site: Path, where: str,
@@ -314,6 +315,7 @@ def drain_then(fifo: Path, stuck: threading.Event) -> None:
     stuck.set()
 
 
+@pytest.mark.slow
 def test_max_wall_ends_a_run_stuck_in_a_plugin_naming_it(site: Path, capsys, budget_after_the_hang) -> None:
     """A plugin that never returns: the wall-clock budget ends the run (aborted, exit 1), result kept, and the
     summary names the component the time went to."""

@@ -292,6 +292,7 @@ def robokit_register_sensors(register):
 '''
 
 
+@pytest.mark.slow
 def test_an_unexpected_exception_is_one_line_with_a_traceback_file(tmp_path: Path) -> None:
     """A bug (here a plugin schema's validator raising TypeError) gives one line naming where it raised and the
     file holding the full traceback; --debug and ROBOKIT_DEBUG=1 print the traceback too."""

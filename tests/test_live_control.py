@@ -14,6 +14,7 @@ PICK = str(ROOT / "configs" / "pick_place.toml")
 DRIVE = str(ROOT / "configs" / "drive_teleop.toml")
 
 
+@pytest.mark.slow
 def test_paused_stepped_and_resumed_run_is_the_uninterrupted_run_and_the_state_shows_the_world() -> None:
     expected, expected_trace = plain_run(PICK, 1.2)
     live = LiveRun(PICK, 1.2)

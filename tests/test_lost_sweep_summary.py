@@ -86,6 +86,7 @@ def test_drop_test_sweep_of_ten_seeds_exits_0_with_the_table_and_junit(tmp_path:
     assert (tmp_path / "out" / "success_rate.png").is_file()
 
 
+@pytest.mark.slow
 def test_a_plot_that_fails_is_a_warning_and_the_rest_is_written(tmp_path: Path, monkeypatch: Any,
                                                                 capsys: Any) -> None:
     def broken_plots(*_args: Any, **_kwargs: Any) -> list[Path]:

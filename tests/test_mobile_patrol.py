@@ -38,6 +38,7 @@ def waypoint_trace(sim) -> list[int]:
     return [r["waypoint"] for r in sim.trace if r["kind"] == "waypoint_reached"]
 
 
+@pytest.mark.slow
 def test_patrol_visits_waypoints_in_order() -> None:
     cfg = arena({"type": "patrol", "waypoints": [[3.0, 0.5], [1.5, 1.9], [0.0, 0.5]], "laps": 2})
     with make_sim(cfg) as sim:

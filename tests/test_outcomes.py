@@ -112,6 +112,7 @@ lateral_friction = 1.0
 """
 
 
+@pytest.mark.slow
 def test_an_object_outside_the_camera_view_fails_validate_and_the_run_names_it(tmp_path: Path) -> None:
     scene = sort_scene(tmp_path, [], STRAY)
     proc = robokit("validate", str(scene), cwd=tmp_path)
@@ -127,6 +128,7 @@ def test_an_object_outside_the_camera_view_fails_validate_and_the_run_names_it(t
     assert out["result"]["red_sorted"] == 1  # counted in the world: the stray red cube is not in the bin
 
 
+@pytest.mark.slow
 def test_a_bin_out_of_reach_fails_validate_naming_the_bin_and_the_run_says_unreachable(tmp_path: Path) -> None:
     scene = sort_scene(tmp_path, [("position = [0.35, 0.42, 0]", "position = [0.35, 0.95, 0]"),
                                   ("object_size = 0.05\n", "object_size = 0.05\nmax_attempts = 1\n")])

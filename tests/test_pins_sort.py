@@ -31,6 +31,7 @@ def run_sort(overrides: dict[str, Any]) -> tuple[Any, dict[str, tuple[float, flo
     return result, start, bins
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("attempts", [1, 2, 3])
 def test_an_unpickable_cube_is_tried_max_attempts_times_then_given_up(attempts: int) -> None:
     result, _, _ = run_sort(stuck_red(max_attempts=attempts))

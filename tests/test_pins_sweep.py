@@ -175,6 +175,7 @@ def test_a_trial_whose_worker_dies_is_run_exactly_twice(tmp_path: Path, monkeypa
     assert by_seed[0]["outcome"] == by_seed[2]["outcome"] == "succeeded"
 
 
+@pytest.mark.slow
 def test_a_hanging_trial_times_out_whatever_the_machines_speed(tmp_path: Path,
                                                                monkeypatch: pytest.MonkeyPatch) -> None:
     """The only trial hangs for ever: any --trial-timeout ends it, however slow the machine (no other trial

@@ -33,6 +33,7 @@ def drive_to_end(cfg: dict[str, Any], max_s: float, commands: list[Any] | None =
         return status, math.hypot(gx - x, gy - y), touched, sim.behaviour.result()
 
 
+@pytest.mark.slow
 def test_planner_reaches_the_goal_without_touching_a_wall() -> None:
     cfg, _ = scene("dead_end", 0, planner="astar", timeout=40)
     commands: list[Any] = []

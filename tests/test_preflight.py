@@ -89,6 +89,7 @@ def test_two_bodies_spawned_overlapping_are_refused(tmp_path: Path) -> None:
     assert "bodies.sunk: 'sunk' is spawned overlapping 'table' (bodies.table) by 24 mm" in line, line
 
 
+@pytest.mark.slow
 def test_pick_place_without_place_position_is_refused_by_validate_and_run(tmp_path: Path) -> None:
     path = edited(tmp_path, "pick_place.toml", [("place_position = [0.45, -0.35, 0.027]\n", "")])
     (line,) = refused(path, tmp_path)
@@ -96,6 +97,7 @@ def test_pick_place_without_place_position_is_refused_by_validate_and_run(tmp_pa
     assert robokit("run", str(path), cwd=tmp_path).returncode == 2
 
 
+@pytest.mark.slow
 def test_pick_place_place_out_of_reach_is_refused(tmp_path: Path) -> None:
     path = edited(tmp_path, "pick_place.toml", [("place_position = [0.45, -0.35, 0.027]",
                                                  "place_position = [0.45, -0.95, 0.027]")])

@@ -144,6 +144,7 @@ def run_json(cwd: Path, *args: str) -> dict[str, Any]:
     return json.loads(proc.stdout)  # type: ignore[no-any-return]
 
 
+@pytest.mark.slow
 def test_run_seed_flag_changes_the_scene_and_the_same_seed_repeats_it(tmp_path: Path) -> None:
     one, two, again = run_json(tmp_path, "--seed", "1"), run_json(tmp_path, "--seed", "2"), run_json(tmp_path,
                                                                                                       "--seed", "1")

@@ -109,6 +109,7 @@ def test_a_video_ffmpeg_cannot_finish_leaves_the_old_file_and_exits_6(runs: tupl
     assert [p.name for p in folder.glob(".*part*")] == []
 
 
+@pytest.mark.slow
 def test_an_interrupted_render_removes_its_partial_file_and_says_so(runs: tuple[Path, Path, Path]) -> None:
     folder, _, second = runs
     out = folder / "cut.mp4"

@@ -85,6 +85,7 @@ def video_meta(path: Path) -> tuple[dict, list[np.ndarray]]:
     return meta, frames
 
 
+@pytest.mark.slow
 def test_video_has_a_frame_per_pose_sample_at_the_asked_size(scene: Path, capsys: pytest.CaptureFixture) -> None:
     assert main(["run", str(scene), "--quiet"]) == 0
     assert main(["video", "last", "-o", "clip.mp4", "--size", "160x120"]) == 0

@@ -54,6 +54,7 @@ def record(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     return find_run("last").folder
 
 
+@pytest.mark.slow
 def test_two_workers_render_the_serial_frames_byte_for_byte(record: Path) -> None:
     rec = find_run(str(record))
     size = (96, 72)
@@ -65,6 +66,7 @@ def test_two_workers_render_the_serial_frames_byte_for_byte(record: Path) -> Non
     assert serial[0] != serial[-1]  # the arm swings and the box falls: the frames are not all the same picture
 
 
+@pytest.mark.slow
 def test_video_command_with_workers_writes_every_frame(record: Path, capsys: pytest.CaptureFixture) -> None:
     import imageio_ffmpeg
 

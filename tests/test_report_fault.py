@@ -71,6 +71,7 @@ def test_200_runs_through_a_faulty_server_then_one_flush_arrive_exactly_once(tmp
         waiting_after_faults, dict(answers))
 
 
+@pytest.mark.slow
 def test_a_run_killed_right_after_its_post_resends_with_the_same_key(tmp_path: Path) -> None:
     """The server stores the POST, then SIGKILLs the sending ``robokit run`` before it can answer."""
     procs: list[subprocess.Popen[bytes]] = []

@@ -81,6 +81,7 @@ def test_read_timeout_goes_to_the_outbox(tmp_path: Path) -> None:
     assert "read timeout" in (entry.last_error or "")
 
 
+@pytest.mark.slow
 def test_429_retry_after_is_honoured(server: CourseServer, tmp_path: Path) -> None:
     server.script(Answer(429, "slow down", headers=(("Retry-After", "1"),)), Answer(201))
     d = reporter(server.url, tmp_path / "outbox").report(make_payload(5))

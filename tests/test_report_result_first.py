@@ -32,6 +32,7 @@ def server() -> Iterator[CourseServer]:
     srv.stop()
 
 
+@pytest.mark.slow
 def test_three_flushes_at_once_each_exit_0_and_send_every_entry_once(server: CourseServer, tmp_path: Path) -> None:
     box = Outbox(tmp_path / "outbox")
     ids = [box.put(make_payload(i), server.url, OPTS).run_id for i in range(12)]

@@ -123,6 +123,7 @@ def _encode(value: Any) -> bytes:
     return text.encode("utf-8")
 
 
+@pytest.mark.slow
 @settings(max_examples=120, deadline=None, derandomize=True, database=None,
           suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @given(body=_bodies, who=st.sampled_from([None, "kim", "teacher", "junk"]), open_class=st.booleans())

@@ -198,6 +198,7 @@ def _robokit(*args: str, cwd: Path) -> Any:
                           timeout=300)
 
 
+@pytest.mark.slow
 def test_cli_errors_are_one_line_and_help_does_not_import_django(tmp_path: Path) -> None:
     import socket
     import subprocess

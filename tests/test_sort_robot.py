@@ -116,6 +116,7 @@ def test_empty_table_ends_at_once_with_zero_counts() -> None:
         assert res["camera_frames"] == 1
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [11, 12])
 def test_other_seeds_sort_everything(seed: int) -> None:
     with build(base(), seed=seed) as sim:

@@ -144,6 +144,7 @@ def test_a_bad_core_config_is_one_line_without_pydantic(tmp_path: Path) -> None:
     assert not (tmp_path / "results").exists()
 
 
+@pytest.mark.slow
 def test_a_plugin_with_a_pydantic_schema_imports_pydantic_and_is_validated_by_it(tmp_path: Path) -> None:
     import importlib.metadata as md
 

@@ -98,6 +98,7 @@ def test_wilson_interval_and_percentile() -> None:
     ("behaviour.speed=-1,1", "behaviour.speed: input should be greater than 0, got -1"),
     ("world.seed.x=1,2", "pick_place.toml: world.seed: expected a table to set 'x' in, got 1"),
 ])
+@pytest.mark.slow
 def test_a_bad_key_or_value_is_one_line_before_any_trial_runs(tmp_path: Path, option: str, expected: str) -> None:
     out = tmp_path / "out"
     proc = robokit("sweep", str(PICK), "--seeds", "0:2", "--set", option, "--out", str(out))
@@ -124,6 +125,7 @@ def check_faults(run: SweepRun, out: Path, timeout: float | None) -> None:
     assert (cell["trials"], cell["succeeded"], cell["errors"]) == (6, 6 - errors, errors)
 
 
+@pytest.mark.slow
 def test_a_trial_that_raises_or_kills_its_worker_is_an_error_and_the_others_finish(
         tmp_path: Path, fault_plugins: None) -> None:
     """No --trial-timeout: nothing here depends on how fast the machine is."""
@@ -233,6 +235,7 @@ def test_the_rate_after_a_resume_leaves_out_the_workers_start_up(monkeypatch: py
 
 
 # ----------------------------------------------------------------------------------------------- outputs
+@pytest.mark.slow
 def test_cli_writes_trials_summary_junit_and_plots(tmp_path: Path) -> None:
     out = tmp_path / "out"
     junit = tmp_path / "junit.xml"
@@ -292,6 +295,7 @@ def test_sim_time_is_one_column_whether_a_result_has_it_or_metrics_name_it(
 
 
 # ----------------------------------------------------------------------------------------------- reporting
+@pytest.mark.slow
 def test_report_url_posts_every_trial_exactly_once_and_a_resume_posts_nothing_again(
         tmp_path: Path, fault_plugins: None, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.chdir(tmp_path)  # the outbox folder is relative to the working directory
