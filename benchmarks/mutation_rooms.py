@@ -31,6 +31,7 @@ import json
 import os
 import re
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -121,8 +122,10 @@ ROOMS: dict[str, tuple[list[str], list[str]]] = {
     "engines": (["robokit/engines/*"], ["tests/test_engine_contract.py", "tests/test_prop_frames.py",
                                         "tests/test_prop_reset.py"]),
     "gym": (["robokit/gym/*"], ["tests/test_gym.py", "tests/test_pins_gym.py", "tests/test_prop_reset.py"]),
-    "behaviours": (["robokit_behaviours/*"], ["tests/test_pins_sort.py", "tests/test_pins_pick_place.py",
-                                              "tests/test_pins_patrol.py"]),
+    # the three behaviours the course ships and its users run most, against the tests that pin them
+    "behaviours": (["robokit_behaviours/sort.py", "robokit_behaviours/pick_place.py", "robokit_behaviours/patrol.py"],
+                   ["tests/test_pins_sort.py", "tests/test_pins_pick_place.py", "tests/test_pins_patrol.py",
+                    "tests/test_prop_behaviours.py"]),
 }
 
 # mutmut's exit-code statuses, grouped: what counts as caught, what as missed
@@ -191,14 +194,21 @@ def run_room(name: str, children: int, keep: bool, timeout: float, only: list[st
            "ROBOKIT_CACHE_DIR": str(work / "cache"), "MPLBACKEND": "Agg"}
     start = time.monotonic()
     cpu = os.times()
-    try:
-        proc = subprocess.run([sys.executable, "-m", "mutmut", "run", "--max-children", str(children), *only],
-                              cwd=copy, env=env, text=True, capture_output=True, timeout=timeout)
-        (work / "mutmut.log").write_text(proc.stdout + proc.stderr, encoding="utf-8")
-        tail = [x for x in (proc.stdout + proc.stderr).splitlines() if x.startswith(("E ", "FAILED"))][:3]
-        tail += (proc.stdout + proc.stderr).strip().splitlines()[-2:]
-    except subprocess.TimeoutExpired:
-        tail = [f"stopped after {timeout:.0f} s (--timeout): the statuses so far"]
+    log = work / "mutmut.log"
+    # a session of its own, so that --timeout stops mutmut's fork server and its workers too, not only mutmut
+    with log.open("w", encoding="utf-8") as out:
+        proc = subprocess.Popen([sys.executable, "-m", "mutmut", "run", "--max-children", str(children), *only],
+                                cwd=copy, env=env, text=True, stdout=out, stderr=subprocess.STDOUT,
+                                start_new_session=True)
+        try:
+            proc.wait(timeout=timeout)
+            text = log.read_text(encoding="utf-8", errors="replace")
+            tail = [x for x in text.splitlines() if x.startswith(("E ", "FAILED"))][:3]
+            tail += text.strip().splitlines()[-2:]
+        except subprocess.TimeoutExpired:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+            tail = [f"stopped after {timeout:.0f} s (--timeout): the statuses so far"]
     wall = time.monotonic() - start
     done = os.times()
     found = statuses(copy)
