@@ -63,8 +63,11 @@ def engine_state(world: Any) -> dict[str, Any]:
     opt = {name: np.asarray(getattr(m.opt, name)).tolist()
            for name in ("timestep", "gravity", "iterations", "ls_iterations", "tolerance", "impratio", "cone",
                         "integrator", "solver", "noslip_iterations", "disableflags", "enableflags")}
-    return {"parameters": opt, "constraints": [sorted(world.joins.held.items()), d.eq_active.tolist(),
-                                               m.eq_data.tolist()]}
+    motors = {name: np.asarray(getattr(m, name)).tolist()  # what the joint motors write into the model
+              for name in ("actuator_gainprm", "actuator_biasprm", "actuator_forcelimited", "actuator_forcerange",
+                           "dof_armature")}
+    return {"parameters": opt, "motors": motors, "controls": d.ctrl.tolist(),
+            "constraints": [sorted(world.joins.held.items()), d.eq_active.tolist(), m.eq_data.tolist()]}
 
 
 def flat(obs: Any) -> np.ndarray:

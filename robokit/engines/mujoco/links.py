@@ -151,6 +151,10 @@ class Holding:
         data.qfrc_applied[self.dofs] = self.buffer
 
 
+_MOTOR_FIELDS = ("actuator_gainprm", "actuator_biasprm", "actuator_forcelimited", "actuator_forcerange", "dof_armature")
+"""The model's arrays :class:`Motors` writes."""
+
+
 class Motors:
     """The joint motors' settings, kept here and written into the model: a recompile (a body added or removed)
     builds a fresh model, and :meth:`reapply` puts every motor back as it was. A driven joint also gets its
@@ -217,6 +221,21 @@ class Motors:
             model.dof_armature[dof] = armature
             self.inertia_changed = True
         data.ctrl[act] = ctrl
+
+    def saved(self, model: Any) -> dict[str, Any]:
+        """Every motor's setting and what they wrote into the model (gains, biases, force ranges, armatures), for
+        :meth:`put_back`: a world restored to a snapshot drives its joints as it did when the snapshot was taken."""
+        return {"settings": dict(self.settings), "torques": set(self.torques),
+                "model": {f: getattr(model, f).copy() for f in _MOTOR_FIELDS}}
+
+    def put_back(self, model: Any, saved: dict[str, Any]) -> None:
+        """The motors as :meth:`saved` found them (the data's controls are the caller's to restore)."""
+        self.settings, self.torques = dict(saved["settings"]), set(saved["torques"])
+        for f, value in saved["model"].items():
+            if f == "dof_armature" and not np.array_equal(model.dof_armature, value):
+                self.inertia_changed = True
+            getattr(model, f)[:] = value
+        self._worked_out = False
 
     def reapply(self, model: Any, data: Any, names: Collection[str]) -> None:
         """Write every stored motor that still exists (``names``: the model's actuators) into a new model."""

@@ -542,9 +542,9 @@ class MujocoWorld(MujocoBodies):
 
     # ----------------------------------------------------------------- episodes, lifetime
     def snapshot(self) -> dict[str, Any]:
-        """The whole state (positions, velocities, motor commands)."""
-        _, d = self.compiled()
-        return {"qpos": d.qpos.copy(), "qvel": d.qvel.copy(), "ctrl": d.ctrl.copy()}
+        """The whole state (positions, velocities, motor commands and settings)."""
+        m, d = self.compiled()
+        return {"qpos": d.qpos.copy(), "qvel": d.qvel.copy(), "ctrl": d.ctrl.copy(), "motors": self.motors.saved(m)}
 
     def restore(self, snapshot: dict[str, Any]) -> None:
         """Put a :meth:`snapshot` back exactly, warm starts cleared, and the clock to tick 0."""
@@ -552,6 +552,7 @@ class MujocoWorld(MujocoBodies):
         mujoco.mj_resetData(m, d)
         self._applied = None
         self._ramps.clear()
+        self.motors.put_back(m, snapshot["motors"])  # gains and armatures live in the model: reset keeps them
         d.qpos[:], d.qvel[:], d.ctrl[:] = snapshot["qpos"], snapshot["qvel"], snapshot["ctrl"]
         self.scene.grips.let_go_of_all()  # mj_resetData switched their welds off
         self._positions_written()
