@@ -19,6 +19,10 @@ code in-process kills it). The checkout is never written to.
     python benchmarks/mutation_rooms.py contact --children 2 --survivors   # and list every survivor
     python benchmarks/mutation_rooms.py contact --keep                     # keep the copy (then: mutmut show NAME)
     python benchmarks/mutation_rooms.py contact --mutants 'robokit_plugins.contact.*read*'   # re-check some
+    python benchmarks/mutation_rooms.py pid --mutants 'robokit_plugins.pid.xǁPidǁupdate__mutmut_7'  # one survivor
+
+``--mutants`` takes the names ``--survivors`` prints (a pasted ``survived:`` prefix, blanks and look-alikes of the
+``ǁ`` in a method's name are mended) under any locale; a run in which no named mutant was checked exits 1 saying so.
 
 Afterwards ``cd <copy> && mutmut show <mutant>`` prints a survivor's diff. The rooms below cover the whole package;
 a run of every room takes hours on two cores: run the rooms you changed.
@@ -170,14 +174,28 @@ def write_config(copy: Path, files: list[str], tests: list[str]) -> None:
 
 def statuses(copy: Path) -> dict[str, str]:
     """mutant name -> status, read from mutmut's own ``results --all`` listing."""
-    out = subprocess.run([sys.executable, "-m", "mutmut", "results", "--all", "true"], cwd=copy, text=True,
-                         capture_output=True).stdout
+    out = subprocess.run([sys.executable, "-m", "mutmut", "results", "--all", "true"], cwd=copy, encoding="utf-8",
+                         capture_output=True, env={**os.environ, "PYTHONUTF8": "1"}).stdout
     found = {}
     for line in out.splitlines():
         name, sep, status = line.strip().rpartition(": ")
         if sep:
             found[name] = status
     return found
+
+
+# mutmut names a method's mutants ``module.xǁClassǁmethod__mutmut_N`` with U+01C1 (LATIN LETTER LATERAL CLICK). Under
+# a C/POSIX locale with UTF-8 mode off (PYTHONUTF8=0) Python reads that letter from the command line as two surrogate
+# escapes, and a terminal, a font or a retyped name turns it into a look-alike; either way mutmut matched nothing,
+# said so only by an AssertionError at the end of its log, and every mutant stayed "not checked"
+LOOKALIKES = re.compile(r"\|\||[|\u2016\u2225\u00a6\u01c0]")
+
+
+def mutant_pattern(name: str) -> str:
+    """A name or glob as mutmut knows it: a survivor line's prefix and blanks dropped, look-alikes of ``ǁ`` mended."""
+    name = name.encode("utf-8", "surrogateescape").decode("utf-8", "replace").strip()
+    name = name.removeprefix("survived:").strip()
+    return LOOKALIKES.sub("\u01c1", name)
 
 
 def run_room(name: str, children: int, keep: bool, timeout: float, only: list[str]) -> dict[str, object]:
@@ -190,14 +208,16 @@ def run_room(name: str, children: int, keep: bool, timeout: float, only: list[st
     write_config(copy, files, tests)
     # subprocesses (robokit CLI runs, sweep workers) import the copy's own, unmutated code: mutmut's trampolines
     # read their settings from the working directory, which a subprocess changes
-    env = {**os.environ, "PYTHONPATH": str(copy),
+    env = {**os.environ, "PYTHONPATH": str(copy), "PYTHONUTF8": "1",
            "ROBOKIT_CACHE_DIR": str(work / "cache"), "MPLBACKEND": "Agg"}
     start = time.monotonic()
     cpu = os.times()
     log = work / "mutmut.log"
     # a session of its own, so that --timeout stops mutmut's fork server and its workers too, not only mutmut
     with log.open("w", encoding="utf-8") as out:
-        proc = subprocess.Popen([sys.executable, "-m", "mutmut", "run", "--max-children", str(children), *only],
+        # the names as UTF-8 bytes, which the child (UTF-8 mode) reads back whatever the locale
+        names = [n.encode("utf-8") for n in only]
+        proc = subprocess.Popen([sys.executable, "-m", "mutmut", "run", "--max-children", str(children), *names],
                                 cwd=copy, env=env, text=True, stdout=out, stderr=subprocess.STDOUT,
                                 start_new_session=True)
         try:
@@ -205,6 +225,9 @@ def run_room(name: str, children: int, keep: bool, timeout: float, only: list[st
             text = log.read_text(encoding="utf-8", errors="replace")
             tail = [x for x in text.splitlines() if x.startswith(("E ", "FAILED"))][:3]
             tail += text.strip().splitlines()[-2:]
+            if "nothing matches" in text:
+                tail = [f"no mutant of the room is named {' or '.join(only)} (`--keep`, then `mutmut results --all "
+                        "true` in the copy lists their names)"]
         except subprocess.TimeoutExpired:
             os.killpg(proc.pid, signal.SIGKILL)
             proc.wait()
@@ -238,6 +261,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--mutants", nargs="+", default=[], metavar="NAME",
                         help="run only these mutants (names or globs, as --survivors prints them): re-check survivors")
     args = parser.parse_args(argv)
+    sys.stdout.reconfigure(encoding="utf-8")  # type: ignore[union-attr]  # mutant names, whatever the locale
     if args.list:
         for name, (files, tests) in ROOMS.items():
             print(f"{name:14} {' '.join(files)}\n{'':14} tests: {' '.join(tests)}")
@@ -247,10 +271,11 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"unknown room(s) {unknown}; choose from: {', '.join(ROOMS)}" if unknown else
                      "name at least one room (--list shows them)")
     results = []
+    failed = False
     print(f"{'room':14} {'mutants':>7} {'caught':>6} {'survived':>8} {'other':>5} {'score':>6} {'wall s':>7} "
           f"{'cpu s':>7}")
     for room in args.rooms:
-        r = run_room(room, args.children, args.keep, args.timeout, args.mutants)
+        r = run_room(room, args.children, args.keep, args.timeout, [mutant_pattern(m) for m in args.mutants])
         results.append(r)
         score = "-" if r["score"] is None else f"{100 * r['score']:.1f}%"  # type: ignore[operator]
         print(f"{room:14} {r['mutants']:>7} {r['caught']:>6} {len(r['survived']):>8} {len(r['other']):>5} "  # type: ignore[arg-type]
@@ -259,6 +284,9 @@ def main(argv: list[str] | None = None) -> int:
             print(f"  (tests not in the tree, left out: {' '.join(r['missing_tests'])})")  # type: ignore[arg-type]
         if not r["mutants"]:
             print("  mutmut made no mutants: " + " | ".join(r["tail"]))  # type: ignore[arg-type]
+        elif args.mutants and not r["caught"] and not r["survived"]:
+            print("  no mutant checked: " + " | ".join(r["tail"]), file=sys.stderr)  # type: ignore[arg-type]
+            failed = True
         if args.survivors:
             for m in r["survived"]:  # type: ignore[attr-defined]
                 print(f"  survived: {m}")
@@ -266,7 +294,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"  copy kept: {r['copy']}")
     if args.json:
         args.json.write_text(json.dumps(results, indent=2), encoding="utf-8")
-    return 0
+    return 1 if failed else 0
 
 
 if __name__ == "__main__":
