@@ -12,6 +12,7 @@ step runs it, on the same state (a gym env's ticks between two actions read noth
 from __future__ import annotations
 
 from collections.abc import Collection, Sequence
+from dataclasses import dataclass
 from itertools import repeat
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -45,6 +46,23 @@ the moving setpoint about 4 steps behind: critically damped, ``omega * time_step
 
 if TYPE_CHECKING:  # read by attribute only
     from robokit.config import Config
+
+
+@dataclass(slots=True)
+class Ramp:
+    """A position motor capped at a velocity, until its setpoint reaches the target (:meth:`MujocoWorld._ramp`)."""
+
+    gains: tuple[float, float, float, float]
+    at: float
+    """The setpoint now."""
+    target: float
+    step: float
+    """The largest move of the setpoint a step."""
+    body: int
+    joint: int
+    qpos: int = 0
+    """The joint's qpos address and the motor's actuator id (until the next compile)."""
+    actuator: int = 0
 
 
 class MujocoWorld(MujocoBodies):
@@ -90,9 +108,9 @@ class MujocoWorld(MujocoBodies):
         """Copies of the last step's contact arrays and constraint forces, for :meth:`_solved_contacts`."""
         self._geom_owner: np.ndarray | None = None
         """Per MuJoCo geom: (robokit body id, link) of its body, (-1, -1) for none (until the next compile)."""
-        self._ramps: dict[str, tuple[tuple[float, float, float, float], float, float, float, int, int]] = {}
-        """Position motors capped at a velocity: actuator name -> (gains, setpoint now, target, largest move a
-        step, body, joint), until the setpoint reaches the target (:meth:`_ramp`)."""
+        self._ramps: dict[str, Ramp] = {}
+        """Position motors capped at a velocity, by actuator name, until the setpoint reaches the target
+        (:meth:`_ramp`)."""
         self._applied: Any = None
         """The holding forces ``qfrc_applied`` still holds from the last step (nothing else is in it), or None: it
         is zero."""
@@ -204,6 +222,11 @@ class MujocoWorld(MujocoBodies):
         self._solved = self._kept = None
         self._pyramidal = model.opt.cone == PYRAMIDAL
         self.motors.reapply(model, self.data, {model.actuator(i).name for i in range(model.nu)})
+        for name, ramp in list(self._ramps.items()):
+            if name in self.motors.settings:
+                self._address_ramp(name, ramp)
+            else:  # its body was removed
+                del self._ramps[name]
 
     def remove_body(self, name: str) -> None:
         """Remove a body (the scene is recompiled; the other bodies keep their state)."""
@@ -347,30 +370,33 @@ class MujocoWorld(MujocoBodies):
         start = at = float(self.data.qpos[qadr])
         ramp = self._ramps.get(name)
         if ramp is not None:
-            start = ramp[1]
+            start = ramp.at
         elif old is not None and old[1] != 0.0 and old[:4] == gains:
             start = old[4]
         if abs(start - at) > RAMP_LAG * step:  # held back (closed on something): from where the joint is
             start = at
-        self._ramps[name] = (gains, start, target, step, body, joint)
         self.motors.set(self._model, self._data, name, (*gains, start), torque=False)
+        self._ramps[name] = self._address_ramp(name, Ramp(gains, start, target, step, body, joint))
+
+    def _address_ramp(self, name: str, ramp: Ramp) -> Ramp:
+        """Look up the ramp's qpos address and actuator id in the model as compiled now."""
+        ramp.qpos = self._joint(ramp.body, ramp.joint)[1]
+        ramp.actuator = self.motors.actuator(self._model, name)
+        return ramp
 
     def _advance_ramps(self, m: Any, d: Any) -> None:
         """Move each capped position motor's setpoint one step towards its target (see :meth:`_ramp`): its control
         only, the motor's stored setting once the target is reached (a recompile in between puts back the start)."""
-        ctrl, qpos, motors, ramps = d.ctrl, d.qpos, self.motors, self._ramps
-        for name, (gains, at, target, step, body, joint) in list(ramps.items()):
-            if name not in motors.settings:  # its body was removed
-                del ramps[name]
-                continue
+        ctrl, qpos, ramps = d.ctrl, d.qpos, self._ramps
+        for name, ramp in list(ramps.items()):
+            at, target, step = ramp.at, ramp.target, ramp.step
             ahead = 1.0 if target > at else -1.0
-            if abs(target - at) <= step or (at - qpos[self._joint(body, joint)[1]]) * ahead > RAMP_LAG * step:
+            if abs(target - at) <= step or (at - qpos[ramp.qpos]) * ahead > RAMP_LAG * step:
                 del ramps[name]
-                motors.set(m, d, name, (*gains, target), torque=False)
+                self.motors.set(m, d, name, (*ramp.gains, target), torque=False)
                 continue
-            at += ahead * step
-            ctrl[motors.actuator(m, name)] = at
-            ramps[name] = (gains, at, target, step, body, joint)
+            ramp.at = at = at + ahead * step
+            ctrl[ramp.actuator] = at
 
     def _drive(self, body: int, joint: int, mode: MotorMode, force: float | None) -> tuple[
             str, tuple[float, float, float, float]]:
