@@ -162,12 +162,28 @@ def room_table(base: dict[str, object], files: list[str], tests: list[str]) -> s
     return "[tool.mutmut]\n" + "".join(f"{k} = {toml_value(v)}\n" for k, v in table.items())
 
 
-def write_config(copy: Path, files: list[str], tests: list[str]) -> None:
+def without_marker_filter(args: list[str]) -> list[str]:
+    """pytest arguments without their ``-m EXPR`` (so that slow tests run too)."""
+    out: list[str] = []
+    skip = False
+    for a in args:
+        if skip:
+            skip = False
+        elif a == "-m":
+            skip = True
+        elif not a.startswith("-m="):
+            out.append(a)
+    return out
+
+
+def write_config(copy: Path, files: list[str], tests: list[str], slow: bool = False) -> None:
     """The copy's pyproject.toml with its ``[tool.mutmut]`` table replaced by the room's."""
     path = copy / "pyproject.toml"
     text = path.read_text(encoding="utf-8")
     mine = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))  # the checkout's settings
-    base = mine.get("tool", {}).get("mutmut", {})
+    base = dict(mine.get("tool", {}).get("mutmut", {}))
+    if slow:
+        base["pytest_add_cli_args"] = without_marker_filter(list(base.get("pytest_add_cli_args", [])))
     without = re.sub(r"(?ms)^\[tool\.mutmut\]\n.*?(?=^\[|\Z)", "", text)
     path.write_text(without.rstrip() + "\n\n" + room_table(base, files, tests), encoding="utf-8")
 
@@ -198,14 +214,15 @@ def mutant_pattern(name: str) -> str:
     return LOOKALIKES.sub("\u01c1", name)
 
 
-def run_room(name: str, children: int, keep: bool, timeout: float, only: list[str]) -> dict[str, object]:
+def run_room(name: str, children: int, keep: bool, timeout: float, only: list[str],
+             slow: bool = False) -> dict[str, object]:
     files, tests = ROOMS[name]
     work = Path(tempfile.mkdtemp(prefix=f"robokit-mutmut-{name}-"))
     copy = work / "tree"
     export_tree(copy)
     missing = [t for t in tests if not (copy / t).is_file()]
     tests = [t for t in tests if t not in missing]
-    write_config(copy, files, tests)
+    write_config(copy, files, tests, slow)
     # subprocesses (robokit CLI runs, sweep workers) import the copy's own, unmutated code: mutmut's trampolines
     # read their settings from the working directory, which a subprocess changes
     env = {**os.environ, "PYTHONPATH": str(copy), "PYTHONUTF8": "1",
@@ -257,6 +274,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--timeout", type=float, default=3600.0, help="seconds per room before it is stopped")
     parser.add_argument("--survivors", action="store_true", help="print every surviving mutant's name")
     parser.add_argument("--keep", action="store_true", help="keep each room's copy (to `mutmut show` survivors)")
+    parser.add_argument("--slow", action="store_true",
+                        help="the room's slow-tier tests count too (the base settings run `-m 'not slow'`)")
     parser.add_argument("--json", type=Path, help="also write the results as JSON here")
     parser.add_argument("--mutants", nargs="+", default=[], metavar="NAME",
                         help="run only these mutants (names or globs, as --survivors prints them): re-check survivors")
@@ -275,7 +294,8 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{'room':14} {'mutants':>7} {'caught':>6} {'survived':>8} {'other':>5} {'score':>6} {'wall s':>7} "
           f"{'cpu s':>7}")
     for room in args.rooms:
-        r = run_room(room, args.children, args.keep, args.timeout, [mutant_pattern(m) for m in args.mutants])
+        r = run_room(room, args.children, args.keep, args.timeout, [mutant_pattern(m) for m in args.mutants],
+                     args.slow)
         results.append(r)
         score = "-" if r["score"] is None else f"{100 * r['score']:.1f}%"  # type: ignore[operator]
         print(f"{room:14} {r['mutants']:>7} {r['caught']:>6} {len(r['survived']):>8} {len(r['other']):>5} "  # type: ignore[arg-type]
