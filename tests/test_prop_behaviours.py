@@ -1,0 +1,144 @@
+"""The behaviours' verdicts and records judged by the world: pick_place's goal (the object rests on the place spot
+within place_tolerance) against the cube's pose and speed as the world has them, one object or a stack; patrol's
+visits against where the robot is, per-leg timeouts against the sim clock, its trace against its result, the distance
+it reports against the path it drove, and the stop it leaves the drive in."""
+
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from robokit.testing import make_sim
+
+ROOT = Path(__file__).resolve().parents[1]
+PICK_PLACE = ROOT / "configs" / "pick_place.toml"
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from test_pins_patrol import room  # noqa: E402  (the walled room of patrol's pins, without the box)
+
+PLACE = (0.45, -0.35, 0.027)  # pick_place.toml's place_position
+TOLERANCE = 0.02  # pick_place.toml leaves place_tolerance at its documented default, 2 cm
+CUBE = 0.05
+
+
+@pytest.mark.slow
+def test_pick_place_goal_is_the_cube_at_rest_within_tolerance_of_the_place_spot() -> None:
+    """40 cube poses around the place spot, each set in the world: met exactly when the distance the test computes
+    from the pose the world reports is within the tolerance; a falling cube is not placed until it has landed."""
+    rng = np.random.default_rng(38)
+    with make_sim(PICK_PLACE) as sim:
+        world, pick = sim.world, sim.behaviour
+        seen = set()
+        for _ in range(40):
+            offset = (*rng.uniform(-0.03, 0.03, 2), rng.uniform(0.0, 0.03))
+            world.set_pose("cube", [p + o for p, o in zip(PLACE, offset, strict=True)], [0, 0, 0, 1])
+            pos = world.pose("cube")[0]
+            error = math.dist(pos, PLACE)
+            if abs(error - TOLERANCE) < 1e-4:
+                continue
+            check = pick.check_goal(world)
+            assert check.met == (error <= TOLERANCE), (offset, error, check)
+            assert check.details["placement_error"] == pytest.approx(error, abs=1e-5)
+            assert not check.details["touching_robot"]
+            seen.add(check.met)
+        assert seen == {True, False}
+        # released 12 mm above the spot: within the tolerance but falling, then landed and still
+        world.set_pose("cube", [PLACE[0], PLACE[1], PLACE[2] + 0.012], [0, 0, 0, 1])
+        for _ in range(7):
+            world.step()
+        assert math.hypot(*world.velocity("cube")[0]) > 0.2 and math.dist(world.pose("cube")[0], PLACE) < TOLERANCE
+        assert not pick.check_goal(world).met
+        for _ in range(240):
+            world.step()
+        assert math.hypot(*world.velocity("cube")[0]) < 0.01
+        assert pick.check_goal(world).met
+
+
+@pytest.mark.slow
+def test_pick_place_goal_with_several_objects_is_every_one_on_the_spot_a_stack_any_height() -> None:
+    """Two cubes: on the spot means horizontally within the tolerance of it (the second may rest on the first);
+    one of them off the spot, or gone from the world, and the goal is not met."""
+    cube2 = {"shape": "box", "size": [CUBE] * 3, "mass": 0.1, "position": [0.6, 0.1, CUBE / 2]}
+    rng = np.random.default_rng(7)
+    with make_sim(PICK_PLACE, overrides={"bodies.cube2": cube2, "behaviour.objects": ["cube", "cube2"],
+                                         "behaviour.object": None}) as sim:
+        world, pick = sim.world, sim.behaviour
+        for _ in range(12):
+            shifts = rng.uniform(-0.03, 0.03, (2, 2))
+            for k, (name, shift) in enumerate(zip(("cube", "cube2"), shifts, strict=True)):
+                world.set_pose(name, [PLACE[0] + shift[0], PLACE[1] + shift[1], PLACE[2] + k * (CUBE + 0.002)],
+                               [0, 0, 0, 1])
+            errors = [math.dist(world.pose(n)[0][:2], PLACE[:2]) for n in ("cube", "cube2")]
+            if any(abs(e - TOLERANCE) < 1e-4 for e in errors):
+                continue
+            check = pick.check_goal(world)
+            assert check.met == all(e <= TOLERANCE for e in errors), (errors, check)
+            assert [o["object"] for o in check.details["objects"]] == ["cube", "cube2"]
+        for k, name in enumerate(("cube", "cube2")):
+            world.set_pose(name, [PLACE[0], PLACE[1], PLACE[2] + k * (CUBE + 0.002)], [0, 0, 0, 1])
+        assert pick.check_goal(world).met
+        world.remove_body("cube2")
+        assert not pick.check_goal(world).met
+
+
+@pytest.mark.slow
+def test_patrol_visits_timeouts_trace_distance_and_stop_judged_by_the_world() -> None:
+    """A far waypoint with a 2 s leg timeout and a near one, two laps. Each visit reached: the robot is within the
+    tolerance of that waypoint in the world; each one missed: more than the timeout and less than one behaviour
+    tick after it since the leg began; the trace has every visit in order; the outcome counts the misses; the
+    distance reported is the path the world saw; and after the last leg the robot stands still."""
+    waypoints, laps, timeout, rate = [[3.0, 1.8], [0.8, 0.0]], 2, 2.0, 20.0
+    tolerance = 0.2  # patrol's documented default
+    cfg = room({"waypoints": waypoints, "laps": laps, "waypoint_timeout": timeout, "rate_hz": rate}, box=False)
+    with make_sim(cfg) as sim:
+        patrol, world = sim.behaviour, sim.world
+        visits: list[tuple[str, dict]] = []
+        leg_began, path = 0.0, 0.0
+        last = world.pose("robot")[0]
+        while patrol.outcome is None and world.time < 40:
+            sim.step(1)
+            now = world.pose("robot")[0]
+            path += math.dist(now[:2], last[:2])
+            last = now
+            new = [("waypoint_reached", v) for v in patrol.reached if ("waypoint_reached", v) not in visits]
+            new += [("waypoint_missed", v) for v in patrol.missed if ("waypoint_missed", v) not in visits]
+            assert len(new) <= 1
+            for kind, v in new:
+                leg = len(visits)
+                assert (v["waypoint"], v["lap"]) == (leg % len(waypoints), leg // len(waypoints))
+                assert abs(v["t"] - world.time) <= 1 / rate + 1e-6
+                if kind == "waypoint_reached":
+                    assert math.dist(now[:2], waypoints[v["waypoint"]]) <= tolerance + 0.02
+                else:
+                    assert timeout < v["t"] - leg_began <= timeout + 1 / rate + 1e-6
+                leg_began = v["t"]
+                visits.append((kind, v))
+        assert len(visits) == len(waypoints) * laps
+        kinds = [k for k, _ in visits]
+        assert "waypoint_missed" in kinds and "waypoint_reached" in kinds
+        trace = [(r["kind"], {k: r[k] for k in ("waypoint", "lap", "t")})
+                 for r in sim.trace if r["kind"] in ("waypoint_reached", "waypoint_missed")]
+        assert trace == visits
+        missed = kinds.count("waypoint_missed")
+        assert patrol.outcome.status == "failed" and f"{missed} of {len(visits)}" in patrol.outcome.reason
+        result = patrol.result()
+        assert (result["waypoints_reached"], result["waypoints_missed"]) == (len(visits) - missed, missed)
+        assert result["distance_travelled"] == pytest.approx(path, rel=0.15, abs=0.05)
+        for _ in range(240):
+            sim.step(1)
+        assert math.hypot(*world.velocity("robot")[0][:2]) < 0.02
+
+
+@pytest.mark.slow
+def test_patrol_that_reaches_every_waypoint_succeeds_and_says_how_many() -> None:
+    waypoints = [[0.7, 0.0], [0.7, 0.6]]
+    with make_sim(room({"waypoints": waypoints, "waypoint_timeout": 20.0}, box=False)) as sim:
+        result = sim.run(max_time=40)
+        patrol, world = sim.behaviour, sim.world
+        assert result.outcome == "succeeded", result.reason
+        assert [(v["waypoint"], v["lap"]) for v in patrol.reached] == [(0, 0), (1, 0)] and not patrol.missed
+        assert "all 2 waypoints" in result.reason
+        assert math.dist(world.pose("robot")[0][:2], waypoints[-1]) <= 0.2 + 0.05
