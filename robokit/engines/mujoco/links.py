@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 import xml.etree.ElementTree as ET
-from collections.abc import Collection
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -171,6 +171,9 @@ class Motors:
         self._holding: Holding | None = None
         """The position motors' joints and force limits (worked out again when a motor changes)."""
         self._worked_out = False
+        self.version = 0
+        """Counts the writes of gains into the model (and settings or ids replaced): gains and ids a caller took
+        from here are still those in force while it has not changed (:meth:`put_controls`)."""
 
     def set(self, model: Any, data: Any, name: str, setting: tuple[float, float, float, float, float],
             torque: bool) -> None:
@@ -188,6 +191,15 @@ class Motors:
             data.ctrl[self._id(model, name)] = setting[4]
             return
         self._write(model, data, name)
+
+    def put_controls(self, data: Any, names: Sequence[str], gains: Sequence[tuple[float, float, float, float]],
+                     controls: list[float], ids: slice | list[int]) -> None:
+        """Only new controls for motors whose gains are ``gains`` already and which are not in torque mode (the
+        caller knows it from :attr:`version`): what :meth:`set` does for each of them, at once."""
+        settings = self.settings
+        for name, motor_gains, control in zip(names, gains, controls, strict=True):
+            settings[name] = (*motor_gains, control)
+        data.ctrl[ids] = controls
 
     def holding(self, model: Any, data: Any) -> Holding | None:
         """The joints a position motor drives (with a force limit), None when there are none."""
@@ -209,6 +221,7 @@ class Motors:
         return act
 
     def _write(self, model: Any, data: Any, name: str) -> None:
+        self.version += 1
         gain, kp, kd, limit, ctrl = self.settings[name]
         act = self._id(model, name)
         model.actuator_gainprm[act, :3] = (gain, 0.0, 0.0)
@@ -231,6 +244,7 @@ class Motors:
     def put_back(self, model: Any, saved: dict[str, Any]) -> None:
         """The motors as :meth:`saved` found them (the data's controls are the caller's to restore)."""
         self.settings, self.torques = dict(saved["settings"]), set(saved["torques"])
+        self.version += 1
         for f, value in saved["model"].items():
             if f == "dof_armature" and not np.array_equal(model.dof_armature, value):
                 self.inertia_changed = True
@@ -241,6 +255,7 @@ class Motors:
         """Write every stored motor that still exists (``names``: the model's actuators) into a new model."""
         self.ids.clear()
         self._worked_out = False
+        self.version += 1
         for name in [n for n in self.settings if n not in names]:
             del self.settings[name]
             self.torques.discard(name)

@@ -65,6 +65,19 @@ class Ramp:
     actuator: int = 0
 
 
+@dataclass(slots=True)
+class MotorGroup:
+    """The motors one :meth:`MujocoWorld.set_joint_motors` call drives (the same joints, mode and forces as
+    before): their actuator names, gains, which are off (force 0), actuator ids, and the motors'
+    :attr:`~robokit.engines.mujoco.links.Motors.version` when they were last written."""
+
+    names: list[str]
+    gains: list[tuple[float, float, float, float]]
+    off: list[bool]
+    ids: slice | list[int]
+    version: int
+
+
 class MujocoWorld(MujocoBodies):
     """The World on MuJoCo. Takes the World's keyword arguments; ``gui`` is refused (robokit runs MuJoCo headless).
     """
@@ -92,6 +105,8 @@ class MujocoWorld(MujocoBodies):
         """(body, joint) -> MuJoCo joint id, qpos and dof address (until the next compile)."""
         self._drives: dict[tuple[Any, ...], tuple[str, tuple[float, float, float, float]]] = {}
         """(body, joint, mode, force) -> actuator name and its (gain, position bias, velocity bias, force limit)."""
+        self._groups: dict[tuple[Any, ...], MotorGroup] = {}
+        """(body, joints, mode, forces) -> the motors :meth:`set_joint_motors` drives (until the next compile)."""
         self._rows: dict[tuple[Any, ...], tuple[np.ndarray | slice, np.ndarray | slice, list[bool]]] = {}
         """(body, joints) -> their qpos and dof addresses and which move, for :meth:`joint_states`."""
         self._chains: dict[tuple[int, int], tuple[np.ndarray, np.ndarray, int]] = {}
@@ -217,6 +232,7 @@ class MujocoWorld(MujocoBodies):
         self._addresses.clear()
         self._chains.clear()
         self._drives.clear()
+        self._groups.clear()
         self._rows.clear()
         self._geom_owner = None
         self._solved = self._kept = None
@@ -429,6 +445,17 @@ class MujocoWorld(MujocoBodies):
         m, d, motors, drives = self._model, self._data, self.motors, self._drives
         torque = mode == "torque"
         values = forces if torque else target_velocities if mode == "velocity" else target_positions
+        key = (body, tuple(joints), mode, None if forces is None else tuple(forces))
+        group = self._groups.get(key)
+        if group is not None and group.version == motors.version and motors.torques.isdisjoint(group.names):
+            # the same motors with the gains they have: only the controls are new (an arm's targets every tick)
+            if self._ramps:
+                for name in group.names:
+                    self._ramps.pop(name, None)
+            controls = [0.0] * len(group.names) if values is None else [
+                0.0 if off else float(value or 0.0) for value, off in zip(values, group.off, strict=True)]
+            motors.put_controls(d, group.names, group.gains, controls, group.ids)
+            return
         for i, joint in enumerate(joints):
             force = None if forces is None else forces[i]
             drive = drives.get((body, joint, mode, force))
@@ -440,6 +467,21 @@ class MujocoWorld(MujocoBodies):
             value = None if values is None else values[i]
             ctrl = 0.0 if gains[3] == 0.0 and force is not None else float(value or 0.0)
             motors.set(m, d, name, (*gains, ctrl), torque=torque)
+        if not torque:
+            self._groups[key] = self._motor_group(body, joints, mode, forces)
+
+    def _motor_group(self, body: int, joints: Sequence[int], mode: MotorMode,
+                     forces: Sequence[float] | None) -> MotorGroup:
+        """The motors of ``joints`` as just set (their ids a slice where they run on one by one, as an arm's do)."""
+        drives = [self._drives[(body, joint, mode, None if forces is None else forces[i])]
+                  for i, joint in enumerate(joints)]
+        names = [name for name, _ in drives]
+        ids = [self.motors.actuator(self._model, name) for name in names]
+        rows: slice | list[int] = ids
+        if ids and ids == list(range(ids[0], ids[0] + len(ids))):
+            rows = slice(ids[0], ids[0] + len(ids))
+        off = [gains[3] == 0.0 and forces is not None for _, gains in drives]
+        return MotorGroup(names, [gains for _, gains in drives], off, rows, self.motors.version)
 
     # ----------------------------------------------------------------- rays
     def ray_caster(self, *, skip: Collection[int] = (), see_hidden: bool = True, mask: int = -1,
