@@ -158,22 +158,22 @@ class GripAnchors:
         out: dict[tuple[int, int], tuple[float, float, float]] = {}
         if d.ncon == 0:
             return out
-        geoms = d.contact.geom
-        flat = geoms.ravel().tolist()
-        if self._grip_geoms.isdisjoint(flat):  # the common step: no finger touches anything
-            return out
-        found = np.flatnonzero(self._grip_of_geom[geoms].max(axis=1) >= 0)  # the rows with a finger in them
-        pairs = geoms[found].tolist()
         contact = d.contact
-        addresses, mus, dims = (contact.efc_address[found].tolist(), contact.friction[found, 0].tolist(),
-                                contact.dim[found].tolist())
-        force = d.efc_force
+        geoms = contact.geom.ravel().tolist()  # the geom pairs, one after another
+        if self._grip_geoms.isdisjoint(geoms):  # the common step: no finger touches anything
+            return out
+        # plain lists: a step's few dozen contacts are cheaper walked in Python than picked out in numpy
         grip_of, body_of, movable, roots = self._lists
-        for pair, at, mu, dim in zip(pairs, addresses, mus, dims, strict=True):
+        addresses, friction, dims, force = contact.efc_address.tolist(), contact.friction, contact.dim, d.efc_force
+        for row, at in enumerate(addresses):
+            pair = geoms[2 * row], geoms[2 * row + 1]
+            if grip_of[pair[0]] < 0 and grip_of[pair[1]] < 0:
+                continue
             normal = float(force[at]) if at >= 0 else 0.0
             if normal <= 0.0:
                 continue
-            tangential = math.hypot(float(force[at + 1]), float(force[at + 2])) if dim > 1 else 0.0
+            mu = float(friction[row, 0])
+            tangential = math.hypot(float(force[at + 1]), float(force[at + 2])) if dims[row] > 1 else 0.0
             for side in (0, 1):
                 k, other = grip_of[pair[side]], body_of[pair[1 - side]]
                 if k < 0 or not movable[other] or roots[other] == self._root_of_finger[k]:

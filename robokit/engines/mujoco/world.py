@@ -121,7 +121,7 @@ class MujocoWorld(MujocoBodies):
         """The compiled model's friction cones are pyramids (robokit's own scenes have elliptic ones)."""
         self._kept: tuple[Any, ...] | None = None
         """Copies of the last step's contact arrays and constraint forces, for :meth:`_solved_contacts`."""
-        self._geom_owner: np.ndarray | None = None
+        self._geom_owner: list[tuple[int, int]] | None = None
         """Per MuJoCo geom: (robokit body id, link) of its body, (-1, -1) for none (until the next compile)."""
         self._ramps: dict[str, Ramp] = {}
         """Position motors capped at a velocity, by actuator name, until the setpoint reaches the target
@@ -577,35 +577,24 @@ class MujocoWorld(MujocoBodies):
         if solved is None:
             return out
         geoms, points, normals, forces = solved
-        owner = self._geom_owners(m)[geoms]  # (ncon, 2 sides, (body, link))
-        found = []
-        for side in (0, 1):
-            mine, theirs = owner[:, side], owner[:, 1 - side]
-            keep = mine[:, 0] == rid
-            if link is not None:
-                keep &= mine[:, 1] == link
-            if other is not None:
-                keep &= theirs[:, 0] == other
-            if other_link is not None:
-                keep &= theirs[:, 1] == other_link
-            found += [(i, side) for i in np.flatnonzero(keep).tolist()]
-        if not found:
-            return out
-        positions, frames, owners, pushes = points.tolist(), normals.tolist(), owner.tolist(), forces.tolist()
-        for i, side in sorted(found):  # in MuJoCo's contact order
-            sign = -1.0 if side == 0 else 1.0  # MuJoCo's normal points from geom 1 to geom 2
-            normal = (sign * frames[i][0], sign * frames[i][1], sign * frames[i][2])
-            (_, la), (b, lb) = owners[i][side], owners[i][1 - side]
-            out.append(Contact(b, la, lb, pushes[i], tuple(positions[i]), normal))  # type: ignore[arg-type]
+        owner_of = self._geom_owners(m)
+        # plain lists: a step's few dozen contacts are cheaper walked in Python than masked in numpy
+        for i, (g1, g2) in enumerate(geoms.tolist()):  # in MuJoCo's contact order, geom 1's side first
+            for side, ((mine, la), (b, lb)) in enumerate(((owner_of[g1], owner_of[g2]),
+                                                         (owner_of[g2], owner_of[g1]))):
+                if mine != rid or (link is not None and la != link) or (other is not None and b != other) or (
+                        other_link is not None and lb != other_link):
+                    continue
+                sign = -1.0 if side == 0 else 1.0  # MuJoCo's normal points from geom 1 to geom 2
+                frame = normals[i].tolist()
+                normal = (sign * frame[0], sign * frame[1], sign * frame[2])
+                out.append(Contact(b, la, lb, float(forces[i]), tuple(points[i].tolist()), normal))
         return out
 
-    def _geom_owners(self, m: Any) -> np.ndarray:
+    def _geom_owners(self, m: Any) -> list[tuple[int, int]]:
         """Per MuJoCo geom of the compiled model: its (robokit body id, link), (-1, -1) for a geom of no body."""
         if self._geom_owner is None:
-            table = np.full((m.ngeom, 2), -1, dtype=np.int64)
-            for g in range(m.ngeom):
-                table[g] = self._owner.get(int(m.geom_bodyid[g]), (-1, -1))
-            self._geom_owner = table
+            self._geom_owner = [self._owner.get(int(m.geom_bodyid[g]), (-1, -1)) for g in range(m.ngeom)]
         return self._geom_owner
 
     # ----------------------------------------------------------------- episodes, lifetime
