@@ -8,10 +8,12 @@ from __future__ import annotations
 import math
 import sys
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
+from robokit.errors import ConfigError
 from robokit.testing import make_sim
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -85,6 +87,53 @@ def test_pick_place_goal_with_several_objects_is_every_one_on_the_spot_a_stack_a
 
 
 @pytest.mark.slow
+def test_pick_place_goal_is_not_met_while_the_cube_touches_the_robot() -> None:
+    """The robot's base pushed against the cube on the place spot: the cube rests within the tolerance, still, but
+    touches the robot (the world's contact points say so): not placed. The robot moved away: placed."""
+    with make_sim(PICK_PLACE) as sim:
+        world, pick = sim.world, sim.behaviour
+        base_lo = world.aabb("panda", -1)[0]
+        world.set_pose("cube", list(PLACE), [0, 0, 0, 1])
+        world.set_pose("panda", [PLACE[0] + CUBE / 2 - base_lo[0] - 0.01, PLACE[1], 0.0])
+        for _ in range(240):
+            world.step()
+        assert world.contacts(world.body("cube"), world.body("panda"))
+        assert math.dist(world.pose("cube")[0], PLACE) < TOLERANCE and math.hypot(*world.velocity("cube")[0]) < 0.01
+        check = pick.check_goal(world)
+        assert not check.met and check.details["touching_robot"]
+        world.set_pose("panda", [0, 0, 0])
+        for _ in range(10):
+            world.step()
+        assert not world.contacts(world.body("cube"), world.body("panda"))
+        assert pick.check_goal(world).met
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("by", ["objects", "pick_positions"])
+def test_pick_place_stacks_objects_in_the_order_given_by_name_or_by_position(by: str) -> None:
+    """Two cubes stacked on the place spot in the order the jobs name them, or the order of the positions given
+    (each object identified by where it lies): the world has the first at the place height and the second one cube
+    higher, both on the spot."""
+    cube2 = {"shape": "box", "size": [CUBE] * 3, "mass": 0.1, "position": [0.6, 0.1, CUBE / 2],
+             "lateral_friction": 0.8}
+    overrides = {"bodies.cube2": cube2, "behaviour.object": None, "sensors.poses.bodies": ["cube", "cube2"],
+                 "world.max_time": 40}
+    with make_sim(PICK_PLACE, overrides={**overrides, "behaviour.objects": ["cube", "cube2"]}) as probe:
+        starts = {n: list(probe.world.pose(n)[0]) for n in ("cube", "cube2")}
+    order = ["cube2", "cube"] if by == "pick_positions" else ["cube", "cube2"]
+    jobs = {"behaviour.pick_positions": [starts[n] for n in order]} if by == "pick_positions" else \
+        {"behaviour.objects": order}
+    with make_sim(PICK_PLACE, overrides={**overrides, **jobs}) as sim:
+        result = sim.run()
+        assert result.outcome == "succeeded", result.reason
+        for level, name in enumerate(order):
+            pos = sim.world.pose(name)[0]
+            assert math.dist(pos[:2], PLACE[:2]) < TOLERANCE
+            assert pos[2] == pytest.approx(PLACE[2] + level * CUBE, abs=0.01)
+        assert [job["object"] for job in result.result["jobs"]] == order
+
+
+@pytest.mark.slow
 def test_patrol_visits_timeouts_trace_distance_and_stop_judged_by_the_world() -> None:
     """A far waypoint with a 2 s leg timeout and a near one, two laps. Each visit reached: the robot is within the
     tolerance of that waypoint in the world; each one missed: more than the timeout and less than one behaviour
@@ -126,7 +175,10 @@ def test_patrol_visits_timeouts_trace_distance_and_stop_judged_by_the_world() ->
         assert patrol.outcome.status == "failed" and f"{missed} of {len(visits)}" in patrol.outcome.reason
         result = patrol.result()
         assert (result["waypoints_reached"], result["waypoints_missed"]) == (len(visits) - missed, missed)
-        assert result["distance_travelled"] == pytest.approx(path, rel=0.15, abs=0.05)
+        assert result["distance_travelled"] == pytest.approx(path, rel=0.05, abs=0.02)
+        assert result["visits"] == [v for k, v in visits if k == "waypoint_reached"]
+        assert result["collision_events"] == [] and result["collisions"] == 0
+        assert abs(result["sim_time"] - world.time) <= 1 / rate + 1e-6
         for _ in range(240):
             sim.step(1)
         assert math.hypot(*world.velocity("robot")[0][:2]) < 0.02
@@ -142,3 +194,55 @@ def test_patrol_that_reaches_every_waypoint_succeeds_and_says_how_many() -> None
         assert [(v["waypoint"], v["lap"]) for v in patrol.reached] == [(0, 0), (1, 0)] and not patrol.missed
         assert "all 2 waypoints" in result.reason
         assert math.dist(world.pose("robot")[0][:2], waypoints[-1]) <= 0.2 + 0.05
+
+
+@pytest.mark.slow
+def test_patrol_refuses_exactly_the_waypoints_inside_an_obstacle_grown_by_robot_radius() -> None:
+    """Waypoints drawn round the 0.8 m box at (1.5, 0.5) on every side: refused, naming the waypoint's key, the box
+    and its extent, exactly when the point lies in the box grown by robot_radius on each axis (computed here from
+    the box's size and place); an unknown map body or contact sensor is refused at its key."""
+    rng = np.random.default_rng(5)
+    lo, hi = (1.1, 0.1), (1.9, 0.9)
+    outcomes = set()
+    for _ in range(16):
+        radius = float(rng.choice([0.1, 0.3]))
+        x, y = rng.uniform(lo[0] - 0.5, hi[0] + 0.5), rng.uniform(lo[1] - 0.5, hi[1] + 0.5)
+        margins = [x - (lo[0] - radius), (hi[0] + radius) - x, y - (lo[1] - radius), (hi[1] + radius) - y]
+        if min(abs(m) for m in margins) < 0.01:
+            continue
+        inside = all(m > 0 for m in margins)
+        cfg = room({"waypoints": [[3.0, -0.8], [round(x, 3), round(y, 3)]], "robot_radius": radius})
+        if inside:
+            with pytest.raises(ConfigError) as err:
+                make_sim(cfg)
+            assert err.value.key.endswith("waypoints[1]")
+            assert "'box'" in str(err.value) and f"x {lo[0]:.2f}..{hi[0]:.2f}, y {lo[1]:.2f}..{hi[1]:.2f}" in str(
+                err.value)
+        else:
+            with make_sim(cfg) as sim:
+                assert "box" in {b.name for b in sim.behaviour.map}
+        outcomes.add(inside)
+    assert outcomes == {True, False}
+    with pytest.raises(ConfigError, match=r"unknown body 'shelf'.*wall_s") as err:
+        make_sim(room({"waypoints": [[3.0, -0.8]], "map_bodies": ["box", "shelf"]}))
+    assert err.value.key.endswith("map_bodies[1]")
+    with pytest.raises(ConfigError, match="no sensor named 'bumper'") as err:
+        make_sim(room({"waypoints": [[3.0, -0.8]], "contact_sensor": "bumper"}))
+    assert err.value.key.endswith("contact_sensor")
+
+
+@pytest.mark.slow
+def test_patrol_collisions_from_the_drive_are_traced_one_per_new_map_contact() -> None:
+    """Without a contact sensor the drive's contacts count: each new contact with a map body is one collision in
+    the result and one ``collision`` record in the trace, at its time; a loose object never."""
+    cfg = room({"waypoints": [[3.0, -0.8]]})
+    del cfg["behaviour"]["contact_sensor"]
+    with make_sim(cfg) as sim:
+        patrol = sim.behaviour
+        script = [("box",)] * 3 + [()] + [("box", "can")] * 2 + [("can", "wall_e")]
+        expected = [("box", 0.0), ("box", 0.2), ("wall_e", 0.3)]
+        for k, others in enumerate(script):
+            patrol.count_collisions({"drive": SimpleNamespace(contacts=others)}, k * 0.05)
+        assert [(c["body"], c["t"]) for c in patrol.result()["collision_events"]] == expected
+        traced = [r["body"] for r in sim.trace if r["kind"] == "collision"]
+        assert traced == [b for b, _ in expected]
