@@ -20,6 +20,7 @@ from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 from oracles import rotation
 
+from robokit.errors import ConfigError
 from robokit.testing import make_sim
 
 NO_SHRINK = [Phase.explicit, Phase.generate]  # an example is a simulation: a failing one is reported as drawn
@@ -103,3 +104,50 @@ def test_a_hanging_tool_reads_its_weight_and_moment_about_the_link_origin(
         np.testing.assert_allclose(local.torque, r_link.T @ torque, atol=2e-3 * mass * G * 0.3 + 1e-6)
         # the link frame is the URDF's: base orientation times the joint's rpy (not the inertial frame's)
         np.testing.assert_allclose(r_link, rpy_matrix(*base_rpy) @ rpy_matrix(*joint_rpy), atol=1e-6)
+
+
+def probe_config(tmp_path: Path, sensors: dict) -> dict:
+    urdf = tmp_path / "probe.urdf"
+    urdf.write_text(tool_urdf((0.3, -0.2, 0.5), (0.05, 0.0, -0.04), (0.0, 0.0, 0.0), 1.5), encoding="utf-8")
+    return {"world": {"gravity": [0, 0, -G]},
+            "robots": {"probe": {"urdf": str(urdf), "position": [0, 0, 0.5], "fixed_base": True}},
+            "sensors": sensors}
+
+
+def test_noise_is_zero_mean_with_its_standard_deviation_on_all_six_axes_and_readings_carry_the_sim_time(
+        tmp_path: Path) -> None:
+    """A noisy and a clean sensor on one joint: their differences over 150 ticks have mean 0 and the configured
+    standard deviation on each of the six axes (bounds from the sample sizes); every reading is stamped with the
+    world's time."""
+    std = 0.5
+    sensors = {"clean": {"type": "force_torque", "body": "probe", "joint": "wrist"},
+               "noisy": {"type": "force_torque", "body": "probe", "joint": "wrist", "noise_std": std}}
+    with make_sim(probe_config(tmp_path, sensors)) as sim:
+        diffs = []
+        for _ in range(150):
+            sim.step(1)
+            clean, noisy = sim.readings["clean"], sim.readings["noisy"]
+            assert clean.time == noisy.time == pytest.approx(sim.world.time)
+            diffs.append(np.subtract([*noisy.force, *noisy.torque], [*clean.force, *clean.torque]))
+    d = np.array(diffs)
+    assert d.shape == (150, 6)
+    np.testing.assert_allclose(d.mean(axis=0), 0.0, atol=5 * std / np.sqrt(150))
+    np.testing.assert_allclose(d.std(axis=0), std, rtol=0.2)
+
+
+def test_a_closed_sensor_switches_the_joints_measurement_off_and_an_unknown_joint_is_refused_at_its_key(
+        tmp_path: Path) -> None:
+    """While the sensor is open the world measures the joint's reaction (the tool's weight); once it is closed
+    the world reports none (PyBullet's reaction of a joint without a sensor is zero)."""
+    sensors = {"ft": {"type": "force_torque", "body": "probe", "joint": "wrist"}}
+    with make_sim(probe_config(tmp_path, sensors)) as sim:
+        sim.step(3)
+        world = sim.world
+        body, joint = world.body("probe"), world.joint("probe", "wrist").index
+        assert np.linalg.norm(world.joint_states(body, [joint])[0][2][:3]) == pytest.approx(1.5 * G, rel=0.01)
+        sim.components["ft"].close()
+        world.step()
+        assert np.allclose(world.joint_states(body, [joint])[0][2], 0.0)
+    with pytest.raises(ConfigError, match="elbow") as err:
+        make_sim(probe_config(tmp_path, {"ft": {"type": "force_torque", "body": "probe", "joint": "elbow"}}))
+    assert err.value.key == "sensors.ft.joint"
