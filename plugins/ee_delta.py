@@ -13,6 +13,7 @@ end-effector position and linear velocity (m, m/s, world frame), orientation, an
 
 from __future__ import annotations
 
+import math
 from typing import Any, ClassVar
 
 import numpy as np
@@ -90,9 +91,9 @@ class EEDeltaArm(Actuator):
         if not isinstance(cmd, EEDelta):
             raise ValueError(f"ee_delta takes EEDelta((dx, dy, dz)), got {cmd!r}")
         delta = np.asarray(cmd.delta, float)
-        if delta.shape != (3,) or not np.all(np.isfinite(delta)):
+        if delta.shape != (3,) or not all(map(math.isfinite, delta.tolist())):
             raise ValueError(f"EEDelta needs three finite numbers (m), got {cmd.delta!r}")
-        norm = float(np.linalg.norm(delta))
+        norm = math.sqrt(delta @ delta)  # np.linalg.norm's own arithmetic, without its dispatch
         if norm > self.config.max_step:
             delta = delta * (self.config.max_step / norm)
         w = self.world
@@ -103,11 +104,12 @@ class EEDeltaArm(Actuator):
         goal[2] = max(goal[2], self.config.min_height)
         err = np.concatenate([goal - pos, _tilt(ee_orn, self.down)])
         jl, ja = w.jacobian(self.body, self.ee, q_all)
-        jac = np.vstack([jl, ja])[:, self.cols]
+        jac = np.concatenate((jl, ja))[:, self.cols]
         pinv = jac.T @ np.linalg.inv(jac @ jac.T + self.damping)
         q = np.asarray(q_all)[self.cols]
         null = (self.eye - pinv @ jac) @ (self.config.null_gain * (self.rest - q))
-        self.targets = np.clip(q + pinv @ err + null, self.lower, self.upper)
+        # np.clip's arithmetic on seven numbers, without its dispatch (which costs more than the work)
+        self.targets = np.minimum(np.maximum(q + pinv @ err + null, self.lower), self.upper)
         self.dirty = True
 
     def update(self) -> None:

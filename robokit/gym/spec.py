@@ -167,11 +167,15 @@ class Observer:
     def _value(readings: Mapping[str, Any], task_obs: Mapping[str, Any], entry: str, path: list[str]) -> Any:
         if path[0] == "task":
             source: Any = task_obs
-        elif path[0] in readings:
-            source = readings[path[0]]
         else:
-            names = ", ".join(["task", *readings])
-            raise ValueError(f"env.observations: {entry!r}: unknown component {path[0]!r}; known: {names}")
+            try:
+                source = readings[path[0]]  # one look-up: ``in`` on the readings would compute the reading too
+            except KeyError:
+                names = ", ".join(["task", *readings])
+                raise ValueError(
+                    f"env.observations: {entry!r}: unknown component {path[0]!r}; known: {names}") from None
+        if len(path) == 2 and not isinstance(source, Mapping) and hasattr(source, path[1]):
+            return getattr(source, path[1])  # the common entry: one field of a reading
         return lookup(source, path[1:], f"env.observations: {entry!r}")
 
     def observe(self, readings: Mapping[str, Any], task_obs: Mapping[str, Any]) -> dict[str, np.ndarray]:
