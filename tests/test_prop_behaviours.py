@@ -130,7 +130,11 @@ def test_pick_place_stacks_objects_in_the_order_given_by_name_or_by_position(by:
             pos = sim.world.pose(name)[0]
             assert math.dist(pos[:2], PLACE[:2]) < TOLERANCE
             assert pos[2] == pytest.approx(PLACE[2] + level * CUBE, abs=0.01)
-        assert [job["object"] for job in result.result["jobs"]] == order
+        jobs = result.result["jobs"]
+        assert [job["object"] for job in jobs] == order and result.result["placed"] == len(order)
+        assert all(job["outcome"] == "succeeded" and job["reason"].startswith(f"placed {job['object']} in ")
+                   for job in jobs)
+        assert sim.behaviour.outcome.reason.startswith(f"placed {len(order)} objects in ")
 
 
 @pytest.mark.slow
