@@ -73,9 +73,15 @@ TRANSITIONS: list[dict[str, Any]] = [
 
 BIN_RADIUS = 0.15
 """m: an object centre this close (xy) to the bin link, above it, is in the robot's bin (the scripted stow)."""
-RELEASE_HEIGHT = 0.01
-"""m: the lift's position when the fingers let go in the bin (the object drops this far: pressed onto the floor by
-the lift, squeezed fingers can stay jammed)."""
+RELEASE_HEIGHT = 0.0
+"""m: the lift's position when the object is set down in the bin (standing on the floor)."""
+SOFT_GRIP = 0.5
+"""N: the finger force while the fingers slide up the object set down in the bin (too weak to lift it)."""
+SLIDE_HEIGHT = 0.04
+"""m: the lift's position the fingers slide up to before they open. A grip that has turned with the robot keeps
+contacts from where it was taken (PyBullet refreshes a gripping finger's contact points only when they slip):
+their normals no longer face the object, and fingers that open against them stay stuck to it. Sliding the fingers
+up the standing object moves every contact point along the surface, so they are made anew, facing the object."""
 DOCK_STALL = 2.0
 """sim s: docking that makes no progress this long ends where it is."""
 STAGE_NEAR = 0.25
@@ -146,6 +152,7 @@ class PatrolCollect(Patrol):
         self.discovery = Discovery(cfg.discovery, boxes)
         self.phase_started = 0.0
         self.lifting = False
+        self.sliding = False  # releasing: the fingers slide up the object set down
         self.delivered = 0
         self.dock_best = (math.inf, -1.0)  # (least depth still to go while docking, m; sim time it was reached)
         self.stage_best = (math.inf, -1.0)  # (least distance to the stage point while carrying, m; sim time)
@@ -377,18 +384,24 @@ class PatrolCollect(Patrol):
         if left < self.dock_best[0] - 0.005 or self.dock_best[1] < 0:
             self.dock_best = (left, t)
         if left <= 0.0 or t - self.dock_best[1] > DOCK_STALL:
-            self.phase_started = t
+            self.phase_started, self.sliding = t, False
             self.fire("over_slot")
             return {cfg.drive: STOP, cfg.lift: JointCommand("position", {cfg.lift_joint: RELEASE_HEIGHT})}
         return {cfg.drive: twist}
 
     def do_releasing(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any] | None:
-        """Lower the object to the floor, then open the fingers."""
+        """Set the object down on the floor, slide the fingers (squeezing softly) up it, then open them."""
         cfg = self.config
         grip, lift = readings[cfg.gripper], readings[cfg.lift].positions[cfg.lift_joint]
         elapsed = t - self.phase_started
         if grip.action != "open":
-            if lift <= RELEASE_HEIGHT + 0.003 or elapsed > cfg.grasp_time:
+            if not self.sliding:  # setting the object down
+                if lift <= RELEASE_HEIGHT + 0.003 or elapsed > cfg.grasp_time:
+                    self.phase_started, self.sliding = t, True
+                    return {cfg.gripper: GripperCommand("close", force=SOFT_GRIP),
+                            cfg.lift: JointCommand("position", {cfg.lift_joint: SLIDE_HEIGHT})}
+                return None
+            if lift >= SLIDE_HEIGHT - 0.003 or elapsed > cfg.grasp_time:  # the fingers have slid up
                 self.phase_started = t
                 return {cfg.gripper: GripperCommand("open")}
             return None
