@@ -108,9 +108,12 @@ class GripAnchors:
         touching = self._touched = self._touching(m, d)
         released = False
         for k, obj in list(self.held.items()):
-            fingers = {f for f, b in touching if b == obj}
-            capacity = sum(c for (_, body), (_, c, _) in touching.items() if body == obj)
-            carried = sum(t for (_, body), (_, _, t) in touching.items() if body == obj)
+            fingers, capacity, carried = set(), 0.0, 0.0
+            for (finger, body), (_, can_carry, carrying) in touching.items():
+                if body == obj:
+                    fingers.add(finger)
+                    capacity += can_carry
+                    carried += carrying
             force = carried + self._weld_force(d, int(self._eq[k]))
             if k not in fingers or len(fingers) < 2 or force > capacity:
                 d.eq_active[self._eq[k]] = 0

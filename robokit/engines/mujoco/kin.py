@@ -3,6 +3,7 @@ kinematics and differential IK: MuJoCo has no IK call of its own) and the Jacobi
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -128,10 +129,11 @@ def inverse_kinematics(world: MujocoBodies, body: int, link: int, position: Sequ
         mujoco.mju_mulQuat(difference, goal_quat, inverse)
         mujoco.mju_quat2Vel(rot, difference, 1.0)
         error[3:] = rot
-        if np.linalg.norm(error) < tolerance:
+        if math.sqrt(error @ error) < tolerance:  # np.linalg.norm's arithmetic, without its dispatch
             break
         mujoco.mj_comPos(m, scratch)
         mujoco.mj_jac(m, scratch, jacp, jacr, scratch.xpos[target], target)
-        jac = np.vstack([jacp[:, dofs], jacr[:, dofs]])
-        q = np.clip(q + np.linalg.solve(jac.T @ jac + weights, jac.T @ error), lower, upper)
+        jac = np.concatenate((jacp[:, dofs], jacr[:, dofs]))
+        step = np.linalg.solve(jac.T @ jac + weights, jac.T @ error)
+        q = np.minimum(np.maximum(q + step, lower), upper)  # np.clip's arithmetic, without its dispatch
     return q.tolist()
