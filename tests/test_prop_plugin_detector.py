@@ -19,6 +19,7 @@ from hypothesis import Phase, assume, given, settings
 from hypothesis import strategies as st
 
 from robokit.core.world import yaw_of
+from robokit.errors import ConfigError
 from robokit.testing import make_sim
 
 NO_SHRINK = [Phase.explicit, Phase.generate]  # an example is a simulation: a failing one is reported as drawn
@@ -107,3 +108,43 @@ def test_each_cube_is_found_where_the_world_and_the_image_geometry_say(
         assert y <= top[:, 1].min() + 1.5 and y + h >= top[:, 1].max() - 1.5, (d.bbox, top)
         assert x <= d.pixel[0] <= x + w and y <= d.pixel[1] <= y + h
         assert d.area <= w * h
+
+
+def scene(detector: dict[str, Any]) -> dict[str, Any]:
+    """A camera 1 m above the floor looking down, 20 frames a second; a big red cube at the centre and a red speck
+    on either side of it along the image's rows (one is labelled before the cube, one after)."""
+    bodies: dict[str, Any] = {"floor": {"shape": "box", "size": [3, 3, 0.02], "mass": 0.0, "position": [0, 0, -0.01],
+                                        "rgba": [0.55, 0.55, 0.55, 1]}}
+    for name, (x, y, size) in {"cube": (0.0, 0.0, 0.06), "speck_a": (0.0, 0.2, 0.008),
+                               "speck_b": (0.0, -0.2, 0.008), "blue": (0.2, 0.0, 0.05)}.items():
+        bodies[name] = {"shape": "box", "size": [size] * 3, "mass": 0.0, "position": [x, y, size / 2],
+                        "rgba": COLOURS["blue" if name == "blue" else "red"]}
+    return {"bodies": bodies,
+            "sensors": {"cam": {"type": "camera", "width": W, "height": H, "fov": FOV, "eye": [0, 0, 1.0],
+                                "target": [0, 0, 0], "up": [1, 0, 0], "renderer": "tiny", "segmentation": False,
+                                "rate_hz": 20},
+                        "det": {"type": "colour_detector", "camera": "cam", "object_height": 0.05,
+                                "min_area": 12, **detector}}}
+
+
+@pytest.mark.slow
+def test_detections_follow_the_camera_frames_and_keep_every_blob_above_min_area() -> None:
+    """Each reading names its camera and carries the time of the frame it was computed from (the camera's, 20
+    frames a second, read every 5 physics ticks); the specks (about 4 px) are left out and the cube and the blue
+    cube are found, wherever the specks come in the image's order."""
+    with make_sim(scene({})) as sim:
+        frame_times = set()
+        for _ in range(6):
+            sim.step(5)
+            frame, det = sim.readings["cam"], sim.readings["det"]
+            assert det.camera == "cam" and det.time == frame.time
+            frame_times.add(frame.time)
+            found = sorted((d.colour, round(d.position[0], 2), round(d.position[1], 2)) for d in det.items)
+            assert found == [("blue", 0.2, 0.0), ("red", 0.0, 0.0)], found
+        assert len(frame_times) >= 2
+
+
+def test_an_unknown_camera_is_refused_at_its_key_naming_the_cameras_there_are() -> None:
+    with pytest.raises(ConfigError, match=r"'eye'.*cam") as err:
+        make_sim(scene({"camera": "eye"}))
+    assert err.value.key == "sensors.det.camera"
