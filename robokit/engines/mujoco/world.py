@@ -580,8 +580,10 @@ class MujocoWorld(MujocoBodies):
         owner_of = self._geom_owners(m)
         # plain lists: a step's few dozen contacts are cheaper walked in Python than masked in numpy
         for i, (g1, g2) in enumerate(geoms.tolist()):  # in MuJoCo's contact order, geom 1's side first
-            for side, ((mine, la), (b, lb)) in enumerate(((owner_of[g1], owner_of[g2]),
-                                                         (owner_of[g2], owner_of[g1]))):
+            first, second = owner_of[g1], owner_of[g2]
+            if first[0] != rid and second[0] != rid:
+                continue
+            for side, ((mine, la), (b, lb)) in enumerate(((first, second), (second, first))):
                 if mine != rid or (link is not None and la != link) or (other is not None and b != other) or (
                         other_link is not None and lb != other_link):
                     continue
