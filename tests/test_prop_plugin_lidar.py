@@ -24,6 +24,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from oracles import rotation
 
+from robokit.errors import ConfigError
 from robokit.testing import make_sim
 
 PROPS = settings(max_examples=25, deadline=None, derandomize=True, database=None,
@@ -165,3 +166,41 @@ def test_each_ray_goes_out_at_the_angle_the_scan_states(sim, x: float, y: float,
         dist = np.linalg.norm(d, axis=1)
         assert np.allclose(dist, np.where(np.isfinite(scan.ranges), scan.ranges, rmax), atol=1e-6), name
         assert np.all(np.abs(d[:, 2]) < 1e-6)  # a level robot scans a level plane
+
+
+@pytest.mark.slow
+def test_a_lidar_fixed_in_the_world_casts_from_its_pose_and_reports_its_heading() -> None:
+    """A lidar on a stand (``position`` and ``rpy_deg``, no robot) at six generated orientations: every ray ends
+    where the slab method meets the two boxes from the stand, along the sensor's own xy-plane (roll, then pitch,
+    then yaw about the fixed axes, written here), and the scan's yaw is the heading of the sensor's x axis."""
+    rng = np.random.default_rng(4)
+    rays, rmax = 36, 4.0
+    for _ in range(6):
+        rpy = np.array([rng.uniform(-12, 12), rng.uniform(-12, 12), rng.uniform(-180, 180)])
+        r, p, y = np.radians(rpy)
+        rx = np.array([[1, 0, 0], [0, math.cos(r), -math.sin(r)], [0, math.sin(r), math.cos(r)]])
+        ry = np.array([[math.cos(p), 0, math.sin(p)], [0, 1, 0], [-math.sin(p), 0, math.cos(p)]])
+        rz = np.array([[math.cos(y), -math.sin(y), 0], [math.sin(y), math.cos(y), 0], [0, 0, 1]])
+        rot = rz @ ry @ rx
+        origin = np.array([0.1, -0.2, 0.3])
+        scene = {"bodies": SCENE["bodies"],
+                 "sensors": {"stand": {"type": "lidar", "rays": rays, "range_max": rmax,
+                                       "position": origin.tolist(), "rpy_deg": rpy.tolist()}}}
+        with make_sim(scene) as fixed:
+            scan = fixed.components["stand"].read()
+            boxes = {n: (np.asarray(fixed.world.pose(n)[0]), np.eye(3)) for n in BOXES}
+        a = -math.pi + 2 * math.pi / rays * np.arange(rays)
+        dirs = np.stack([np.cos(a), np.sin(a), np.zeros_like(a)], axis=1) @ rot.T
+        want = expected(origin, dirs, boxes, 0.0, 0.05, rmax)
+        clear = np.isinf(expected(origin, dirs, boxes, -0.005, 0.05, rmax)) == np.isinf(
+            expected(origin, dirs, boxes, 0.005, 0.05, rmax))
+        assert np.allclose(scan.origin, origin, atol=1e-9)
+        assert scan.yaw == pytest.approx(math.atan2(rot[1, 0], rot[0, 0]), abs=1e-6)
+        hit = clear & np.isfinite(want)
+        assert hit.sum() >= 2
+        assert np.array_equal(np.isinf(scan.ranges[clear]), np.isinf(want[clear]))
+        assert np.allclose(scan.ranges[hit], want[hit], atol=0.005)
+        assert np.allclose(scan.points[hit], origin + dirs[hit] * want[hit, None], atol=0.005)
+    with pytest.raises(ConfigError, match="rover") as err:
+        make_sim({"bodies": SCENE["bodies"], "sensors": {"scan": {"type": "lidar", "robot": "rover"}}})
+    assert err.value.key == "sensors.scan.robot"
