@@ -202,6 +202,8 @@ class PickPlace(MachineBehaviour):
         self._arm_busy_until = -math.inf  # sim time before which the arm's path cannot have ended
         self._hold_check_due = -math.inf  # sim time of the next drop check while carrying
         self._recheck_due = -math.inf  # sim time of the next check of a planned move's rest (planning.recheck_hz)
+        self._replanning = False  # the state's entry runs again to plan its move round a body that came in the way
+        self._replans = 0  # replans of the running job (planning.replans)
         self.moves: Any = None  # planner = "rrt": robokit.planning.arm_moves.PlannedMoves
 
     # ------------------------------------------------------------------ construction
@@ -297,6 +299,7 @@ class PickPlace(MachineBehaviour):
         if self.state is not Phase.WAIT:
             self.fire("reset")
         self.task, self.outcome, self.attempts, self.failures = task, None, 0, []
+        self._replans, self._replanning = 0, False
         self._arm_busy_until = -math.inf
         self.t = self.started_at = self.entered_at = t
         self.finished_at, self.final_position, self.final_yaw, self.placement_error = None, None, None, None
@@ -416,7 +419,10 @@ class PickPlace(MachineBehaviour):
         located = self._locate(readings)
         if located is None:
             return None
-        self.attempts += 1
+        if self._replanning:  # the same attempt, planned again
+            self._replanning = False
+        else:
+            self.attempts += 1
         (x, y, z), yaw = located
         self._grasp = (x, y, z + cfg.grasp_offset)
         if self.moves is None:
@@ -451,6 +457,7 @@ class PickPlace(MachineBehaviour):
     def enter_transport(self, readings: Mapping[str, Any]) -> dict[str, Any]:
         """Carry the object above the place spot."""
         assert self.task is not None
+        self._replanning = False
         x, y, z = self.task.place_position
         down = (x, y, z + self.config.grasp_offset + self.config.place_clearance)
         retreat = (x, y, z + self.config.grasp_offset + self.config.retreat_height)
@@ -497,8 +504,9 @@ class PickPlace(MachineBehaviour):
         return bool(readings[self.config.gripper].holding)
 
     def _recheck(self) -> bool:
-        """With ``planning.recheck_hz``: the rest of the planned free move checked against the world now; a body
-        in its way fails the job at once. False then."""
+        """With ``planning.recheck_hz``: the rest of the planned free move checked against the world now. A body
+        in its way has the state's move planned again from where the arm is (``planning.replans`` times a job),
+        then fails the job. False when the move does not go on."""
         moves = self.moves
         hz = self.config.planning.recheck_hz
         if moves is None or not hz or self.t < self._recheck_due:
@@ -507,8 +515,15 @@ class PickPlace(MachineBehaviour):
         what = moves.in_way_ahead()
         if not what:
             return True
+        if self._replans < self.config.planning.replans:
+            self._replans += 1
+            self.moves.stats.replans += 1
+            self._replanning = self._entry_due = True  # the entry plans again next step, round what is there now
+            self._arm_busy_until = self._hold_check_due = -math.inf
+            return False
         name = self.task.object_name if self.task is not None and self.task.object_name else "the object"
-        self._fail(f"{name}: {what} came into the planned way in {self.state_name}; stopped")
+        tries = f" after {self._replans} replan{'s' if self._replans > 1 else ''}" if self._replans else ""
+        self._fail(f"{name}: {what} came into the planned way in {self.state_name}; stopped{tries}")
         return False
 
     def do_approach(self, readings: Mapping[str, Any], t: float) -> None:

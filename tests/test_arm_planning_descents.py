@@ -78,35 +78,56 @@ def test_a_board_low_over_the_bin_stops_the_job_at_once_naming_it_and_nothing_is
 OBSTACLE = Path(__file__).resolve().parents[1] / "configs" / "pick_obstacle.toml"
 
 
-def carry_while_a_box_comes_into_the_way(recheck_hz: float) -> tuple[Any, int]:
-    """configs/pick_obstacle.toml; 0.3 s into the transport a box is put over the bin, in the planned way. The
-    outcome, and the contacts of the arm or the cube with that box over the whole run."""
-    box = {"shape": "box", "size": [0.08, 0.08, 0.08], "mass": 0, "position": [1.5, 1.5, 0.04]}
-    with make_sim(OBSTACLE, overrides={"bodies.intruder": box, "behaviour.planning": {"recheck_hz": recheck_hz}}
-                  ) as sim:
+def carry_while_a_box_comes_into_the_way(recheck_hz: float, replans: int = 0,
+                                         size: tuple[float, float, float] = (0.08, 0.08, 0.08),
+                                         at: tuple[float, float, float] = (0.5, -0.25, 0.2)) -> tuple[Any, int, int]:
+    """configs/pick_obstacle.toml; 0.3 s into the transport a box is put ``at`` (over the bin: in the planned way).
+    The outcome, the contacts of the arm or the cube with that box over the whole run, and the replans made."""
+    box = {"shape": "box", "size": list(size), "mass": 0, "position": [1.5, 1.5, 0.04]}
+    planning = {"recheck_hz": recheck_hz, "replans": replans}
+    with make_sim(OBSTACLE, overrides={"bodies.intruder": box, "behaviour.planning": planning}) as sim:
         w = sim.world
         robot, cube, intruder = w.body("panda"), w.body("cube"), w.body("intruder")
         moved, touches = [False], [0]
 
         def watch(s: Any) -> bool:
             if s.behaviour.state_name == "TRANSPORT" and s.behaviour.time_in_state > 0.3 and not moved[0]:
-                w.set_pose("intruder", [0.5, -0.25, 0.2])
+                w.set_pose("intruder", list(at))
                 moved[0] = True
             touches[0] += sum(len(w.contacts(who, intruder)) for who in (robot, cube))
             return s.behaviour.outcome is not None
 
         sim.run_until(watch, 4000)
         assert moved[0]
-        return sim.behaviour.outcome, touches[0]
+        return sim.behaviour.outcome, touches[0], sim.behaviour.result()["planner"]["replans"]
 
 
 def test_a_box_put_into_the_planned_way_stops_the_job_before_it_is_touched() -> None:
-    outcome, touches = carry_while_a_box_comes_into_the_way(10.0)
+    outcome, touches, _ = carry_while_a_box_comes_into_the_way(10.0)
     assert outcome.status == "failed"
     assert outcome.reason == "cube: intruder came into the planned way in TRANSPORT; stopped"
     assert touches == 0
 
 
 def test_without_rechecks_the_arm_carries_the_cube_into_the_box_that_came() -> None:
-    outcome, touches = carry_while_a_box_comes_into_the_way(0.0)
+    outcome, touches, _ = carry_while_a_box_comes_into_the_way(0.0)
     assert touches > 0
+
+
+def test_with_replans_the_arm_goes_round_a_board_put_over_the_wall_and_places_the_cube() -> None:
+    # a board laid over the wall while the cube is carried across it: the rest of the way is planned again from
+    # where the arm is, round the board; the world says nothing touched it and the cube is in the bin
+    outcome, touches, replans = carry_while_a_box_comes_into_the_way(10.0, replans=2, size=(0.22, 0.1, 0.03),
+                                                                     at=(0.5, 0.02, 0.32))
+    assert replans >= 1  # the board was in the way planned first
+    assert outcome.status == "succeeded", outcome.reason
+    assert touches == 0
+
+
+def test_a_box_that_blocks_the_place_itself_fails_after_the_replans_naming_it() -> None:
+    outcome, touches, replans = carry_while_a_box_comes_into_the_way(10.0, replans=2)
+    assert replans == 1  # planned again once: no way into the bin while the box is over it
+    assert outcome.status == "failed"
+    assert outcome.reason.startswith("cube: no collision-free way in TRANSPORT"), outcome.reason
+    assert "intruder" in outcome.reason and "\n" not in outcome.reason
+    assert touches == 0

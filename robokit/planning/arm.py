@@ -43,7 +43,10 @@ class ArmPlanning(Schema):
     spacing: float = Field(0.05, gt=0, le=1.0, description="spacing of the waypoints handed to the arm, rad")
     recheck_hz: float = Field(0.0, ge=0, le=1000, description="how often (sim Hz) the rest of a planned free move "
                               "is checked against the world while the arm is on it; a body that has come into its "
-                              "way stops the job (0: never)")
+                              "way is planned round (see replans) or stops the job (0: never)")
+    replans: int = Field(2, ge=0, le=20, description="with recheck_hz: how many times a job plans its free move "
+                         "again, from where the arm is, round a body that came into its way; once they are used up "
+                         "such a body stops the job (0: stop at once)")
     check_descents: bool = Field(True, description="check the whole arm (hand, fingers, held object) on the "
                                  "straight moves down and up at the cube and the bin; false: only the links up to "
                                  "the wrist on the way down (what the hand meets there is not checked)")

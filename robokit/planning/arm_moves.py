@@ -44,6 +44,8 @@ class PlanStats:
     failed: int = 0
     samples: int = 0
     checks: int = 0
+    replans: int = 0
+    """Free moves planned again, from where the arm was, round a body that came into the way (``recheck_hz``)."""
 
     def add(self, plan: ArmPlan) -> None:
         self.moves += 1
