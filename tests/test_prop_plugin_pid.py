@@ -171,3 +171,27 @@ def test_step_metrics_agree_with_a_plain_walk_over_the_samples(zeta: float, wn: 
     got = (m.overshoot, m.rise_time, m.settling_time, m.steady_error)
     for a, b in zip(got, want, strict=True):
         assert a == pytest.approx(b, rel=1e-9, abs=1e-12)
+
+
+@pytest.mark.parametrize("jump_at", [0, 1, 3])
+def test_step_metrics_of_a_jump_agree_with_the_plain_walk_down_to_the_step_sample(jump_at: int) -> None:
+    """A response that jumps to its target: already there at the step (settled at once), or one sample late with
+    the step time falling exactly on a sample (that sample counts: the response is outside the band there)."""
+    t = np.round(np.arange(0.0, 0.2, 0.01), 10)
+    t_step = float(t[3])
+    y = np.where(np.arange(len(t)) >= 3 + jump_at, 2.0, -1.0)
+    m = step_metrics(t, y, -1.0, 2.0, t_step=t_step, band=0.02)
+    want = plain_metrics(t, y, -1.0, 2.0, t_step, 0.02)
+    assert (m.overshoot, m.rise_time, m.settling_time, m.steady_error) == pytest.approx(want, abs=1e-12)
+    assert m.settling_time == pytest.approx(0.01 * jump_at, abs=1e-12)
+
+
+def test_a_command_not_in_position_mode_or_for_a_joint_without_a_controller_is_refused_by_name() -> None:
+    config = {"robots": {"kuka": {"urdf": "kuka_iiwa/model.urdf", "position": [0, 0, 0], "fixed_base": True}},
+              "actuators": {"pid": {"type": "pid", "body": "kuka", "joints": {j: {"kp": 50.0} for j in JOINTS}}}}
+    with make_sim(config) as sim:
+        pid = sim.components["pid"]
+        with pytest.raises(ValueError, match="JointCommand\\('position'"):
+            pid.command(JointCommand("velocity", {JOINTS[0]: 0.1}))
+        with pytest.raises(ValueError, match=f"'lbr_iiwa_joint_7'.*controlled joints: {', '.join(JOINTS)}$"):
+            pid.command(JointCommand("position", {"lbr_iiwa_joint_7": 0.1}))
