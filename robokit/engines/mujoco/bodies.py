@@ -133,6 +133,7 @@ class MujocoBodies(MujocoExtras, World):
         for pair in list(spec.pairs):
             spec.delete(pair)
         self.scene.add_restitution_pairs(self._static)
+        holds = self.scene.grips.holds(self.model) if self.model is not None else []
         try:
             if self.model is None:
                 self._model = spec.compile()
@@ -148,11 +149,19 @@ class MujocoBodies(MujocoExtras, World):
         self._owner = {bid: (rid, i - 1) for rid, ids in self._bid.items() for i, bid in enumerate(ids)}
         self.scene.apply_damping(m)
         self.scene.grips.compiled(m)
+        self.scene.grips.hold_again(m, self.data, holds)  # what the fingers held, they hold in the new model
         self._after_compile(m)
-        mujoco.mj_step1(m, self.data)
+        if holds:  # mid-run, something held: the contacts and their forces now, as a step would have left them
+            mujoco.mj_forward(m, self.data)
+            self._keep_contacts(m, self.data)
+        else:
+            mujoco.mj_step1(m, self.data)
 
     def _after_compile(self, model: Any) -> None:
         """What a subclass puts back into a freshly compiled model (nothing here)."""
+
+    def _keep_contacts(self, model: Any, data: Any) -> None:
+        """Keep the solved contacts of ``data`` for the contact queries of a subclass (none here)."""
 
     def owners(self) -> dict[int, tuple[int, int]]:
         """MuJoCo body id -> (robokit body id, link), for the scene as compiled now."""

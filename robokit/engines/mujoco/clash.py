@@ -27,6 +27,8 @@ def clashes(world: MujocoBodies, scratch: Any, body: int, joints: Sequence[int],
     """:meth:`World.clashes` computed in ``scratch``, an ``MjData`` of the compiled model."""
     m, d = world.compiled()
     scratch.qpos[:] = d.qpos
+    if m.nmocap:  # a static body moved (a mocap body now): where it stands, not where the model put it
+        scratch.mocap_pos[:], scratch.mocap_quat[:] = d.mocap_pos, d.mocap_quat
     for joint, q in zip(joints, positions, strict=True):
         scratch.qpos[m.jnt_qposadr[int(m.body_jntadr[world.mj_body(body, joint)])]] = q
     mujoco.mj_kinematics(m, scratch)

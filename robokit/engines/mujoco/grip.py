@@ -84,6 +84,23 @@ class GripAnchors:
         self._squeezed.clear()
         self._touched = None
 
+    def holds(self, m: Any) -> list[tuple[str, str, np.ndarray]]:
+        """Every hold as (finger body name, object body name, its weld's data), to take across a recompile."""
+        return [(self.fingers[k], m.body(obj).name, m.eq_data[int(self._eq[k])].copy()) for k, obj in self.held.items()]
+
+    def hold_again(self, m: Any, d: Any, holds: list[tuple[str, str, np.ndarray]]) -> None:
+        """After :meth:`compiled`: switch the welds of :meth:`holds` on again, each object where it was held in its
+        finger's frame (a hold whose finger or object is gone is dropped)."""
+        for finger, obj, data in holds:
+            if finger not in self.fingers or mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, obj) < 0:
+                continue
+            k = self.fingers.index(finger)
+            eq = int(self._eq[k])
+            m.eq_obj2id[eq] = m.body(obj).id
+            m.eq_data[eq] = data
+            d.eq_active[eq] = 1
+            self.held[k] = int(m.eq_obj2id[eq])
+
     def compiled(self, m: Any) -> None:
         """Look the fingers, their welds and the free bodies up in a freshly compiled model (every weld is off)."""
         self.let_go_of_all()
