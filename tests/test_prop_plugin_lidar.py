@@ -23,6 +23,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from oracles import rotation
+from robokit_plugins.lidar import scan_angles
 
 from robokit.errors import ConfigError
 from robokit.testing import make_sim
@@ -204,3 +205,18 @@ def test_a_lidar_fixed_in_the_world_casts_from_its_pose_and_reports_its_heading(
     with pytest.raises(ConfigError, match="rover") as err:
         make_sim({"bodies": SCENE["bodies"], "sensors": {"scan": {"type": "lidar", "robot": "rover"}}})
     assert err.value.key == "sensors.scan.robot"
+
+
+@pytest.mark.parametrize("rays", [1, 2, 7, 360])
+@pytest.mark.parametrize("fov", [90.0, 270.0, 360.0])
+def test_a_fans_stated_angles_agree_with_each_other(rays: int, fov: float) -> None:
+    """The last ray's angle is the first plus (rays - 1) increments; a partial fan spans its field of view, a
+    full circle stops one increment short of closing it; one ray points straight ahead."""
+    amin, amax, inc = scan_angles(rays, fov)
+    assert amax == pytest.approx(amin + (rays - 1) * inc, abs=1e-12)
+    if rays == 1:
+        assert amin == amax == 0.0
+    elif fov < 360.0:
+        assert (amin, amax) == pytest.approx((-math.radians(fov) / 2, math.radians(fov) / 2), abs=1e-12)
+    else:
+        assert amax + inc == pytest.approx(amin + 2 * math.pi, abs=1e-12)
