@@ -15,6 +15,10 @@ The obstacles stand clear of the cube and of the bin (the arm's vertical moves o
   whose fingers open across the gap meets a box on the way down, one turned a quarter turn fits;
 - ``low_shelf``: a board 16-20 cm above the table over the bin's far half (on two posts beyond the bin).
 - ``open``: nothing (what the planner costs where the straight way is clear).
+- ``intruder``: the ``wall`` scene, and 0.3 s into the transport (the cube in the hand, the arm on its way over the
+  wall) a board 3 cm thick, 10 cm deep and 4 cm longer than the wall is put 2-4 cm above the wall's top: a body that
+  came after the plan. Its modes: ``rrt`` (nothing rechecked), ``rrt-stop`` (``recheck_hz = 10``, ``replans = 0``:
+  the job stops) and ``rrt-replan`` (``recheck_hz = 10``, ``replans = 2``: planned again round the board).
 
 Every scene runs ``pick_place`` headless with ``planner = "straight"``, ``planner = "rrt"`` with
 ``check_descents = false`` (``rrt-unchecked``: the straight moves down and up at the cube and bin checked for the
@@ -22,13 +26,15 @@ links up to the wrist only) and ``planner = "rrt"``, and prints per kind:
 
 - success: the cube rests in the bin at the end (its centre inside the bin's box, below the rim);
 - collisions: runs in which the arm or the cube touched an obstacle (contacts read every tick);
-- refused: runs the behaviour failed at once with no collision-free way (one line naming what is in the way);
+- refused: runs the behaviour failed at once with no collision-free way, or stopped when a body came into the
+  planned way (one line naming what is in the way);
 - joint path: the arm's joint travel over the run (sum over ticks of the Euclidean joint step, rad), median over
   the successful runs, and its ratio to the travel of straight lines on the same scene with its obstacles taken
   away (what the job costs with nothing in the way), median;
 - plan ms: process time per free move (approach, transport) to decide the command: the arm solving the straight
   path and, with the planner, checking it and searching when it is blocked; mean;
-- searched: free moves where the straight way was blocked and RRT-Connect ran;
+- searched: free moves where the straight way was blocked and RRT-Connect ran (``intruder``: and the replans made,
+  and the runs in which the board was put in the way: a run that failed before its transport never saw it);
 - CPU ms / sim s: process time of the whole run per simulated second, median.
 """
 
@@ -48,8 +54,11 @@ from robokit.testing import make_sim
 
 ROOT = Path(__file__).resolve().parents[1]
 BASE = ROOT / "configs" / "pick_obstacle.toml"
-KINDS = ("wall", "shelf", "boxes", "gap", "low_shelf", "open")
+KINDS = ("wall", "shelf", "boxes", "gap", "low_shelf", "open", "intruder")
 MODES = ("straight", "rrt-unchecked", "rrt")
+INTRUDER_MODES = {"rrt": None, "rrt-stop": {"recheck_hz": 10.0, "replans": 0},
+                  "rrt-replan": {"recheck_hz": 10.0, "replans": 2}}
+FAR = [3.0, 3.0, 0.015]  # where the intruder waits until it is put in the way
 
 
 def _box(size: list[float], position: list[float]) -> dict[str, Any]:
@@ -69,9 +78,12 @@ def scene(kind: str, seed: int) -> dict[str, Any]:
     bodies["bin"]["position"] = [bx, by, 0]
     cfg["behaviour"]["place_position"] = [bx, by, 0.03]
     mx, my = (cx + bx) / 2, (cy + by) / 2
-    if kind == "wall":
+    if kind in ("wall", "intruder"):
         length, height = rng.uniform(0.15, 0.3), rng.uniform(0.2, 0.3)
         bodies["obstacle_0"] = _box([length, 0.04, height], [mx, my, height / 2])
+        if kind == "intruder":
+            bodies["obstacle_1"] = _box([length + 0.04, 0.1, 0.03], FAR)
+            cfg["intruder_at"] = [mx, my, height + float(rng.uniform(0.02, 0.04)) + 0.015]
     elif kind == "shelf":
         height, length = rng.uniform(0.18, 0.25), rng.uniform(0.2, 0.3)
         bodies["obstacle_0"] = _box([length, 0.02, height], [mx, my, height / 2])
@@ -121,11 +133,15 @@ class Timed:
 def trial(kind: str, seed: int, mode: str, engine: str, *, bare: bool = False) -> dict[str, Any]:
     """One run; its figures. ``bare``: the scene with its obstacles taken away."""
     cfg = scene(kind, seed)
+    intruder_at = cfg.pop("intruder_at", None)
     if bare:
         cfg["bodies"] = {k: v for k, v in cfg["bodies"].items() if not k.startswith("obstacle_")}
+        intruder_at = None
     cfg["behaviour"]["planner"] = "rrt" if mode.startswith("rrt") else mode
     if mode == "rrt-unchecked":
         cfg["behaviour"]["planning"] = {"check_descents": False}
+    if INTRUDER_MODES.get(mode):
+        cfg["behaviour"]["planning"] = INTRUDER_MODES[mode]
     cfg["world"]["engine"] = engine
     cpu0 = time.process_time()
     with make_sim(cfg, base_dir=BASE.parent) as sim:
@@ -141,7 +157,10 @@ def trial(kind: str, seed: int, mode: str, engine: str, *, bare: bool = False) -
         figures = {"travel": 0.0, "touched": False}
 
         def watch(s: Any) -> bool:
-            nonlocal last
+            nonlocal last, intruder_at
+            if intruder_at is not None and pp.state_name == "TRANSPORT" and pp.time_in_state > 0.3:
+                w.set_pose("obstacle_1", intruder_at)
+                intruder_at = None
             q = np.array([st[0] for st in w.joint_states(robot, joints)])
             figures["travel"] += float(np.linalg.norm(q - last))
             last = q
@@ -154,12 +173,20 @@ def trial(kind: str, seed: int, mode: str, engine: str, *, bare: bool = False) -
         lo, hi = w.body_aabb("bin")
         placed = lo[0] < x < hi[0] and lo[1] < y < hi[1] and z < hi[2]
         stats = pp.moves.stats.as_dict() if pp.moves is not None else {}
+        moved = intruder_at is None
         sim_time = w.time
         failed = pp.outcome is not None and pp.outcome.status == "failed"
         refused = failed and any("no collision-free way" in f for f in pp.failures)
-    return {"ok": placed, "refused": refused, "touched": figures["touched"], "travel": figures["travel"],
+    return {"ok": placed, "refused": refused or "came into the planned way" in (pp.outcome.reason if failed else ""),
+            "touched": figures["touched"], "travel": figures["travel"], "moved": moved,
+            "replans": stats.get("replans", 0),
             "plan_ms": 1000.0 * decide.seconds / max(decide.calls, 1), "searched": stats.get("planned", 0),
             "cpu": (time.process_time() - cpu0) / max(sim_time, 1e-9)}
+
+
+def replanned(rows: list[dict[str, Any]]) -> str:
+    """The intruder kind's extra figures: replans made, and runs in which the board was put in the way."""
+    return f" ({sum(r['replans'] for r in rows)} replans; board put in {sum(r['moved'] for r in rows)} runs)"
 
 
 def _median(values: list[float]) -> str:
@@ -180,16 +207,18 @@ def main(argv: list[str] | None = None) -> int:
     print("| scene | planner | success | collisions | refused | joint path (rad) | vs no obstacle | plan ms | "
           "searched | CPU ms / sim s |\n|---|---|---|---|---|---|---|---|---|---|")
     for kind in kinds:
-        runs = {mode: [trial(kind, seed, mode, args.engine) for seed in range(args.seeds)] for mode in MODES}
+        modes = tuple(INTRUDER_MODES) if kind == "intruder" else MODES
+        runs = {mode: [trial(kind, seed, mode, args.engine) for seed in range(args.seeds)] for mode in modes}
         bare = [trial(kind, seed, "straight", args.engine, bare=True) for seed in range(args.seeds)]
-        for mode in MODES:
+        for mode in modes:
             rows = runs[mode]
             ratios = [r["travel"] / b["travel"] for r, b in zip(rows, bare, strict=True) if r["ok"] and b["ok"]]
             print(f"| {kind} | {mode} | {sum(r['ok'] for r in rows)}/{len(rows)} | "
                   f"{sum(r['touched'] for r in rows)} | {sum(r['refused'] for r in rows)} | "
                   f"{_median([r['travel'] for r in rows if r['ok']])} | "
                   f"{_median(ratios) + 'x' if ratios else '-'} | "
-                  f"{statistics.mean(r['plan_ms'] for r in rows):.1f} | {sum(r['searched'] for r in rows)} | "
+                  f"{statistics.mean(r['plan_ms'] for r in rows):.1f} | {sum(r['searched'] for r in rows)}"
+                  f"{replanned(rows) if kind == 'intruder' else ''} | "
                   f"{statistics.median(r['cpu'] for r in rows) * 1000:.0f} |", flush=True)
     return 0
 
