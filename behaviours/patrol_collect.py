@@ -88,6 +88,9 @@ STAGE_NEAR = 0.25
 """m: carrying that gets no closer to the bin's stage point for ``DOCK_STALL`` sim s within this distance of it
 docks from where it is (the navigator counts a goal within its tolerance as reached and barely moves there; the
 docking steers onto the bin's centre line from there)."""
+DROP_GRACE = 0.3
+"""sim s: a held object counts as lost only when the gripper has not held it for this long in a row (a can jostled
+in the fingers can lose one finger's contact points for a tick while still squeezed between them)."""
 REST_HEIGHT = 0.15
 """m: an object whose centre is lower than this (world z) rests on the floor (a 0.2 m can standing: 0.1 m)."""
 
@@ -153,6 +156,7 @@ class PatrolCollect(Patrol):
         self.phase_started = 0.0
         self.lifting = False
         self.sliding = False  # releasing: the fingers slide up the object set down
+        self.unheld_since: float | None = None  # since when the gripper has not reported holding the object
         self.delivered = 0
         self.dock_best = (math.inf, -1.0)  # (least depth still to go while docking, m; sim time it was reached)
         self.stage_best = (math.inf, -1.0)  # (least distance to the stage point while carrying, m; sim time)
@@ -322,7 +326,7 @@ class PatrolCollect(Patrol):
         ahead, side = dist * math.cos(bearing), dist * math.sin(bearing)
         left = ahead - cfg.reach
         if left <= 0.005 and abs(side) <= 0.025:
-            self.phase_started = t
+            self.phase_started, self.unheld_since = t, None
             self.fire("within_reach")
             return {cfg.drive: STOP, cfg.gripper: GripperCommand("close")}
         omega = max(-1.0, min(1.0, 3.0 * bearing))
@@ -344,7 +348,7 @@ class PatrolCollect(Patrol):
             if elapsed > cfg.grasp_time:
                 return {**self._give_up(t), cfg.gripper: GripperCommand("open")}
             return None
-        if not grip.holding:
+        if self._lost(grip.holding, t):
             return {**self._give_up(t), **self._tool(True)}
         if lift >= cfg.carry_height - 0.01 or elapsed > cfg.grasp_time:
             target = self.target
@@ -357,11 +361,20 @@ class PatrolCollect(Patrol):
             self.fire("lifted")
         return None
 
+    def _lost(self, holding: bool, t: float) -> bool:
+        """True once the gripper has not held the object for ``DROP_GRACE`` sim s in a row."""
+        if holding:
+            self.unheld_since = None
+            return False
+        if self.unheld_since is None:
+            self.unheld_since = t
+        return t - self.unheld_since >= DROP_GRACE
+
     def do_carrying(self, readings: Mapping[str, Any], t: float) -> Mapping[str, Any] | None:
         """Carry the held object to the stage point in front of the bin's mouth."""
         cfg, bin_ = self.config, self.bin
         assert bin_ is not None
-        if not readings[cfg.gripper].holding or t - self.phase_started > cfg.deliver_timeout:
+        if self._lost(readings[cfg.gripper].holding, t) or t - self.phase_started > cfg.deliver_timeout:
             return self._dropped(t)
         pose = self.pose(readings)
         near = math.dist(pose[:2], bin_.stage)
@@ -378,7 +391,7 @@ class PatrolCollect(Patrol):
         already there, has not got 5 mm closer for ``DOCK_STALL`` sim seconds: it is let go where it is)."""
         cfg, bin_ = self.config, self.bin
         assert bin_ is not None
-        if not readings[cfg.gripper].holding or t - self.phase_started > cfg.deliver_timeout:
+        if self._lost(readings[cfg.gripper].holding, t) or t - self.phase_started > cfg.deliver_timeout:
             return self._dropped(t)
         twist, left = bin_.dock(self.pose(readings), self.delivered)
         if left < self.dock_best[0] - 0.005 or self.dock_best[1] < 0:
