@@ -12,6 +12,7 @@ the other oracle: with an integral term the joint ends at its setpoint.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 import pytest
@@ -19,6 +20,7 @@ from hypothesis import Phase, given, settings
 from hypothesis import strategies as st
 from robokit_plugins.pid import step_metrics
 
+from robokit.errors import ConfigError
 from robokit.msgs import JointCommand
 from robokit.testing import make_sim
 
@@ -195,3 +197,26 @@ def test_a_command_not_in_position_mode_or_for_a_joint_without_a_controller_is_r
             pid.command(JointCommand("velocity", {JOINTS[0]: 0.1}))
         with pytest.raises(ValueError, match=f"'lbr_iiwa_joint_7'.*controlled joints: {', '.join(JOINTS)}$"):
             pid.command(JointCommand("position", {"lbr_iiwa_joint_7": 0.1}))
+
+
+@pytest.mark.slow
+def test_config_mistakes_are_refused_at_their_keys_naming_the_controlled_joints() -> None:
+    """A fixed joint under control, a setpoint or a scheduled step for a joint without a controller: each refused
+    at its own key, the message naming the joint and, for the last two, the joints that are controlled."""
+    def build(**pid: Any) -> None:
+        config = {"robots": {"panda": {"urdf": "franka_panda/panda.urdf", "position": [0, 0, 0], "fixed_base": True}},
+                  "actuators": {"pid": {"type": "pid", "body": "panda", **pid}}}
+        make_sim(config).close()
+
+    joints = {"panda_joint1": {"kp": 50.0}, "panda_joint2": {"kp": 50.0}}
+    with pytest.raises(ConfigError, match="'panda_hand_joint' is fixed") as err:
+        build(joints={**joints, "panda_hand_joint": {"kp": 1.0}})
+    assert err.value.key == "actuators.pid.joints.panda_hand_joint"
+    listed = "controlled joints: panda_joint1, panda_joint2"
+    with pytest.raises(ConfigError, match=f"'panda_joint3' has no controller; {listed}") as err:
+        build(joints=joints, setpoints={"panda_joint3": 0.2})
+    assert err.value.key == "actuators.pid.setpoints.panda_joint3"
+    with pytest.raises(ConfigError, match=f"'panda_joint4' has no controller; {listed}") as err:
+        build(joints=joints, schedule=[{"at": 0.1, "setpoints": {"panda_joint1": 0.1}},
+                                       {"at": 0.2, "setpoints": {"panda_joint4": 0.1}}])
+    assert err.value.key.startswith("actuators.pid.schedule") and err.value.key.endswith("panda_joint4")
