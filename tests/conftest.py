@@ -65,6 +65,18 @@ def virtual_display() -> Iterator[dict[str, str]]:
     Xvfb picks a free display number itself (``-displayfd``) and is stopped when the test ends. Tests start the GUI
     program directly in this environment, not under ``xvfb-run``: a signal sent to robokit then reaches robokit alone,
     and the exit code is robokit's (``xvfb-run`` answers 5 when its own clean-up races the program's exit)."""
+    yield from xvfb_display()
+
+
+@pytest.fixture(scope="module")
+def module_display() -> Iterator[dict[str, str]]:
+    """:func:`virtual_display` shared by a module's tests: for windows opened inside the test process, whose
+    connection to the X server lasts as long as the process (the server must outlive them)."""
+    yield from xvfb_display()
+
+
+def xvfb_display() -> Iterator[dict[str, str]]:
+    """A fresh Xvfb server for as long as the generator runs: the environment naming it."""
     xvfb = shutil.which("Xvfb")
     if xvfb is None:
         pytest.skip("no virtual display: install xvfb (apt-get install xvfb)")

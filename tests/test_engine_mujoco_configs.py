@@ -15,7 +15,7 @@ from robokit.cli import main  # noqa: E402
 from robokit.config import load_config  # noqa: E402
 from robokit.core.simulation import Simulation  # noqa: E402
 from robokit.engines.interface import World  # noqa: E402
-from robokit.errors import ConfigError  # noqa: E402
+from robokit.errors import ConfigError, UserError  # noqa: E402
 from robokit.plugin_api.plugins import load_plugins  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -69,13 +69,14 @@ def test_the_cli_refuses_with_exit_code_2_before_anything_runs(capsys, tmp_path,
 
 
 
-def test_a_gui_override_is_refused_before_the_world_is_built(plugins) -> None:  # type: ignore[no-untyped-def]
+def test_a_gui_without_a_display_is_one_line_before_anything_runs(plugins, monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    monkeypatch.delenv("DISPLAY", raising=False)
     cfg = load_config(ROOT / "configs" / "drop_test.toml", plugins, {"world.engine": "mujoco"})
-    with pytest.raises(ConfigError) as info:
+    World.engine_class("mujoco").check_config(cfg, gui=True)  # the config is fine: MuJoCo's viewer is the window
+    with pytest.raises(UserError) as info:
         Simulation(cfg, plugins, gui=True)
-    assert str(info.value) == (f"{cfg.source}: world.gui: --gui: no GUI window on the mujoco engine: watch the "
-                               "run in a browser with --live (or use --engine pybullet --gui)")
-    World.engine_class("mujoco").check_config(cfg, gui=False)  # headless: accepted
+    assert str(info.value) == ("MuJoCo's viewer window cannot open: no display (DISPLAY is not set); run headless, "
+                               "or under xvfb-run for a virtual one")
 
 
 def test_pybullet_accepts_what_mujoco_refuses(plugins) -> None:  # type: ignore[no-untyped-def]

@@ -1,4 +1,5 @@
-"""The PyBullet GUI, made helpful: a display check with a clear error, the ``[gui]`` viewpoint, and holding the window.
+"""The GUI window (PyBullet's, or MuJoCo's viewer), made helpful: a display check with a clear error, the ``[gui]``
+viewpoint, and holding the window.
 
 Only ``--gui`` runs use this; nothing here runs in headless worlds. ``time.sleep`` appears here only to pace the
 window while it is held open after a run (GUI pacing, never logic).
@@ -43,6 +44,11 @@ def scene_centre(world: Any) -> tuple[float, float, float]:
 
 def apply_view(world: Any, gui: Any) -> None:
     """Set the GUI camera (``distance``, ``yaw``, ``pitch``, ``target``) and panels from a ``[gui]`` config."""
+    window = getattr(world, "window", None)
+    if window is not None:  # the mujoco engine's viewer: its camera (it has no panels or shadow switch to set)
+        target = list(gui.target) if gui.target is not None else list(scene_centre(world))
+        window.look(gui.distance, gui.yaw, gui.pitch, target)
+        return
     import pybullet as p
 
     client = world.client
@@ -57,10 +63,13 @@ def apply_view(world: Any, gui: Any) -> None:
 def hold(world: Any, *, fps: float = 30.0) -> None:
     """Keep the GUI window open (the scene frozen as the run left it) until it is closed or Ctrl-C is pressed."""
     client = world.client
+    window = getattr(world, "window", None)
     try:  # the message inside: a Ctrl-C the moment it appears (before the loop starts) only ends the hold too
         print("robokit: the run is over; the window stays open until you close it (or press Ctrl-C)",
               file=sys.stderr, flush=True)
-        while client is not None and client.isConnected():
+        while window is not None and window.is_open():  # the mujoco engine's viewer draws in its own thread
+            time.sleep(1.0 / fps)  # GUI pacing only
+        while window is None and client is not None and client.isConnected():
             client.getDebugVisualizerCamera()  # keeps the window responsive (camera moves, redraws)
             time.sleep(1.0 / fps)  # GUI pacing only
     except KeyboardInterrupt:

@@ -231,6 +231,34 @@ class RenderedImage(NamedTuple):
     segmentation: np.ndarray | None
 
 
+def display_problem() -> str | None:
+    """Why no GUI window can open on this machine now, or None if one can. On Linux a window needs an X display:
+    ``$DISPLAY`` set and opening (asked of libX11, the library the engines' windows use); elsewhere None (the
+    platform's own window system)."""
+    import os
+    import sys
+
+    if not sys.platform.startswith("linux"):
+        return None
+    display = os.environ.get("DISPLAY")
+    if not display:
+        return "no display (DISPLAY is not set); run headless, or under xvfb-run for a virtual one"
+    import ctypes
+    import ctypes.util  # here, not at import: ctypes.util imports subprocess and tempfile, a cost every run paid
+
+    try:
+        x11 = ctypes.CDLL(ctypes.util.find_library("X11") or "libX11.so.6")
+    except OSError:
+        return None  # no libX11 to ask: let the engine try
+    x11.XOpenDisplay.restype, x11.XOpenDisplay.argtypes = ctypes.c_void_p, [ctypes.c_char_p]
+    x11.XCloseDisplay.argtypes = [ctypes.c_void_p]
+    handle = x11.XOpenDisplay(display.encode())
+    if not handle:
+        return f"display {display!r} does not open (is its X server running?)"
+    x11.XCloseDisplay(handle)
+    return None
+
+
 def yaw_of(quaternion: Sequence[float]) -> float:
     """Yaw (rotation about +z, radians, in (-pi, pi]) of a quaternion ``(x, y, z, w)``."""
     x, y, z, w = quaternion

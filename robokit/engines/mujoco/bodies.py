@@ -17,11 +17,12 @@ from typing import Any
 
 import numpy as np
 
-from robokit.engines.interface import JointInfo, Pose, Quat, Vec3, World
+from robokit.engines.interface import JointInfo, Pose, Quat, Vec3, World, display_problem
 from robokit.engines.mujoco.extras import MujocoExtras
 from robokit.engines.mujoco.gl import mujoco
 from robokit.engines.mujoco.links import joint_table, urdf_joints
 from robokit.engines.mujoco.scene import Scene, add_primitive, load_urdf, mj_quat, mujoco_joints
+from robokit.engines.mujoco.window import Window
 from robokit.errors import UserError
 
 
@@ -63,11 +64,13 @@ class MujocoBodies(MujocoExtras, World):
     def __init__(self, *, gui: bool = False, time_step: float = 1.0 / 240.0,
                  gravity: Sequence[float] = (0.0, 0.0, -9.81), solver_iterations: int = 50, seed: int = 0,
                  base_dir: str | Path = ".", engine: str | None = None) -> None:
-        if gui:
-            raise UserError("world.gui: no GUI window on the mujoco engine: watch the run in a browser with --live (or "
-                            "use --engine pybullet --gui)")
-        super().__init__(gui=False, time_step=time_step, gravity=gravity, solver_iterations=solver_iterations,
+        problem = self.window_problem() if gui else None
+        if problem is not None:
+            raise UserError(f"MuJoCo's viewer window cannot open: {problem}")
+        super().__init__(gui=gui, time_step=time_step, gravity=gravity, solver_iterations=solver_iterations,
                          seed=seed, base_dir=base_dir, engine=engine)
+        self.window: Window | None = Window() if gui else None
+        """MuJoCo's passive viewer (``gui``), shown from the first compile on."""
         self.scene = Scene.new(self.time_step, gravity, solver_iterations)
         self.client: Any = MujocoHandle(self)
         self._model: Any = None
@@ -156,6 +159,14 @@ class MujocoBodies(MujocoExtras, World):
             self._keep_contacts(m, self.data)
         else:
             mujoco.mj_step1(m, self.data)
+        if self.window is not None:
+            self.window.show(m, self.data)
+
+    @classmethod
+    def window_problem(cls) -> str | None:
+        """MuJoCo's viewer needs a display as PyBullet's window does (see
+        :func:`~robokit.engines.interface.display_problem`)."""
+        return display_problem()
 
     def _after_compile(self, model: Any) -> None:
         """What a subclass puts back into a freshly compiled model (nothing here)."""

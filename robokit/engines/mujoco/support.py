@@ -19,24 +19,16 @@ ENGINE = "the mujoco engine"
 
 def check_config(cfg: Config, *, gui: bool | None = None) -> None:
     """Refuse, before the run, the first thing in ``cfg`` the mujoco engine cannot honour (the mujoco engine's
-    :meth:`~robokit.engines.interface.World.check_config`). ``gui``: the run's ``--gui`` override (None: none).
+    :meth:`~robokit.engines.interface.World.check_config`). ``gui`` (the run's ``--gui`` override) is honoured:
+    MuJoCo's own viewer is the window.
 
     Raises:
         ConfigError: One line: the file, the key, what is refused on mujoco and why.
     """
-    problem = _world(cfg) or _bodies(cfg)
+    problem = _bodies(cfg)
     if problem is not None:
         key, why = problem
         raise ConfigError(f"not supported on {ENGINE}: {why} (--engine pybullet runs it)", key=key, file=cfg.source)
-    if gui:
-        raise ConfigError(f"--gui: no GUI window on {ENGINE}: watch the run in a browser with --live (or use "
-                          f"--engine pybullet --gui)", key="world.gui", file=cfg.source)
-
-
-def _world(cfg: Config) -> tuple[str, str] | None:
-    if cfg.world.gui:
-        return "world.gui", "no GUI window; --live shows the run in a browser"
-    return None
 
 
 def _bodies(cfg: Config) -> tuple[str, str] | None:

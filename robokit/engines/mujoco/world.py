@@ -175,6 +175,9 @@ class MujocoWorld(MujocoBodies):
         self._solved = self._kept = None
         self._unsettled = self._stepped = True  # mj_step1 runs when something looks, or at the next step (_settle)
         self.tick += 1
+        if self.window is not None:  # the viewer looks at the state: its positions stage runs now, as for any look
+            self._settle()
+            self.window.sync()
 
     def _settle(self) -> None:
         """The last step's positions stage, its solved contacts kept first (:meth:`_keep_contacts`), and the grip
@@ -619,7 +622,9 @@ class MujocoWorld(MujocoBodies):
         self.tick = 0
 
     def close(self) -> None:
-        """Close the renderers, drop the model and data. Safe to call twice."""
+        """Close the renderers and the viewer, drop the model and data. Safe to call twice."""
         self.cameras.close()
+        if self.window is not None:
+            self.window.close()
         self._model = self._data = self.client = None
         self._unsettled = False

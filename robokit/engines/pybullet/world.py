@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import math
 import os
-import sys
 from collections.abc import Collection, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from pathlib import Path
@@ -33,6 +32,7 @@ from robokit.engines.interface import (
     RenderedImage,
     Vec3,
     World,
+    display_problem,
     yaw_of,
 )
 from robokit.errors import UserError
@@ -161,27 +161,9 @@ class PyBulletWorld(World):
 
     @classmethod
     def window_problem(cls) -> str | None:
-        """On Linux PyBullet's window needs an X display: None if ``$DISPLAY`` opens (asked of libX11, the library
-        the window itself uses), else why not. Elsewhere None (the platform's own window system)."""
-        if not sys.platform.startswith("linux"):
-            return None
-        display = os.environ.get("DISPLAY")
-        if not display:
-            return "no display (DISPLAY is not set); run headless, or under xvfb-run for a virtual one"
-        import ctypes
-        import ctypes.util  # here, not at import: ctypes.util imports subprocess and tempfile, a cost every run paid
-
-        try:
-            x11 = ctypes.CDLL(ctypes.util.find_library("X11") or "libX11.so.6")
-        except OSError:
-            return None  # no libX11 to ask: let PyBullet try
-        x11.XOpenDisplay.restype, x11.XOpenDisplay.argtypes = ctypes.c_void_p, [ctypes.c_char_p]
-        x11.XCloseDisplay.argtypes = [ctypes.c_void_p]
-        handle = x11.XOpenDisplay(display.encode())
-        if not handle:
-            return f"display {display!r} does not open (is its X server running?)"
-        x11.XCloseDisplay(handle)
-        return None
+        """On Linux PyBullet's window needs an X display: None if ``$DISPLAY`` opens, else why not (see
+        :func:`~robokit.engines.interface.display_problem`)."""
+        return display_problem()
 
     @property
     def cid(self) -> int:
