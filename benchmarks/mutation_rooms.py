@@ -164,8 +164,8 @@ def room_table(base: dict[str, object], files: list[str], tests: list[str]) -> s
 
 
 def without_marker_filter(args: list[str]) -> list[str]:
-    """pytest arguments without their ``-m EXPR`` (so that slow tests run too)."""
-    out: list[str] = []
+    """pytest arguments whose ``-m EXPR`` selects slow tests too (pytest's last ``-m`` wins over addopts')."""
+    out: list[str] = ["-m", "slow or not slow"]
     skip = False
     for a in args:
         if skip:
@@ -276,7 +276,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--survivors", action="store_true", help="print every surviving mutant's name")
     parser.add_argument("--keep", action="store_true", help="keep each room's copy (to `mutmut show` survivors)")
     parser.add_argument("--slow", action="store_true",
-                        help="the room's slow-tier tests count too (the base settings run `-m 'not slow'`)")
+                        help="the room's slow-tier tests count too (the settings and addopts run `-m 'not slow'`)")
     parser.add_argument("--json", type=Path, help="also write the results as JSON here")
     parser.add_argument("--mutants", nargs="+", default=[], metavar="NAME",
                         help="run only these mutants (names or globs, as --survivors prints them): re-check survivors")
