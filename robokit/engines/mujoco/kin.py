@@ -97,14 +97,10 @@ def joint_wrench(model: Any, data: Any, child: int) -> tuple[tuple[float, ...], 
     return tuple(float(v) for v in local), tuple(float(v) for v in rot.reshape(-1))
 
 
-def inverse_kinematics(world: MujocoBodies, body: int, link: int, position: Sequence[float],
-                       orientation: Sequence[float], seed: Sequence[float], damping: Sequence[float], iterations: int,
-                       tolerance: float, scratch: Any) -> list[float]:
-    """Damped least squares on MuJoCo's Jacobian (Levenberg-Marquardt: ``(J^T J + diag(damping)) dq = J^T e``,
-    ``e`` the position error and rotation vector of ``link``'s link frame), from ``seed`` (one value per movable
-    joint), each step clipped to the joints' limits, at most ``iterations`` steps, stopping once the error's norm is
-    below ``tolerance``. The caller checks the answer. Computed in ``scratch`` (the world does not move)."""
-    m, d = world.compiled()
+def ik_rows(world: MujocoBodies, body: int, link: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]:
+    """What :func:`inverse_kinematics` looks up: the qpos and dof addresses of a body's movable joints (index order),
+    their lower and upper limits (infinite for a joint without) and MuJoCo's body id of ``link``."""
+    m, _ = world.compiled()
     movable = [j.index for j in world.joints(body) if j.movable]
     jids = [int(m.body_jntadr[world.mj_body(body, j)]) for j in movable]
     qadr = np.array([m.jnt_qposadr[j] for j in jids], dtype=np.int64)
@@ -112,7 +108,19 @@ def inverse_kinematics(world: MujocoBodies, body: int, link: int, position: Sequ
     limited = m.jnt_limited[jids].astype(bool)
     lower = np.where(limited, m.jnt_range[jids, 0], -np.inf)
     upper = np.where(limited, m.jnt_range[jids, 1], np.inf)
-    target = world.mj_body(body, link)
+    return qadr, dofs, lower, upper, world.mj_body(body, link)
+
+
+def inverse_kinematics(world: MujocoBodies, rows: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int],
+                       position: Sequence[float], orientation: Sequence[float], seed: Sequence[float],
+                       damping: Sequence[float], iterations: int, tolerance: float, scratch: Any) -> list[float]:
+    """Damped least squares on MuJoCo's Jacobian (Levenberg-Marquardt: ``(J^T J + diag(damping)) dq = J^T e``,
+    ``e`` the position error and rotation vector of the link's link frame; ``rows``: from :func:`ik_rows`), from
+    ``seed`` (one value per movable joint), each step clipped to the joints' limits, at most ``iterations`` steps,
+    stopping once the error's norm is below ``tolerance``. The caller checks the answer. Computed in ``scratch``
+    (the world does not move)."""
+    m, d = world.compiled()
+    qadr, dofs, lower, upper, target = rows
     goal_pos = np.asarray(position, dtype=float)
     goal_quat = np.array([orientation[3], orientation[0], orientation[1], orientation[2]], dtype=float)
     q = np.asarray(seed, dtype=float).copy()
@@ -120,11 +128,12 @@ def inverse_kinematics(world: MujocoBodies, body: int, link: int, position: Sequ
     jacp, jacr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
     error, rot, inverse = np.zeros(6), np.zeros(3), np.zeros(4)
     weights = np.diag(np.asarray(damping, dtype=float))
+    qpos, position_of, quaternion_of = scratch.qpos, scratch.xpos[target], scratch.xquat[target]  # views
     for _ in range(iterations):
-        scratch.qpos[qadr] = q
+        qpos[qadr] = q
         mujoco.mj_kinematics(m, scratch)
-        error[:3] = goal_pos - scratch.xpos[target]
-        mujoco.mju_negQuat(inverse, scratch.xquat[target])
+        error[:3] = goal_pos - position_of
+        mujoco.mju_negQuat(inverse, quaternion_of)
         difference = np.zeros(4)
         mujoco.mju_mulQuat(difference, goal_quat, inverse)
         mujoco.mju_quat2Vel(rot, difference, 1.0)
@@ -132,7 +141,7 @@ def inverse_kinematics(world: MujocoBodies, body: int, link: int, position: Sequ
         if math.sqrt(error @ error) < tolerance:  # np.linalg.norm's arithmetic, without its dispatch
             break
         mujoco.mj_comPos(m, scratch)
-        mujoco.mj_jac(m, scratch, jacp, jacr, scratch.xpos[target], target)
+        mujoco.mj_jac(m, scratch, jacp, jacr, position_of, target)
         jac = np.concatenate((jacp[:, dofs], jacr[:, dofs]))
         step = np.linalg.solve(jac.T @ jac + weights, jac.T @ error)
         q = np.minimum(np.maximum(q + step, lower), upper)  # np.clip's arithmetic, without its dispatch

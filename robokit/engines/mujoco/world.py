@@ -112,6 +112,9 @@ class MujocoWorld(MujocoBodies):
         self._chains: dict[tuple[int, int], tuple[np.ndarray, np.ndarray, int]] = {}
         """(body, link) -> its movable joints' qpos and dof addresses and the link's MuJoCo body (until the next
         compile), for :meth:`jacobian`."""
+        self._ik_rows: dict[tuple[int, int], tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]] = {}
+        """(body, link) -> what the IK looks up (:func:`~robokit.engines.mujoco.kin.ik_rows`), until the next
+        compile."""
         self._scratch: tuple[Any, Any] | None = None
         """(model, an MjData of it) for kinematics computed off the world's state."""
         self._solved: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
@@ -234,6 +237,7 @@ class MujocoWorld(MujocoBodies):
         what was looked up by them."""
         self._addresses.clear()
         self._chains.clear()
+        self._ik_rows.clear()
         self._drives.clear()
         self._groups.clear()
         self._rows.clear()
@@ -548,7 +552,10 @@ class MujocoWorld(MujocoBodies):
         m, _ = self.compiled()
         if self._scratch is None or self._scratch[0] is not m:
             self._scratch = (m, mujoco.MjData(m))
-        return kin.inverse_kinematics(self, body, link, position, orientation, seed, damping, iterations, tolerance,
+        rows = self._ik_rows.get((body, link))
+        if rows is None:
+            rows = self._ik_rows[(body, link)] = kin.ik_rows(self, body, link)
+        return kin.inverse_kinematics(self, rows, position, orientation, seed, damping, iterations, tolerance,
                                       self._scratch[1])
 
     def clashes(self, body: int, joints: Sequence[int], positions: Sequence[float], *,
