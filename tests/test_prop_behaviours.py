@@ -250,3 +250,30 @@ def test_patrol_collisions_from_the_drive_are_traced_one_per_new_map_contact() -
         assert [(c["body"], c["t"]) for c in patrol.result()["collision_events"]] == expected
         traced = [r["body"] for r in sim.trace if r["kind"] == "collision"]
         assert traced == [b for b, _ in expected]
+
+
+@pytest.mark.slow
+def test_sort_goal_names_each_object_out_of_its_bin_with_what_happened_to_it_in_the_world() -> None:
+    """Before anything ran every cube is out of its bin and never seen; one removed from the world is said removed;
+    one set down inside its colour's bin counts as in it, and the count of those missing follows."""
+    with make_sim(ROOT / "configs" / "sort_robot.toml") as sim:
+        world, sort = sim.world, sim.behaviour
+        names = sorted(sort.goal_objects)
+        check = sort.check_goal(world)
+        assert not check.met and check.reason.startswith(f"{len(names)} of {len(names)} object(s) not in their bin")
+        assert set(check.details["missed"]) == set(names)
+        assert set(check.details["missed"].values()) == {"never seen by detector 'detector'"}
+        gone, placed = names[0], names[-1]
+        world.remove_body(gone)
+        bin_lo, bin_hi = world.body_aabb(sort.bins[sort.goal_objects[placed]].body)
+        centre = [(a + b) / 2 for a, b in zip(bin_lo, bin_hi, strict=True)]
+        world.set_pose(placed, [centre[0], centre[1], bin_hi[2] + 0.03], [0, 0, 0, 1])
+        for _ in range(240):
+            world.step()
+        cube = world.pose(placed)[0]
+        assert all(lo <= c <= hi for c, lo, hi in zip(cube[:2], bin_lo[:2], bin_hi[:2], strict=True))
+        check = sort.check_goal(world)
+        assert check.details["in_bin"] == [placed]
+        assert check.details["missed"][gone] == "removed from the world"
+        assert set(check.details["missed"]) == set(names) - {placed}
+        assert check.reason.startswith(f"{len(names) - 1} of {len(names)} object(s) not in their bin")
