@@ -135,6 +135,27 @@ def test_pick_place_stacks_objects_in_the_order_given_by_name_or_by_position(by:
         assert all(job["outcome"] == "succeeded" and job["reason"].startswith(f"placed {job['object']} in ")
                    for job in jobs)
         assert sim.behaviour.outcome.reason.startswith(f"placed {len(order)} objects in ")
+        assert sim.behaviour.check_goal(sim.world).met
+        sim.world.set_pose(order[0], [0.6, 0.2, CUBE / 2], [0, 0, 0, 1])  # the first one taken off the spot
+        check = sim.behaviour.check_goal(sim.world)
+        assert not check.met and order[0] in check.reason
+
+
+@pytest.mark.slow
+def test_pick_place_by_a_position_alone_judges_the_object_it_found_there() -> None:
+    """One job given only by where the cube lies: before it starts the goal cannot name an object; after the run
+    the cube it found there rests on the spot (the world), and taken off it the goal is not met."""
+    with make_sim(PICK_PLACE) as probe:
+        start = list(probe.world.pose("cube")[0])
+    with make_sim(PICK_PLACE, overrides={"behaviour.object": None, "behaviour.pick_positions": [start]}) as sim:
+        before = sim.behaviour.check_goal(sim.world)
+        assert not before.met and "never identified" in before.reason
+        result = sim.run()
+        assert result.outcome == "succeeded", result.reason
+        assert math.dist(sim.world.pose("cube")[0], PLACE) < TOLERANCE
+        assert sim.behaviour.check_goal(sim.world).met
+        sim.world.set_pose("cube", [0.6, 0.2, CUBE / 2], [0, 0, 0, 1])
+        assert not sim.behaviour.check_goal(sim.world).met
 
 
 @pytest.mark.slow
