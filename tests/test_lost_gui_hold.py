@@ -30,12 +30,14 @@ position = [0, 0, 0.5]
 pytestmark = pytest.mark.slow
 
 
-def held_run(folder: Path, sig: signal.Signals, display: dict[str, str]) -> tuple[int, list[str], str, str]:
+def held_run(folder: Path, sig: signal.Signals, display: dict[str, str],
+             engine: str = "pybullet") -> tuple[int, list[str], str, str]:
     """Start a held GUI run; once robokit says the window is held, send ``sig`` to it. Returns the exit code, the
     stdout lines printed before the signal, all stdout and stderr."""
     scene = folder / "scene.toml"
     scene.write_text(SCENE)
-    proc = subprocess.Popen([sys.executable, "-m", "robokit.cli", "run", str(scene), "--gui", "--gui-hold"],
+    proc = subprocess.Popen([sys.executable, "-m", "robokit.cli", "run", str(scene), "--gui", "--gui-hold",
+                             "--engine", engine],
                             cwd=folder, env=display, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     assert proc.stdout is not None and proc.stderr is not None
     out_lines: list[str] = []
@@ -67,9 +69,10 @@ def held_run(folder: Path, sig: signal.Signals, display: dict[str, str]) -> tupl
     return proc.returncode, before, "".join(out_lines), "".join(err_lines) + rest
 
 
+@pytest.mark.parametrize("engine", ["pybullet", "mujoco"])  # MuJoCo's window: its own viewer
 def test_ctrl_c_in_the_held_window_keeps_the_runs_exit_code_and_the_outcome_came_first(
-        tmp_path: Path, virtual_display: dict[str, str]) -> None:
-    code, before, out, err = held_run(tmp_path, signal.SIGINT, virtual_display)
+        tmp_path: Path, virtual_display: dict[str, str], engine: str) -> None:
+    code, before, out, err = held_run(tmp_path, signal.SIGINT, virtual_display, engine)
     assert code == 0, err[-2000:]
     assert any(line.startswith("outcome: succeeded") for line in before), before  # printed before holding
     assert "interrupted" not in err and "Traceback" not in err
@@ -77,8 +80,10 @@ def test_ctrl_c_in_the_held_window_keeps_the_runs_exit_code_and_the_outcome_came
     assert json.loads((run / "result.json").read_text())["outcome"] == "succeeded"
 
 
-def test_sigterm_in_the_held_window_ends_robokit_with_143(tmp_path: Path, virtual_display: dict[str, str]) -> None:
-    code, before, _out, err = held_run(tmp_path, signal.SIGTERM, virtual_display)
+@pytest.mark.parametrize("engine", ["pybullet", "mujoco"])
+def test_sigterm_in_the_held_window_ends_robokit_with_143(tmp_path: Path, virtual_display: dict[str, str],
+                                                         engine: str) -> None:
+    code, before, _out, err = held_run(tmp_path, signal.SIGTERM, virtual_display, engine)
     assert code == 143, err[-2000:]
     assert any(line.startswith("outcome: succeeded") for line in before)
     assert "robokit: interrupted (SIGTERM)" in err
