@@ -16,6 +16,13 @@ def rodrigues(axis: Any, angle: float) -> np.ndarray:
     return np.eye(3) + math.sin(angle) * skew + (1.0 - math.cos(angle)) * skew @ skew
 
 
+def in_bin(world: Any, name: str, bin_name: str = "bin") -> bool:
+    """The body's centre lies inside the bin's box (x, y) and below its rim: where the world says it rests."""
+    (x, y, z), _ = world.pose(name)
+    lo, hi = world.body_aabb(bin_name)
+    return lo[0] < x < hi[0] and lo[1] < y < hi[1] and z < hi[2]
+
+
 def rotation(q: Any) -> np.ndarray:
     """Rotation matrix of an ``(x, y, z, w)`` quaternion, from its axis and angle (:func:`rodrigues`)."""
     x, y, z, w = (float(v) for v in q)

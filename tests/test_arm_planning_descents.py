@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from oracles import in_bin
 
 from robokit.testing import make_sim
 
@@ -35,19 +36,13 @@ def run_watching(sim: Any, max_ticks: int = 4000) -> dict[str, Any]:
     return {"touches": touches, "outcome": sim.behaviour.outcome}
 
 
-def in_bin(world: Any) -> bool:
-    (x, y, z), _ = world.pose("cube")
-    lo, hi = world.body_aabb("bin")
-    return lo[0] < x < hi[0] and lo[1] < y < hi[1] and z < hi[2]
-
-
 @pytest.mark.parametrize("engine", ["pybullet", "mujoco"])
 def test_the_cube_is_taken_out_of_the_gap_turned_and_nothing_is_touched_on_the_way(engine: str) -> None:
     with make_sim(CONFIG, overrides={"world.engine": engine}) as sim:
         seen = run_watching(sim)
         assert seen["outcome"].status == "succeeded", seen["outcome"].reason
         assert seen["touches"] == []
-        assert in_bin(sim.world)
+        assert in_bin(sim.world, "cube")
 
 
 def test_checking_only_the_links_up_to_the_wrist_lets_a_finger_hit_a_box() -> None:
@@ -55,7 +50,7 @@ def test_checking_only_the_links_up_to_the_wrist_lets_a_finger_hit_a_box() -> No
     with make_sim(CONFIG, overrides={"behaviour.planning": {"check_descents": False}}) as sim:
         seen = run_watching(sim)
         assert any(who == "panda" and what.startswith("box_") for _, who, what in seen["touches"])
-        assert not in_bin(sim.world)
+        assert not in_bin(sim.world, "cube")
 
 
 def test_a_board_low_over_the_bin_stops_the_job_at_once_naming_it_and_nothing_is_driven_through() -> None:

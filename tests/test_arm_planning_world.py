@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 import pytest
 import tomllib
+from oracles import in_bin
 
 from robokit.planning.rrt import densify
 from robokit.testing import edited_config, make_sim, validate_error
@@ -46,13 +47,6 @@ def run_watching_the_wall(sim: Any, max_ticks: int = 4000) -> dict[str, Any]:
     sim.run_until(watch, max_ticks)
     seen["outcome"] = sim.behaviour.outcome
     return seen
-
-
-def in_bin(world: Any, name: str, bin_name: str = "bin") -> bool:
-    """The body's centre lies inside the bin's box (x, y) and below its rim."""
-    (x, y, z), _ = world.pose(name)
-    lo, hi = world.body_aabb(bin_name)
-    return lo[0] < x < hi[0] and lo[1] < y < hi[1] and z < hi[2]
 
 
 @pytest.mark.parametrize("engine", ["pybullet", "mujoco"])

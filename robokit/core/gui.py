@@ -67,10 +67,9 @@ def hold(world: Any, *, fps: float = 30.0) -> None:
     try:  # the message inside: a Ctrl-C the moment it appears (before the loop starts) only ends the hold too
         print("robokit: the run is over; the window stays open until you close it (or press Ctrl-C)",
               file=sys.stderr, flush=True)
-        while window is not None and window.is_open():  # the mujoco engine's viewer draws in its own thread
-            time.sleep(1.0 / fps)  # GUI pacing only
-        while window is None and client is not None and client.isConnected():
-            client.getDebugVisualizerCamera()  # keeps the window responsive (camera moves, redraws)
+        while window.is_open() if window is not None else client is not None and client.isConnected():
+            if window is None:  # PyBullet's window (MuJoCo's viewer draws in its own thread)
+                client.getDebugVisualizerCamera()  # keeps the window responsive (camera moves, redraws)
             time.sleep(1.0 / fps)  # GUI pacing only
     except KeyboardInterrupt:
         return

@@ -24,6 +24,8 @@ This module imports no engine: it is what ``plugins/`` and ``behaviours/`` may r
 from __future__ import annotations
 
 import math
+import os
+import sys
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Collection, Iterable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
@@ -235,9 +237,6 @@ def display_problem() -> str | None:
     """Why no GUI window can open on this machine now, or None if one can. On Linux a window needs an X display:
     ``$DISPLAY`` set and opening (asked of libX11, the library the engines' windows use); elsewhere None (the
     platform's own window system)."""
-    import os
-    import sys
-
     if not sys.platform.startswith("linux"):
         return None
     display = os.environ.get("DISPLAY")
