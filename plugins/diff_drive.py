@@ -109,6 +109,15 @@ class DiffDrive(Actuator):
         self.cmd = cmd
         self.targets = self.wheel_targets(cmd)
 
+    def protective_stop(self, reason: str) -> None:
+        """Stop now (a monitor that aborts or recovers): the wheel motors' targets go to zero in this tick, without
+        the acceleration ramp, and stay there until a new command; nothing drives on at the last command."""
+        self.cmd, self.targets, self.speeds = STOP, (0.0, 0.0), (0.0, 0.0)
+        self.world.set_joint_motors(self.body, self._both, "velocity", target_velocities=[0.0] * len(self._both),
+                                    forces=[self.config.max_wheel_force] * len(self._both))
+        self._sent = self.speeds
+        self.ctx.trace("protective_stop", actuator=self.name, reason=reason)
+
     def wheel_targets(self, cmd: Twist | WheelSpeeds) -> tuple[float, float]:
         """Wheel speeds (left, right) in rad/s for a command, clipped to ``max_wheel_speed`` (ratio kept)."""
         if isinstance(cmd, Twist):
