@@ -116,7 +116,6 @@ class Gripper(Actuator):
         self.followers = [(ctx.joint(cfg.body, n, key=f"mimic.{n}"), r) for n, r in cfg.mimic.items()]
         self.held_joints = [(ctx.joint(cfg.body, n, key=f"hold_joints.{n}"), q) for n, q in cfg.hold_joints.items()]
         self.links = self._finger_link_sets(ctx)
-        self.stopped = self.latched = False
         if cfg.stop_on is not None and getattr(ctx.components.get(cfg.stop_on), "reading_type", None) is not \
                 ContactState:
             raise ConfigError(f"{cfg.stop_on!r} is not a contact sensor; components: {', '.join(ctx.components)}",
@@ -137,9 +136,11 @@ class Gripper(Actuator):
         self.reset()
 
     def reset(self, rng: Any = None) -> None:
-        """The start state (also between robokit.gym episodes): fingers open or closed as configured, at rest."""
+        """The start state (also between robokit.gym episodes): fingers open or closed as configured, at rest, not
+        stopped (neither a protective stop nor a ``stop_on`` stop carries over)."""
         cfg: GripperConfig = self.config
         w = self.world
+        self.stopped = self.latched = False
         self.action, self.force = "open", cfg.force
         self.target = self.open_width if cfg.start_open else 0.0
         for j, q in zip(self.fingers, self._joint_targets(self.target), strict=True):

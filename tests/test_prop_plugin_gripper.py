@@ -298,6 +298,8 @@ MISTAKES = [  # (robot, gripper settings, the key named, the message, or its sta
      "unknown joint 'panda_finger_jont2'"),
     (PANDA, {"hold_joints": {"panda_joint9": 0.0}}, "hold_joints.panda_joint9", "unknown joint 'panda_joint9'"),
     (PANDA, {"stop_on": "arm"}, "stop_on", "'arm' is not a contact sensor; components: "),
+    (PANDA, {"finger_links": [["panda_leftfinger"], ["panda_hand", "panda_rightfingr"]]}, "finger_links[1]",
+     "unknown link 'panda_rightfingr'"),
 ]
 
 
@@ -332,3 +334,158 @@ def test_the_default_open_width_is_the_fingers_travel_and_close_lets_the_fingers
         assert w.client.getNumConstraints() == gears - 1
         s.components["gripper"].close()  # twice is harmless
         assert w.client.getNumConstraints() == gears - 1
+
+
+# ------------------------------------------------------------------------ speed, a fresh build, stop_on, reset
+@pytest.mark.slow  # about 0.9 s
+@settings(max_examples=4, deadline=None, derandomize=True, phases=NO_SHRINK)
+@given(speed=st.floats(0.03, 0.15), closed=st.sampled_from([0.0, 0.01]), opening=st.booleans())
+def test_the_fingers_move_at_the_configured_finger_speed(speed: float, closed: float, opening: bool) -> None:
+    """``finger_speed`` is each finger's speed, m/s: the fingertip distance measured in the world changes at twice
+    it (two fingers) while the fingers travel, and no faster; the whole travel takes its length over that rate."""
+    config = {"world": {"gravity": [0, 0, 0]}, "robots": {"panda": PANDA},
+              "actuators": {"gripper": {"type": "gripper", "body": "panda", "finger_speed": speed,
+                                        "closed_positions": [closed, closed], "start_open": not opening}}}
+    with make_sim(config) as s:
+        travel = 2 * (0.04 - closed)
+        s.step(5)
+        s.components["gripper"].command(GripperCommand("open" if opening else "close"))
+        rates, start = [], fingertips(s)[0]
+        for _ in range(round(1.5 * travel / (2 * speed) * 240) + 60):
+            s.step(1)
+            rates.append(abs(fingertips(s)[2]))
+        assert max(rates) <= 2 * speed * 1.05, f"peak {max(rates):.4f} m/s, promised {2 * speed:.4f}"
+        middle = rates[10:round(travel / (2 * speed) * 240) - 10]
+        assert middle and min(middle) >= 2 * speed * 0.9, "the fingers travel at the configured speed"
+        assert abs(fingertips(s)[0] - start) == pytest.approx(travel, abs=2e-3)
+
+
+@pytest.mark.parametrize("start_open", [True, False])
+def test_a_fresh_gripper_reads_its_start_state(start_open: bool) -> None:
+    """Built and left alone: open (or closed with ``start_open = false``), at rest, so ``settled`` once
+    ``settle_time`` has passed; its action is ``open`` either way and it holds nothing."""
+    config = {"world": {"gravity": [0, 0, 0]}, "robots": {"panda": PANDA},
+              "actuators": {"gripper": {"type": "gripper", "body": "panda", "start_open": start_open}}}
+    with make_sim(config) as s:
+        want = OPEN if start_open else 0.0
+        s.step(round(0.05 * 240))
+        r = s.readings["gripper"]
+        assert (r.action, r.target_width, r.stopped, r.holding, r.held) == ("open", want, False, False, None)
+        assert r.settled and r.width == pytest.approx(want, abs=1e-4)
+        assert fingertips(s)[0] == pytest.approx(want, abs=1.5e-3)
+
+
+TOUCHY = {"world": {"gravity": [0, 0, 0]}, "robots": {"panda": PANDA},
+          "bodies": {"cube": {"shape": "box", "size": [0.03, 0.03, 0.03], "mass": 0.0, "position": [3, 3, 0.5]}},
+          "sensors": {"touch": {"type": "contact", "body": "panda", "other": "cube"}},
+          "actuators": {"gripper": {"type": "gripper", "body": "panda", "stop_on": "touch", "stop_force": 0.0}}}
+
+
+def put_cube_between_fingers(sim: Any) -> None:
+    w = sim.world
+    put_hand(sim, [0.0, 0.3, 0.0, -1.8, 0.0, 2.1, 0.785])
+    sim.step(1)
+    pos, orn = w.pose("panda", link(sim, "panda_grasptarget"))
+    w.set_pose("cube", pos, orn)
+
+
+def test_stop_on_freezes_the_fingers_at_the_first_contact_for_good() -> None:
+    """``stop_on``: the first contact above ``stop_force`` stops the fingers where they are, says so in the
+    reading and the trace (naming what was touched, the force and the sensor), and later commands are ignored."""
+    with make_sim(TOUCHY) as s:
+        g = s.components["gripper"]
+        put_cube_between_fingers(s)
+        g.command(GripperCommand("close"))
+        for _ in range(240):
+            s.step(1)
+            if [r for r in s.trace if r["kind"] == "protective_stop"]:
+                break
+        stops = [r for r in s.trace if r["kind"] == "protective_stop"]
+        assert len(stops) == 1 and stops[0]["actuator"] == "gripper"
+        assert stops[0]["reason"].startswith("contact with cube (") and stops[0]["reason"].endswith(" N) (touch)")
+        assert s.readings["touch"].in_contact
+        at_stop = fingertips(s)[0]
+        g.command(GripperCommand("open"))
+        s.step(120)
+        r = s.readings["gripper"]
+        assert r.stopped and fingertips(s)[0] == pytest.approx(at_stop, abs=3e-3), "the open was ignored"
+        assert len([x for x in s.trace if x["kind"] == "protective_stop"]) == 1
+
+
+@pytest.mark.parametrize("force", [0.0, 1e6])
+def test_stop_on_does_not_stop_below_its_force(force: float) -> None:
+    """No contact, or contacts no harder than ``stop_force``: the fingers close as commanded."""
+    config = {**TOUCHY, "actuators": {"gripper": {**TOUCHY["actuators"]["gripper"], "stop_force": force}}}
+    with make_sim(config) as s:
+        if force:
+            put_cube_between_fingers(s)
+        s.components["gripper"].command(GripperCommand("close"))
+        s.step(120)
+        r = s.readings["gripper"]
+        assert not r.stopped and not [x for x in s.trace if x["kind"] == "protective_stop"]
+        assert fingertips(s)[0] == pytest.approx(0.03 if force else 0.0, abs=3e-3)
+
+
+def gripper_state(sim: Any) -> tuple:
+    """The finger joints' positions and velocities in the world and every field of the reading."""
+    w = sim.world
+    panda = w.body("panda")
+    joints = [j.index for j in w.joints(panda) if j.movable]
+    return tuple(w.joint_states(panda, joints)), sim.readings["gripper"]
+
+
+@pytest.mark.slow  # about 0.6 s
+@settings(max_examples=4, deadline=None, derandomize=True, phases=NO_SHRINK)
+@given(history=st.lists(st.tuples(st.sampled_from(["open", "close", "width", "stop", "cube"]), st.floats(0, 0.08),
+                                  st.integers(1, 40)), min_size=1, max_size=5))
+@example(history=[("close", 0.0, 10), ("stop", 0.0, 5)])
+@example(history=[("cube", 0.0, 1), ("close", 0.0, 40)])  # stop_on stops the fingers for the rest of the run
+def test_a_reset_gripper_is_a_fresh_one(history: list) -> None:
+    """``reset()`` (between robokit.gym episodes, after the world's snapshot is restored) gives the start state of a
+    fresh build, whatever came before (commands, protective stops, a ``stop_on`` stop): the same reading field for
+    field, the same joint states, and the same next ticks with no command and then a close, bit for bit."""
+    with make_sim(TOUCHY) as used, make_sim(TOUCHY) as fresh:
+        snap = used.world.snapshot()
+        g = used.components["gripper"]
+        for what, width, ticks in history:
+            if what == "stop":
+                g.protective_stop("a test")
+            elif what == "cube":
+                put_cube_between_fingers(used)
+            else:
+                g.command(GripperCommand(what, width=width if what == "width" else None))
+            used.step(ticks)
+        used.world.restore(snap)
+        for comp in used.components.values():
+            if hasattr(comp, "reset"):  # as robokit.gym resets them
+                comp.reset(None)
+        for sim in (used, fresh):
+            sim.step(1)
+        assert gripper_state(used) == gripper_state(fresh)
+        for sim in (used, fresh):
+            sim.step(30)
+        assert gripper_state(used) == gripper_state(fresh)
+        for sim in (used, fresh):
+            sim.components["gripper"].command(GripperCommand("close"))
+            sim.step(30)
+        assert gripper_state(used) == gripper_state(fresh)
+
+
+def test_a_fingers_links_are_the_links_its_joint_moves() -> None:
+    """Without ``finger_links``, a finger is its joint's child link and every link below it: judged by the world,
+    the links whose pose changes when that finger joint alone turns (the KUKA's fingers carry their tips)."""
+    config = {"world": {"gravity": [0, 0, 0]}, "robots": {"kuka": KUKA_SDF},
+              "actuators": {"gripper": {k: v for k, v in TWO_REVOLUTE.items() if k != "hold_joints"}}}
+    with make_sim(config) as s:
+        w = s.world
+        kuka = w.body("kuka")
+        links = [j.index for j in w.joints(kuka)]
+        for finger, name in zip(s.components["gripper"].links, TWO_REVOLUTE["finger_joints"], strict=True):
+            joint = w.joint("kuka", name).index
+            before = [np.concatenate(w.pose(kuka, i)) for i in links]  # a link on the joint's axis only turns
+            q = w.joint_states(kuka, [joint])[0][0]
+            w.reset_joint(kuka, joint, q + 0.2, 0.0)
+            moved = {i for i, p in zip(links, before, strict=True)
+                     if np.linalg.norm(np.concatenate(w.pose(kuka, i)) - p) > 1e-6}
+            w.reset_joint(kuka, joint, q, 0.0)
+            assert len(moved) > 1 and finger == moved, name
