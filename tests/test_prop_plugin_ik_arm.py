@@ -147,7 +147,10 @@ def test_a_protective_stop_holds_the_arm_where_it_was_stopped(sim, stop_after: i
     sim.step(stop_after)
     assert sim.readings["arm"].status == "moving"
     at_stop, tool_at_stop = arm_angles(sim), tool_pose(sim)[0]
+    before = len(sim.trace)
     arm.protective_stop("a test")
+    assert [(r["kind"], r["actuator"], r["reason"]) for r in sim.trace[before:]] == [
+        ("protective_stop", "arm", "a test")]
     sim.step(120)
     state = sim.readings["arm"]
     assert (state.status, state.stopped) == ("failed", True)
@@ -200,3 +203,189 @@ def test_the_orientation_error_is_the_rotation_vector_from_the_frame_to_its_targ
     assert np.allclose(got, want, rtol=1e-6, atol=1e-9)
     assert np.allclose(rodrigues(got, float(np.linalg.norm(got))) @ rotation(current) if np.linalg.norm(got) > 0
                        else rotation(current), rotation(target), atol=1e-9)
+
+
+# ------------------------------------------------------------------------ the Jacobian, the numpy solve, holds
+def set_arm(sim: Any, q: np.ndarray) -> None:
+    w = sim.world
+    panda = w.body("panda")
+    for i, v in enumerate(q, start=1):
+        w.reset_joint(panda, w.joint(panda, f"panda_joint{i}").index, float(v), 0.0)
+
+
+def rotvec(r: np.ndarray) -> np.ndarray:
+    """The rotation vector of a rotation matrix (axis times angle), angles below pi."""
+    angle = angle_between(np.eye(3), r)
+    if angle < 1e-12:
+        return np.zeros(3)
+    return angle / (2 * math.sin(angle)) * np.array([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]])
+
+
+joint_angles = st.lists(st.floats(-1.0, 1.0), min_size=7, max_size=7)
+
+
+@PROPS
+@given(joint_angles)
+def test_the_jacobian_is_the_world_tool_frames_derivative(sim, deltas: list[float]) -> None:
+    """Each column of the arm's Jacobian (linear rows first) is how the tool frame in the world moves and turns
+    when that one joint turns a little: central differences of the world's poses at random joint angles (every
+    rotation of the hand, not only a few). The frame it returns is the world's tool frame."""
+    arm = sim.components["arm"]
+    before = arm_angles(sim)
+    q = before + np.array(deltas)
+    q_all = arm._measured_all()
+    q_all[arm.arm_cols] = q
+    try:
+        jac, tip, orn = arm.chain.jacobian(q_all)
+        set_arm(sim, q)
+        pos0, rot0 = tool_pose(sim)
+        assert np.allclose(tip, pos0, atol=1e-6) and angle_between(rotation(orn), rot0) < 1e-6
+        h = 1e-4  # the world's poses are computed in single precision in places: differences over 0.2 mrad
+        for k in range(7):
+            step = np.zeros(7)
+            step[k] = h
+            set_arm(sim, q + step)
+            p_plus, r_plus = tool_pose(sim)
+            set_arm(sim, q - step)
+            p_minus, r_minus = tool_pose(sim)
+            col = arm.arm_cols[k]
+            assert np.allclose(jac[:3, col], (p_plus - p_minus) / (2 * h), atol=2e-3), f"joint {k + 1}: linear"
+            assert np.allclose(jac[3:, col], rotvec(r_plus @ r_minus.T) / (2 * h), atol=2e-3), f"joint {k + 1}"
+    finally:
+        set_arm(sim, before)
+
+
+@PROPS
+@given(joint_angles, st.lists(st.floats(-0.4, 0.4), min_size=7, max_size=7))
+def test_the_numpy_solve_puts_the_tool_on_the_target_within_the_limits(sim, goal: list[float],
+                                                                        start: list[float]) -> None:
+    """The damped least-squares solve (the fallback when the engine's IK misses): a target made by the world's
+    forward kinematics of random joint angles (a reachable pose in a random orientation), solved from angles up to
+    0.4 rad away. The world, put at the answer, has the tool frame on the target within the solve's residuals
+    (which it reports), those within ``ik_tolerance`` and four times it in radians; every joint within its limits."""
+    arm = sim.components["arm"]
+    before = arm_angles(sim)
+    w = sim.world
+    panda = w.body("panda")
+    lo = np.array([w.joint(panda, f"panda_joint{i}").lower for i in range(1, 8)])
+    hi = np.array([w.joint(panda, f"panda_joint{i}").upper for i in range(1, 8)])
+    q_goal = np.clip(np.array(arm.ready[arm.arm_cols]) + np.array(goal), lo + 0.05, hi - 0.05)
+    try:
+        set_arm(sim, q_goal)
+        pos, rot = tool_pose(sim)
+        orn = tuple(float(v) for v in np.array(w.pose(panda, w.link(panda, "panda_hand"))[1]))
+        target = hamilton(orn, axis_angle_quaternion(*_axis_angle(TOOL)))
+        assert angle_between(rotation(target), rot) < 1e-6
+        q_all = arm._measured_all()
+        q_all[arm.arm_cols] = np.clip(q_goal + np.array(start), lo, hi)
+        q, ep, eo = arm._solve_numpy(q_all, pos, target)
+        answer = q[arm.arm_cols]
+        assert np.all(answer >= lo - 1e-9) and np.all(answer <= hi + 1e-9)
+        set_arm(sim, answer)
+        got_pos, got_rot = tool_pose(sim)
+        assert np.linalg.norm(got_pos - pos) == pytest.approx(ep, abs=1e-6)
+        assert angle_between(got_rot, rot) == pytest.approx(eo, abs=1e-5)
+        tol = arm.config.ik_tolerance
+        assert ep < tol and eo < 4 * tol, f"residual {ep * 1000:.2f} mm, {math.degrees(eo):.3f} deg"
+    finally:
+        set_arm(sim, before)
+
+
+def _axis_angle(r: np.ndarray) -> tuple[np.ndarray, float]:
+    v = rotvec(r)
+    return v / np.linalg.norm(v), float(np.linalg.norm(v))
+
+
+@PROPS
+@given(st.integers(6, 30), st.floats(-0.05, 0.05))
+def test_a_hold_mid_move_keeps_the_arm_where_it_is(fresh_sim, hold_after: int, dy: float) -> None:
+    """``HoldArm`` (what a halted pick_place or sort sends): the path is dropped and the arm holds the joint
+    positions it had, judged by the world's joints and tool frame, far from the goal it was heading for."""
+    from robokit.msgs.arm import HoldArm
+
+    sim = fresh_sim
+    arm = sim.components["arm"]
+    start = tool_pose(sim)[0]
+    goal = start + np.array([0.0, 0.25 + dy, -0.1])
+    arm.command(MoveTo(tuple(goal.tolist())))
+    sim.step(hold_after)
+    assert sim.readings["arm"].status == "moving"
+    at_hold, tool_at_hold = arm_angles(sim), tool_pose(sim)[0]
+    arm.command(HoldArm())
+    sim.step(120)
+    assert np.max(np.abs(arm_angles(sim) - at_hold)) < 0.05
+    assert np.linalg.norm(tool_pose(sim)[0] - tool_at_hold) < 0.01
+    assert np.linalg.norm(tool_pose(sim)[0] - goal) > 0.1
+    held = arm_angles(sim)
+    sim.step(60)
+    assert np.max(np.abs(arm_angles(sim) - held)) < 1e-3
+
+
+@PROPS
+@given(joint_angles, st.floats(0.0, 0.04))
+def test_a_chain_through_a_sliding_joint_has_the_worlds_derivative(sim, deltas: list[float], slide: float) -> None:
+    """A chain that ends in a prismatic joint (the Panda's left finger): its Jacobian's column for the slide moves
+    the frame along the joint's axis and turns it not at all; every column matches the world's central differences."""
+    from robokit_plugins.kinematics import Chain
+
+    w = sim.world
+    panda = w.body("panda")
+    joints = [w.joint(panda, f"panda_joint{i}").index for i in range(1, 8)] + [
+        w.joint(panda, "panda_finger_joint1").index]
+    finger = w.link(panda, "panda_leftfinger")
+    chain = Chain(w, panda, finger, {j: k for k, j in enumerate(joints)})
+    before = [s[0] for s in w.joint_states(panda, joints)]
+    q = np.array(before) + np.array([*deltas, 0.0])
+    q[7] = slide
+
+    def put(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        for j, v in zip(joints, values, strict=True):
+            w.reset_joint(panda, j, float(v), 0.0)
+        pos, orn = w.pose(panda, finger)
+        return np.asarray(pos), rotation(orn)
+
+    try:
+        jac, tip, _ = chain.jacobian(q)
+        assert np.allclose(tip, put(q)[0], atol=1e-6)
+        h = 1e-4
+        for k in range(8):
+            step = np.zeros(8)
+            step[k] = h
+            p_plus, r_plus = put(q + step)
+            p_minus, r_minus = put(q - step)
+            assert np.allclose(jac[:3, k], (p_plus - p_minus) / (2 * h), atol=2e-3), k
+            assert np.allclose(jac[3:, k], rotvec(r_plus @ r_minus.T) / (2 * h), atol=2e-3), k
+    finally:
+        put(np.array(before))
+
+
+def test_stop_on_stops_the_arm_at_its_first_contact_for_good() -> None:
+    """``stop_on``: the tool driven into a static cube stops in the tick its contact sensor first reports the
+    contact (the trace names the cube, the force and the sensor); the arm then ignores every new move."""
+    scene = {**SCENE, "world": {"gravity": [0, 0, 0]},
+             "bodies": {"cube": {"shape": "box", "size": [0.1, 0.1, 0.1], "mass": 0.0, "position": [3, 3, 3]}},
+             "sensors": {"touch": {"type": "contact", "body": "panda", "other": "cube"}},
+             "actuators": {"arm": {**SCENE["actuators"]["arm"], "stop_on": "touch"}}}
+    with make_sim(scene) as sim:
+        sim.step(1)
+        start = tool_pose(sim)[0]
+        sim.world.set_pose("cube", tuple((start + np.array([0.0, 0.0, -0.12])).tolist()))
+        sim.components["arm"].command(MoveTo(tuple((start + np.array([0.0, 0.0, -0.2])).tolist())))
+        first = None
+        for _ in range(480):
+            sim.step(1)
+            if first is None and sim.readings["touch"].in_contact:
+                first = sim.world.tick
+            if [r for r in sim.trace if r["kind"] == "protective_stop"]:
+                break
+        stops = [r for r in sim.trace if r["kind"] == "protective_stop"]
+        assert len(stops) == 1 and stops[0]["actuator"] == "arm" and first is not None
+        assert stops[0]["reason"].startswith("contact with cube (") and stops[0]["reason"].endswith("(touch)")
+        assert stops[0]["tick"] - first <= 1
+        state = sim.readings["arm"]
+        assert state.stopped and state.status == "failed"
+        held = arm_angles(sim)
+        sim.components["arm"].command(MoveTo(tuple((start + np.array([0.1, 0.1, 0.1])).tolist())))
+        sim.step(120)
+        assert np.max(np.abs(arm_angles(sim) - held)) < 0.02, "a move after a stop_on stop was ignored"
+        assert sim.readings["arm"].stopped
