@@ -63,8 +63,9 @@ class Scene:
         self.close()
 
 
-def rebuild(rec: RunRecord) -> Scene:
-    """Build the record's bodies in a new DIRECT world (seeded as the run was, so scattered bodies start alike).
+def rebuild(rec: RunRecord, engine: str = "pybullet") -> Scene:
+    """Build the record's bodies in a new DIRECT world (seeded as the run was, so scattered bodies start alike), of
+    ``engine`` (``robokit video`` draws a MuJoCo run's scene in MuJoCo).
 
     Raises:
         UserError: The record has no pose log, or its config's bodies cannot be built here (a URDF is missing).
@@ -81,7 +82,7 @@ def rebuild(rec: RunRecord) -> Scene:
     raw["world"] = {k: v for k, v in raw.get("world", {}).items() if k != "gui"}
     base_dir = Path(header.get("config_dir") or ".")
     cfg = build_config(raw, load_plugins(), source=str(header.get("config_path", "<record>")), base_dir=base_dir)
-    world = World.create(gui=False, time_step=cfg.world.time_step, seed=int(header["seed"]), base_dir=base_dir)
+    world = World.create(engine, gui=False, time_step=cfg.world.time_step, seed=int(header["seed"]), base_dir=base_dir)
     try:
         spawn_bodies(world, cfg)
         joints = {}
