@@ -42,6 +42,9 @@ def add_record_commands(sub: Any) -> None:
                      "in this process)")
     vid.add_argument("--view", metavar="NAME|EYE,TARGET", help="a named view (front, side, top, iso, or a camera "
                      "sensor's name) or 'ex,ey,ez,tx,ty,tz' (default: iso)")
+    vid.add_argument("--renderer", choices=("auto", "pybullet", "mujoco"), default="auto",
+                     help="the engine that draws the frames (default auto: the engine that ran the run; PyBullet, "
+                     "with a note, when MuJoCo cannot render here)")
     still = vid.add_mutually_exclusive_group()
     still.add_argument("--time", metavar="S", help="write one PNG of the scene at sim time S seconds ('end': the "
                        "last moment) instead of a video (-o defaults to <run folder>/frame_<N>.png)")
@@ -123,7 +126,7 @@ def cmd_video(args: argparse.Namespace) -> int:
     if not still:
         require("video", "robokit video", ("imageio_ffmpeg",))
     from robokit.record.format import find_run
-    from robokit.record.video import render_video
+    from robokit.record.video import choose_renderer, render_video
 
     size = _parse_size(args.size)
     rec = find_run(args.run, args.dir)
@@ -131,22 +134,27 @@ def cmd_video(args: argparse.Namespace) -> int:
         from robokit.record.video import render_still
 
         k = _still_frame(args, rec)
+        engine, note = choose_renderer(rec, args.renderer)
+        if note:
+            print(f"robokit: note: {note}", file=sys.stderr)
         rate = args.fps or float(rec.header.get("pose_hz") or 30.0)
         out = Path(args.output) if args.output else rec.folder / f"frame_{k}.png"
-        t = render_still(rec, out, at=k / rate, size=size, view=args.view)
-        print(f"{out}: frame {k}, the scene at t = {t:.3f} s, {size[0]}x{size[1]}")
+        t = render_still(rec, out, at=k / rate, size=size, view=args.view, engine=engine)
+        print(f"{out}: frame {k}, the scene at t = {t:.3f} s, {size[0]}x{size[1]}, drawn by {engine}")
         return 0
     out = Path(args.output) if args.output else rec.folder / "video.mp4"
     if args.workers is not None and args.workers < 1:
         raise UserError(f"--workers must be at least 1, got {args.workers}")
     try:
         stats = render_video(rec, out, fps=args.fps, size=size, view=args.view, workers=args.workers,
-                             progress=None)
+                             progress=None, renderer=args.renderer)
     except KeyboardInterrupt as exc:
         exc.robokit_detail = f"{out} not written; its partial file was removed"  # type: ignore[attr-defined]
         raise
-    print(f"{out}: {stats.frames} frames, {stats.width}x{stats.height}, {stats.fps:g} fps, H.264 "
-          f"(rendered and encoded at {stats.render_fps:.1f} frames/s)")
+    if stats.note:
+        print(f"robokit: note: {stats.note}", file=sys.stderr)
+    print(f"{out}: {stats.frames} frames, {stats.width}x{stats.height}, {stats.fps:g} fps, H.264, drawn by "
+          f"{stats.renderer} (rendered and encoded at {stats.render_fps:.1f} frames/s)")
     return 0
 
 
@@ -249,5 +257,8 @@ def video_after_run(cfg: Any, run_id: str, output: str, *, quiet: bool = False) 
         exc.robokit_detail = f"video {output} not written; its partial file was removed"  # type: ignore[attr-defined]
         raise
     if not quiet:
-        print(f"video: {output}: {stats.frames} frames at {stats.fps:g} fps", file=sys.stderr)
+        if stats.note:
+            print(f"video: note: {stats.note}", file=sys.stderr)
+        print(f"video: {output}: {stats.frames} frames at {stats.fps:g} fps, drawn by {stats.renderer}",
+              file=sys.stderr)
     return None
