@@ -70,14 +70,23 @@ def record_engine(rec: RunRecord) -> str:
 
 
 def mujoco_problem() -> str | None:
-    """Why MuJoCo cannot draw frames here (not installed, no OpenGL context), or None: it can."""
-    try:
-        from robokit.engines.mujoco import replay_render
-    except ImportError:
-        return "mujoco is not installed: pip install 'robokit[mujoco]'"
-    except Exception as exc:  # noqa: BLE001 - MuJoCo's import fails on a MUJOCO_GL it cannot load
-        return f"mujoco cannot start: {str(exc).splitlines()[0][:120] if str(exc) else type(exc).__name__}"
-    return replay_render.problem()
+    """Why MuJoCo cannot draw frames here (not installed, no OpenGL context), or None: it can. The warnings an
+    OpenGL backend prints while it fails (GLFW without a display) are left out: the answer says it in one line."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            from robokit.engines.mujoco import replay_render
+        except ImportError:
+            return "mujoco is not installed: pip install 'robokit[mujoco]'"
+        except Exception as exc:  # noqa: BLE001 - MuJoCo's import fails on a MUJOCO_GL it cannot load
+            why = str(exc).splitlines()[0][:120] if str(exc) else type(exc).__name__
+        else:
+            why = replay_render.problem()  # type: ignore[assignment]
+            if why is None:
+                return None
+    return f"MUJOCO_GL={os.environ.get('MUJOCO_GL', '')}: {why}"
 
 
 def choose_renderer(rec: RunRecord, choice: str = "auto") -> tuple[str, str | None]:
