@@ -133,7 +133,7 @@ runs = st.tuples(
              max_size=3, unique_by=lambda w: w[0]),
     st.tuples(st.floats(0.4, 0.8), st.floats(-0.5, 0.5), st.floats(-180, 180), st.floats(-80, 80),
               st.floats(-180, 180)),
-    st.floats(0.02, 0.25),
+    st.floats(0.02, 0.18),  # before the run ends (it lasts 0.2 s at least)
     st.sampled_from([30, 45, 60, 240, 7]),
     st.integers(1, 5),
     st.floats(0.2, 0.35),
