@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 from oracles import rodrigues, rotation
 
@@ -257,6 +257,7 @@ def test_the_jacobian_is_the_world_tool_frames_derivative(sim, deltas: list[floa
 
 @PROPS
 @given(joint_angles, st.lists(st.floats(-0.4, 0.4), min_size=7, max_size=7))
+@example([0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, -0.3, 0.0, 0.0, 0.0])  # the elbow at its lower limit
 def test_the_numpy_solve_puts_the_tool_on_the_target_within_the_limits(sim, goal: list[float],
                                                                         start: list[float]) -> None:
     """The damped least-squares solve (the fallback when the engine's IK misses): a target made by the world's
@@ -269,7 +270,7 @@ def test_the_numpy_solve_puts_the_tool_on_the_target_within_the_limits(sim, goal
     panda = w.body("panda")
     lo = np.array([w.joint(panda, f"panda_joint{i}").lower for i in range(1, 8)])
     hi = np.array([w.joint(panda, f"panda_joint{i}").upper for i in range(1, 8)])
-    q_goal = np.clip(np.array(arm.ready[arm.arm_cols]) + np.array(goal), lo + 0.05, hi - 0.05)
+    q_goal = np.clip(np.array(arm.ready[arm.arm_cols]) + np.array(goal), lo + 1e-3, hi - 1e-3)
     try:
         set_arm(sim, q_goal)
         pos, rot = tool_pose(sim)
@@ -389,3 +390,29 @@ def test_stop_on_stops_the_arm_at_its_first_contact_for_good() -> None:
         sim.step(120)
         assert np.max(np.abs(arm_angles(sim) - held)) < 0.02, "a move after a stop_on stop was ignored"
         assert sim.readings["arm"].stopped
+
+
+@PROPS
+@given(st.lists(st.floats(-0.3, 0.3), min_size=7, max_size=7))
+def test_the_numpy_solve_of_the_rest_pose_comes_back_to_it(sim, start: list[float]) -> None:
+    """The solve's null-space pull goes to the rest pose: asked for the tool frame the rest pose gives, from joint
+    angles up to 0.3 rad away, it reaches the frame and ends nearer the rest pose than it started (the arm is
+    redundant: without the pull any of a curve of answers would do)."""
+    arm = sim.components["arm"]
+    before = arm_angles(sim)
+    rest = np.array(arm.rest[arm.arm_cols])
+    try:
+        set_arm(sim, rest)
+        w = sim.world
+        panda = w.body("panda")
+        pos = tool_pose(sim)[0]
+        orn = tuple(float(v) for v in np.array(w.pose(panda, w.link(panda, "panda_hand"))[1]))
+        target = hamilton(orn, axis_angle_quaternion(*_axis_angle(TOOL)))
+        q_all = arm._measured_all()
+        q_all[arm.arm_cols] = rest + np.array(start)
+        q, ep, _ = arm._solve_numpy(q_all, pos, target)
+        answer = q[arm.arm_cols]
+        assert ep < arm.config.ik_tolerance
+        assert np.linalg.norm(answer - rest) < np.linalg.norm(np.array(start)) + 1e-6
+    finally:
+        set_arm(sim, before)
