@@ -11,6 +11,7 @@ waves, a box's start pose (any rotation), when a ball is removed, the pose rate 
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 from typing import Any
@@ -21,6 +22,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from oracles import rotation
 
+from robokit.core.result import jsonable
 from robokit.record.format import RunRecord
 from robokit.record.recorder import Recorder
 from robokit.record.replay import replay_of
@@ -102,7 +104,7 @@ class Watch:
         self.seen[tick] = out
 
 
-def record_run(folder: Path, text: str, pose_hz: int) -> tuple[RunRecord, Watch, Any]:
+def record_run(folder: Path, text: str, pose_hz: int) -> tuple[RunRecord, Watch, Any, list[dict[str, Any]]]:
     from robokit.core.simulation import Simulation
     from robokit.sweep.trial import build_trial_config, plugins_for
 
@@ -118,10 +120,11 @@ def record_run(folder: Path, text: str, pose_hz: int) -> tuple[RunRecord, Watch,
         result = sim.run()
         watch.sample(sim.world.tick)  # the final state
         recorder.finish(result)
+        traced = json.loads(json.dumps(jsonable(sim.trace)))
     finally:
         sim.close()
     assert recorder.write_poses() == []
-    return RunRecord(run), watch, result
+    return RunRecord(run), watch, result, traced
 
 
 def same_rotation(q: Any, r: np.ndarray) -> bool:
@@ -157,8 +160,16 @@ def test_one_run_off_the_sample_grid_with_a_stride_of_three(tmp_path: Path) -> N
 
 def check(folder: Path, joints: list[tuple[int, float, float]], box: tuple[float, ...], removed_at: float, hz: int,
           every: int, duration: float) -> list[int]:
-    rec, watch, result = record_run(folder, scene(joints, box, removed_at, duration), hz)
+    rec, watch, result, traced = record_run(folder, scene(joints, box, removed_at, duration), hz)
     poses, header = rec.poses, rec.header
+    # the trace read back: every record the run traced, in order, whole, then the end record of the result
+    assert rec.events == [*traced, {"kind": "end", "tick": result.ticks, "t": result.sim_time,
+                                    "outcome": result.outcome, "reason": result.reason}]
+    assert [e["tick"] for e in rec.events] == sorted(e["tick"] for e in rec.events)
+    for e in rec.events:
+        assert e["t"] == pytest.approx(e["tick"] * header["time_step"], abs=1e-6), e
+    assert any(e.get("type") == "remove" and e.get("body") == "ball" for e in traced)
+    assert header["seed"] == 3 and header["time_step"] == pytest.approx(1 / 240)
     period = max(1, round(240 / hz))
     ticks = sorted(set(range(0, result.ticks + 1, period)) | {result.ticks})
     # the samples: at every period-th tick from 0 and the final one, t = tick x time_step
