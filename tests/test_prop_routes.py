@@ -289,3 +289,123 @@ def test_another_teacher_naming_their_own_class_finds_none_of_this_class_objects
         if got != 404:
             wrong.append(f"other_teacher {name} {url}: {got}, expected 404")
     assert tried >= 6 and not wrong, "\n".join(wrong)
+
+
+@pytest.fixture
+def twin(world: dict[str, Any], course: Any) -> dict[str, Any]:
+    """The class's teacher owns a second class, with a student, a run and a submission of its own, and holds that
+    class's teacher token too."""
+    from course_work import OFFICIAL, make_assignment
+
+    from robokit.server import tokens
+    from robokit.server.models import Classroom, Result, Student, Submission
+
+    room_c = Classroom.objects.create(name="3반", owner=course.teacher)
+    choi = Student.objects.create(classroom=room_c, name="최서윤")
+    run = Result.objects.create(classroom=room_c, project=course.room.projects.first(), student=choi,
+                                student_name=choi.name, run_id="c-run-1", outcome="succeeded", payload={},
+                                verified=True)
+    sub = Submission.objects.create(assignment=make_assignment(room_c), student=choi, config_text=OFFICIAL)
+    return {"room": room_c, "student": choi, "run": run, "submission": sub,
+            "token": tokens.issue_teacher_token(room_c, course.teacher)}
+
+
+def test_a_teacher_of_two_classes_reaches_each_class_objects_only_under_that_class(world: dict[str, Any],
+                                                                                   course: Any,
+                                                                                   twin: dict[str, Any]) -> None:
+    """The same teacher, logged in, owns both classes: a URL naming their other class with this class's object (a
+    project, a student, an assignment) is 404, the other class's pages and exports name none of this class's
+    students, and moderating this class's run or submission through the other class's URL changes nothing. Holding
+    the other class's teacher token, every API route answers as to another teacher: a teacher token is a class's."""
+    from django.urls import reverse
+    from django.urls.resolvers import RoutePattern
+
+    from robokit.server.models import ModerationEvent, Result, Submission
+
+    c = _client("teacher", world)
+    wrong = []
+    for name, pattern in routes():
+        params = list(RoutePattern(pattern).converters) if name != "admin" else []
+        if "pk" not in params or name.startswith("api-") or name in ("artifact", "submission", "reevaluate"):
+            continue
+        values = {**world["args"], **world["by_route"].get(name, {}), "pk": twin["room"].pk}
+        url = reverse(name, kwargs={p: values[p] for p in params})
+        resp = _request(c, "teacher", name, RULES[name][0], url, world)
+        if len(params) > 1:
+            if resp.status_code != 404:
+                wrong.append(f"{name} {url}: {_answer(resp)}, expected 404")
+        elif name != "moderate":
+            body = b"".join(resp.streaming_content) if resp.streaming else resp.content
+            if resp.status_code != 200 or "김민준".encode() in body:
+                wrong.append(f"{name} {url}: {resp.status_code}, names this class's student")
+            if name in ("classroom", "grades-csv") and twin["student"].name.encode() not in body:
+                wrong.append(f"{name} {url}: its own student missing")
+    a_run = Result.objects.get(run_id=world["payload"]["run_id"])
+    a_sub = Submission.objects.get(pk=world["by_route"]["submission"]["pk"])
+    for field, value in (("run_id", a_run.run_id), ("submission", a_sub.pk)):
+        resp = c.post(reverse("moderate", kwargs={"pk": twin["room"].pk}), {"reason": "copied", field: value})
+        if resp.status_code != 404:
+            wrong.append(f"moderate {field} of this class through the other class: {resp.status_code}")
+    a_run.refresh_from_db()
+    a_sub.refresh_from_db()
+    assert not a_run.excluded and not a_sub.excluded and not ModerationEvent.objects.exists()
+
+    token = world["tokens"]["teacher"]
+    world["tokens"]["teacher"] = twin["token"]
+    try:
+        anon = _client("anonymous", world)
+        for name, pattern in routes():
+            if not name.startswith("api-"):
+                continue
+            got = _answer(_request(anon, "teacher", name, RULES[name][0], _url(name, pattern, world), world))
+            if got != RULES[name][1]["other_teacher"]:
+                wrong.append(f"the other class's token {name}: {got}, expected {RULES[name][1]['other_teacher']}")
+    finally:
+        world["tokens"]["teacher"] = token
+    assert not wrong, "\n".join(wrong)
+
+
+def _state() -> tuple[Any, ...]:
+    """What a request could change: every table's rows, and the moderation flags."""
+    from django.apps import apps
+
+    from robokit.server.models import Result, Submission
+
+    counts = tuple(sorted((m._meta.label, m.objects.count()) for m in apps.get_models()
+                          if m._meta.label not in ("sessions.Session", "admin.LogEntry")))
+    flags = (tuple(Result.objects.order_by("pk").values_list("excluded", flat=True)),
+             tuple(Submission.objects.order_by("pk").values_list("excluded", "status")))
+    return counts, flags
+
+
+@pytest.mark.slow
+def test_every_route_under_every_method_lets_no_role_past_its_rule(world: dict[str, Any]) -> None:
+    """Each route asked with every HTTP method (GET, POST, PUT, PATCH, DELETE) by every role: a role the rules
+    turn away from a route is turned away under every method (a login redirect, 401, 403, 404, 405 or 409, never a
+    page or a change), and a method other than the route's own changes nothing for anyone."""
+    denied = {LOGIN, ADMIN_LOGIN, 401, 403, 404, 405, 409}
+    wrong = []
+    found = [(n, p) for n, p in routes() if n not in ("logout", "me-logout", "admin", "login", "me")]
+    for role in ROLES:
+        c = _client(role, world)
+        token = world["tokens"][role]
+        headers = {"HTTP_AUTHORIZATION": f"Bearer {token}"} if token else {}
+        for name, pattern in found:
+            own_method, rule = RULES[name]
+            url = _url(name, pattern, world)
+            for method in ("GET", "POST", "PUT", "PATCH", "DELETE"):
+                if method == own_method:
+                    continue
+                before = _state()
+                if method == "GET":
+                    resp = c.get(url, **headers)
+                else:
+                    resp = getattr(c, method.lower())(url, data=json.dumps({"reason": "x", "run_id": "y"}),
+                                                       content_type="application/json", **headers)
+                got = _answer(resp)
+                if rule[role] in denied and got not in denied:
+                    wrong.append(f"{role} {method} {name}: {got}, turned away under {own_method} "
+                                 f"({rule[role]})")
+                if _state() != before:
+                    wrong.append(f"{role} {method} {name}: changed the server's state")
+    assert not wrong, "\n".join(wrong)
