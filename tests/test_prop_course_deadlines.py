@@ -78,3 +78,37 @@ def test_opening_due_and_late_work_and_a_resend_after_the_due_time(client: Any, 
     assert Submission.objects.count() == 1
     fresh = submit(client, a.name, course.kim_token, OFFICIAL, uuid.uuid4().hex)  # a new one is late: refused
     assert (fresh.status_code, fresh.json()["field"]) == (403, "due_at")
+
+
+@pytest.mark.parametrize("step", [-1, 0, 1])
+def test_the_due_and_opening_instants_themselves(client: Any, course: Any, queued: None, monkeypatch: Any,
+                                                 step: int) -> None:
+    """On the instant of the due time a submission is on time, a microsecond after it late (refused where late work
+    is refused); on the opening instant it is taken, a microsecond before refused. The server's clock is set to
+    each instant (``django.utils.timezone.now``), the expected answer decided here from the rule "after due" /
+    "before opens"."""
+    from course_work import OFFICIAL, make_assignment
+    from django.utils import timezone
+
+    from robokit.server.models import Submission
+
+    at = dt.datetime(2026, 12, 4, 9, 0, tzinfo=dt.timezone.utc)
+    now = at + dt.timedelta(microseconds=step)
+    monkeypatch.setattr(timezone, "now", lambda: now)
+    due = make_assignment(course.room, name="due", due_at=at, late_policy="accept", max_waiting=0, max_per_day=0)
+    refused = make_assignment(course.room, name="refused", due_at=at, late_policy="refuse", max_waiting=0,
+                              max_per_day=0)
+    opens = make_assignment(course.room, name="opens", opens_at=at, max_waiting=0, max_per_day=0)
+    got = submit(client, due.name, course.kim_token, OFFICIAL, uuid.uuid4().hex)
+    assert got.status_code == 201 and got.json()["late"] is (now > at), got.content
+    got = submit(client, refused.name, course.kim_token, OFFICIAL, uuid.uuid4().hex)
+    if now > at:
+        assert (got.status_code, got.json()["field"]) == (403, "due_at")
+    else:
+        assert got.status_code == 201 and got.json()["late"] is False, got.content
+    got = submit(client, opens.name, course.kim_token, OFFICIAL, uuid.uuid4().hex)
+    if now < at:
+        assert (got.status_code, got.json()["field"]) == (403, "opens_at")
+    else:
+        assert got.status_code == 201, got.content
+    assert Submission.objects.count() == 1 + (now <= at) + (now >= at)
