@@ -62,6 +62,14 @@ def check(folder: Path, monkeypatch: pytest.MonkeyPatch, durations: list[float],
         # the rows: every trial finished so far, in the sweep's order, each with its own outcome
         assert [(r["overrides"]["behaviour.duration"], r["seed"]) for r in run.rows] == finished
         assert [r["outcome"] for r in run.rows] == flags
+        for row, (duration, seed), flag in zip(run.rows, finished, flags, strict=True):
+            assert row["key"] == f"behaviour.duration={duration}/seed={seed}"
+            if flag == "error":
+                continue
+            assert row["figures"] == {"seed_squared": seed * seed}
+            assert row["sim_time"] == pytest.approx(row["ticks"] / 240, abs=1e-6)
+            end = duration if flag == "succeeded" else MAX_TIME
+            assert end - 1e-9 <= row["sim_time"] <= end + 2 / 240, (row["sim_time"], end)
         assert (run.ran, run.skipped, run.remaining) == (ran, before, len(order) - done)
         assert run.all_succeeded == (done == len(order) and all(f == "succeeded" for f in flags))
         trials = folder / "trials.jsonl"
