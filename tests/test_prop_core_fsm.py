@@ -19,7 +19,7 @@ import enum
 from types import SimpleNamespace
 from typing import Any
 
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from robokit.fsm import MachineBehaviour
@@ -76,6 +76,8 @@ configured = st.fixed_dictionaries({}, optional={"MOVE": st.sampled_from([0.25, 
 
 @settings(max_examples=20, deadline=None, derandomize=True, database=None)
 @given(st.integers(0, 16).map(lambda k: k / 8), st.lists(move, max_size=12), configured)
+@example(0.125, [(0.25, "go", False), (0.25, "pause", False), (0.25, "go", False), (0.25, "pause", False),
+                 (0.125, "retry", True), (0.25, "retry", True), (0.0, "finish", False)], {})  # states entered again
 def test_a_machine_follows_its_table_its_clock_and_its_timeouts(start: float, moves: list, timeouts: dict) -> None:
     records: list[dict[str, Any]] = []
     m = Machine("m", SimpleNamespace(timeouts=timeouts))
