@@ -28,6 +28,8 @@ from robokit.record.recorder import Recorder
 from robokit.record.replay import replay_of
 from robokit.record.scene import rebuild
 
+CART = Path(__file__).resolve().parents[1] / "robokit" / "data" / "robots" / "diffbot.urdf"
+
 
 def scene(joints: list[tuple[int, float, float]], box: tuple[float, ...], removed_at: float, duration: float) -> str:
     waves = "".join(f"[actuators.joints.sine.lbr_iiwa_joint_{j}]\namplitude = {a}\nfrequency_hz = {f}\n"
@@ -41,6 +43,11 @@ max_time = {duration}
 urdf = "kuka_iiwa/model.urdf"
 position = [0, 0, 0]
 fixed_base = true
+
+[robots.cart]
+urdf = "{CART}"
+position = [-0.5, -0.7, 0.4]
+rpy_deg = [0, 0, 70]
 
 [bodies.box]
 shape = "box"
@@ -199,7 +206,7 @@ def check(folder: Path, joints: list[tuple[int, float, float]], box: tuple[float
     chosen = sorted(set(range(0, len(ticks), every)) | {len(ticks) - 1})
     assert replay.t.tolist() == [poses["t"][i] for i in chosen]
     drawn = {(link.body, link.link) for link in replay.links}
-    for body in ("kuka", "box", "ball"):
+    for body in ("kuka", "cart", "box", "ball"):
         assert any(b == body for b, _ in drawn), body
     assert {link for b, link in drawn if b == "kuka"} == set(watch.seen[0]["kuka"]["links"])  # every link drawn
     for n, i in enumerate(chosen):
