@@ -216,6 +216,17 @@ def test_a_still_of_a_mujoco_run_is_that_video_frame_drawn_by_mujoco(
     assert still.tobytes() == frames[18]
 
 
+@pytest.mark.slow
+def test_run_with_video_on_mujoco_has_mujoco_draw_it(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                      capsys: pytest.CaptureFixture[str]) -> None:
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "scene.toml").write_text(SCENE)
+    assert main(["run", "scene.toml", "--engine", "mujoco", "--video", "run.mp4"]) == 0
+    assert "video: run.mp4: 37 frames at 30 fps, drawn by mujoco" in capsys.readouterr().err
+    note = json.loads((find_run("last").folder / VIDEO_NOTE).read_text())
+    assert note["renderer"] == "mujoco" and note["frames"] == len(decoded_any(tmp_path / "run.mp4")) == 37
+
+
 def _cli(args: list[str], cwd: Path, **env: str | None) -> subprocess.CompletedProcess[str]:
     environment = {k: v for k, v in os.environ.items() if k not in env}
     environment.update({k: v for k, v in env.items() if v is not None})
