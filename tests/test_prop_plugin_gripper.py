@@ -232,7 +232,7 @@ KUKA_SDF = {"sdf": "kuka_iiwa/kuka_with_gripper2.sdf", "position": [0.3, -0.2, 0
 TWO_REVOLUTE = {  # the KUKA's SDF gripper: two revolute fingers and two fingertip hinges held straight
     "type": "gripper", "body": "kuka", "finger_joints": ["base_left_finger_joint", "base_right_finger_joint"],
     "open_positions": [-0.22, 0.22], "closed_positions": [0.05, -0.05], "open_width": 0.084,
-    "hold_joints": {"left_base_tip_joint": 0.0, "right_base_tip_joint": 0.0},
+    "hold_joints": {"left_base_tip_joint": 0.1, "right_base_tip_joint": -0.1},  # not 0: a motor's default target
 }
 MIMIC = {**TWO_REVOLUTE, "finger_joints": ["base_left_finger_joint"], "open_positions": [-0.22],
          "closed_positions": [0.05], "mimic": {"base_right_finger_joint": -1.0},
