@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pybullet as pb
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -111,13 +112,16 @@ class Watch:
         self.seen[tick] = out
 
 
-def record_run(folder: Path, text: str, pose_hz: int) -> tuple[RunRecord, Watch, Any, list[dict[str, Any]]]:
+def record_run(folder: Path, text: str, pose_hz: float) -> tuple[RunRecord, Watch, Any, list[dict[str, Any]]]:
     from robokit.core.simulation import Simulation
     from robokit.sweep.trial import build_trial_config, plugins_for
 
     plugins = plugins_for(())
     cfg = build_trial_config(text, "scene.toml", folder, {}, plugins)
-    run = folder / "run"
+    run = folder / "results" / "run"  # the results folder is made with the run's
+    other = pb.connect(pb.DIRECT)  # a client of its own before the run's (as a video's renderer has): ids differ
+    pb.createMultiBody(1.0, pb.createCollisionShape(pb.GEOM_SPHERE, radius=0.1, physicsClientId=other),
+                       basePosition=[3, 3, 3], physicsClientId=other)
     sim = Simulation(cfg, plugins, gui=False, seed=3, run_id="run", run_dir=run)
     try:
         recorder = Recorder(sim, run, pose_hz=pose_hz)
@@ -130,6 +134,7 @@ def record_run(folder: Path, text: str, pose_hz: int) -> tuple[RunRecord, Watch,
         traced = json.loads(json.dumps(jsonable(sim.trace)))
     finally:
         sim.close()
+        pb.disconnect(other)
     assert recorder.write_poses() == []
     return RunRecord(run), watch, result, traced
 
@@ -144,7 +149,7 @@ runs = st.tuples(
     st.tuples(st.floats(0.4, 0.8), st.floats(-0.5, 0.5), st.floats(-180, 180), st.floats(-80, 80),
               st.floats(-180, 180)),
     st.floats(0.02, 0.18),  # before the run ends (it lasts 0.2 s at least)
-    st.sampled_from([30, 45, 60, 240, 7]),
+    st.sampled_from([30, 45, 60, 240, 7, 0.5]),
     st.integers(1, 5),
     st.floats(0.2, 0.35),
 )
@@ -165,7 +170,7 @@ def test_one_run_off_the_sample_grid_with_a_stride_of_three(tmp_path: Path) -> N
     assert ticks[-1] % 8 and ticks[-2] == ticks[-1] - ticks[-1] % 8  # a final sample of its own
 
 
-def check(folder: Path, joints: list[tuple[int, float, float]], box: tuple[float, ...], removed_at: float, hz: int,
+def check(folder: Path, joints: list[tuple[int, float, float]], box: tuple[float, ...], removed_at: float, hz: float,
           every: int, duration: float) -> list[int]:
     rec, watch, result, traced = record_run(folder, scene(joints, box, removed_at, duration), hz)
     poses, header = rec.poses, rec.header
@@ -183,6 +188,8 @@ def check(folder: Path, joints: list[tuple[int, float, float]], box: tuple[float
     assert poses["tick"].tolist() == ticks == sorted(watch.seen)
     assert poses["t"].tolist() == [k * header["time_step"] for k in ticks]
     assert header["pose_hz"] == pytest.approx(240 / period)
+    assert (poses["t"].dtype, poses["tick"].dtype) == (np.float64, np.int64)
+    assert {str(a.dtype) for k, a in poses.items() if k.startswith(("base/", "joints/"))} == {"float32"}
     removal = math.ceil(round(removed_at * 240, 6))
     for n, k in enumerate(ticks):
         world = watch.seen[k]
