@@ -11,6 +11,7 @@ waves, a box's start pose (any rotation), when a ball is removed, the pose rate 
 
 from __future__ import annotations
 
+import datetime as dt
 import json
 import math
 from pathlib import Path
@@ -23,6 +24,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from oracles import rotation
 
+import robokit
 from robokit.core.result import jsonable
 from robokit.record.format import RunRecord
 from robokit.record.recorder import Recorder
@@ -88,6 +90,7 @@ class Watch:
     def __init__(self, world: Any, period: int) -> None:
         self.world, self.period = world, period
         self.seen: dict[int, dict[str, Any]] = {}
+        self.started = dt.datetime.now(dt.timezone.utc)
 
     def sample(self, tick: int) -> None:
         client, out = self.world.client, {}
@@ -117,7 +120,8 @@ def record_run(folder: Path, text: str, pose_hz: float) -> tuple[RunRecord, Watc
     from robokit.sweep.trial import build_trial_config, plugins_for
 
     plugins = plugins_for(())
-    cfg = build_trial_config(text, "scene.toml", folder, {}, plugins)
+    (folder / "scene.toml").write_text(text, encoding="utf-8")
+    cfg = build_trial_config(text, str(folder / "scene.toml"), folder, {}, plugins)
     run = folder / "results" / "run"  # the results folder is made with the run's
     other = pb.connect(pb.DIRECT)  # a client of its own before the run's (as a video's renderer has): ids differ
     pb.createMultiBody(1.0, pb.createCollisionShape(pb.GEOM_SPHERE, radius=0.1, physicsClientId=other),
@@ -128,8 +132,10 @@ def record_run(folder: Path, text: str, pose_hz: float) -> tuple[RunRecord, Watc
         sim.add_monitor(recorder)
         watch = Watch(sim.world, recorder.period)
         sim.add_monitor(watch)
+        started = dt.datetime.now(dt.timezone.utc).replace(microsecond=0)
         result = sim.run()
         watch.sample(sim.world.tick)  # the final state
+        watch.started = started
         recorder.finish(result)
         traced = json.loads(json.dumps(jsonable(sim.trace)))
     finally:
@@ -182,6 +188,18 @@ def check(folder: Path, joints: list[tuple[int, float, float]], box: tuple[float
         assert e["t"] == pytest.approx(e["tick"] * header["time_step"], abs=1e-6), e
     assert any(e.get("type") == "remove" and e.get("body") == "ball" for e in traced)
     assert header["seed"] == 3 and header["time_step"] == pytest.approx(1 / 240)
+    # the header's every documented field, from the config file and the world
+    source = folder / "scene.toml"
+    assert (header["kind"], header["schema"], header["robokit_version"], header["run_id"]) == (
+        "header", "robokit.record/1", robokit.__version__, "run")
+    assert (header["config_path"], header["config_dir"]) == (str(source.resolve()), str(folder.resolve()))
+    assert header["config_text"] == source.read_text(encoding="utf-8") and header["config"]["robots"]["cart"]
+    created = dt.datetime.fromisoformat(header["created_at"])
+    assert created.utcoffset() == dt.timedelta(0) and watch.started - dt.timedelta(seconds=5) <= created
+    assert created <= watch.started + dt.timedelta(seconds=1)
+    assert set(header["bodies"]) == set(watch.seen[0])
+    for name, info in header["bodies"].items():
+        assert info["links"] == list(watch.seen[0][name]["links"]), name  # the base link first, then by index
     period = max(1, round(240 / hz))
     ticks = sorted(set(range(0, result.ticks + 1, period)) | {result.ticks})
     # the samples: at every period-th tick from 0 and the final one, t = tick x time_step
@@ -240,3 +258,23 @@ def check(folder: Path, joints: list[tuple[int, float, float]], box: tuple[float
                     assert client.getJointState(bid, j)[0] == pytest.approx(world[name]["joints"][jname],
                                                                              abs=2e-6), (name, jname)
     return ticks
+
+
+def test_a_rate_of_zero_keeps_no_pose_log_and_says_so_in_the_header(tmp_path: Path) -> None:
+    text = "[world]\nmax_time = 0.05\n\n[bodies.box]\nshape = \"box\"\nposition = [0, 0, 1]\n"
+    from robokit.core.simulation import Simulation
+    from robokit.sweep.trial import build_trial_config, plugins_for
+
+    plugins = plugins_for(())
+    cfg = build_trial_config(text, "scene.toml", tmp_path, {}, plugins)
+    sim = Simulation(cfg, plugins, gui=False, seed=0, run_id="run", run_dir=tmp_path / "run")
+    try:
+        recorder = Recorder(sim, tmp_path / "run", pose_hz=0)
+        sim.add_monitor(recorder)
+        recorder.finish(sim.run())
+    finally:
+        sim.close()
+    assert recorder.write_poses() == []
+    rec = RunRecord(tmp_path / "run")
+    assert rec.header["pose_hz"] == 0 and not rec.has_poses and rec.events[-1]["kind"] == "end"
+    assert rec.header["config_text"] is None and rec.header["config_path"] == "scene.toml"
