@@ -80,6 +80,12 @@ def mujoco_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return _run(tmp_path_factory.mktemp("video_mujoco") / "mujoco", "mujoco")
 
 
+@pytest.fixture(scope="module")
+def pybullet_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A run folder of the same scene on PyBullet."""
+    return _run(tmp_path_factory.mktemp("video_pybullet") / "pybullet", "pybullet")
+
+
 def pixel(point: np.ndarray) -> tuple[int, int]:
     """(column, row) of a world point through a pinhole camera at EYE looking at TARGET, z up, FOV vertical."""
     eye = np.asarray(EYE)
@@ -187,6 +193,18 @@ def test_the_same_mujoco_record_drawn_by_pybullet_on_request_puts_the_box_in_the
 
 
 @pytest.mark.slow
+def test_a_pybullet_run_drawn_by_mujoco_on_request_puts_the_box_where_the_record_says(
+        pybullet_run: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "mj.mp4"
+    assert main(["video", str(pybullet_run), "-o", str(out), "--size", "320x240", "--view", VIEW,
+                 "--renderer", "mujoco"]) == 0
+    assert "drawn by mujoco" in capsys.readouterr().out
+    frames = decoded(out)
+    assert len(frames) == 37
+    check_box(RunRecord(pybullet_run), frames)
+
+
+@pytest.mark.slow
 def test_mujoco_frames_are_the_same_bytes_in_every_render_and_with_any_number_of_workers(
         mujoco_run: Path, tmp_path: Path) -> None:
     rec = RunRecord(mujoco_run)
@@ -282,8 +300,7 @@ sys.exit(code)
 
 
 @pytest.mark.slow
-def test_without_mujoco_pybullet_draws_every_video(mujoco_run: Path, tmp_path: Path) -> None:
-    pybullet_run = _run(tmp_path / "pybullet", "pybullet")
+def test_without_mujoco_pybullet_draws_every_video(mujoco_run: Path, pybullet_run: Path, tmp_path: Path) -> None:
     script = tmp_path / "no_mujoco.py"
     script.write_text(NO_MUJOCO)
 
