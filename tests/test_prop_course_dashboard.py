@@ -23,7 +23,7 @@ from typing import Any
 
 import pytest
 from course_helpers import PASSWORD
-from hypothesis import HealthCheck, Phase, given, settings
+from hypothesis import HealthCheck, Phase, example, given, settings
 from hypothesis import strategies as st
 
 pytest_plugins = ["course_fixtures"]
@@ -65,6 +65,11 @@ def teacher_client(client: Any, course: Any) -> Any:
 
 @PROPS
 @given(runs=st.lists(run, min_size=6, max_size=14), subs=st.lists(submission, max_size=5))
+@example(runs=[{"hours": h, "outcome": o, "reason": "", "n": 0, "official": off, "excluded": False, "mine": True}
+                for h, o, off in [(1, "succeeded", False), (2, "failed", True), (3, "failed", False),
+                                  (30, "succeeded", True), (200, "succeeded", False), (201, "", False)]],
+         subs=[{"hours": 2, "rate": 0.8, "status": "done", "excluded": False},
+               {"hours": 5, "rate": 0.25, "status": "done", "excluded": False}])  # the week's best is not its last
 def test_the_dashboards_weeks_and_reasons_are_the_stored_runs(teacher_client: Any, course: Any,
                                                               runs: list[dict[str, Any]],
                                                               subs: list[dict[str, Any]]) -> None:
@@ -123,3 +128,34 @@ def test_the_dashboards_weeks_and_reasons_are_the_stored_runs(teacher_client: An
     assert sorted(shown) == sorted(counted.items())  # at most 5 distinct reasons and 3 outcomes: all shown
     assert [n for _, n in shown] == sorted((n for _, n in shown), reverse=True)  # most common first
     assert f"{sum(w['runs'] for w in weeks.values())} own run" in text
+
+
+
+@pytest.mark.slow  # two charts drawn: ~1 s
+def test_the_weekly_chart_draws_the_tables_figures(teacher_client: Any, course: Any) -> None:
+    """The weekly chart is drawn from the same figures as the dashboard's table: the student's own runs (official
+    trials and excluded runs left out) and the best evaluated submission per week. Its bytes are the chart of the
+    weeks counted here (charts are made deterministically), for a history with an official trial and an excluded
+    run in a week of own runs, and two evaluated submissions in one week, the later one lower."""
+    from course_work import OFFICIAL, make_assignment
+
+    from robokit.server import charts
+    from robokit.server.models import Result, Submission
+
+    a = make_assignment(course.room)
+    for hours, outcome, official, excluded in [(1, "succeeded", False, False), (2, "failed", True, False),
+                                               (3, "failed", False, False), (4, "succeeded", False, True),
+                                               (200, "succeeded", False, False)]:
+        row = Result.objects.create(run_id=uuid.uuid4().hex, classroom=course.room, project=a.project,
+                                    student=course.kim, student_name=course.kim.name, verified=True,
+                                    official=official, outcome=outcome, excluded=excluded)
+        Result.objects.filter(pk=row.pk).update(received_at=START + dt.timedelta(hours=hours))
+    for hours, rate in [(2, 0.8), (5, 0.25)]:
+        sub = Submission.objects.create(assignment=a, student=course.kim, config_text=OFFICIAL, status="done",
+                                        success_rate=rate)
+        Submission.objects.filter(pk=sub.pk).update(finished_at=START + dt.timedelta(hours=hours))
+    weeks = [iso_week(START.date()), iso_week((START + dt.timedelta(hours=200)).date())]
+    assert weeks == ["2026-W52", "2026-W53"]
+    chart = teacher_client.get(f"/classes/{course.room.pk}/students/{course.kim.pk}/weekly.svg")
+    assert chart.status_code == 200
+    assert chart.content == charts.weekly(f"{course.kim.name}: 주간 성공률", weeks, [1 / 2, 1.0], [2, 1], [0.8, None])

@@ -310,6 +310,7 @@ def twin(world: dict[str, Any], course: Any) -> dict[str, Any]:
             "token": tokens.issue_teacher_token(room_c, course.teacher)}
 
 
+@pytest.mark.slow  # the two classes' world and some 40 requests: ~1 s idle
 def test_a_teacher_of_two_classes_reaches_each_class_objects_only_under_that_class(world: dict[str, Any],
                                                                                    course: Any,
                                                                                    twin: dict[str, Any]) -> None:
@@ -349,6 +350,23 @@ def test_a_teacher_of_two_classes_reaches_each_class_objects_only_under_that_cla
     a_run.refresh_from_db()
     a_sub.refresh_from_db()
     assert not a_run.excluded and not a_sub.excluded and not ModerationEvent.objects.exists()
+
+    # a student of the other class submits to the assignment name both classes use: it is their class's
+    from course_work import OFFICIAL
+    from django.test import override_settings
+
+    from robokit.server import tokens
+
+    choi = tokens.issue_student_token(twin["student"])
+    Submission.objects.filter(pk=twin["submission"].pk).update(status="done")  # nothing of theirs waiting
+    with override_settings(QUEUE_SYNC=False):
+        posted = _client("anonymous", world).post(
+            reverse("api-submit", kwargs={"name": twin["submission"].assignment.name}),
+            data=json.dumps({"config": OFFICIAL}), content_type="application/json", HTTP_AUTHORIZATION=f"Bearer {choi}")
+    assert twin["submission"].assignment.name == a_sub.assignment.name
+    if posted.status_code != 201 or Submission.objects.get(pk=posted.json()["id"]).assignment != twin[
+            "submission"].assignment:
+        wrong.append(f"a student of the other class submitting: {posted.status_code}, {posted.content[:200]!r}")
 
     token = world["tokens"]["teacher"]
     world["tokens"]["teacher"] = twin["token"]
