@@ -298,3 +298,29 @@ def test_sort_goal_names_each_object_out_of_its_bin_with_what_happened_to_it_in_
         assert check.details["missed"][gone] == "removed from the world"
         assert set(check.details["missed"]) == set(names) - {placed}
         assert check.reason.startswith(f"{len(names) - 1} of {len(names)} object(s) not in their bin")
+
+
+@pytest.mark.slow
+def test_sort_without_a_bin_for_a_colour_sorts_the_rest_and_says_what_it_left() -> None:
+    """sort_robot.toml without its blue bin: the sort ends ``succeeded`` saying how many it sorted (the red cubes
+    the world has inside the red bin) in how many picks, and that it left the two blue cubes, whose colour has no bin;
+    the blue cubes are where they started."""
+    import tomllib
+
+    cfg = tomllib.loads((ROOT / "configs" / "sort_robot.toml").read_text(encoding="utf-8"))
+    del cfg["behaviour"]["bins"]["blue"]
+    cfg["world"]["max_time"] = 60.0
+    with make_sim(cfg, base_dir=ROOT / "configs") as sim:
+        world = sim.world
+        blue_start = {n: world.pose(n)[0] for n in ("blue_0", "blue_1")}
+        result = sim.run()
+        lo, hi = world.body_aabb("red_bin")
+        in_bin = [n for n in ("red_0", "red_1")
+                  if all(a <= c <= b for c, a, b in zip(world.pose(n)[0][:2], lo[:2], hi[:2], strict=True))]
+        picks = result.result["picks"]
+        assert result.outcome == "succeeded", result.reason
+        assert result.reason == (f"sorted {len(in_bin)} object(s) in {picks} pick(s); "
+                                 "left 2 whose colour has no bin (blue)")
+        assert len(in_bin) == 2 and picks >= 2
+        for name, start in blue_start.items():
+            assert math.dist(world.pose(name)[0], start) < 0.01, f"{name} was moved"
