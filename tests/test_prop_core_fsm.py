@@ -81,11 +81,12 @@ configured = st.fixed_dictionaries({}, optional={"MOVE": st.sampled_from([0.25, 
 def test_a_machine_follows_its_table_its_clock_and_its_timeouts(start: float, moves: list, timeouts: dict) -> None:
     records: list[dict[str, Any]] = []
     m = Machine("m", SimpleNamespace(timeouts=timeouts))
-    m.setup(SimpleNamespace(trace=lambda kind, **data: records.append({"kind": kind, **data})))
+    m.setup(SimpleNamespace(trace=lambda kind, **data: records.append({"kind": kind, **data})))  # type: ignore[arg-type]
     limits = {"MOVE": 0.5, "HOLD": 0.75, **timeouts}
     assert m.timeouts == limits
 
-    state, entered, visited, spent, trace = "IDLE", start, ["IDLE"], {}, []
+    state, entered, visited, trace = "IDLE", start, ["IDLE"], []
+    spent: dict[str, float] = {}
     handled: list[tuple[str, float]] = []
     t = start
     for dt, trig, gate in [(0.0, None, False), *moves]:
