@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import io
 import json
+import shlex
 from pathlib import Path
 from typing import Any
 
@@ -26,10 +27,13 @@ from hypothesis import strategies as st
 from robokit.sweep import engine
 from robokit.sweep.engine import SweepOptions, run_sweep
 from robokit.sweep.spec import SweepSpec
+from robokit.sweep.summary import to_markdown
 from robokit.sweep.trial import run_trial_safely
 
 PLUGINS = Path(__file__).resolve().parent / "sweep_plugins"
 MAX_TIME = 0.04
+FIELDS = {"key", "cell", "overrides", "seed", "run_id", "outcome", "reason", "figures", "sim_time", "ticks",
+          "wall_time", "run_wall_time", "worker", "engine", "engine_version"}
 
 
 def in_process(spec: Any, opts: Any) -> Any:
@@ -48,7 +52,7 @@ def check(folder: Path, monkeypatch: pytest.MonkeyPatch, durations: list[float],
     monkeypatch.setattr(engine, "_backend", in_process)
     spec = SweepSpec(PLUGINS / "fault.toml", range(seeds), {"behaviour.duration": tuple(durations)},
                      {"behaviour.raise_seeds": raise_seeds, "behaviour.at": 0.01, "world.max_time": MAX_TIME},
-                     plugins=("sweep_faults",))
+                     metrics=("sim_time", "seed_squared"), plugins=("sweep_faults",))
     order = [(d, s) for d in durations for s in range(seeds)]  # cell by cell, seeds in order
     done = 0
     for n, limit in enumerate([*splits, None]):
@@ -74,11 +78,16 @@ def check(folder: Path, monkeypatch: pytest.MonkeyPatch, durations: list[float],
         assert run.all_succeeded == (done == len(order) and all(f == "succeeded" for f in flags))
         trials = folder / "trials.jsonl"
         on_disk = [json.loads(line) for line in trials.read_text().splitlines()] if trials.exists() else []
+        for row in on_disk:  # the documented fields, the engine's, nothing of the worker's own
+            assert set(row) <= FIELDS and set(row) >= FIELDS - {"run_wall_time", "engine", "engine_version"}, row
+        assert run.out == folder and run.files[:3] == [folder / "summary.json", folder / "summary.md",
+                                                       folder / "junit.xml"]
+        assert (folder / "summary.md").read_text() == to_markdown(run.summary)
         assert sorted((r["overrides"]["behaviour.duration"], r["seed"], r["outcome"]) for r in on_disk) == sorted(
             (d, s, f) for (d, s), f in zip(finished, flags, strict=True))
         # the summary: counts and rates recomputed from the per-trial flags
         summary = json.loads((folder / "summary.json").read_text())
-        assert summary == json.loads(json.dumps(run.summary))
+        assert summary == json.loads(json.dumps(run.summary)) and summary["metrics"] == ["sim_time", "seed_squared"]
         assert (summary["trials"], summary["succeeded"], summary["errors"]) == (
             done, flags.count("succeeded"), flags.count("error"))
         assert [c["cell"] for c in summary["cells"]] == [f"behaviour.duration={d}" for d in durations]
@@ -92,6 +101,8 @@ def check(folder: Path, monkeypatch: pytest.MonkeyPatch, durations: list[float],
                 assert cell["overrides"] == {**spec.fixed, "behaviour.duration": duration}
             else:
                 assert cell["success_rate"] is None
+        for f in summary["failed_trials"]:  # each reproduced by its own command
+            assert shlex.split(f["command"])[:5] == ["robokit", "run", str(spec.config), "--seed", str(f["seed"])]
         assert sorted((f["seed"], f["outcome"]) for f in summary["failed_trials"]) == sorted(
             (s, f) for (_, s), f in zip(finished, flags, strict=True) if f != "succeeded")
         junit = (folder / "junit.xml").read_text()
@@ -120,8 +131,8 @@ def test_a_resumed_sweep_counts_every_trial_as_a_plain_tally_does(
 
 def test_a_sweep_resumed_after_an_error_and_an_abort(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """Two cells of three seeds; seed 2 raises; the second cell runs past its time. Two trials that succeeded
-    first (not yet a sweep that succeeded), then the other four.
+    first (not yet a sweep that succeeded), none, then the other four.
     The PNG plots are left out here (matplotlib's drawing is most of this test's time; the property above and
     test_sweep.py draw them)."""
     monkeypatch.setattr(engine, "write_plots", lambda *args, **kwargs: [])
-    check(tmp_path, monkeypatch, [0.02, 0.06], 3, [2], [2])
+    check(tmp_path, monkeypatch, [0.02, 0.06], 3, [2], [2, 0])
