@@ -112,7 +112,7 @@ ROOMS: dict[str, tuple[list[str], list[str]]] = {
                       "tests/test_lost_sweep_summary.py"]),
     "replay": (["robokit/record/replay.py", "robokit/record/scene.py"],
                ["tests/test_prop_replay_state.py", "tests/test_replay_model.py", "tests/test_prop_export.py",
-                "tests/test_prop_replay_frames.py"]),
+                "tests/test_prop_replay_frames.py", "tests/test_prop_record_runs.py"]),
     "server": (["robokit/server/*"], ["tests/test_server_pages.py", "tests/test_server_rules.py",
                                       "tests/test_prop_routes.py", "tests/test_pins_server.py",
                                       "tests/test_prop_server_timeline.py", "tests/test_prop_server_csv.py",
