@@ -303,26 +303,32 @@ def test_sort_goal_names_each_object_out_of_its_bin_with_what_happened_to_it_in_
 
 
 @pytest.mark.slow
-def test_sort_without_a_bin_for_a_colour_sorts_the_rest_and_says_what_it_left() -> None:
-    """sort_robot.toml without its blue bin: the sort ends ``succeeded`` saying how many it sorted (the red cubes
-    the world has inside the red bin) in how many picks, and that it left the two blue cubes, whose colour has no bin;
-    the blue cubes are where they started."""
+@pytest.mark.parametrize("without_blue", [True, False])
+def test_sort_says_how_many_it_sorted_and_what_it_left(without_blue: bool) -> None:
+    """sort_robot.toml, and the same without its blue bin: the sort ends ``succeeded`` saying how many it sorted
+    (the cubes the world has inside their colour's bin) in how many picks, and, without the blue bin, that it left the
+    two blue cubes, whose colour has no bin; those are where they started."""
     import tomllib
 
     cfg = tomllib.loads((ROOT / "configs" / "sort_robot.toml").read_text(encoding="utf-8"))
-    del cfg["behaviour"]["bins"]["blue"]
+    if without_blue:
+        del cfg["behaviour"]["bins"]["blue"]
     cfg["world"]["max_time"] = 60.0
+    sortable = ["red_0", "red_1"] + ([] if without_blue else ["blue_0", "blue_1"])
     with make_sim(cfg, base_dir=ROOT / "configs") as sim:
         world = sim.world
         blue_start = {n: world.pose(n)[0] for n in ("blue_0", "blue_1")}
         result = sim.run()
-        lo, hi = world.body_aabb("red_bin")
-        in_bin = [n for n in ("red_0", "red_1")
-                  if all(a <= c <= b for c, a, b in zip(world.pose(n)[0][:2], lo[:2], hi[:2], strict=True))]
+        in_bin = []
+        for name in sortable:
+            lo, hi = world.body_aabb(f"{name.split('_')[0]}_bin")
+            if all(a <= c <= b for c, a, b in zip(world.pose(name)[0][:2], lo[:2], hi[:2], strict=True)):
+                in_bin.append(name)
         picks = result.result["picks"]
         assert result.outcome == "succeeded", result.reason
-        assert result.reason == (f"sorted {len(in_bin)} object(s) in {picks} pick(s); "
-                                 "left 2 whose colour has no bin (blue)")
-        assert len(in_bin) == 2 and picks >= 2
-        for name, start in blue_start.items():
-            assert math.dist(world.pose(name)[0], start) < 0.01, f"{name} was moved"
+        left = "; left 2 whose colour has no bin (blue)" if without_blue else ""
+        assert result.reason == f"sorted {len(in_bin)} object(s) in {picks} pick(s){left}"
+        assert in_bin == sortable and picks >= len(sortable)
+        if without_blue:
+            for name, start in blue_start.items():
+                assert math.dist(world.pose(name)[0], start) < 0.01, f"{name} was moved"
