@@ -111,7 +111,9 @@ class Watch:
                 frame = np.eye(4)
                 frame[:3, :3], frame[:3, 3] = rotation(state[5]), state[4]
                 links[info[12].decode()] = frame
-            out[name] = {"com": (np.array(pos), np.array(orn)), "joints": joints, "links": links}
+            link_names = [*links]  # by PyBullet's link index + 1: the base first
+            visuals = [(link_names[s[1] + 1], s[2], s[3], s[5], s[6], s[7]) for s in client.getVisualShapeData(bid)]
+            out[name] = {"com": (np.array(pos), np.array(orn)), "joints": joints, "links": links, "visuals": visuals}
         self.seen[tick] = out
 
 
@@ -234,6 +236,15 @@ def check(folder: Path, joints: list[tuple[int, float, float]], box: tuple[float
     for body in ("kuka", "cart", "box", "ball"):
         assert any(b == body for b, _ in drawn), body
     assert {link for b, link in drawn if b == "kuka"} == set(watch.seen[0]["kuka"]["links"])  # every link drawn
+    # every visual shape of the world, fixed to its link as the world has it: kind, size, pose in the link, colour
+    kinds = {2: "sphere", 3: "box", 4: "cylinder", 5: "mesh", 6: "plane", 7: "capsule"}
+    shown = sorted((replay.links[v.frame].body, replay.links[v.frame].link, v.kind, v.size, v.position, v.quaternion,
+                    v.rgba if v.kind != "mesh" else ()) for v in replay.shapes)
+    had = sorted((body, link, kinds[kind], tuple(size), tuple(position), tuple(orn), tuple(rgba) if kind != 5 else ())
+                 for body, seen in watch.seen[0].items() for link, kind, size, position, orn, rgba in seen["visuals"])
+    assert len(shown) == len(had)
+    for a, b in zip(shown, had, strict=True):
+        assert a[:3] == b[:3] and np.allclose(np.hstack(a[3:]), np.hstack(b[3:]), atol=1e-6), (a, b)
     for n, i in enumerate(chosen):
         world = watch.seen[ticks[i]]
         for k, link in enumerate(replay.links):
