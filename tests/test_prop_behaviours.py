@@ -332,3 +332,31 @@ def test_sort_says_how_many_it_sorted_and_what_it_left(without_blue: bool) -> No
         if without_blue:
             for name, start in blue_start.items():
                 assert math.dist(world.pose(name)[0], start) < 0.01, f"{name} was moved"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("yaw_deg", [-38.0, -17.0, 11.0, 29.0, 52.0])
+def test_pick_place_grasps_a_turned_cube_across_two_faces(yaw_deg: float) -> None:
+    """docs/arm.md: the gripper's yaw is the cube's yaw folded into +-45 degrees (a cube is 90-degree symmetric).
+    A cube turned by yaws that are not their own mirror (never 0 or 45): when the fingers first close, the hand's
+    closing axis, read from the world's hand frame, is square to the cube's faces (the cube's yaw, from the world,
+    modulo 90 degrees) within 4 degrees."""
+    from oracles import rotation
+
+    with make_sim(PICK_PLACE) as sim:
+        world = sim.world
+        start = world.pose("cube")[0]
+        half = math.radians(yaw_deg) / 2
+        world.set_pose("cube", start, [0.0, 0.0, math.sin(half), math.cos(half)])
+        panda = world.body("panda")
+        hand = world.link(panda, "panda_hand")
+        for _ in range(round(5 * world.physics_hz)):
+            sim.step(1)
+            if sim.readings["gripper"].action == "close":
+                break
+        assert sim.readings["gripper"].action == "close", "the fingers never closed"
+        closing = rotation(world.pose(panda, hand)[1])[:, 1]  # the fingers close along the hand's y axis
+        cube = rotation(world.pose("cube")[1])
+        across = math.degrees(math.atan2(closing[1], closing[0])) - math.degrees(math.atan2(cube[1, 0], cube[0, 0]))
+        off = (across + 45.0) % 90.0 - 45.0
+        assert abs(off) < 4.0, f"the fingers close {off:.1f} degrees off the cube's faces"
