@@ -47,7 +47,7 @@ def expected(seed: int, duration: float, raise_seeds: list[int]) -> str:
 
 
 def check(folder: Path, monkeypatch: pytest.MonkeyPatch, durations: list[float], seeds: int, raise_seeds: list[int],
-          splits: list[int]) -> None:
+          splits: list[int], plots: bool = True) -> None:
     monkeypatch.syspath_prepend(str(PLUGINS))
     monkeypatch.setattr(engine, "_backend", in_process)
     spec = SweepSpec(PLUGINS / "fault.toml", range(seeds), {"behaviour.duration": tuple(durations)},
@@ -83,6 +83,9 @@ def check(folder: Path, monkeypatch: pytest.MonkeyPatch, durations: list[float],
         assert run.out == folder and run.files[:3] == [folder / "summary.json", folder / "summary.md",
                                                        folder / "junit.xml"]
         assert (folder / "summary.md").read_text() == to_markdown(run.summary)
+        if plots:  # the rate per cell, and the first metric's distribution once a trial has run (errors too)
+            drawn = [folder / "success_rate.png"] + [folder / "distribution_sim_time.png"] * (done > 0)
+            assert run.files[3:] == drawn and all(f.stat().st_size > 1000 for f in drawn)
         assert sorted((r["overrides"]["behaviour.duration"], r["seed"], r["outcome"]) for r in on_disk) == sorted(
             (d, s, f) for (d, s), f in zip(finished, flags, strict=True))
         # the summary: counts and rates recomputed from the per-trial flags
@@ -135,4 +138,4 @@ def test_a_sweep_resumed_after_an_error_and_an_abort(tmp_path: Path, monkeypatch
     The PNG plots are left out here (matplotlib's drawing is most of this test's time; the property above and
     test_sweep.py draw them)."""
     monkeypatch.setattr(engine, "write_plots", lambda *args, **kwargs: [])
-    check(tmp_path, monkeypatch, [0.02, 0.06], 3, [2], [2, 0])
+    check(tmp_path, monkeypatch, [0.02, 0.06], 3, [2], [2, 0], plots=False)
