@@ -5,7 +5,8 @@ speeds with the wheel radius and track width, or raw :class:`~robokit.msgs.mobil
 Every listed wheel joint of a side gets that side's speed under velocity control, limited by ``max_wheel_force``.
 Passive joints (a caster) have their default velocity motor switched off. The reading is a
 :class:`~robokit.msgs.mobile.DriveState`: ground-truth planar pose and velocity, wheel odometry, distance
-travelled, and the names of bodies touching the robot (collision counting).
+travelled, and the names of bodies touching the robot (collision counting). A protective stop (a monitor that aborts
+or recovers) sets the wheels' target speeds to zero at once, until the next command.
 """
 
 from __future__ import annotations
