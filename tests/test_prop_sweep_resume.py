@@ -134,8 +134,8 @@ def test_a_resumed_sweep_counts_every_trial_as_a_plain_tally_does(
 
 def test_a_sweep_resumed_after_an_error_and_an_abort(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """Two cells of three seeds; seed 2 raises; the second cell runs past its time. Two trials that succeeded
-    first (not yet a sweep that succeeded), none, then the other four.
+    first (not yet a sweep that succeeded), the error, none, then the other three.
     The PNG plots are left out here (matplotlib's drawing is most of this test's time; the property above and
     test_sweep.py draw them)."""
     monkeypatch.setattr(engine, "write_plots", lambda *args, **kwargs: [])
-    check(tmp_path, monkeypatch, [0.02, 0.06], 3, [2], [2, 0], plots=False)
+    check(tmp_path, monkeypatch, [0.02, 0.06], 3, [2], [2, 1, 0], plots=False)
