@@ -115,3 +115,82 @@ def test_a_recovery_at_its_rate_ended_or_stopped_by_another_monitor(a: int, peri
         assert end_tick is None and rec.behaviour.halted == [] and motor.stops == [a] and trace == [preempt]
         assert record == {"name": "again", "type": "Scripted", "outcome": "running", "reason": "",
                           "result": {"steps": len(rec.behaviour.stepped)}}
+
+
+class Guard(Scripted):
+    """A monitor that may take over from the instance that tripped (its count of steps)."""
+
+    def __init__(self, name: str, outcome: str | None, after: int) -> None:
+        super().__init__(name, outcome, after)
+        self.took_over: Any = None
+
+    def take_over(self, previous: Any) -> None:
+        self.took_over = previous
+
+
+class StopMotor:
+    def __init__(self) -> None:
+        self.reasons: list[str] = []
+
+    def protective_stop(self, reason: str) -> None:
+        self.reasons.append(reason)
+
+
+@settings(max_examples=60, deadline=None, derandomize=True, database=None)
+@given(st.sampled_from(["abort", "recover", "observe"]), st.sampled_from(["failed", "aborted", "succeeded"]),
+       st.integers(0, 5), st.booleans(), st.booleans())
+def test_what_a_monitor_that_acts_leaves_in_the_trace_results_and_stop_reasons(
+        action: str, outcome: str, after: int, open_ended: bool, watch: bool) -> None:
+    """A monitor ending on a generated tick with a generated outcome and action: the stop reason given to every
+    actuator that has a protective stop (one without is left alone), the trace record of the abort or the
+    pre-emption (and of the fresh instance that watches the recovery, which takes over from the one that tripped and
+    starts the next tick), each monitor's entry in the results, and whether the run is open-ended (the task's)."""
+    clock = SimpleNamespace(tick=0, time_step=DT)
+    task = Scripted("task", None, 0)
+    task.open_ended = open_ended  # type: ignore[attr-defined]
+    spec = SimpleNamespace(action=action, recovery="again")
+    mon = Member("A", "Guard", Guard("A", outcome, after), 1, "<scripted>", spec)
+    quiet = Member("Q", "Scripted", Scripted("Q", None, 0), 1, "<scripted>", SimpleNamespace(action="observe"))
+    rec = Member("again", "Scripted", Scripted("again", None, 0), 1, "<scripted>")
+    motor, plain = StopMotor(), SimpleNamespace()
+    trace: list[dict[str, Any]] = []
+    run = Monitored(Member("task", "Scripted", task, 1, "<scripted>"), [mon, quiet], clock,
+                    {"motor": motor, "lamp": plain}, {"again": rec},
+                    trace=lambda kind, **data: trace.append({"kind": kind, **data}))
+    spare = Member("A", "Guard", Guard("A", None, 0), 1, "<scripted>", spec)
+    if watch:
+        run.watchers["A"] = spare
+    assert run.open_ended is open_ended
+    assert Monitored(None, [quiet], clock).open_ended is True  # monitors alone never end by themselves
+    for k in range(after + 3):
+        clock.tick = k
+        run.step({}, k * DT)
+    acts = action != "observe" and outcome != "succeeded"
+    why = f"monitor 'A' (Guard): A {outcome}"
+    assert motor.reasons == ([why] if acts else [])
+    entry = {"type": "Guard", "outcome": outcome, "reason": f"A {outcome}", "action": action, "steps": after + 1}
+    if acts:
+        entry["acted_at"] = round(after * DT, 6)
+    results = run.results()
+    if acts and action == "abort":
+        assert trace == [{"kind": "monitor_abort", "monitor": "A", "reason": f"A {outcome}"}]
+        assert (run.outcome.status, run.outcome.reason) == ("aborted", f"aborted by {why}")
+    elif acts:
+        assert trace[:1] == [{"kind": "monitor_preempt", "monitor": "A", "reason": f"A {outcome}",
+                              "recovery": "again"}]
+        assert rec.behaviour.stepped == [after + 1, after + 2] and rec.start_tick == after + 1
+        entry["recovery"] = {"name": "again", "type": "Scripted", "outcome": "running", "reason": "",
+                             "result": {"steps": 2}}
+        if watch:
+            assert trace[1:] == [{"kind": "monitor_watch", "monitor": "A", "recovery": "again"}]
+            assert spare.behaviour.took_over is mon.behaviour
+            assert spare.behaviour.stepped == [after + 1, after + 2]
+            assert spare.behaviour.started_at == (after + 1) * DT
+            entry["watch"] = {"outcome": "running", "reason": "", "steps": 2}
+        else:
+            assert trace[1:] == []
+    else:
+        assert trace == [] and run.outcome is None
+    assert results["A"] == entry
+    assert results["Q"] == {"type": "Scripted", "outcome": "running", "reason": "", "action": "observe",
+                            "steps": after + 3}
