@@ -85,6 +85,7 @@ ROOMS: dict[str, tuple[list[str], list[str]]] = {
     # the state machines behaviours are written in, and the monitors beside a task (robokit/core/compose.py)
     "core_fsm": (["robokit/fsm.py", "robokit/core/compose.py"],
                  ["tests/test_prop_core_fsm.py", "tests/test_pins_core.py", "tests/test_prop_monitors.py",
+                  "tests/test_prop_core_monitors.py",
                   "tests/test_composition_monitors.py", "tests/test_compose.py"]),
     "scheduler": (["robokit/core/scheduler.py"], ["tests/test_core_scheduler.py", "tests/test_pins_core.py",
                                                   "tests/test_prop_core_scheduler.py"]),
