@@ -155,3 +155,37 @@ def test_a_parallel_sibling_that_ends_first_leaves_the_actuators_stopped(name: s
         held = check_left_stopped(sim, name)
         assert held or seconds != 1.2 or name not in ("pick_place", "sort"), "the example stops a carry"
         assert sim.outcome is None or sim.outcome.status != "error"
+
+
+DIFFBOT = {"bodies": {"plane": {"urdf": "plane.urdf", "position": [0, 0, 0]}},
+           "robots": {"robot": {"urdf": "robots/diffbot.urdf", "position": [0, 0, 0.06]}},
+           "actuators": {"drive": {"type": "diff_drive"}}}
+
+
+@settings(max_examples=3, deadline=None, derandomize=True)  # about 0.1 s an example
+@given(st.floats(-0.4, 0.4), st.floats(-2.0, 2.0), st.integers(20, 120))
+def test_a_drives_protective_stop_stops_its_wheels_until_the_next_command(v: float, omega: float,
+                                                                          ticks: int) -> None:
+    """``diff_drive``'s protective stop: recorded in the trace; the wheels (the world's joint speeds) and the base
+    come to rest and stay there with no command; the next command drives again."""
+    from robokit.msgs.mobile import Twist
+
+    with make_sim(DIFFBOT) as sim:
+        w, drive = sim.world, sim.components["drive"]
+        drive.command(Twist(v, omega))
+        sim.step(ticks)
+        before = len(sim.trace)
+        drive.protective_stop("a test")
+        assert [(r["kind"], r["actuator"], r["reason"]) for r in sim.trace[before:]] == [
+            ("protective_stop", "drive", "a test")]
+        sim.step(round(0.5 * w.physics_hz))
+        wheels = [j.index for j in w.joints(drive.body) if j.name in ("left_wheel", "right_wheel")]
+        for _ in range(3):
+            sim.step(round(0.2 * w.physics_hz))
+            speeds = [abs(s[1]) for s in w.joint_states(drive.body, wheels)]
+            lin, ang = w.velocity(drive.body)
+            assert max(speeds) < 0.3, f"the wheels still turn at {max(speeds):.3f} rad/s"
+            assert math.hypot(lin[0], lin[1]) < 0.01 and abs(ang[2]) < 0.05
+        drive.command(Twist(0.2, 0.0))
+        sim.step(round(0.5 * w.physics_hz))
+        assert math.hypot(*w.velocity(drive.body)[0][:2]) > 0.1, "a new command drives again"
