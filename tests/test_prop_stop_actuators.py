@@ -189,3 +189,20 @@ def test_a_drives_protective_stop_stops_its_wheels_until_the_next_command(v: flo
         drive.command(Twist(0.2, 0.0))
         sim.step(round(0.5 * w.physics_hz))
         assert math.hypot(*w.velocity(drive.body)[0][:2]) > 0.1, "a new command drives again"
+
+
+def test_a_fresh_drive_stands_still_until_commanded() -> None:
+    """Built and never commanded: the wheels and the base do not move (the world), and the reading says so: the
+    stop command, zero wheel speeds, no distance, touching nothing but the ground."""
+    from robokit.msgs.mobile import STOP
+
+    with make_sim(DIFFBOT) as sim:
+        w, drive = sim.world, sim.components["drive"]
+        start = w.pose(drive.body)[0]
+        sim.step(round(1.0 * w.physics_hz))
+        wheels = [j.index for j in w.joints(drive.body) if j.name in ("left_wheel", "right_wheel")]
+        assert max(abs(s[1]) for s in w.joint_states(drive.body, wheels)) < 0.05
+        assert math.dist(w.pose(drive.body)[0][:2], start[:2]) < 1e-3
+        r = sim.readings["drive"]
+        assert r.command == STOP and r.distance < 1e-3 and r.contacts == ()
+        assert max(abs(v) for v in r.wheel_speeds) < 0.05
