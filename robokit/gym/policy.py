@@ -57,7 +57,13 @@ class LinearPolicy:
     @classmethod
     def load(cls, path: str | Path) -> LinearPolicy:
         """Read an ``.npz`` written by :meth:`save`."""
-        with np.load(path, allow_pickle=False) as data:
+        try:
+            archive = np.load(path, allow_pickle=False)
+        except ValueError:  # numpy's own words for a file that is no array file ("contains pickled data") name no file
+            raise ValueError(f"{path}: not a robokit policy (not an .npz file)") from None
+        if not isinstance(archive, np.lib.npyio.NpzFile):
+            raise ValueError(f"{path}: not a robokit policy (a single array, not an .npz file)")
+        with archive as data:
             if str(data.get("kind", "")) != "linear":
                 raise ValueError(f"{path}: not a robokit linear policy (no kind = 'linear')")
             return cls(data["W"], data["b"], data["obs_mean"], data["obs_std"], json.loads(str(data["env"])),
