@@ -145,7 +145,7 @@ ROOMS: dict[str, tuple[list[str], list[str]]] = {
                                         "tests/test_prop_reset.py"]),
     "gym": (["robokit/gym/*"], ["tests/test_gym.py", "tests/test_pins_gym.py", "tests/test_prop_reset.py",
                                 "tests/test_gym_goal.py", "tests/test_gym_engines.py", "tests/test_gym_images.py",
-                                "tests/test_gym_policy.py"]),
+                                "tests/test_gym_policy.py", "tests/test_prop_gym_api.py"]),
     # the three behaviours the course ships and its users run most, against the tests that pin them
     "behaviours": (["robokit_behaviours/sort.py", "robokit_behaviours/pick_place.py", "robokit_behaviours/patrol.py"],
                    ["tests/test_pins_sort.py", "tests/test_pins_pick_place.py", "tests/test_pins_patrol.py",
