@@ -131,7 +131,6 @@ def test_the_dashboards_weeks_and_reasons_are_the_stored_runs(teacher_client: An
 
 
 
-@pytest.mark.slow  # two charts drawn: ~1 s
 def test_the_weekly_chart_draws_the_tables_figures(teacher_client: Any, course: Any) -> None:
     """The weekly chart is drawn from the same figures as the dashboard's table: the student's own runs (official
     trials and excluded runs left out) and the best evaluated submission per week. Its bytes are the chart of the

@@ -310,7 +310,6 @@ def twin(world: dict[str, Any], course: Any) -> dict[str, Any]:
             "token": tokens.issue_teacher_token(room_c, course.teacher)}
 
 
-@pytest.mark.slow  # the two classes' world and some 40 requests: ~1 s idle
 def test_a_teacher_of_two_classes_reaches_each_class_objects_only_under_that_class(world: dict[str, Any],
                                                                                    course: Any,
                                                                                    twin: dict[str, Any]) -> None:
