@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import math
 import warnings
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -141,6 +142,11 @@ def test_policy_files_that_are_not_policies_are_refused_naming_the_file(tmp_path
     np.save(single, np.zeros(3))
     with pytest.raises(ValueError, match=f"^{single}: not a robokit policy"):
         load_policy(single)
+    zipped = tmp_path / "model.zip"  # a .zip is a stable-baselines3 model: read as one, whether or not it is installed
+    with zipfile.ZipFile(zipped, "w") as archive:
+        archive.writestr("data", "{}")
+    with pytest.raises(ValueError, match=f"^{zipped}: .*stable-baselines3"):
+        load_policy(zipped)
     unnamed = tmp_path / "partial.npz"
     np.savez(unnamed, kind=np.array("linear"), W=np.zeros((1, 1)))
     with pytest.raises(ValueError, match=f"^{unnamed}: not a robokit policy \\(KeyError"):
