@@ -76,7 +76,7 @@ class Schema(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
-    @classmethod
+    @classmethod  # pragma: no mutate block (pydantic calls this hook; a mutation trampoline breaks it)
     def __get_pydantic_core_schema__(cls, source: Any, handler: GetCoreSchemaHandler) -> CoreSchema:
         schema = handler(source)
         _harden(schema, cls)
