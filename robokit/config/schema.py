@@ -76,8 +76,9 @@ class Schema(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
-    @classmethod  # pragma: no mutate block (pydantic calls this hook; a mutation trampoline breaks it)
-    def __get_pydantic_core_schema__(cls, source: Any, handler: GetCoreSchemaHandler) -> CoreSchema:
+    @classmethod
+    def __get_pydantic_core_schema__(  # pragma: no mutate block (pydantic calls it; mutmut's trampoline broke it)
+            cls, source: Any, handler: GetCoreSchemaHandler) -> CoreSchema:
         schema = handler(source)
         _harden(schema, cls)
         return schema
