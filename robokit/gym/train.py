@@ -125,8 +125,8 @@ def progress_callback(path: Path, every: int, t0: float) -> Any:
 
         def write(self) -> None:
             model, self.written = self.model, self.num_timesteps
-            line = progress_line(self.num_timesteps, self.episodes, [e["r"] for e in model.ep_info_buffer],
-                                 list(model.ep_success_buffer), time.perf_counter() - t0)
+            line = progress_line(self.num_timesteps, self.episodes, [e["r"] for e in model.ep_info_buffer or ()],
+                                 list(model.ep_success_buffer or ()), time.perf_counter() - t0)
             if line["success_rate"] is not None:
                 self.logger.record("rollout/success_rate_window", line["success_rate"])
             with path.open("a") as f:
