@@ -188,7 +188,7 @@ class MujocoRenderer:
 
 def make_renderer(scene: Scene, view: View, size: tuple[int, int]) -> Renderer | MujocoRenderer:
     """The renderer of the engine the scene was rebuilt in."""
-    if getattr(scene.world, "engine", "pybullet") == "mujoco":
+    if scene.world.engine == "mujoco":
         return MujocoRenderer(scene, view, size)
     return Renderer(scene, view, size)
 

@@ -21,10 +21,14 @@ if TYPE_CHECKING:
 
 
 class Cameras:
-    """One MuJoCo renderer per image size, made on first use and closed with the world."""
+    """One MuJoCo renderer per image size, made on first use and closed with the world (or its owner).
 
-    def __init__(self) -> None:
+    ``what`` and ``hint`` make the one line said when no OpenGL context can be made."""
+
+    def __init__(self, what: str = "camera",
+                 hint: str = "set MUJOCO_GL=egl (or osmesa) before anything imports mujoco") -> None:
         self.renderers: dict[tuple[int, int], Any] = {}
+        self.what, self.hint = what, hint
 
     def get(self, model: Any, width: int, height: int) -> Any:
         key = (width, height)
@@ -37,8 +41,8 @@ class Cameras:
             try:
                 renderer = self.renderers[key] = mujoco.Renderer(model, height, width)
             except Exception as exc:  # noqa: BLE001 - MuJoCo's FatalError when no OpenGL context can be made
-                raise UserError(f"camera: MuJoCo could not render ({str(exc).splitlines()[0][:120]}); set "
-                                "MUJOCO_GL=egl (or osmesa) before anything imports mujoco") from None
+                raise UserError(f"{self.what}: MuJoCo could not render ({str(exc).splitlines()[0][:120]}); "
+                                f"{self.hint}") from None
         return renderer
 
     def close(self) -> None:
@@ -66,14 +70,28 @@ def _place(renderer: Any, data: Any, view: Sequence[float], projection: Sequence
         cam.orthographic = 0
 
 
-def render(world: MujocoBodies, cameras: Cameras, width: int, height: int, view: Sequence[float],
-           projection: Sequence[float], *, near: float, far: float, segmentation: bool = True) -> RenderedImage:
-    """RGB, depth (m) and segmentation (body ids) of one camera."""
+def _aimed(world: MujocoBodies, cameras: Cameras, width: int, height: int, view: Sequence[float],
+           projection: Sequence[float], near: float, far: float) -> tuple[Any, Any, Any]:
+    """The model, data and a renderer of ``width`` x ``height`` with the scene updated and the camera placed."""
     model, data = world.compiled()
     renderer = cameras.get(model, width, height)
     extent = float(model.stat.extent)
     model.vis.map.znear, model.vis.map.zfar = near / extent, far / extent
     _place(renderer, data, view, projection, near, far)
+    return model, data, renderer
+
+
+def colour(world: MujocoBodies, cameras: Cameras, width: int, height: int, view: Sequence[float],
+           projection: Sequence[float], *, near: float, far: float) -> np.ndarray:
+    """RGB only (height, width, 3), uint8: what a video frame needs."""
+    _, _, renderer = _aimed(world, cameras, width, height, view, projection, near, far)
+    return renderer.render().copy()  # type: ignore[no-any-return]
+
+
+def render(world: MujocoBodies, cameras: Cameras, width: int, height: int, view: Sequence[float],
+           projection: Sequence[float], *, near: float, far: float, segmentation: bool = True) -> RenderedImage:
+    """RGB, depth (m) and segmentation (body ids) of one camera."""
+    model, data, renderer = _aimed(world, cameras, width, height, view, projection, near, far)
     rgb = renderer.render().copy()
     renderer.enable_depth_rendering()
     _place(renderer, data, view, projection, near, far)

@@ -14,8 +14,7 @@ from typing import Any
 import numpy as np
 
 from robokit.engines.mujoco.gl import mujoco
-from robokit.engines.mujoco.render import _place
-from robokit.errors import UserError
+from robokit.engines.mujoco.render import Cameras, colour
 
 NEAR, FAR = 0.02, 50.0
 """Near and far planes (m), as the PyBullet video's."""
@@ -32,39 +31,20 @@ def problem() -> str | None:
 
 
 class SceneRenderer:
-    """Draws one rebuilt MuJoCo world through one camera at one size; a recompiled model gets a new renderer.
+    """Draws one rebuilt MuJoCo world through one camera at one size (the camera sensors' renderer cache: a
+    recompiled model gets a new renderer).
 
     ``view_matrix`` and ``projection`` are OpenGL's (16 floats, column-major), as the PyBullet renderer's.
     """
 
     def __init__(self, world: Any, view_matrix: Any, projection: Any, size: tuple[int, int]) -> None:
         self.world, self.view_matrix, self.projection, self.size = world, view_matrix, projection, size
-        self.renderer: Any = None
-
-    def _for(self, model: Any) -> Any:
-        if self.renderer is not None and self.renderer.model is model:
-            return self.renderer
-        self.close()
-        w, h = self.size
-        model.vis.global_.offwidth = max(model.vis.global_.offwidth, w)
-        model.vis.global_.offheight = max(model.vis.global_.offheight, h)
-        try:
-            self.renderer = mujoco.Renderer(model, h, w)
-        except Exception as exc:  # noqa: BLE001 - MuJoCo's FatalError when no OpenGL context can be made
-            raise UserError(f"video: MuJoCo cannot render here ({str(exc).splitlines()[0][:120]}); draw it with "
-                            "--renderer pybullet, or set MUJOCO_GL=egl (or osmesa)") from None
-        return self.renderer
+        self.cameras = Cameras("video", "draw it with --renderer pybullet, or set MUJOCO_GL=egl (or osmesa)")
 
     def render(self) -> np.ndarray:
         """The world as posed now, RGB (height, width, 3) uint8."""
-        model, data = self.world.compiled()
-        renderer = self._for(model)
-        extent = float(model.stat.extent)
-        model.vis.map.znear, model.vis.map.zfar = NEAR / extent, FAR / extent
-        _place(renderer, data, self.view_matrix, self.projection, NEAR, FAR)
-        return np.array(renderer.render(), dtype=np.uint8)
+        w, h = self.size
+        return colour(self.world, self.cameras, w, h, self.view_matrix, self.projection, near=NEAR, far=FAR)
 
     def close(self) -> None:
-        if self.renderer is not None:
-            self.renderer.close()
-            self.renderer = None
+        self.cameras.close()
