@@ -26,6 +26,9 @@ checkout is never touched, so you can keep working while it runs.
     python benchmarks/mutation.py --rev HEAD~3                     # score an older tree (e.g. before new tests)
     python benchmarks/mutation.py --files plugins/pid.py --tests tests/test_pins_pid.py   # quick: one test file
     python benchmarks/mutation.py --check                          # each snippet still matches its file?
+    python benchmarks/mutation.py --corpus sample.toml --map benchmarks/mutants/corpus.toml --then-all
+                        # a sample written by someone else, judged like an outside sample: the file's tests, then
+                        # the whole default tier for what they miss
     python benchmarks/mutation.py --ast --files behaviours/sort.py --per-file 20 --seed 1
 
 The table gives two scores per area: **before** counts kills by the older tests only, **after** by every test; the
@@ -58,7 +61,7 @@ import tomllib
 
 ROOT = Path(__file__).resolve().parents[1]
 CORPUS = ROOT / "benchmarks" / "mutants" / "corpus.toml"
-AREAS = ("core", "config", "plugins", "behaviours", "record", "sweep", "server", "gym", "report")
+AREAS = ("core", "config", "plugins", "behaviours", "record", "sweep", "server", "gym", "report", "engines")
 STATUSES = ("killed", "timeout", "survived", "stale", "no-tests")
 PYTEST = ["-x", "-q", "-p", "no:randomly", "-p", "no:cacheprovider", "-n", "0"]
 
@@ -77,10 +80,29 @@ class Mutant:
     tests: tuple[str, ...] = field(default=())
 
 
-def load_corpus(path: Path = CORPUS) -> list[Mutant]:
-    """The corpus' mutants, each with its file's tests (the mutant's own ``tests`` key overrides them)."""
+def tests_naming(file: str, limit: int = 8) -> tuple[str, ...]:
+    """Test files whose text names ``file``'s module by its import path (``robokit.record.export``,
+    ``robokit_plugins.gripper``), the ones naming it most first: the map for a file the corpus does not cover."""
+    stem = file[:-3].replace("/", ".").removesuffix(".__init__")
+    if stem.startswith(("plugins.", "behaviours.")):
+        stem = "robokit_" + stem
+    texts = {f"tests/{t.name}": t.read_text(encoding="utf-8") for t in sorted((ROOT / "tests").glob("test_*.py"))}
+    while stem.count(".") >= 1:  # the module, else its package (robokit.engines.pybullet), ...
+        counts = sorted((-text.count(stem), name) for name, text in texts.items() if stem in text)
+        if counts:
+            return tuple(name for _, name in counts[:limit])
+        stem = stem.rsplit(".", 1)[0]
+    return ("tests",)  # named nowhere: the whole default tier
+
+
+def load_corpus(path: Path = CORPUS, map_path: Path | None = None) -> list[Mutant]:
+    """The corpus' mutants, each with its file's tests (the mutant's own ``tests`` key overrides them). With
+    ``map_path``, the file map is read from that toml instead (a sample written without the corpus), and a file it
+    does not map gets the test files that name its module (``tests_naming``)."""
     data = tomllib.loads(path.read_text(encoding="utf-8"))
     files = data.get("files", {})
+    if map_path is not None:
+        files = {**tomllib.loads(map_path.read_text(encoding="utf-8")).get("files", {}), **files}
     out = []
     for m in data["mutant"]:
         spec = files.get(m["file"], {})
@@ -88,6 +110,8 @@ def load_corpus(path: Path = CORPUS) -> list[Mutant]:
         if area not in AREAS:
             raise SystemExit(f"{path}: mutant {m['id']}: area {area!r} is not one of {', '.join(AREAS)}")
         tests = tuple(m.get("tests") or spec.get("tests") or ())
+        if not tests and map_path is not None:
+            tests = tests_naming(m["file"])
         if not tests:
             raise SystemExit(f"{path}: mutant {m['id']}: no tests for {m['file']} ([files.\"{m['file']}\"] tests)")
         out.append(Mutant(m["id"], m["file"], area, m["original"], m["replacement"], m.get("breaks", ""), tests))
@@ -166,8 +190,9 @@ def run_tests(tree: Path, tests: tuple[str, ...], timeout: float, new: str = "te
     return "killed", took, tail
 
 
-def run_mutant(tree: Path, m: Mutant, timeout: float) -> tuple[str, float, str]:  # noqa: D103
-    """Plant ``m`` in ``tree``, run its tests, restore the file."""
+def run_mutant(tree: Path, m: Mutant, timeout: float, then_all: bool = False) -> tuple[str, float, str]:
+    """Plant ``m`` in ``tree``, run its tests (and, with ``then_all``, the whole default tier when they pass),
+    restore the file."""
     path = tree / m.file
     if not path.exists():
         return "stale", 0.0, f"{m.file} does not exist"
@@ -177,7 +202,12 @@ def run_mutant(tree: Path, m: Mutant, timeout: float) -> tuple[str, float, str]:
         return "stale", 0.0, f"original snippet found {original.decode('utf-8').count(m.original)} times"
     try:
         path.write_text(mutated, encoding="utf-8")
-        return run_tests(tree, m.tests, timeout)
+        status, took, tail = run_tests(tree, m.tests, timeout)
+        if then_all and status in ("survived", "no-tests"):
+            status, more, tail = run_tests(tree, ("tests",), timeout * 4)
+            took += more
+            tail = tail if status == "survived" else f"{tail} (whole tier)"
+        return status, took, tail
     finally:
         path.write_bytes(original)
 
@@ -239,7 +269,7 @@ def select(corpus: list[Mutant], args: argparse.Namespace) -> list[Mutant]:
 
 
 def run_corpus(args: argparse.Namespace) -> int:
-    corpus = load_corpus(Path(args.corpus))
+    corpus = load_corpus(Path(args.corpus), Path(args.map) if args.map else None)
     chosen = select(corpus, args)
     if args.list or args.check:
         bad = 0
@@ -271,7 +301,7 @@ def run_corpus(args: argparse.Namespace) -> int:
                     dest = tree / src.relative_to(args.sync)
                     dest.parent.mkdir(parents=True, exist_ok=True)
                     shutil.copy2(src, dest)
-            status, took, tail = run_mutant(tree, m, args.timeout)
+            status, took, tail = run_mutant(tree, m, args.timeout, args.then_all)
             who = tail if status in ("killed", "timeout") else ""
             line = f"{k:3d}/{len(chosen)} {status:8s} {m.id} {m.area} {m.file} {took:6.1f}s [{who}] -- {m.breaks}"
             with lock:
@@ -438,6 +468,10 @@ def run_ast(args: argparse.Namespace) -> int:
 def main() -> int:
     parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     parser.add_argument("--corpus", default=str(CORPUS))
+    parser.add_argument("--map", help="read the file -> tests map from this toml (e.g. the corpus) for a sample "
+                        "written without one; files it lacks get the tests naming their module")
+    parser.add_argument("--then-all", action="store_true",
+                        help="a mutant its file's tests miss then runs against the whole default tier")
     parser.add_argument("--area", nargs="*", choices=AREAS, help="only these areas")
     parser.add_argument("--ids", nargs="*", help="only these mutant ids")
     parser.add_argument("--files", nargs="*", help="only mutants of these files (with --ast: the files to sample)")
