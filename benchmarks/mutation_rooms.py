@@ -117,7 +117,7 @@ ROOMS: dict[str, tuple[list[str], list[str]]] = {
                   "tests/test_prop_record_samples.py"]),
     "sweep_engine": (["robokit/sweep/engine.py", "robokit/sweep/progress.py"],
                      ["tests/test_prop_sweep_resume.py", "tests/test_prop_sweep_spec.py", "tests/test_pins_sweep.py",
-                      "tests/test_lost_sweep_summary.py"]),
+                      "tests/test_lost_sweep_summary.py", "tests/test_prop_sweep_progress.py"]),
     "replay": (["robokit/record/replay.py", "robokit/record/scene.py"],
                ["tests/test_prop_replay_state.py", "tests/test_replay_model.py", "tests/test_prop_export.py",
                 "tests/test_prop_replay_frames.py", "tests/test_prop_record_runs.py"]),
