@@ -1,0 +1,314 @@
+"""Every route of the course server against the roles a school has beyond a class's own teacher and students.
+
+An administrator (a superuser: "sees every class"), a teacher who owns no class yet, a logged-in account that is not
+staff, a deactivated teacher, a student enrolled in two classes (a token for each: the browser's session opened with
+one, the terminal holding the other), a revoked token. The routes come from the URL configuration, so a route
+added tomorrow is asked by these tests the day it is added.
+
+The expected answer is not a table of role -> status but a plain second computation from the facts a role carries
+(who is logged in and whether the account is active, staff or superuser, which classes it owns; which student's
+token opened the browser's session; which token the ``Authorization`` header carries), written from docs/server.md:
+teacher pages open for a logged-in account owning the class (a superuser owns every class), 404 for another, the
+login page for nobody logged in; a run and its files are the teacher's and the student's who posted it (the
+student by the session, a page never by a token); the API goes by the token alone, and a teacher token is a
+class's, whoever holds it.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from typing import Any
+
+import pytest
+from course_helpers import robokit_payload, tiny_png
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+pytest_plugins = ["course_fixtures"]
+
+LOGIN = "login"  # a redirect to the teacher's login page
+ADMIN_LOGIN = "admin-login"  # a redirect to the admin's login page
+TEACHER_PAGES = ("classroom", "leaderboard", "history", "export-csv", "assignment", "assignment-chart", "dashboard",
+                 "student-chart", "moderation", "moderate", "submission", "reevaluate", "grades-csv", "grades-xlsx")
+PAST_THE_DOOR = {"moderate": 400, "reevaluate": 400}  # a POST without its reason: the owner is told what is missing
+
+
+@dataclass(frozen=True)
+class User:
+    owns: frozenset[str] = frozenset()  # class keys
+    staff: bool = True
+    superuser: bool = False
+
+
+@dataclass(frozen=True)
+class Tok:
+    classroom: str  # class key
+    student: str | None = None  # student key; None: a teacher token
+    revoked: bool = False
+
+
+# the world's facts: two classes, their people, the tokens; the objects asked for are all class A's: 김민준's
+# verified run with a file, his submission to A's assignment
+USERS = {"teacher": User(frozenset({"A"})), "other_teacher": User(frozenset({"B"})),
+         "admin": User(superuser=True), "idle_teacher": User(), "plain": User(staff=False)}
+STUDENTS = {"kim": "A", "lee": "A", "park": "B", "kim_b": "B"}  # kim_b: 김민준 enrolled in class B too
+TOKENS = {**{s: Tok(c, s) for s, c in STUDENTS.items()}, "park_old": Tok("B", "park", revoked=True),
+          "teacher_A": Tok("A"), "teacher_B": Tok("B"), "admin_B": Tok("B")}
+OWNER, CLASS = "kim", "A"  # whose run and submission the URLs name, and their class
+
+
+@dataclass(frozen=True)
+class Who:
+    login: str | None = None  # a key of USERS
+    session: str | None = None  # the student whose token opened /me/ in this browser
+    token: str | None = None  # the token sent as Authorization
+    inactive: bool = False  # the logged-in account was deactivated since it logged in
+    label: str = field(default="", compare=False)
+
+
+def expected(route: str, who: Who) -> Any:
+    """What ``who`` gets from ``route`` (a status code, LOGIN or ADMIN_LOGIN), from docs/server.md's rules."""
+    user = USERS[who.login] if who.login is not None and not who.inactive else None  # a deactivated login is none
+    owns_class = user is not None and (user.superuser or CLASS in user.owns)
+    tok = TOKENS[who.token] if who.token is not None else None
+    if route in ("login", "me", "replay-viewer", "replay-script"):
+        return 200
+    if route in ("logout", "me-logout"):
+        return 302
+    if route == "home":  # a student's session (and nobody logged in) goes on to /me/
+        return 302 if user is None and who.session is not None else 200
+    if route == "admin":
+        return 200 if user is not None and user.staff else ADMIN_LOGIN
+    if route == "my-training-chart":
+        return 200 if who.session is not None else 404
+    if route in TEACHER_PAGES:
+        if user is None:
+            return LOGIN
+        return PAST_THE_DOOR.get(route, 200) if owns_class else 404
+    if route in ("run", "artifact"):
+        if owns_class or who.session == OWNER:
+            return 200
+        return LOGIN if route == "run" and user is None and who.session is None else 404
+    # the API: the token alone
+    assert route.startswith("api-"), f"route {route!r} has no rule in this test: add it to expected()"
+    if tok is not None and tok.revoked:
+        return 401
+    if route == "api-submission":  # its student's token, or a teacher token of its class
+        mine = tok is not None and (tok.student == OWNER or (tok.student is None and tok.classroom == CLASS))
+        return 200 if mine else 404
+    if route == "api-result":  # the run id posted again: its owner gets the first record back
+        return 200 if tok is not None and tok.student == OWNER else 409
+    if route == "api-artifacts":  # the run's owner or a teacher token of its class
+        if tok is None:
+            return 401
+        if tok.classroom != CLASS:
+            return 403
+        return 201 if tok.student in (None, OWNER) else 403
+    if route in ("api-submit", "api-training"):  # a student's token; an empty post is told what is missing
+        if tok is None:
+            return 401
+        if tok.student is None:
+            return 403
+        if route == "api-submit" and tok.classroom != CLASS:
+            return 404  # their class has no assignment of that name
+        return 400
+    raise AssertionError(f"route {route!r} has no rule in this test: add it to expected()")
+
+
+def routes() -> list[tuple[str, str]]:
+    """(name, pattern) of every route of the URL configuration; an include (the admin) by its namespace."""
+    from django.urls import get_resolver
+    from django.urls.resolvers import URLPattern, URLResolver
+
+    out = []
+    for p in get_resolver().url_patterns:
+        if isinstance(p, URLPattern):
+            out.append((str(p.name), str(p.pattern)))
+        elif isinstance(p, URLResolver):
+            out.append((p.namespace or str(p.pattern), str(p.pattern)))
+    return out
+
+
+METHOD = {"logout": "POST", "me-logout": "POST", "moderate": "POST", "reevaluate": "POST", "api-result": "POST",
+          "api-artifacts": "POST", "api-submit": "POST", "api-training": "POST"}
+
+
+@pytest.fixture
+def world(course: Any, settings: Any, tmp_path: Any, client: Any) -> dict[str, Any]:
+    """Class A (the course's) with 김민준's run, its file and his submission; class B of another teacher with 박지호
+    and 김민준 enrolled again; an administrator, a teacher of no class, an account that is not staff."""
+    from course_work import OFFICIAL, make_assignment
+    from django.contrib.auth import get_user_model
+    from django.urls import reverse
+
+    from robokit.server import tokens
+    from robokit.server.models import Classroom, Project, Student, Submission
+
+    settings.MEDIA_ROOT = tmp_path / "media"
+    make = get_user_model().objects.create_user
+    users = {"teacher": course.teacher, "other_teacher": make("other-teacher", password="x", is_staff=True),
+             "admin": make("admin", password="x", is_staff=True, is_superuser=True),
+             "idle_teacher": make("new-teacher", password="x", is_staff=True), "plain": make("plain", password="x")}
+    room_b = Classroom.objects.create(name="2반", owner=users["other_teacher"])
+    park = Student.objects.create(classroom=room_b, name="박지호")
+    kim_b = Student.objects.create(classroom=room_b, name="김민준")
+    park_old = tokens.issue_student_token(park)
+    raw = {"kim": course.kim_token, "lee": course.lee_token, "park": tokens.issue_student_token(park),
+           "park_old": park_old, "kim_b": tokens.issue_student_token(kim_b), "teacher_A": course.teacher_token,
+           "teacher_B": tokens.issue_teacher_token(room_b, users["other_teacher"]),
+           "admin_B": tokens.issue_teacher_token(room_b, users["admin"])}
+    payload = robokit_payload(7)
+    posted = client.post("/api/robotics/result/", data=json.dumps(payload), content_type="application/json",
+                         HTTP_AUTHORIZATION=f"Bearer {course.kim_token}")
+    assert posted.status_code == 201, posted.content
+    up = client.post(f"/api/robotics/result/{payload['run_id']}/artifacts/",
+                     data={"f": _upload("plot.png", tiny_png())}, HTTP_AUTHORIZATION=f"Bearer {course.kim_token}")
+    assert up.status_code == 201, up.content
+    artifact = up.json()["artifacts"][0]
+    assignment = make_assignment(course.room)
+    sub = Submission.objects.create(assignment=assignment, student=course.kim, config_text=OFFICIAL)
+    project = Project.objects.get(classroom=course.room, name="A")
+    values = {"pk": course.room.pk, "project_pk": project.pk, "student_pk": course.kim.pk, "spk": course.kim.pk,
+              "apk": assignment.pk, "run_id": payload["run_id"], "name": assignment.name}
+    by_route = {"artifact": {"pk": int(artifact["url"].split("/")[2]), "name": artifact["name"]},
+                "submission": {"pk": sub.pk}, "reevaluate": {"pk": sub.pk}, "api-submission": {"pk": sub.pk},
+                "assignment-chart": {"kind": "reasons"}, "student-chart": {"kind": "weekly"}}
+    from django.urls.resolvers import RoutePattern
+
+    urls = {}
+    for name, pattern in routes():
+        if name == "admin":
+            urls[name] = "/admin/"
+            continue
+        params = RoutePattern(pattern).converters.keys()
+        given_ = {**values, **by_route.get(name, {})}
+        missing = [p for p in params if p not in given_]
+        assert not missing, f"route {name!r} ({pattern}) takes {missing}: give this test a value for them"
+        urls[name] = reverse(name, kwargs={p: given_[p] for p in params})
+    assert set(METHOD) <= set(urls), f"METHOD names routes the server no longer has: {set(METHOD) - set(urls)}"
+    return {"users": users, "tokens": raw, "payload": payload, "urls": urls, "uploads": [0]}
+
+
+def _upload(name: str, content: bytes) -> Any:
+    from django.core.files.uploadedfile import SimpleUploadedFile
+
+    return SimpleUploadedFile(name, content)
+
+
+def _client(who: Who, world: dict[str, Any]) -> Any:
+    from django.test import Client
+
+    c = Client()
+    if who.session is not None:
+        opened = c.post("/me/", {"token": world["tokens"][who.session]})
+        assert opened.status_code == 302, (who, opened.status_code)
+    if who.login is not None:
+        c.force_login(world["users"][who.login])
+    return c
+
+
+def _ask(c: Any, who: Who, name: str, world: dict[str, Any]) -> Any:
+    url = world["urls"][name]
+    token = world["tokens"][who.token] if who.token is not None else None
+    headers = {"HTTP_AUTHORIZATION": f"Bearer {token}"} if token else {}
+    method = METHOD.get(name, "GET")
+    if method == "GET":
+        resp = c.get(url, **headers)
+    elif name == "api-result":
+        resp = c.post(url, data=json.dumps(world["payload"]), content_type="application/json", **headers)
+    elif name == "api-artifacts":  # bytes no other request sent, so an upload that gets in stores a new file
+        world["uploads"][0] += 1
+        n = world["uploads"][0]
+        resp = c.post(url, data={"f": _upload(f"u{n}.png", tiny_png(width=2 + n))}, **headers)
+    elif name.startswith("api-"):
+        resp = c.post(url, data="{}", content_type="application/json", **headers)
+    else:
+        resp = c.post(url, {}, **headers)
+    if resp.status_code == 302 and resp["Location"].startswith("/accounts/login/"):
+        return LOGIN
+    if resp.status_code == 302 and resp["Location"].startswith("/admin/login/"):
+        return ADMIN_LOGIN
+    return resp.status_code
+
+
+def _deactivate(who: Who, world: dict[str, Any], inactive: bool) -> None:
+    if who.login is not None:
+        user = world["users"][who.login]
+        user.is_active = not inactive
+        user.save(update_fields=["is_active"])
+
+
+def _wrong(who: Who, world: dict[str, Any]) -> list[str]:
+    """Every route asked by ``who`` (the session-ending ones last), each answer against :func:`expected`."""
+    c = _client(who, world)
+    _deactivate(who, world, who.inactive)
+    try:
+        names = [n for n, _ in routes() if n not in ("logout", "me-logout")] + ["me-logout", "logout"]
+        wrong = []
+        for name in names:
+            got, want = _ask(c, who, name, world), expected(name, who)
+            if got != want:
+                wrong.append(f"{who.label or who}: {name} answered {got}, expected {want}")
+        return wrong
+    finally:
+        _deactivate(who, world, False)
+
+
+ROLES = [
+    Who(login="admin", token="admin_B", label="an administrator (superuser) holding a teacher token of class B"),
+    Who(login="idle_teacher", label="a teacher who owns no class"),
+    Who(login="plain", label="a logged-in account that is not staff"),
+    Who(session="kim_b", token="kim_b", label="김민준 signed in with his class-B token"),
+    Who(session="kim", token="kim_b", label="김민준's class-A session, his class-B token in the terminal"),
+    Who(session="kim_b", token="kim", label="김민준's class-B session, his class-A token in the terminal"),
+    Who(login="teacher", token="teacher_A", inactive=True, label="the class's teacher, deactivated"),
+    Who(session="park", token="park_old", label="박지호 with his revoked token"),
+]
+
+
+@pytest.mark.parametrize("who", ROLES, ids=[w.label for w in ROLES])
+def test_every_route_answers_each_role_as_the_rules_compute(world: dict[str, Any], who: Who) -> None:
+    unruled = [n for n, _ in routes() if n != "admin" and n not in METHOD and n not in TEACHER_PAGES
+               and n not in ("home", "login", "me", "replay-viewer", "replay-script", "my-training-chart",
+                             "run", "artifact", "api-submission")]
+    assert not unruled, f"routes with no rule in this test: {unruled} (add each to expected())"
+    wrong = _wrong(who, world)
+    assert not wrong, "\n".join(wrong)
+
+
+def test_an_administrator_sees_every_class_on_the_home_page_and_a_teacher_of_none_sees_none(
+        world: dict[str, Any]) -> None:
+    """The home page lists the classes a login may open: every class for a superuser, its own for a teacher,
+    none for a teacher of no class -- the same classes whose pages answer 200."""
+    from django.urls import reverse
+
+    from robokit.server.models import Classroom
+
+    rooms = {c.name: c.pk for c in Classroom.objects.all()}
+    for login, sees in (("admin", {"1반", "2반"}), ("teacher", {"1반"}), ("other_teacher", {"2반"}),
+                        ("idle_teacher", set())):
+        c = _client(Who(login=login), world)
+        page = c.get("/").content.decode()
+        listed = {name for name in rooms if reverse("classroom", kwargs={"pk": rooms[name]}) in page}
+        assert listed == sees, (login, listed)
+        opens = {name for name, pk in rooms.items()
+                 if c.get(reverse("classroom", kwargs={"pk": pk})).status_code == 200}
+        assert opens == sees, (login, opens)
+
+
+def _who() -> Any:
+    return st.builds(Who, login=st.none() | st.sampled_from(sorted(USERS)),
+                     session=st.none() | st.sampled_from(sorted(STUDENTS)),
+                     token=st.none() | st.sampled_from(sorted(TOKENS)), inactive=st.booleans())
+
+
+@pytest.mark.slow
+@settings(max_examples=60, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@given(who=_who())
+def test_any_mix_of_login_session_and_token_gets_what_the_rules_compute(world: dict[str, Any], who: Who) -> None:
+    """A browser holding any login (active or deactivated), any student's session and any token at once: every
+    route answers what the rules compute from those facts -- no credential opens more than its own rule."""
+    wrong = _wrong(who, world)
+    assert not wrong, "\n".join(wrong)
