@@ -224,7 +224,7 @@ def test_a_plugin_may_register_a_light_schema() -> None:
         "missing body": ({"body": None}, "sensors.b.body: input should be a valid string, got None"),
         "cross-field": ({"mode": "far"}, "sensors.b: mode 'far' needs range >= 10, got 2.0"),
         "unknown key": ({"rnage": 5}, "sensors.b.rnage: unknown key 'rnage' (did you mean 'range'?); valid keys: "
-                                      "body, gains, mode, offsets, range"),
+                                      "body, gains, mode, offsets, range, rate_hz, type"),
         "variadic tuple": ({"offsets": [1, "a"]}, "sensors.b.offsets.1: input should be a valid number, got 'a'"),
     }
     for name, (change, expected) in cases.items():

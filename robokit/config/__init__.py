@@ -377,6 +377,11 @@ def validate_model(model: type, data: Any, key: str) -> Any:
     (only the latter imports pydantic); raise a one-line ConfigError placed at ``key``."""
     if not isinstance(data, Mapping):
         raise ConfigError(f"expected a table, got {_describe(data)}", key=key)
+    misspelt = _misspelt_required(model, data)
+    if misspelt is not None:  # `secnds = 2` for a required `seconds`: the typo, not "seconds: field required"
+        fields = field_names(model)
+        raise ConfigError(f"unknown key {misspelt!r}{did_you_mean(misspelt, fields)}; valid keys: "
+                          f"{', '.join(sorted(fields))}", key=f"{key}.{misspelt}")
     if isinstance(model, type) and issubclass(model, Section):
         try:
             return model.validate(data)
@@ -385,6 +390,19 @@ def validate_model(model: type, data: Any, key: str) -> Any:
     from robokit.config.schema import validate_pydantic
 
     return validate_pydantic(model, data, key)  # type: ignore[arg-type]
+
+
+def _misspelt_required(model: Any, data: Mapping[str, Any]) -> str | None:
+    """A key of ``data`` the schema does not take that is close to a required key ``data`` lacks (None if none)."""
+    if getattr(model, "ignore_unknown", False):
+        return None
+    fields = field_names(model)
+    if isinstance(model, type) and issubclass(model, Section):
+        required = [f for f in fields if model._fields[f].required and f not in data]
+    else:
+        required = [f for f, info in getattr(model, "model_fields", {}).items()
+                    if info.is_required() and f not in data]
+    return next((k for k in data if k not in fields and required and did_you_mean(str(k), required)), None)
 
 
 def _table(raw: Mapping[str, Any], name: str) -> Mapping[str, Any]:
@@ -409,7 +427,11 @@ def _rate(value: Any, key: str, physics_hz: float) -> float | None:
     return float(value)
 
 
-def _component(kind: str, name: str, data: Any, key: str, plugins: Any, physics_hz: float) -> ComponentSpec:
+def _component(kind: str, name: str, data: Any, key: str, plugins: Any, physics_hz: float,
+               section_keys: tuple[str, ...] = _COMPONENT_KEYS) -> ComponentSpec:
+    """A plugin section. ``section_keys``: the keys the section takes besides its type's own (``type``,
+    ``rate_hz``; a composite's child's ``name`` and ``must_last``, a monitor's ``action`` ...), offered with the
+    type's keys when a key is unknown."""
     if not isinstance(data, Mapping):
         raise ConfigError(f"expected a table, got {_describe(data)}", key=key)
     if "type" not in data:
@@ -427,16 +449,30 @@ def _component(kind: str, name: str, data: Any, key: str, plugins: Any, physics_
         if params_raw:
             extra = next(iter(params_raw))
             provided = getattr(ptype, "provided", None)
-            raise ConfigError(f"unknown key {extra!r}; {kind} type {type_name!r} takes no options"
+            raise ConfigError(f"unknown key {extra!r}{did_you_mean(extra, section_keys)}; {kind} type {type_name!r} "
+                              "takes no options"
                               + (provided() if provided else ""), key=key)
         params = None
     else:
         try:
             params = validate_model(ptype.schema, params_raw, key)
         except ConfigError as exc:  # name the distribution of a third-party type: a clash must never hide
+            exc = _offer_section_keys(exc, ptype.schema, params_raw, key, section_keys)
             provided = getattr(ptype, "provided", None)
             raise ConfigError(exc.message + (provided() if provided else ""), key=exc.key, file=exc.file) from None
     return ComponentSpec(kind, name, type_name, rate, params, key)
+
+
+def _offer_section_keys(exc: ConfigError, schema: Any, params: Mapping[str, Any], key: str,
+                        section_keys: tuple[str, ...]) -> ConfigError:
+    """An unknown key of a plugin section said again with the section's own keys among the valid ones (a misspelt
+    ``rate_hz`` or ``must_last`` is suggested as well as the type's keys); any other error as it is."""
+    unknown = exc.key[len(key) + 1:] if exc.key.startswith(f"{key}.") else ""
+    if unknown not in params or not exc.message.startswith("unknown key"):
+        return exc
+    valid = sorted({*field_names(schema), *section_keys})
+    return ConfigError(f"unknown key {unknown!r}{did_you_mean(unknown, valid)}; valid keys: {', '.join(valid)}",
+                       key=exc.key, file=exc.file)
 
 
 def _components(raw: Mapping[str, Any], section: str, kind: str, plugins: Any, physics_hz: float) -> tuple:
@@ -451,6 +487,8 @@ def _reporters(report: Mapping[str, Any], plugins: Any) -> tuple[ComponentSpec, 
     for name, data in report.items():
         if name in _REPORT_KEYS:
             continue
+        if not isinstance(data, Mapping) and name in plugins.types["reporter"]:
+            raise ConfigError(f"expected a table [report.{name}], got {_describe(data)}", key=f"report.{name}")
         if not isinstance(data, Mapping):
             valid = sorted(set(_REPORT_KEYS) | set(plugins.types["reporter"]))
             raise ConfigError(f"unknown key {name!r}{did_you_mean(name, valid)}; valid keys: {', '.join(valid)}",
@@ -634,7 +672,8 @@ def _monitor(name: str, data: Any, plugins: Any, physics_hz: float,
             raise ConfigError(f"unknown recovery {recovery!r}{did_you_mean(recovery, recoveries)}; defined: "
                               f"{', '.join(recoveries) or '(none: add a [recoveries.NAME] section)'}",
                               key=f"{key}.recovery")
-    spec = _component("behaviour", name, own, key, plugins, physics_hz)
+    spec = _component("behaviour", name, own, key, plugins, physics_hz,
+                      (*_COMPONENT_KEYS, "action", "recovery", "watch_recovery"))
     return dataclasses.replace(spec, action=action, recovery=recovery, watch_recovery=watch)
 
 
@@ -649,13 +688,14 @@ def _children_key(type_name: Any, plugins: Any) -> tuple[str, tuple[int, int | N
 
 
 def _behaviour(data: Any, plugins: Any, physics_hz: float, key: str = "behaviour",
-               name: str = "behaviour") -> ComponentSpec:
+               name: str = "behaviour", is_child: bool = False) -> ComponentSpec:
     """A behaviour section; for a composite (``sequence``, ``fallback``, ``retry``, ``timeout``, ``parallel``)
     also its children (``[[behaviour.steps]]``, ``[[behaviour.children]]`` or ``[behaviour.child]``), each
     validated as a behaviour section of its own (with an optional ``name``), composites nesting."""
     found = _children_key(data.get("type"), plugins) if isinstance(data, Mapping) else None
+    section_keys = (*_COMPONENT_KEYS, "name", "must_last") if is_child else _COMPONENT_KEYS
     if found is None:
-        return _component("behaviour", name, data, key, plugins, physics_hz)
+        return _component("behaviour", name, data, key, plugins, physics_hz, section_keys)
     ckey, (least, most) = found
     raw = data.get(ckey)
     single = most == 1 and isinstance(raw, Mapping)
@@ -667,6 +707,11 @@ def _behaviour(data: Any, plugins: Any, physics_hz: float, key: str = "behaviour
         noun = "steps" if ckey == "steps" else ("a child" if most == 1 else "children")
         raise ConfigError(f"a {data.get('type')} needs {noun}: {count} {what}, each with a type",
                           key=f"{key}.{ckey}")
+    for i, step in enumerate(items):
+        given = step.get("name")
+        if "name" in step and (not isinstance(given, str) or not given.strip()):
+            raise ConfigError(f"expected a name (a non-empty string), got {_describe(given)}",
+                              key=f"{key}.{ckey}.name" if single else f"{key}.{ckey}[{i}].name")
     names = step_names(items)
     children = []
     for i, (step, child_name) in enumerate(zip(items, names, strict=True)):
@@ -678,9 +723,10 @@ def _behaviour(data: Any, plugins: Any, physics_hz: float, key: str = "behaviour
         must_last = step.get("must_last", False)
         if not isinstance(must_last, bool):
             raise ConfigError(f"expected true or false, got {_describe(must_last)}", key=f"{child_key}.must_last")
-        child = _behaviour(own, plugins, physics_hz, child_key, child_name)
+        child = _behaviour(own, plugins, physics_hz, child_key, child_name, is_child=True)
         children.append(dataclasses.replace(child, must_last=must_last))
-    spec = _component("behaviour", name, {k: v for k, v in data.items() if k != ckey}, key, plugins, physics_hz)
+    spec = _component("behaviour", name, {k: v for k, v in data.items() if k != ckey}, key, plugins, physics_hz,
+                      (*section_keys, ckey))
     return dataclasses.replace(spec, children=tuple(children))
 
 
