@@ -89,6 +89,7 @@ class MujocoBodies(MujocoExtras, World):
         self._static: set[str] = set()
         self._bid: dict[int, list[int]] = {}  # robokit id -> MuJoCo body ids of base, link 0, link 1 ...
         self._owner: dict[int, tuple[int, int]] = {}  # MuJoCo body id -> (robokit id, link)
+        self._inertial = np.zeros((0, 4))  # per MuJoCo body: its centre-of-mass frame in its body frame (w, x, y, z)
 
     # ----------------------------------------------------------------- stepping and compiling
     @property
@@ -150,6 +151,7 @@ class MujocoBodies(MujocoExtras, World):
         self._bid = {rid: [m.body(root).id] + [m.body(f"{self._name(rid)}/{link}").id for link in self._links[rid]]
                      for rid, root in self._root.items()}
         self._owner = {bid: (rid, i - 1) for rid, ids in self._bid.items() for i, bid in enumerate(ids)}
+        self._inertial = self._inertial_frames(m)
         self.scene.apply_damping(m)
         self.scene.grips.compiled(m)
         self.scene.grips.hold_again(m, self.data, holds)  # what the fingers held, they hold in the new model
@@ -167,6 +169,20 @@ class MujocoBodies(MujocoExtras, World):
         """MuJoCo's viewer needs a display as PyBullet's window does (see
         :func:`~robokit.engines.interface.display_problem`)."""
         return display_problem()
+
+    def _inertial_frames(self, m: Any) -> np.ndarray:
+        """Per MuJoCo body, the orientation ``(w, x, y, z)`` of its centre-of-mass frame in its body frame as the
+        model file defines it (a URDF's ``<inertial><origin rpy>``, as PyBullet takes it). MuJoCo's compiler keeps
+        only the principal axes of the inertia (``body_iquat``), whose order and signs follow the eigenvalues: a
+        URDF link with a diagonal inertia in its link frame could come out turned by a quarter or a half turn."""
+        frames = np.array(m.body_iquat, dtype=float)
+        spec = self.scene.spec
+        for bid in range(1, m.nbody):
+            given = spec.body(m.body(bid).name)
+            if given is not None and not np.isnan(given.fullinertia[0]):
+                q = np.asarray(given.iquat, dtype=float)
+                frames[bid] = q / np.linalg.norm(q)
+        return frames
 
     def _after_compile(self, model: Any) -> None:
         """What a subclass puts back into a freshly compiled model (nothing here)."""
@@ -372,16 +388,17 @@ class MujocoBodies(MujocoExtras, World):
         return _vec(self.data.xpos[bid]), _xyzw(self.data.xquat[bid])
 
     def com_pose(self, body: str | int, link: int = -1) -> Pose:
-        """Centre-of-mass (inertial) frame pose, world frame."""
+        """Centre-of-mass (inertial) frame pose, world frame: the model file's inertial frame (see
+        :meth:`_inertial_frames`), not MuJoCo's principal axes."""
         bid = self._mj(body, link)
         quat = np.zeros(4)
-        mujoco.mju_mat2Quat(quat, self.data.ximat[bid])
+        mujoco.mju_mulQuat(quat, self.data.xquat[bid], self._inertial[bid])
         return _vec(self.data.xipos[bid]), _xyzw(quat)
 
     def link_offset(self, body: str | int) -> Pose | None:
         """The base's link frame seen from its centre of mass, or None when they coincide."""
         bid = self._mj(body)
-        ipos, iquat = self.model.body_ipos[bid], self.model.body_iquat[bid]
+        ipos, iquat = self.model.body_ipos[bid], self._inertial[bid]
         if np.abs(ipos).max() < 1e-12 and abs(abs(iquat[0]) - 1.0) < 1e-12:
             return None
         from robokit.engines.mujoco.spatial import invert

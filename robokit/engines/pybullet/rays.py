@@ -16,6 +16,10 @@ convex primitives (PyBullet's ray test against a convex box, cylinder or sphere 
 ~1 cm for cylinders and spheres: numpy would be *more* exact, hence different), URDF meshes, anything with joints.
 A static mesh box is checked once with PyBullet (a probe ray must hit it: its collision group is not masked out)
 and its pose re-read at each cast (a body moved by ``resetBasePositionAndOrientation`` is followed).
+
+A triangle mesh has no inside: PyBullet answers a ray that starts inside a mesh box with the face it leaves by.
+By the World's rule (:class:`~robokit.engines.interface.RayCaster`) that face is no hit: such a ray is cast on from
+just beyond it (the answer was the nearest surface, so nothing lies before it) until it enters a surface.
 """
 
 from __future__ import annotations
@@ -36,6 +40,12 @@ _TINY = 1e-300
 """Added to ray components in box frames: 0 becomes it, any component above ~1e-284 is unchanged."""
 AABB_PAD = 1e-3
 """m added around PyBullet's bounding boxes before testing rays against them (they already include its margins)."""
+NUDGE = 1e-7
+"""How far (m) beyond a mesh box's face a ray that started inside the box is cast on."""
+MAX_PASSES = 8
+"""Mesh boxes one ray may start inside of, one after the other, before it counts as a miss."""
+INSIDE = 1e-9
+"""m within a mesh box's faces a point must lie to be inside it (a start on a face is outside)."""
 
 
 class PyBulletRayCaster:
@@ -202,6 +212,8 @@ class PyBulletRayCaster:
         if len(idx):
             results = self.client.rayTestBatch(starts[idx], ends[idx], numThreads=self.num_threads,
                                                collisionFilterMask=self.mask)
+            if self.world.mesh_boxes:
+                results = self._beyond_mesh_exits(starts[idx], ends[idx], results)
             m = len(results)
             body[idx] = np.fromiter((r[0] for r in results), dtype=int, count=m)
             frac[idx] = np.fromiter((r[2] for r in results), dtype=float, count=m)
@@ -246,13 +258,59 @@ class PyBulletRayCaster:
         if len(idx):
             results = self.client.rayTestBatch(s_t.T[idx], ends.T[idx], numThreads=self.num_threads,
                                                collisionFilterMask=self.mask)
+            if self.world.mesh_boxes:
+                results = self._beyond_mesh_exits(s_t.T[idx], ends.T[idx], results)
             for k, r in zip(idx.tolist(), results, strict=True):  # (a few rays: plain Python)
                 if r[0] != ignore:
                     body[k] = r[0]
-                frac[k] = r[2]
+                    frac[k] = r[2]
+        if ignore in self._boxes:  # a mesh box intersected here counts as none too
+            frac[body == ignore] = 1.0
+            body[body == ignore] = -1
         self.rays_cast += len(idx)
         self.rays_total += n
         return body, frac
+
+    def _beyond_mesh_exits(self, starts: np.ndarray, ends: np.ndarray, results: Any) -> Any:
+        """``rayTestBatch``'s ``results`` for the segments ``starts[k] -> ends[k]`` ((n, 3)), each answer that is
+        the face of a mesh box the segment starts inside (the face it leaves by) replaced by what the segment
+        enters beyond it (see the module doc)."""
+        boxes = self.world.mesh_boxes
+        frames: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+
+        def inside(body: int, point: np.ndarray) -> bool:
+            if body not in boxes:
+                return False
+            if body not in frames:
+                pos, orn = self.client.getBasePositionAndOrientation(body)
+                rot = np.asarray(self.client.getMatrixFromQuaternion(orn), float).reshape(3, 3)
+                frames[body] = (np.asarray(pos, float), rot, np.asarray(boxes[body], float) - INSIDE)
+            pos, rot, half = frames[body]
+            return bool((np.abs((point - pos) @ rot) < half).all())
+
+        out = None
+        for k, r in enumerate(results):
+            if r[0] not in boxes or not inside(r[0], starts[k]):
+                continue
+            out = list(results) if out is None else out
+            start, end = starts[k], ends[k]
+            vec = end - start
+            nudge = NUDGE / float(np.sqrt(vec @ vec))
+            origin, hit = 0.0, r
+            answer = (-1, -1, 1.0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+            for _ in range(MAX_PASSES):
+                origin += hit[2] * (1.0 - origin) + nudge  # just beyond the face left, as a fraction of the segment
+                if origin >= 1.0:
+                    break
+                point = start + vec * origin
+                (hit,) = self.client.rayTestBatch([point], [end], numThreads=1, collisionFilterMask=self.mask)
+                if hit[0] < 0:
+                    break
+                if not inside(hit[0], point):
+                    answer = (hit[0], hit[1], origin + hit[2] * (1.0 - origin), hit[3], hit[4])
+                    break
+            out[k] = answer
+        return results if out is None else out
 
     def _intersect(self, d_t: np.ndarray, inv_len: np.ndarray, body: np.ndarray, frac: np.ndarray,
                    pos: np.ndarray | None, normal: np.ndarray | None) -> np.ndarray:
