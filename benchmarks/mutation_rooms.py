@@ -66,7 +66,7 @@ ROOMS: dict[str, tuple[list[str], list[str]]] = {
                "tests/test_prop_plugin_lidar.py"]),
     "diff_drive": (["robokit_plugins/diff_drive.py"],
                    ["tests/test_mobile_drive.py", "tests/test_pins_drive.py", "tests/test_prop_drive.py",
-                    "tests/test_prop_stop_actuators.py"]),
+                    "tests/test_prop_stop_actuators.py", "tests/test_prop_plugin_diff_drive.py"]),
     "suction": (["robokit_plugins/suction.py"], ["tests/test_arms_grippers.py", "tests/test_pins_arm.py",
                                                  "tests/test_prop_plugin_suction.py"]),
     "camera": (["robokit_plugins/camera.py"],
