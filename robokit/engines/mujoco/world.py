@@ -258,6 +258,7 @@ class MujocoWorld(MujocoBodies):
         for attachment in [a for a, (p, c, _) in self.joins.held.items() if rid in (p, c)]:
             self.detach(attachment)
         self.mounts = {c: p for c, p in self.mounts.items() if rid not in (c, p)}
+        self._wrenches = {key: value for key, value in self._wrenches.items() if key[0] != rid}  # measured per step
         root = self._root.pop(rid)
         body = self.scene.spec.body(root)
         for geom in self.scene.geoms_of(body):
@@ -276,9 +277,9 @@ class MujocoWorld(MujocoBodies):
 
     def apply_force(self, body: str | int, force: Sequence[float], *, position: Sequence[float] | None = None,
                     link: int = -1) -> None:
-        """Apply a force (N, world frame) at a world point (default: the link's centre of mass) in the next step."""
+        """Apply a force (N, world frame) at a world point (default: the link's origin) in the next step."""
         bid = self._mj(body, link)
-        at = np.asarray(position if position is not None else self.data.xipos[bid], dtype=float)
+        at = np.asarray(position if position is not None else self.data.xpos[bid], dtype=float)
         self._forces.append((bid, np.asarray(force, dtype=float), at))
 
     # ----------------------------------------------------------------- joints: state and motors
@@ -343,7 +344,16 @@ class MujocoWorld(MujocoBodies):
         return self._wrenches.get((self.body(body), joint), ((), (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)))[1]
 
     def _measure_wrenches(self, m: Any, d: Any) -> None:
+        """Every measured joint's reaction in the step just taken. The step's pushes (:meth:`apply_force`) went into
+        ``qfrc_applied``, which MuJoCo's body-force pass does not see: they are handed to it as the body forces they
+        are (``xfrc_applied``, at the centre of mass) while it runs, then taken out again."""
+        pushes = [(bid, np.concatenate([force, np.cross(point - d.xipos[bid], force)]))
+                  for bid, force, point in self._forces]
+        for bid, wrench in pushes:
+            d.xfrc_applied[bid] += wrench
         mujoco.mj_rnePostConstraint(m, d)
+        for bid, wrench in pushes:
+            d.xfrc_applied[bid] -= wrench
         for (rid, joint) in self._wrenches:
             self._wrenches[(rid, joint)] = kin.joint_wrench(m, d, self._mj(rid, joint))
 

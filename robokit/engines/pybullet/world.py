@@ -498,7 +498,7 @@ class PyBulletWorld(World):
         position: Sequence[float] | None = None,
         link: int = -1,
     ) -> None:
-        """Apply a force (N, world frame) at a world point (default: the link's centre of mass) for one step."""
+        """Apply a force (N, world frame) at a world point (default: the link's origin) for one step."""
         bid = self.body(body)
         at = position if position is not None else self.pose(bid, link)[0]
         self.client.applyExternalForce(bid, link, list(force), list(at), p.WORLD_FRAME)

@@ -1,0 +1,142 @@
+"""Joint reaction wrenches and applied forces on both engines, over generated loads, against statics.
+
+The World promises (``robokit.engines.interface``): ``joint_states(...)[i].reaction`` is what the joint's child link
+receives from its parent in the last step, in the child link's frame, torque about the child link's origin, once
+``enable_joint_wrench`` switched measuring on (zeros otherwise, and again after it is switched off);
+``wrench_frame`` is the rotation of that frame; ``apply_force`` pushes for the next step only, at a world point
+(default: the link's origin). A tool held by a fixed joint does not move, so its reaction balances its weight and the
+push exactly: ``F = m g_up - F_push``, ``tau = -(c - o) x m g - (p - o) x F_push`` about the link origin ``o``
+(``c`` its centre of mass, ``p`` the pushed point), rotated into the link frame -- composed here from the URDF written
+for the example (a generated joint orientation, base orientation, mass, centre of mass and inertial rotation, never
+the identity alone) and rotation matrices built from axis and angle.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, Phase, given, settings
+from hypothesis import strategies as st
+from oracles import rodrigues
+
+from robokit.engines.interface import World
+
+NO_SHRINK = [Phase.explicit, Phase.generate]
+ENGINES = ["pybullet", "mujoco"]
+G = 9.81
+
+
+def rpy_matrix(r: float, p: float, y: float) -> np.ndarray:
+    """URDF's rpy: about fixed x, then fixed y, then fixed z."""
+    return rodrigues((0, 0, 1), y) @ rodrigues((0, 1, 0), p) @ rodrigues((1, 0, 0), r)
+
+
+def quaternion_of(axis: tuple, angle: float) -> tuple[float, float, float, float]:
+    k = np.asarray(axis, float) / np.linalg.norm(axis)
+    s = math.sin(angle / 2.0)
+    return (float(k[0] * s), float(k[1] * s), float(k[2] * s), math.cos(angle / 2.0))
+
+
+def tool_urdf(joint_xyz: tuple, joint_rpy: tuple, com: tuple, com_rpy: tuple, mass: float) -> str:
+    j = " ".join
+    return f"""<?xml version="1.0"?>
+<robot name="probe">
+  <link name="base">
+    <inertial><origin xyz="0 0 0"/><mass value="1"/>
+      <inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
+  </link>
+  <link name="tool">
+    <inertial><origin xyz="{j(map(str, com))}" rpy="{j(map(str, com_rpy))}"/><mass value="{mass}"/>
+      <inertia ixx="0.004" iyy="0.006" izz="0.008" ixy="0" ixz="0" iyz="0"/></inertial>
+  </link>
+  <link name="spare">
+    <inertial><origin xyz="0 0 0"/><mass value="0.1"/>
+      <inertia ixx="0.001" iyy="0.001" izz="0.001" ixy="0" ixz="0" iyz="0"/></inertial>
+  </link>
+  <joint name="spin" type="revolute">
+    <parent link="base"/><child link="spare"/><origin xyz="0 0 -0.1"/><axis xyz="0 0 1"/>
+    <limit lower="-1" upper="1" effort="10" velocity="1"/>
+  </joint>
+  <joint name="wrist" type="fixed">
+    <parent link="base"/><child link="tool"/>
+    <origin xyz="{j(map(str, joint_xyz))}" rpy="{j(map(str, joint_rpy))}"/>
+  </joint>
+</robot>
+"""
+
+
+@pytest.fixture(params=ENGINES)
+def world(request: pytest.FixtureRequest) -> Iterator[World]:
+    try:
+        cls = World.engine_class(request.param)
+    except ImportError as exc:
+        pytest.skip(f"engine {request.param!r} not installed: {exc}")
+    with cls(seed=0) as w:
+        yield w
+
+
+axes = st.tuples(*(st.floats(-1.0, 1.0),) * 3).filter(lambda a: np.linalg.norm(a) > 0.3)
+turns = st.floats(0.3, 2.8)  # rad: never the identity, never a half turn
+angles = st.tuples(*(st.floats(-1.4, 1.4),) * 3)
+offsets = st.tuples(*(st.floats(-0.15, 0.15),) * 3)
+pushes = st.tuples(*(st.floats(-6.0, 6.0),) * 3)
+
+
+@pytest.mark.slow
+@settings(max_examples=10, deadline=None, derandomize=True, phases=NO_SHRINK,
+          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@given(joint_xyz=offsets, joint_rpy=angles, com=offsets, com_rpy=angles, mass=st.floats(0.2, 3.0), base_axis=axes,
+       base_turn=turns, push=pushes, at=offsets)
+def test_a_held_tool_reads_its_weight_and_each_push_for_one_step(
+        world: World, tmp_path: Path, joint_xyz, joint_rpy, com, com_rpy, mass, base_axis, base_turn, push,
+        at) -> None:
+    text = tool_urdf(joint_xyz, joint_rpy, com, com_rpy, mass)
+    path = tmp_path / f"probe-{hashlib.sha256(text.encode()).hexdigest()[:16]}.urdf"  # PyBullet keeps a path's text
+    path.write_text(text, encoding="utf-8")
+    base_q = quaternion_of(base_axis, base_turn)
+    probe = world.load_urdf("probe", str(path), position=(0.1, -0.2, 0.6), orientation=base_q, fixed_base=True)
+    try:
+        wrist = world.joint(probe, "wrist").index
+        spin = world.joint(probe, "spin").index
+        world.enable_joint_wrench(probe, wrist)
+        for _ in range(3):
+            world.step()
+        origin, _ = world.pose(probe, wrist)
+        o = np.asarray(origin)
+        r_link = rodrigues(base_axis, base_turn) @ rpy_matrix(*joint_rpy)
+        np.testing.assert_allclose(o, np.array([0.1, -0.2, 0.6]) + rodrigues(base_axis, base_turn) @ joint_xyz,
+                                   atol=1e-6)
+        assert np.asarray(world.wrench_frame(probe, wrist)).reshape(3, 3) == pytest.approx(r_link, abs=1e-6)
+        centre = o + r_link @ np.asarray(com)
+        weight = np.array([0.0, 0.0, -mass * G])
+        tol = 2e-3 * (mass * G + float(np.linalg.norm(push))) + 1e-6
+
+        def check(force_in: np.ndarray, point: np.ndarray, what: str) -> None:
+            force = -weight - force_in
+            torque = -np.cross(centre - o, weight) - np.cross(point - o, force_in)
+            state = world.joint_states(probe, [spin, wrist])
+            reaction = np.asarray(state[1][2])
+            np.testing.assert_allclose(reaction[:3], r_link.T @ force, atol=tol, err_msg=what)
+            np.testing.assert_allclose(reaction[3:], r_link.T @ torque, atol=tol * 0.4, err_msg=what)
+            assert list(state[0][2]) == [0.0] * 6, "a joint not measured reads zeros"
+
+        check(np.zeros(3), o, "hanging still")
+        point = o + np.asarray(at)
+        world.apply_force(probe, push, position=point.tolist(), link=wrist)
+        world.step()
+        check(np.asarray(push), point, "pushed at a point")
+        world.step()
+        check(np.zeros(3), o, "the step after the push")
+        world.apply_force(probe, push, link=wrist)  # at the link's origin
+        world.step()
+        check(np.asarray(push), o, "pushed at the link's origin")
+        world.enable_joint_wrench(probe, wrist, False)
+        world.step()
+        assert list(world.joint_states(probe, [wrist])[0][2]) == [0.0] * 6, "measuring switched off"
+    finally:
+        world.remove_body("probe")
