@@ -312,3 +312,144 @@ def test_any_mix_of_login_session_and_token_gets_what_the_rules_compute(world: d
     route answers what the rules compute from those facts -- no credential opens more than its own rule."""
     wrong = _wrong(who, world)
     assert not wrong, "\n".join(wrong)
+
+
+# ----------------------------------------------------------------------------------------------- what the pages show
+def _fmt(value: Any) -> str:
+    """A figure as the pages print it: whole numbers as they are, other numbers to 4 significant digits (whole
+    above 10 000)."""
+    if isinstance(value, float):
+        return f"{value:.4g}" if abs(value) < 1e4 else f"{value:.0f}"
+    return str(value)
+
+
+def _cells(html_text: str, table_class: str) -> list[list[str]]:
+    import html
+    import re
+
+    body = re.search(rf'<table class="{table_class}">(.*?)</table>', html_text, re.S)
+    assert body, f"no {table_class} table"
+    return [[html.unescape(c) for c in re.findall(r"<t[hd][^>]*>(.*?)</t[hd]>", row, re.S)]
+            for row in re.findall(r"<tr>(.*?)</tr>", body.group(1), re.S)]
+
+
+@pytest.fixture
+def rich_run(world: dict[str, Any], client: Any) -> dict[str, Any]:
+    """김민준's run with objects of different columns, figures, a video, two plots, a trace with state transitions
+    and the config file; its sim time (16 s) is not its ``total_time`` (20 s)."""
+    from course_helpers import mp4_head
+
+    objects = [{"colour": "red", "detected_position": [0.4, 0.1, 0.025], "outcome": "sorted"},
+               {"colour": "blue", "grasp_attempts": 2, "error_m": 0.0123456, "note": None}]
+    payload = robokit_payload(8, objects=objects, red_sorted=3, blue_sorted=1, failures=0, total_time=20.0,
+                              mean_speed=0.123456)
+    token = world["tokens"]["kim"]
+    posted = client.post("/api/robotics/result/", data=json.dumps(payload), content_type="application/json",
+                         HTTP_AUTHORIZATION=f"Bearer {token}")
+    assert posted.status_code == 201, posted.content
+    moves = [(4.0, "IDLE", "PICK"), (12.0, "PICK", "PLACE")]
+    trace = "".join(json.dumps({"kind": "transition", "t": t, "machine": "sort", "source_state": a,
+                                "dest_state": b, "trigger": f"to_{b.lower()}"}) + "\n" for t, a, b in moves)
+    files = {"clip.mp4": mp4_head(), "plot.png": tiny_png(5), "curve.png": tiny_png(6),
+             "trace.jsonl": trace.encode(), "sort_robot.toml": b"[world]\nmax_time = 30.0\n"}
+    up = client.post(f"/api/robotics/result/{payload['run_id']}/artifacts/",
+                     data={n: _upload(n, c) for n, c in files.items()}, HTTP_AUTHORIZATION=f"Bearer {token}")
+    assert up.status_code == 201, up.content
+    links = {a["name"]: a["url"] for a in up.json()["artifacts"]}
+    return {"payload": payload, "objects": objects, "moves": moves, "links": links, "sim_time": 16.0,
+            "config_text": files["sort_robot.toml"].decode()}
+
+
+def test_the_run_page_shows_everything_the_run_holds_to_each_role_that_may_see_it(
+        world: dict[str, Any], rich_run: dict[str, Any]) -> None:
+    """The class's teacher, an administrator and the student who posted it see, on the run page: every figure
+    (formatted), every object in a table of the columns of all objects, the videos as videos and the plots as
+    images (each by its own link), the state timeline over the run's sim time, the config's text, and the payload
+    as posted (indented JSON, the config by its file name). The teacher's page (and the administrator's) carries
+    the moderation form with its CSRF token; the student's has none."""
+    import html
+    import re
+
+    from robokit.server.models import Result
+
+    run_id = rich_run["payload"]["run_id"]
+    record = Result.objects.get(run_id=run_id)
+    cols: list[str] = []
+    for o in rich_run["objects"]:
+        cols += [k for k in o if k not in cols]
+
+    def cell(v: Any) -> str:
+        if v is None:
+            return ""
+        if isinstance(v, float):
+            return _fmt(v)
+        return json.dumps(v) if isinstance(v, (list, dict)) else str(v)
+
+    objects = [cols] + [[cell(o.get(c)) for c in cols] for o in rich_run["objects"]]
+    figures = [[k, _fmt(v)] for k, v in record.figures.items()]
+    assert {"red_sorted", "mean_speed", "total_time"} <= set(record.figures)
+    end = rich_run["sim_time"]
+    starts = [0.0] + [t for t, _, _ in rich_run["moves"]]
+    widths = [round((b - a) / end * 100, 3) for a, b in zip(starts, [*starts[1:], end], strict=True)]
+    links = rich_run["links"]
+    for who in (Who(login="teacher"), Who(login="admin"), Who(session="kim")):
+        page = _client(who, world).get(f"/runs/{run_id}/").content.decode()
+        assert _cells(page, "objects") == objects, who
+        assert _cells(page, "figures") == figures, who
+        assert re.findall(r"<video [^>]*src=\"([^\"]+)\"", page) == [links["clip.mp4"]], who
+        assert sorted(re.findall(r"<img src=\"([^\"]+)\"", page)) == sorted([links["plot.png"], links["curve.png"]])
+        assert [float(w) for w in re.findall(r'class="seg[^"]*" style="width: ([\d.]+)%"', page)] == widths, who
+        shown = re.search(r'<pre class="config">(.*?)</pre>', page, re.S)
+        assert shown and html.unescape(shown.group(1)) == rich_run["config_text"], who
+        block = re.search(r"<summary>Payload as posted</summary><pre>(.*?)</pre>", page, re.S)
+        assert block, who
+        text = html.unescape(block.group(1))
+        assert json.loads(text) == {**rich_run["payload"], "config": "sort_robot.toml"}, who
+        assert text.startswith("{\n  "), "the payload is shown indented, a key a line"
+        form = re.search(r'<form method="post" action="[^"]*" class="moderate">(.*?)</form>', page, re.S)
+        if who.login is not None:
+            assert form and 'name="csrfmiddlewaretoken"' in form.group(1), who
+        else:
+            assert form is None, who
+
+
+def test_an_older_run_stored_with_its_config_path_shows_only_the_file_name(world: dict[str, Any]) -> None:
+    """A run stored before the server kept only the config's file name: its page names the file and never the
+    folders it was in (a student's local folders are often named after them)."""
+    from robokit.server.models import Project, Result, Student
+
+    kim = Student.objects.get(name="김민준", classroom__name="1반")
+    path = "/home/kimminjun/robots/sort_robot.toml"
+    Result.objects.create(run_id="old-run-1", classroom=kim.classroom, project=Project.objects.get(name="A"),
+                          student=kim, student_name=kim.name, verified=True, outcome="succeeded",
+                          config=path, payload={"config": path, "outcome": "succeeded"})
+    page = _client(Who(login="teacher"), world).get("/runs/old-run-1/").content.decode()
+    assert "sort_robot.toml" in page and "kimminjun" not in page
+
+
+def test_the_home_page_counts_each_class_students_and_results(world: dict[str, Any], client: Any) -> None:
+    """Each login's home page: one row per class it may open, with that class's number of students and of
+    results (counted here, plainly), and whether it takes posts without a token; a teacher of no class is told
+    how to make one, named by their login; nobody signed in sees where results are posted; a student's session
+    goes on to ``/me/``."""
+    import re
+
+    from robokit.server.models import Classroom, Result, Student
+
+    more = robokit_payload(9, student="lee")
+    assert client.post("/api/robotics/result/", data=json.dumps(more), content_type="application/json",
+                       HTTP_AUTHORIZATION=f"Bearer {world['tokens']['lee']}").status_code == 201
+    rows = {c.name: [c.name, str(Student.objects.filter(classroom=c).count()),
+                     str(Result.objects.filter(classroom=c).count()),
+                     "accepted (unverified)" if c.allow_unverified else "refused"] for c in Classroom.objects.all()}
+    assert rows["1반"][1:3] == ["2", "2"]  # two students and two runs: a count over both joins would say 4
+    for login, names in (("admin", ["1반", "2반"]), ("teacher", ["1반"]), ("other_teacher", ["2반"])):
+        page = _client(Who(login=login), world).get("/").content.decode()
+        got = [[re.sub(r"<[^>]+>", "", c).strip() for c in re.findall(r"<td>(.*?)</td>", row, re.S)]
+               for row in re.findall(r"<tr>(.*?)</tr>", page, re.S) if "<td>" in row]
+        assert sorted(got) == sorted(rows[n] for n in names), login
+    idle = _client(Who(login="idle_teacher"), world).get("/").content.decode()
+    assert "No class yet" in idle and "--teacher new-teacher" in idle
+    welcome = _client(Who(), world).get("/").content.decode()
+    assert "http://testserver/api/robotics/result/" in welcome
+    assert _client(Who(session="kim"), world).get("/")["Location"] == "/me/"
