@@ -453,3 +453,90 @@ def test_the_home_page_counts_each_class_students_and_results(world: dict[str, A
     welcome = _client(Who(), world).get("/").content.decode()
     assert "http://testserver/api/robotics/result/" in welcome
     assert _client(Who(session="kim"), world).get("/")["Location"] == "/me/"
+
+
+def test_every_api_refusal_says_what_is_wrong_in_its_field_and_header(world: dict[str, Any]) -> None:
+    """Each API route from the URL configuration, asked with each kind of bad credential, method or body the docs
+    list (docs/server.md, "The course API" and the result API's refusals): one JSON object ``{"error", "field"}``
+    whose error starts with what is wrong (a field's refusal with the field); a 401 carries ``WWW-Authenticate:
+    Bearer``, a 405 ``Allow: POST``."""
+    api = [n for n, _ in routes() if n.startswith("api-")]
+    revoked = world["tokens"]["park_old"]
+    cases = {"malformed": ("Token abc", 401, "Authorization", "malformed Authorization header"),
+             "empty bearer": ("Bearer ", 401, "Authorization", "malformed Authorization header"),
+             "unknown": ("Bearer rks_not-a-token", 401, "Authorization", "unknown token"),
+             "revoked": (f"Bearer {revoked}", 401, "Authorization", "revoked token")}
+    wrong = []
+
+    def check(label: str, resp: Any, status: int, field: str | None, starts: str, **headers: str) -> None:
+        try:
+            body = resp.json()
+        except ValueError:
+            body = None
+        if resp.status_code != status or not isinstance(body, dict) or set(body) != {"error", "field"} or \
+                body["field"] != field or not str(body["error"]).startswith(starts):
+            wrong.append(f"{label}: {resp.status_code} {body}, expected {status} field {field!r} '{starts}…'")
+            return
+        for name, value in headers.items():
+            if not str(resp.get(name, "")).startswith(value):
+                wrong.append(f"{label}: header {name} is {resp.get(name)!r}, expected {value!r}…")
+
+    c = _client(Who(), world)
+    for name in api:
+        url, method = world["urls"][name], METHOD.get(name, "GET")
+        for case, (header, status, where, starts) in cases.items():
+            ask = c.get if method == "GET" else c.post
+            resp = ask(url, data="{}", content_type="application/json", HTTP_AUTHORIZATION=header) \
+                if method == "POST" else ask(url, HTTP_AUTHORIZATION=header)
+            check(f"{name} {case}", resp, status, where, starts, **{"WWW-Authenticate": "Bearer"})
+        if method == "POST":
+            check(f"{name} GET", c.get(url), 405, None, "POST", Allow="POST")
+        if name in ("api-result", "api-submit", "api-training"):
+            resp = c.post(url, data="config = 1", content_type="text/plain",
+                          HTTP_AUTHORIZATION=f"Bearer {world['tokens']['kim']}")
+            check(f"{name} text/plain", resp, 415, "Content-Type", "Content-Type: send ")
+            if "'text/plain'" not in resp.json().get("error", ""):
+                wrong.append(f"{name} text/plain: the error does not name the type sent: {resp.json()}")
+    teacher = f"Bearer {world['tokens']['teacher_A']}"
+    for name in ("api-submit", "api-training"):
+        resp = c.post(world["urls"][name], data="{}", content_type="application/json", HTTP_AUTHORIZATION=teacher)
+        check(f"{name} teacher token", resp, 403, "Authorization", "Authorization: only a student's token")
+    for name, starts in (("api-submit", "no token sent"), ("api-training", "no token sent"),
+                         ("api-artifacts", "no token sent")):
+        resp = c.post(world["urls"][name], data="{}", content_type="application/json")
+        check(f"{name} no token", resp, 401, "Authorization", starts, **{"WWW-Authenticate": "Bearer"})
+    check("api-submission no token", c.get(world["urls"]["api-submission"]), 404, "submission", "submission: no such")
+    other = f"Bearer {world['tokens']['lee']}"
+    check("api-submission classmate", c.get(world["urls"]["api-submission"], HTTP_AUTHORIZATION=other), 404,
+          "submission", "submission: no such")
+    assert not wrong, "\n".join(wrong)
+
+
+def test_a_file_is_served_with_its_type_and_the_headers_that_keep_it_private(world: dict[str, Any],
+                                                                            rich_run: dict[str, Any]) -> None:
+    """Every uploaded file of a run, to each role that may see it: the bytes uploaded, its type by kind (or by its
+    name for a row stored without one), a sandboxing Content-Security-Policy, a cache that is the browser's only
+    (``private``), byte ranges for seeking; a file whose bytes are gone answers 404."""
+    from pathlib import Path
+
+    from django.conf import settings as django_settings
+
+    from robokit.server.models import Artifact
+
+    types = {"clip.mp4": "video/mp4", "plot.png": "image/png", "curve.png": "image/png"}
+    for who in (Who(login="teacher"), Who(login="admin"), Who(session="kim")):
+        c = _client(who, world)
+        for name, ctype in types.items():
+            resp = c.get(rich_run["links"][name])
+            body = b"".join(resp.streaming_content) if resp.streaming else resp.content
+            art = Artifact.objects.get(name=name, result__run_id=rich_run["payload"]["run_id"])
+            assert body == (Path(django_settings.MEDIA_ROOT) / art.path).read_bytes(), (who, name)
+            assert resp["Content-Type"] == ctype, (who, name)
+            assert resp["Content-Security-Policy"] == "default-src 'none'; style-src 'unsafe-inline'; sandbox"
+            assert resp["Cache-Control"] == "private, max-age=3600" and resp["Accept-Ranges"] == "bytes"
+    art = Artifact.objects.get(name="plot.png", result__run_id=rich_run["payload"]["run_id"])
+    Artifact.objects.filter(pk=art.pk).update(content_type="")
+    c = _client(Who(login="teacher"), world)
+    assert c.get(rich_run["links"]["plot.png"])["Content-Type"] == "image/png"
+    (Path(django_settings.MEDIA_ROOT) / art.path).unlink()
+    assert c.get(rich_run["links"]["plot.png"]).status_code == 404
