@@ -540,3 +540,19 @@ def test_a_file_is_served_with_its_type_and_the_headers_that_keep_it_private(wor
     assert c.get(rich_run["links"]["plot.png"])["Content-Type"] == "image/png"
     (Path(django_settings.MEDIA_ROOT) / art.path).unlink()
     assert c.get(rich_run["links"]["plot.png"]).status_code == 404
+
+
+def test_revoking_a_students_tokens_keeps_when_each_earlier_one_was_revoked(world: dict[str, Any]) -> None:
+    """``revoke_token`` (and the admin's *Revoke tokens*) revokes the active token and says how many it revoked;
+    a token revoked before keeps the time it was revoked (the admin's token list shows when)."""
+    from robokit.server import tokens
+    from robokit.server.models import Student, Token
+
+    park = Student.objects.get(name="박지호")
+    before = {t.pk: t.revoked_at for t in Token.objects.filter(student=park)}
+    assert sum(v is None for v in before.values()) == 1 and len(before) == 2
+    assert tokens.revoke_student_tokens(park) == 1
+    after = {t.pk: t.revoked_at for t in Token.objects.filter(student=park)}
+    assert all(after[pk] == when for pk, when in before.items() if when is not None)
+    assert all(when is not None for when in after.values())
+    assert tokens.revoke_student_tokens(park) == 0
