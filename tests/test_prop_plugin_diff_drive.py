@@ -216,6 +216,9 @@ def test_a_reset_mid_drive_stops_the_base_and_starts_the_reading_over(v: float, 
         drive.reset()
         p, h = frame2d(w, drive.body)
         r = drive.read()
+        joints = [w.joint(drive.body, n).index for n in ("left_wheel", "right_wheel")]
+        sim.step(1)  # stopped at once, without the ramp: the wheels are held still from the next tick
+        assert max(abs(s[1]) for s in w.joint_states(drive.body, joints)) < 0.05
         assert r.command == STOP and r.distance == 0.0
         assert np.allclose(r.odometry[:2], p, atol=1e-6) and abs(math.remainder(r.odometry[2] - h, 2 * math.pi)) < 1e-6
         sim.step(round(0.5 * w.physics_hz))
@@ -223,7 +226,6 @@ def test_a_reset_mid_drive_stops_the_base_and_starts_the_reading_over(v: float, 
         sim.step(round(0.5 * w.physics_hz))
         p2, _ = frame2d(w, drive.body)
         assert math.dist(p2, at_rest) < 2e-3, "the base keeps moving after a reset"
-        joints = [w.joint(drive.body, n).index for n in ("left_wheel", "right_wheel")]
         assert max(abs(s[1]) for s in w.joint_states(drive.body, joints)) < 0.1
         r2 = drive.read()
         assert r2.distance == pytest.approx(math.dist(p2, p), abs=0.02)
@@ -241,3 +243,68 @@ def test_an_unknown_wheel_joint_is_refused_at_its_key_and_index(side: str, names
     assert err.value.key is not None and err.value.key.endswith(f"{side}[{index}]"), err.value.key
     assert "nope" in str(err.value) or "gone" in str(err.value)
     assert "right_wheel" in str(err.value)  # the robot's joints are listed
+
+
+def test_an_unknown_robot_is_refused_at_its_key_and_a_joints_error_names_the_robot() -> None:
+    cfg = scene()
+    cfg["actuators"]["drive"]["robot"] = "rover"
+    with pytest.raises(ConfigError) as err:
+        make_sim(cfg)
+    assert err.value.key is not None and err.value.key.endswith("drive.robot") and "rover" in str(err.value)
+    cfg = scene(left_wheels=["nope"])
+    cfg["robots"] = {"rover": DIFFBOT}
+    cfg["actuators"]["drive"]["robot"] = "rover"
+    with pytest.raises(ConfigError, match="in rover"):
+        make_sim(cfg)
+
+
+@settings(max_examples=4, deadline=None, derandomize=True)
+@given(left=st.floats(-1.0, 1.0), right=st.floats(-1.0, 1.0), limit=st.floats(0.2, 0.9))
+def test_raw_wheel_speeds_below_one_rad_per_second_are_clipped_too(left: float, right: float, limit: float) -> None:
+    """Any limit (here under 1 rad/s): the world's wheel speeds are the command scaled down together to it."""
+    with make_sim(scene(max_wheel_speed=limit)) as sim:
+        w, drive = sim.world, sim.components["drive"]
+        drive.command(WheelSpeeds(left, right))
+        sim.step(round(0.3 * w.physics_hz))
+        joints = [w.joint(drive.body, n).index for n in ("left_wheel", "right_wheel")]
+        measured = [s[1] for s in w.joint_states(drive.body, joints)]
+        k = min(1.0, limit / max(abs(left), abs(right), 1e-12))
+        assert measured == pytest.approx([left * k, right * k], abs=0.03)
+
+
+@settings(max_examples=3, deadline=None, derandomize=True)
+@given(limit=st.floats(0.02, 0.06), v=st.floats(0.2, 0.4), omega=st.floats(-1.0, 1.0))
+def test_no_wheel_motor_pulls_harder_than_max_wheel_force(limit: float, v: float, omega: float) -> None:
+    """A weak motor (the ramp asks for more than it can give): the world's applied motor torque of every wheel
+    reaches the limit and never exceeds it."""
+    with make_sim(scene(max_wheel_force=limit)) as sim:
+        w, drive = sim.world, sim.components["drive"]
+        joints = [w.joint(drive.body, n).index for n in ("left_wheel", "right_wheel")]
+        drive.command(Twist(v, omega))
+        peak = 0.0
+        for _ in range(60):
+            sim.step(1)
+            peak = max(peak, *(abs(s[3]) for s in w.joint_states(drive.body, joints)))
+        assert peak == pytest.approx(limit, rel=1e-6)
+
+
+@pytest.mark.slow
+@settings(max_examples=4, deadline=None, derandomize=True)
+@given(names=st.lists(st.sampled_from(["crate", "box", "ball", "ground"]), min_size=1, max_size=3, unique=True),
+       yaw=headings)
+def test_contacts_name_every_body_touching_the_robot_but_the_ground(names: list[str], yaw: float) -> None:
+    """Small boxes dropped onto the robot and a plane called ``ground`` ignored like the floor: the reading names
+    exactly the bodies the world says touch the robot, minus the ignored ones, in order."""
+    with make_sim(scene()) as sim:
+        w, drive = sim.world, sim.components["drive"]
+        place(w, drive, 0.0, 0.0, yaw)
+        top = w.body_aabb(drive.body)[1][2]
+        for i, name in enumerate(names):
+            w.add_primitive(name, "box", size=[0.03, 0.03, 0.03], mass=0.05,
+                            position=[0.04 * math.cos(yaw + 2.1 * i), 0.04 * math.sin(yaw + 2.1 * i), top + 0.02])
+        sim.step(60)
+        touching = {w.body_name(c[2]) for c in w.client.getContactPoints(bodyA=w.body("robot"))}
+        assert set(names) <= touching  # the scene does what it says
+        state = drive.read()
+        assert set(state.contacts) == touching - {"plane", "ground", "floor"}
+        assert list(state.contacts) == sorted(state.contacts)
