@@ -193,6 +193,23 @@ def _built(path: Path, plugins: Any) -> dict[str, Any]:
         sim.close()
 
 
+def from_spec(spec: Any, must_last: bool = False) -> dict[str, Any]:
+    """The same, read from the loaded config's behaviour specs (a tree of ``ComponentSpec``; no world built)."""
+    return {"type": spec.type, "name": spec.name,
+            "period": round(PHYSICS_HZ / spec.rate_hz) if spec.rate_hz else 1, "must_last": must_last,
+            "options": {k: getattr(spec.params, k) for k in OPTIONS[spec.type]},
+            "children": [from_spec(c, c.must_last) for c in spec.children]}
+
+
+@settings(PROPS, max_examples=10)
+@given(tree())
+def test_a_valid_tree_reaches_the_loaded_config_with_every_value_given(tmp_path: Path, plugins: Any,
+                                                                       node: dict[str, Any]) -> None:
+    """The cheap half of the next test, for the default tier: the loaded config's specs, not the built world."""
+    assert from_spec(load_config(write_config(tmp_path, node), plugins).behaviour) == expected(node, "behaviour",
+                                                                                               False)
+
+
 @pytest.mark.slow  # a simulation built per example (~0.1 s each)
 @settings(PROPS, max_examples=60)
 @given(tree(depth=3))
@@ -296,19 +313,27 @@ def refusal(path: Path, plugins: Any) -> str:
 
 
 def _one_mistake(tmp_path: Path, plugins: Any, data: Any, node: dict[str, Any]) -> None:
-    where = data.draw(st.sampled_from(nodes(node)))
-    planted = plant(data, where[1], where[0], where[2], data.draw(st.sampled_from(MISTAKES)))
-    if planted is None:
-        return
-    key, text = planted
-    path = write_config(tmp_path, node)
-    line = refusal(path, plugins)
-    assert "\n" not in line, line
-    assert line.startswith(f"{path}: {key}: "), (line, key)
-    assert text in line, (line, text)
+    """Each kind of mistake in turn, planted alone in a copy of the tree at a drawn section that can have it."""
+    import copy
+
+    for mistake in MISTAKES:
+        for _ in range(4):
+            tree_ = copy.deepcopy(node)
+            where = data.draw(st.sampled_from(nodes(tree_)))
+            planted = plant(data, where[1], where[0], where[2], mistake)
+            if planted is not None:
+                break
+        else:
+            continue
+        key, text = planted
+        path = write_config(tmp_path, tree_)
+        line = refusal(path, plugins)
+        assert "\n" not in line, line
+        assert line.startswith(f"{path}: {key}: "), (mistake, line, key)
+        assert text in line, (mistake, line, text)
 
 
-@settings(PROPS, max_examples=15)
+@settings(PROPS, max_examples=8)
 @given(st.data(), tree())
 def test_one_mistake_anywhere_in_a_tree_is_one_line_naming_the_file_and_its_key(
         tmp_path: Path, plugins: Any, data: Any, node: dict[str, Any]) -> None:
@@ -316,7 +341,7 @@ def test_one_mistake_anywhere_in_a_tree_is_one_line_naming_the_file_and_its_key(
 
 
 @pytest.mark.slow
-@settings(PROPS, max_examples=400)
+@settings(PROPS, max_examples=100)
 @given(st.data(), tree(depth=3))
 def test_many_mistakes_in_deeper_trees_are_each_one_line_naming_the_file_and_its_key(
         tmp_path: Path, plugins: Any, data: Any, node: dict[str, Any]) -> None:

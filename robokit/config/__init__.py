@@ -377,32 +377,31 @@ def validate_model(model: type, data: Any, key: str) -> Any:
     (only the latter imports pydantic); raise a one-line ConfigError placed at ``key``."""
     if not isinstance(data, Mapping):
         raise ConfigError(f"expected a table, got {_describe(data)}", key=key)
-    misspelt = _misspelt_required(model, data)
-    if misspelt is not None:  # `secnds = 2` for a required `seconds`: the typo, not "seconds: field required"
-        fields = field_names(model)
-        raise ConfigError(f"unknown key {misspelt!r}{did_you_mean(misspelt, fields)}; valid keys: "
-                          f"{', '.join(sorted(fields))}", key=f"{key}.{misspelt}")
-    if isinstance(model, type) and issubclass(model, Section):
-        try:
-            return model.validate(data)
-        except Invalid as exc:
-            raise error_from_parts(exc.loc, exc.kind, exc.msg, exc.value, key, exc.fields) from None
-    from robokit.config.schema import validate_pydantic
+    try:
+        if isinstance(model, type) and issubclass(model, Section):
+            try:
+                return model.validate(data)
+            except Invalid as exc:
+                raise error_from_parts(exc.loc, exc.kind, exc.msg, exc.value, key, exc.fields) from None
+        from robokit.config.schema import validate_pydantic
 
-    return validate_pydantic(model, data, key)  # type: ignore[arg-type]
+        return validate_pydantic(model, data, key)  # type: ignore[arg-type]
+    except ConfigError as exc:
+        raise _typo_behind(exc, model, data, key) from None
 
 
-def _misspelt_required(model: Any, data: Mapping[str, Any]) -> str | None:
-    """A key of ``data`` the schema does not take that is close to a required key ``data`` lacks (None if none)."""
-    if getattr(model, "ignore_unknown", False):
-        return None
+def _typo_behind(exc: ConfigError, model: Any, data: Mapping[str, Any], key: str) -> ConfigError:
+    """``exc`` about a key the table lacks (``seconds: field required``, ``url: missing``) said as the misspelt key
+    the table has instead (``secnds = 2``: unknown, did you mean 'seconds'); any other error as it is."""
     fields = field_names(model)
-    if isinstance(model, type) and issubclass(model, Section):
-        required = [f for f in fields if model._fields[f].required and f not in data]
-    else:
-        required = [f for f, info in getattr(model, "model_fields", {}).items()
-                    if info.is_required() and f not in data]
-    return next((k for k in data if k not in fields and required and did_you_mean(str(k), required)), None)
+    about = exc.key[len(key) + 1:].split(".")[0] if exc.key.startswith(f"{key}.") else ""
+    if getattr(model, "ignore_unknown", False) or about not in fields or about in data:
+        return exc
+    typo = next((k for k in data if k not in fields and did_you_mean(str(k), [about])), None)
+    if typo is None:
+        return exc
+    return ConfigError(f"unknown key {typo!r}{did_you_mean(str(typo), fields)}; valid keys: "
+                       f"{', '.join(sorted(fields))}", key=f"{key}.{typo}", file=exc.file)
 
 
 def _table(raw: Mapping[str, Any], name: str) -> Mapping[str, Any]:
