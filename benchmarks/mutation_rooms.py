@@ -82,8 +82,8 @@ ROOMS: dict[str, tuple[list[str], list[str]]] = {
     "config": (["robokit/config/*"],
                ["tests/test_core_config_errors.py", "tests/test_pins_config.py", "tests/test_sections.py",
                 "tests/test_config_reference.py", "tests/test_randomize.py", "tests/test_prop_config_errors.py"]),
-    # the config room without schema.py: mutmut (3.8) wraps pydantic's schema hook on ``Schema`` in a trampoline that
-    # fails when pydantic calls it, so no room holding schema.py starts; its rules are pinned by the config properties
+    # the config room without schema.py (whose `_harden` and `_field` run at import, when a section class is made,
+    # before mutmut switches a mutant on: out of its reach; the config properties pin what they build)
     "config_sections": (["robokit/config/sections.py", "robokit/config/randomize.py", "robokit/config/__init__.py"],
                         ["tests/test_core_config_errors.py", "tests/test_pins_config.py", "tests/test_sections.py",
                          "tests/test_config_reference.py", "tests/test_randomize.py",
