@@ -159,12 +159,16 @@ def save_frame_pngs(folder: Path, stem: str, frame: CameraFrame) -> list[Path]:
 def segmentation_colours(seg: np.ndarray) -> np.ndarray:
     """A BGR image with a distinct, stable colour per body id (background, id < 0, black)."""
     ids = np.where(seg >= 0, seg & ((1 << 24) - 1), -1)
-    golden = (ids * 0.618034) % 1.0
-    hsv = np.stack([(golden * 179).astype(np.uint8), np.full(seg.shape, 200, np.uint8),
-                    np.where(ids >= 0, 230, 0).astype(np.uint8)], axis=-1)
+    # one colour per id, converted once: OpenCV's HSV->BGR rounds the same pixel differently (by one level) in its
+    # vector lanes and in the tail of a row, which gave one body two colours
+    present, where = np.unique(ids, return_inverse=True)
+    golden = (present * 0.618034) % 1.0
+    hsv = np.stack([(golden * 179).astype(np.uint8), np.full(present.shape, 200, np.uint8),
+                    np.where(present >= 0, 230, 0).astype(np.uint8)], axis=-1)
     import cv2
 
-    return cv2.cvtColor(hsv, cv2.COLOR_HSV2BGR)
+    palette = cv2.cvtColor(hsv.reshape(1, -1, 3), cv2.COLOR_HSV2BGR).reshape(-1, 3)
+    return palette[where.reshape(seg.shape)]
 
 
 @hookimpl
