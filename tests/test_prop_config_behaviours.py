@@ -201,7 +201,7 @@ def from_spec(spec: Any, must_last: bool = False) -> dict[str, Any]:
             "children": [from_spec(c, c.must_last) for c in spec.children]}
 
 
-@settings(PROPS, max_examples=10)
+@settings(PROPS, max_examples=5)
 @given(tree())
 def test_a_valid_tree_reaches_the_loaded_config_with_every_value_given(tmp_path: Path, plugins: Any,
                                                                        node: dict[str, Any]) -> None:
@@ -333,7 +333,7 @@ def _one_mistake(tmp_path: Path, plugins: Any, data: Any, node: dict[str, Any]) 
         assert text in line, (mistake, line, text)
 
 
-@settings(PROPS, max_examples=8)
+@settings(PROPS, max_examples=3)
 @given(st.data(), tree())
 def test_one_mistake_anywhere_in_a_tree_is_one_line_naming_the_file_and_its_key(
         tmp_path: Path, plugins: Any, data: Any, node: dict[str, Any]) -> None:
