@@ -130,10 +130,12 @@ def test_a_rendered_ball_is_where_the_pinhole_puts_it_and_its_pixels_deproject_o
             b, c = ray @ (eye - centre), (eye - centre) @ (eye - centre) - radius ** 2
             a = ray @ ray
             depths.append((-b - math.sqrt(b * b - a * c)) / a)  # the nearer root: depth, as ray . f = 1
-        assert min(depths) - 0.006 <= frame.depth[vi, ui] <= max(depths) + 0.006, (frame.depth[vi, ui], depths)
+        # the rendered ball is a mesh whose facets lie inside the sphere by up to about a tenth of its radius
+        assert min(depths) - 0.004 <= frame.depth[vi, ui] <= max(depths) + 0.004 + 0.1 * radius, (
+            frame.depth[vi, ui], depths)
         on_ball = frame.points(frame.body_mask("ball"))
         assert len(on_ball) >= 4
-        assert np.abs(np.linalg.norm(on_ball - centre, axis=1) - radius).max() < 0.012
+        assert np.abs(np.linalg.norm(on_ball - centre, axis=1) - radius).max() < 0.004 + 0.1 * radius
         on_floor = frame.points(frame.body_mask("plane"))
         assert len(on_floor) > 100 and np.abs(on_floor[:, 2]).max() < 1e-3
         # the frame's fields
