@@ -258,6 +258,7 @@ def test_an_unknown_robot_is_refused_at_its_key_and_a_joints_error_names_the_rob
         make_sim(cfg)
 
 
+@pytest.mark.slow
 @settings(max_examples=4, deadline=None, derandomize=True)
 @given(left=st.floats(-1.0, 1.0), right=st.floats(-1.0, 1.0), limit=st.floats(0.2, 0.9))
 def test_raw_wheel_speeds_below_one_rad_per_second_are_clipped_too(left: float, right: float, limit: float) -> None:
@@ -272,6 +273,7 @@ def test_raw_wheel_speeds_below_one_rad_per_second_are_clipped_too(left: float, 
         assert measured == pytest.approx([left * k, right * k], abs=0.03)
 
 
+@pytest.mark.slow
 @settings(max_examples=3, deadline=None, derandomize=True)
 @given(limit=st.floats(0.02, 0.06), v=st.floats(0.2, 0.4), omega=st.floats(-1.0, 1.0))
 def test_no_wheel_motor_pulls_harder_than_max_wheel_force(limit: float, v: float, omega: float) -> None:

@@ -116,6 +116,7 @@ def test_a_load_over_max_force_tears_off_one_under_it_comes_along(max_force: flo
             assert z < 0.1, f"{mass:.2f} kg over {max_force:.0f} N came along"
 
 
+@pytest.mark.slow
 @settings(max_examples=4, deadline=None, derandomize=True)
 @given(gap=st.floats(0.004, 0.03), ticks=st.integers(6, 30), before=st.integers(5, 40))
 def test_a_cup_short_of_the_cube_holds_nothing_and_settles_after_settle_time(gap: float, ticks: int,
