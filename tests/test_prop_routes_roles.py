@@ -355,8 +355,15 @@ def rich_run(world: dict[str, Any], client: Any) -> dict[str, Any]:
     moves = [(4.0, "IDLE", "PICK"), (12.0, "PICK", "PLACE")]
     trace = "".join(json.dumps({"kind": "transition", "t": t, "machine": "sort", "source_state": a,
                                 "dest_state": b, "trigger": f"to_{b.lower()}"}) + "\n" for t, a, b in moves)
+    import base64
+    import struct
+
+    replay = {"links": ["box"], "shapes": [], "meshes": [], "frames": [], "machines": [], "duration": 16.0,
+              "t": base64.b64encode(struct.pack("<f", 0.0)).decode(),
+              "poses": base64.b64encode(struct.pack("<7f", 0, 0, 0.05, 0, 0, 0, 1)).decode()}
     files = {"clip.mp4": mp4_head(), "plot.png": tiny_png(5), "curve.png": tiny_png(6),
-             "trace.jsonl": trace.encode(), "sort_robot.toml": b"[world]\nmax_time = 30.0\n"}
+             "trace.jsonl": trace.encode(), "sort_robot.toml": b"[world]\nmax_time = 30.0\n",
+             "replay.json": json.dumps(replay).encode()}
     up = client.post(f"/api/robotics/result/{payload['run_id']}/artifacts/",
                      data={n: _upload(n, c) for n, c in files.items()}, HTTP_AUTHORIZATION=f"Bearer {token}")
     assert up.status_code == 201, up.content
@@ -369,9 +376,9 @@ def test_the_run_page_shows_everything_the_run_holds_to_each_role_that_may_see_i
         world: dict[str, Any], rich_run: dict[str, Any]) -> None:
     """The class's teacher, an administrator and the student who posted it see, on the run page: every figure
     (formatted), every object in a table of the columns of all objects, the videos as videos and the plots as
-    images (each by its own link), the state timeline over the run's sim time, the config's text, and the payload
-    as posted (indented JSON, the config by its file name). The teacher's page (and the administrator's) carries
-    the moderation form with its CSRF token; the student's has none."""
+    images (each by its own link), the state timeline over the run's sim time, the config's text, the payload as
+    posted (indented JSON, the config by its file name) and the 3D replay of its ``replay.json``. The teacher's page
+    (and the administrator's) carries the moderation form with its CSRF token; the student's has none."""
     import html
     import re
 
@@ -408,6 +415,7 @@ def test_the_run_page_shows_everything_the_run_holds_to_each_role_that_may_see_i
         assert re.findall(r"<video [^>]*src=\"([^\"]+)\"", page) == [links["clip.mp4"]], who
         assert sorted(re.findall(r"<img src=\"([^\"]+)\"", page)) == sorted([links["plot.png"], links["curve.png"]])
         assert [float(w) for w in re.findall(r'class="seg[^"]*" style="width: ([\d.]+)%"', page)] == widths, who
+        assert re.findall(r"data-src='([^']+)'", page) == [links["replay.json"]], who  # the 3D replay, drawn
         shown = re.search(r'<pre class="config">(.*?)</pre>', page, re.S)
         assert shown and html.unescape(shown.group(1)) == rich_run["config_text"], who
         block = re.search(r"<summary>Payload as posted</summary><pre>(.*?)</pre>", page, re.S)
