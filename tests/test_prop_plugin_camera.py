@@ -72,7 +72,8 @@ def test_in_view_is_the_pinhole_frustum_of_a_mounted_camera(axis: tuple, angle: 
         assert np.allclose(up, -rot[:, 1], atol=1e-6)
         half_h = math.tan(math.radians(fov) / 2)
         half_w = half_h * size[0] / size[1]
-        for fx, fy, z in points:
+        # and on the optical axis just before the near plane and just past the far one
+        for fx, fy, z in [*points, (0.3, -0.2, 0.8 * near), (-0.2, 0.3, 1.1 * far), (0.1, 0.1, 0.5 * (near + far))]:
             if min(abs(abs(fx) - 1), abs(abs(fy) - 1), abs(z - near), abs(z - far), abs(z)) < 1e-3:
                 continue  # on a boundary: either answer is a rounding
             local = np.array([fx * half_w * z, fy * half_h * z, z]) if z > 0 else np.array([fx, fy, z])
