@@ -344,7 +344,7 @@ def rich_run(world: dict[str, Any], client: Any) -> dict[str, Any]:
     and the config file; its sim time (16 s) is not its ``total_time`` (20 s)."""
     from course_helpers import mp4_head
 
-    objects = [{"colour": "red", "detected_position": [0.4, 0.1, 0.025], "outcome": "sorted"},
+    objects = [{"colour": "red", "detected_position": [0.4, 0.1, 0.025], "outcome": "sorted", "label": "빨간 상자"},
                {"colour": "blue", "grasp_attempts": 2, "error_m": 0.0123456, "note": None}]
     payload = robokit_payload(8, objects=objects, red_sorted=3, blue_sorted=1, failures=0, total_time=20.0,
                               mean_speed=0.123456)
@@ -395,7 +395,7 @@ def test_the_run_page_shows_everything_the_run_holds_to_each_role_that_may_see_i
             return ""
         if isinstance(v, float):
             return _fmt(v)
-        return json.dumps(v) if isinstance(v, (list, dict)) else str(v)
+        return json.dumps(v, ensure_ascii=False) if isinstance(v, (list, dict)) else str(v)
 
     objects = [cols] + [[cell(o.get(c)) for c in cols] for o in rich_run["objects"]]
     figures = [[k, _fmt(v)] for k, v in record.figures.items()]
@@ -423,6 +423,9 @@ def test_the_run_page_shows_everything_the_run_holds_to_each_role_that_may_see_i
         text = html.unescape(block.group(1))
         assert json.loads(text) == {**rich_run["payload"], "config": "sort_robot.toml"}, who
         assert text.startswith("{\n  "), "the payload is shown indented, a key a line"
+        assert "빨간 상자" in text, "Korean in the payload is shown as itself, not as \\u escapes"
+        facts = re.search(r"<dt>config</dt><dd>(.*?)</dd>", page, re.S)
+        assert facts and re.sub(r"<[^>]+>", "", facts.group(1)) == f"sort_robot.toml, seed {record.seed}", who
         form = re.search(r'<form method="post" action="[^"]*" class="moderate">(.*?)</form>', page, re.S)
         if who.login is not None:
             assert form and 'name="csrfmiddlewaretoken"' in form.group(1), who
