@@ -422,7 +422,7 @@ def test_the_run_page_shows_everything_the_run_holds_to_each_role_that_may_see_i
         assert block, who
         text = html.unescape(block.group(1))
         assert json.loads(text) == {**rich_run["payload"], "config": "sort_robot.toml"}, who
-        assert text.startswith("{\n  "), "the payload is shown indented, a key a line"
+        assert text.startswith('{\n  "'), "the payload is shown indented by two spaces, a key a line"
         assert "빨간 상자" in text, "Korean in the payload is shown as itself, not as \\u escapes"
         facts = re.search(r"<dt>config</dt><dd>(.*?)</dd>", page, re.S)
         assert facts and re.sub(r"<[^>]+>", "", facts.group(1)) == f"sort_robot.toml, seed {record.seed}", who
@@ -557,6 +557,7 @@ def test_a_file_is_served_with_its_type_and_the_headers_that_keep_it_private(wor
     art = Artifact.objects.get(name="plot.png", result__run_id=rich_run["payload"]["run_id"])
     Artifact.objects.filter(pk=art.pk).update(content_type="")
     c = _client(Who(login="teacher"), world)
+    assert c.get(rich_run["links"]["plot.png"].replace("plot.png", "curve.png")).status_code == 404  # its own name
     assert c.get(rich_run["links"]["plot.png"])["Content-Type"] == "image/png"
     (Path(django_settings.MEDIA_ROOT) / art.path).unlink()
     assert c.get(rich_run["links"]["plot.png"]).status_code == 404
