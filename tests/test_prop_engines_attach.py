@@ -249,7 +249,8 @@ def test_a_mounted_body_sits_at_its_offset_in_the_link_frame(
         scene.remove()
 
 
-@settings(max_examples=4, deadline=None, derandomize=True, phases=NO_SHRINK,
+@pytest.mark.slow
+@settings(max_examples=8, deadline=None, derandomize=True, phases=NO_SHRINK,
           suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @given(hinge_axis=axes, joint_rpy=angles, arm_com=small, arm_rpy=angles, cargo_com=small,
        cargo_rpy=st.one_of(st.just((0.0, 0.0, 0.0)), angles), turn_axis=axes, turn=turns,

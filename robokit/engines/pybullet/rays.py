@@ -261,9 +261,7 @@ class PyBulletRayCaster:
             if self.world.mesh_boxes:
                 results = self._beyond_mesh_exits(s_t.T[idx], ends.T[idx], results)
             for k, r in zip(idx.tolist(), results, strict=True):  # (a few rays: plain Python)
-                if r[0] != ignore:
-                    body[k] = r[0]
-                    frac[k] = r[2]
+                body[k], frac[k] = (r[0], r[2]) if r[0] != ignore else (-1, 1.0)
         if ignore in self._boxes:  # a mesh box intersected here counts as none too
             frac[body == ignore] = 1.0
             body[body == ignore] = -1
