@@ -104,6 +104,7 @@ def test_a_held_tool_reads_its_weight_and_each_push_for_one_step(
         wrist = world.joint(probe, "wrist").index
         spin = world.joint(probe, "spin").index
         world.enable_joint_wrench(probe, wrist)
+        assert list(world.joint_states(probe, [wrist])[0][2]) == [0.0] * 6, "nothing measured before a step"
         for _ in range(3):
             world.step()
         origin, _ = world.pose(probe, wrist)
