@@ -259,7 +259,8 @@ def test_the_centre_of_mass_frame_is_the_model_files_inertial_frame(
         world: World, tmp_path: Path, hinge_axis, joint_rpy, arm_com, arm_rpy, cargo_com, cargo_rpy, turn_axis,
         turn, moved) -> None:
     """``com_pose`` is the link frame moved by the URDF's ``<inertial><origin xyz rpy>`` (as PyBullet reads it),
-    ``link_offset`` its inverse, and ``set_com_pose`` puts that frame where it is told; whatever order the
+    ``link_offset`` its inverse, ``set_com_pose`` puts that frame and ``set_pose`` the link frame where they are
+    told; whatever order the
     inertia's principal axes come in (the cargo's diagonal inertia 2e-4, 3e-4, 4e-4 is not sorted the way MuJoCo
     sorts principal axes)."""
     placed = np.eye(4)
@@ -281,5 +282,12 @@ def test_the_centre_of_mass_frame_is_the_model_files_inertial_frame(
         assert_frame(frame(*world.com_pose(scene.cargo)), target, 1e-6, 1e-5, "set_com_pose")
         assert_frame(scene.cargo_frame(), target @ np.linalg.inv(scene.cargo_com), 1e-6, 1e-5,
                      "the link frame after set_com_pose")
+        # set_pose places the link frame (what pose reports), the centre of mass follows at its URDF offset
+        target[:3, :3] = rodrigues(turn_axis, 0.5 * turn) @ target[:3, :3]
+        target[:3, 3] -= moved
+        world.set_pose(scene.cargo, target[:3, 3], Scene._quat(target[:3, :3]))
+        assert_frame(scene.cargo_frame(), target, 1e-6, 1e-5, "set_pose")
+        assert_frame(frame(*world.com_pose(scene.cargo)), target @ scene.cargo_com, 1e-6, 1e-5,
+                     "the centre of mass after set_pose")
     finally:
         scene.remove()
