@@ -577,3 +577,66 @@ def test_revoking_a_students_tokens_keeps_when_each_earlier_one_was_revoked(worl
     assert all(after[pk] == when for pk, when in before.items() if when is not None)
     assert all(when is not None for when in after.values())
     assert tokens.revoke_student_tokens(park) == 0
+
+
+def _moderation_world(world: dict[str, Any], client: Any) -> dict[str, Any]:
+    """A run and a submission in each class: 김민준's in class A (the world's), 박지호's in class B."""
+    from course_work import OFFICIAL, make_assignment
+
+    from robokit.server.models import Classroom, Result, Student, Submission
+
+    payload = robokit_payload(11, student="park")
+    assert client.post("/api/robotics/result/", data=json.dumps(payload), content_type="application/json",
+                       HTTP_AUTHORIZATION=f"Bearer {world['tokens']['park']}").status_code == 201
+    room_b = Classroom.objects.get(name="2반")
+    park = Student.objects.get(name="박지호")
+    sub_b = Submission.objects.create(assignment=make_assignment(room_b), student=park, config_text=OFFICIAL)
+    rooms = {"A": Classroom.objects.get(name="1반").pk, "B": room_b.pk}
+    return {"rooms": rooms,
+            "objects": {("run", "A"): Result.objects.get(run_id=world["payload"]["run_id"]).run_id,
+                        ("run", "B"): payload["run_id"],
+                        ("submission", "A"): Submission.objects.exclude(pk=sub_b.pk).get().pk,
+                        ("submission", "B"): sub_b.pk}}
+
+
+def _flags() -> dict[tuple[str, Any], bool]:
+    from robokit.server.models import Result, Submission
+
+    return {**{("run", r): x for r, x in Result.objects.values_list("run_id", "excluded")},
+            **{("submission", s): x for s, x in Submission.objects.values_list("pk", "excluded")}}
+
+
+@pytest.mark.parametrize("full", [False, pytest.param(True, marks=pytest.mark.slow)], ids=["exclude", "all"])
+def test_every_moderation_through_every_class_url_changes_only_the_owners_own_objects(world: dict[str, Any],
+                                                                                       client: Any, full: bool) -> None:
+    """Every teacher login (the class's teacher, the other class's, an administrator, a teacher of no class)
+    excluding and putting back every run and submission (of either class) through either class's moderation URL:
+    it takes effect exactly when the login may open that class (a superuser may open every class) and the object
+    is that class's; otherwise 404 and no flag of any object changes, and no moderation log line is written. The
+    default tier excludes, with the two classes' teachers; the slow tier puts back too, with every login."""
+    from django.urls import reverse
+
+    from robokit.server.models import ModerationEvent
+
+    mod = _moderation_world(world, client)
+    owners = {"teacher": {"A"}, "other_teacher": {"B"}, "admin": {"A", "B"}, "idle_teacher": set()}
+    if not full:
+        owners = {k: owners[k] for k in ("teacher", "other_teacher")}
+    wrong = []
+    for login, opens in owners.items():
+        c = _client(Who(login=login), world)
+        for url_class, room in mod["rooms"].items():
+            for (kind, obj_class), ident in mod["objects"].items():
+                for action in ("exclude", "include") if full else ("exclude",):
+                    before, log = _flags(), ModerationEvent.objects.count()
+                    field = "run_id" if kind == "run" else "submission"
+                    resp = c.post(reverse("moderate", kwargs={"pk": room}),
+                                  {field: ident, "action": action, "reason": "a generated check"})
+                    takes = url_class in opens and obj_class == url_class
+                    want = {**before, (kind, ident): action == "exclude"} if takes else before
+                    label = f"{login} {action} {kind} of {obj_class} through class {url_class}"
+                    if resp.status_code != (302 if takes else 404):
+                        wrong.append(f"{label}: {resp.status_code}")
+                    if _flags() != want or ModerationEvent.objects.count() != log + takes:
+                        wrong.append(f"{label}: flags or the moderation log changed as they should not")
+    assert not wrong, "\n".join(wrong)
