@@ -208,3 +208,27 @@ def test_without_a_run_folder_or_a_wish_nothing_is_saved(tmp_path: Path) -> None
         finally:
             sim.close()
         assert not (tmp_path / "run" / "frames").exists()
+
+
+def test_a_mounted_camera_follows_its_link_at_rotations_about_several_axes() -> None:
+    """One build, the mount turned to generated rotations about several axes at once (never a rotation that is its
+    own inverse): eye, viewing direction (+z of the offset frame) and image up (its -y) from Rodrigues."""
+    offset, rpy = (0.03, -0.02, 0.05), (35.0, -50.0, 120.0)
+    cfg = {"bodies": {"rig": {"shape": "box", "size": [0.05, 0.05, 0.05], "mass": 0, "position": [0, 0, 1]}},
+           "sensors": {"cam": {"type": "camera", "width": 16, "height": 12, "mount_body": "rig",
+                               "mount_link": "base", "offset_xyz": list(offset), "offset_rpy_deg": list(rpy)}}}
+    rng = np.random.default_rng(3)
+    with make_sim(cfg) as sim:
+        w, cam = sim.world, sim.components["cam"]
+        for _ in range(12):
+            axis = rng.normal(size=3)
+            axis /= np.linalg.norm(axis)
+            angle = float(rng.uniform(0.3, 2.8) * rng.choice([-1, 1]))
+            where = rng.uniform(-1, 1, size=3)
+            w.set_pose("rig", where.tolist(), [*(axis * math.sin(angle / 2)), math.cos(angle / 2)])
+            link = rodrigues(axis, angle)
+            rot = link @ rpy_matrix(*np.radians(rpy))
+            eye, target, up = cam.pose()
+            assert np.allclose(eye, where + link @ np.asarray(offset), atol=1e-6)
+            assert np.allclose(np.subtract(target, eye), rot[:, 2], atol=1e-6)
+            assert np.allclose(up, -rot[:, 1], atol=1e-6)

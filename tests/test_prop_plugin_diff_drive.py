@@ -310,3 +310,27 @@ def test_contacts_name_every_body_touching_the_robot_but_the_ground(names: list[
         state = drive.read()
         assert set(state.contacts) == touching - {"plane", "ground", "floor"}
         assert list(state.contacts) == sorted(state.contacts)
+
+
+def test_a_protective_stop_mid_drive_holds_the_wheels_until_the_next_command() -> None:
+    """Generated drives, each stopped mid-way: the world's wheels and base come to rest and stay there with no
+    command (nothing drives on at the last command, not even ramped back up); the next command drives again."""
+    rng = np.random.default_rng(11)
+    with make_sim(scene()) as sim:
+        w, drive = sim.world, sim.components["drive"]
+        joints = [w.joint(drive.body, n).index for n in ("left_wheel", "right_wheel")]
+        for _ in range(2):
+            place(w, drive, 0.0, 0.0, float(rng.uniform(0.3, 2.8)))
+            drive.command(Twist(float(rng.uniform(0.15, 0.3) * rng.choice([-1, 1])), float(rng.uniform(-1.5, 1.5))))
+            sim.step(int(rng.integers(30, 90)))
+            drive.protective_stop("a test")
+            sim.step(round(0.3 * w.physics_hz))
+            rest, _ = frame2d(w, drive.body)
+            sim.step(round(0.3 * w.physics_hz))
+            now, _ = frame2d(w, drive.body)
+            assert math.dist(now, rest) < 2e-3, "the base drove on after the stop"
+            assert max(abs(s[1]) for s in w.joint_states(drive.body, joints)) < 0.3
+            assert drive.read().command == STOP
+        drive.command(Twist(0.2, 0.0))
+        sim.step(round(0.4 * w.physics_hz))
+        assert drive.read().v > 0.1, "a new command drives again"
