@@ -51,7 +51,7 @@ headings = st.one_of(st.floats(0.25, 2.9), st.floats(-2.9, -0.25))
 @settings(max_examples=8, deadline=None, derandomize=True)
 @given(pose=st.tuples(st.floats(-1, 1), st.floats(-1, 1), headings),
        reach=st.tuples(st.floats(0.15, 0.25), st.floats(0.3, 0.45)), half_width=st.floats(0.08, 0.3),
-       height=st.floats(0.02, 0.4), max_mass=st.floats(0.2, 1.0),
+       height=st.one_of(st.floats(0.02, 0.07), st.floats(0.07, 0.4)), max_mass=st.floats(0.2, 1.0),
        objects=st.lists(st.tuples(spots, st.sampled_from([0.5, 1.0, 1.5])), min_size=1, max_size=5))
 def test_the_collector_takes_exactly_the_loose_objects_in_its_reach_zone(
         pose: tuple, reach: tuple, half_width: float, height: float, max_mass: float, objects: list) -> None:
@@ -121,6 +121,33 @@ def test_the_collector_takes_exactly_the_loose_objects_in_its_reach_zone(
             now = np.linalg.inv(bin_frame) @ matrix(w, w.pose(n))
             assert np.allclose(now[:3, 3], rel[n][:3, 3], atol=3e-3), n
         assert col.read().count == len(want) and not col.read().armed
+
+
+@pytest.mark.slow
+def test_a_full_bin_holds_nine_objects_apart_on_its_floor() -> None:
+    """Nine 4 cm cans in the zone, one taken an update: all nine held, each apart from every other, none below the
+    bin's level or more than a centimetre above it, all inside the robot's footprint."""
+    size = 0.04
+    with make_sim(scene(armed=True, reach_x=[0.16, 0.5], reach_half_width=0.3)) as sim:
+        w = sim.world
+        for i in range(9):
+            w.add_primitive(f"can{i}", "box", size=[size] * 3, mass=0.1,
+                            position=[0.2 + 0.1 * (i % 3), 0.1 * (i // 3 - 1), size / 2])
+        sim.step(12)
+        assert sim.readings["collector"].count == 9
+        robot = w.body("robot")
+        base = matrix(w, w.pose(robot))
+        level = w.pose(robot, w.link(robot, "bin_link"))[0][2]
+        centres = []
+        for i in range(9):
+            lo, _ = w.aabb(f"can{i}")
+            assert level - 1e-3 <= lo[2] <= level + 0.01, (i, lo[2], level)
+            local = np.linalg.inv(base) @ matrix(w, w.pose(f"can{i}"))
+            assert abs(local[0, 3]) + size / 2 < 0.16 and abs(local[1, 3]) + size / 2 < 0.15, i
+            centres.append(local[:2, 3])
+        for a in range(9):
+            for b in range(a + 1, 9):
+                assert np.linalg.norm(centres[a] - centres[b]) >= size - 1e-3, (a, b)
 
 
 def test_a_held_object_is_never_taken_twice_even_in_reach() -> None:
