@@ -291,3 +291,24 @@ def test_the_centre_of_mass_frame_is_the_model_files_inertial_frame(
                      "the centre of mass after set_pose")
     finally:
         scene.remove()
+
+
+@pytest.mark.parametrize("max_force", [None, 2000.0, 0.5])
+def test_a_pybullet_attachment_holds_up_to_its_max_force(max_force: float | None) -> None:
+    """``attach``'s ``max_force`` bounds the force holding the child (PyBullet; MuJoCo's weld is soft and takes no
+    limit, docs/engines.md): a 0.5 kg box (4.9 N) hanging from a post is held by the default and by 2000 N, and
+    sinks away under a 0.5 N limit."""
+    try:
+        cls = World.engine_class("pybullet")
+    except ImportError as exc:
+        pytest.skip(f"engine 'pybullet' not installed: {exc}")
+    with cls(seed=0) as world:
+        post = world.add_primitive("post", "box", size=(0.1, 0.1, 0.1), mass=0, position=(0, 0, 1.0),
+                                   orientation=quaternion_of((1, 1, 0), 0.6))
+        box = world.add_primitive("box", "box", size=(0.1, 0.1, 0.1), mass=0.5, position=(0.05, 0.02, 0.8),
+                                  orientation=quaternion_of((0, 1, 1), 1.1))
+        world.attach(post, -1, box, max_force=max_force)
+        for _ in range(120):
+            world.step()
+        drop = 0.8 - world.pose(box)[0][2]
+        assert drop > 0.05 if max_force == 0.5 else abs(drop) < 0.003, drop

@@ -298,6 +298,8 @@ def test_lean_casts_answer_as_full_ones_and_ignore_one_body(world: World, drawn:
                 assert body[i] == world.body(shape.name), where
                 assert frac[i] * length == pytest.approx(t * length, abs=tolerance(world, shape)), where
         assert caster.rays_total == 2 * len(starts)
+        assert caster.rays_cast == caster.rays_total or world.engine == "pybullet"  # MuJoCo casts each ray itself
+        assert 0 <= caster.rays_cast <= caster.rays_total
     finally:
         clear(world, shapes)
 
@@ -320,6 +322,13 @@ def test_a_ray_starting_inside_a_slab_reads_the_plane_beneath_it(world: World, f
         caster.starts(2)[:] = starts.T
         body, frac = caster.cast_lean(np.ascontiguousarray(ends.T), 1.0 / np.array([1.08, 1.02]), ignore=plane)
         assert body.tolist() == [-1, -1] and frac.tolist() == [1.0, 1.0]
+        # from above, the slab is the first surface: ignoring it reads nothing, not the plane beneath it
+        slab = world.body("slab")
+        above, below = np.array([[0.05, 0.0, 0.5], [0.3, 0.3, 0.5]]), np.array([[0.05, 0.0, -0.5], [0.3, 0.3, -0.5]])
+        caster.starts(2)[:] = above.T
+        for ignore, want in ((slab, ([-1, plane], [1.0, 0.5])), (-2, ([slab, plane], [0.4, 0.5]))):
+            body, frac = caster.cast_lean(np.ascontiguousarray(below.T), np.array([1.0, 1.0]), ignore=ignore)
+            assert body.tolist() == want[0] and frac == pytest.approx(want[1], abs=1e-6)
     finally:
         world.remove_body("slab")
         world.remove_body("plane")
