@@ -370,3 +370,48 @@ def test_one_mistake_anywhere_in_a_tree_is_one_line_naming_the_file_and_its_key(
 def test_many_mistakes_in_deeper_trees_are_each_one_line_naming_the_file_and_its_key(
         tmp_path: Path, plugins: Any, data: Any, node: dict[str, Any]) -> None:
     _one_mistake(tmp_path, plugins, data, node)
+
+
+# a tree with a section of every kind, for the test below: (key path, table, whether it is a child)
+EVERY_KIND = {"type": "sequence", "steps": [
+    {"type": "record", "name": "grab"},
+    {"type": "parallel", "children": [{"type": "drop_test"}, {"type": "record"}]},
+    {"type": "retry", "child": {"type": "timeout", "seconds": 2.0, "child": {"type": "record"}}},
+    {"type": "fallback", "children": [{"type": "record"}]}]}
+
+
+def test_every_key_of_every_kind_of_section_misspelt_is_named_with_its_sections_keys(tmp_path: Path,
+                                                                                    plugins: Any) -> None:
+    """Each key each section of a tree with every composite takes (its type's own, ``rate_hz``, a child's ``name``
+    and ``must_last``), misspelt alone: one line at that key, the key meant, and exactly the section's keys; and
+    each composite's children written the wrong way (one table for ``[[...]]``, two for one): the docs' line."""
+    import copy
+
+    wrong = []
+    for index, (key, node, child) in enumerate(nodes(EVERY_KIND)):
+        takes = list(OPTIONS[node["type"]]) + ["rate_hz"] + (["name", "must_last"] if child else [])
+        for good in takes:
+            tree_ = copy.deepcopy(EVERY_KIND)
+            where = nodes(tree_)[index][1]
+            bad = misspelt(good, 0)
+            where[bad] = where.pop(good, 1)
+            valid = sorted([*takes, "type", *([COMPOSITES[node["type"]][0]] if node["type"] in COMPOSITES else [])])
+            want = (f"{key}.{bad}: unknown key {bad!r} (did you mean {good!r}?); valid keys: "
+                    f"{', '.join(valid)}")
+            path = write_config(tmp_path, tree_)
+            if refusal(path, plugins) != f"{path}: {want}":
+                wrong.append(f"{refusal(path, plugins)} != {want}")
+        if node["type"] in COMPOSITES:
+            ckey, least, most, _ = COMPOSITES[node["type"]]
+            tree_ = copy.deepcopy(EVERY_KIND)
+            where = nodes(tree_)[index][1]
+            kids = where[ckey] if most != 1 else [where[ckey]]
+            where[ckey] = [kids[0], kids[0]] if most == 1 else kids[0]
+            noun = "steps" if ckey == "steps" else ("a child" if most == 1 else "children")
+            count = "one" if most == 1 else ("one or more" if least == 1 else f"{least} or more")
+            what = f"[{key}.{ckey}] table" if most == 1 else f"[[{key}.{ckey}]] tables"
+            want = f"{key}.{ckey}: a {node['type']} needs {noun}: {count} {what}, each with a type"
+            path = write_config(tmp_path, tree_)
+            if refusal(path, plugins) != f"{path}: {want}":
+                wrong.append(f"{refusal(path, plugins)} != {want}")
+    assert not wrong, "\n".join(wrong)
