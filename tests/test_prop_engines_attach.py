@@ -312,3 +312,32 @@ def test_a_pybullet_attachment_holds_up_to_its_max_force(max_force: float | None
             world.step()
         drop = 0.8 - world.pose(box)[0][2]
         assert drop > 0.05 if max_force == 0.5 else abs(drop) < 0.003, drop
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("engine", ENGINES)
+def test_two_attachments_are_told_apart(engine: str) -> None:
+    """Two boxes attached to one post (one where it is, one at a position in the post's centre-of-mass frame)
+    get their own ids: detaching the first lets only the first fall; the second sits where it was put."""
+    try:
+        cls = World.engine_class(engine)
+    except ImportError as exc:
+        pytest.skip(f"engine {engine!r} not installed: {exc}")
+    with cls(seed=0) as world:
+        turn = quaternion_of((1, 2, 0), 0.7)
+        post = world.add_primitive("post", "box", size=(0.1, 0.1, 0.1), mass=0, position=(0, 0, 1.0), orientation=turn)
+        first = world.add_primitive("first", "box", size=(0.05, 0.05, 0.05), mass=0.2, position=(0.0, 0.2, 0.9))
+        second = world.add_primitive("second", "sphere", radius=0.03, mass=0.2, position=(0.3, 0.0, 1.0))
+        a = world.attach(post, -1, first)
+        b = world.attach(post, -1, second, position=(0.2, 0.05, -0.1))
+        assert a != b and world.joined(post, first) and world.joined(post, second)
+        for _ in range(60):
+            world.step()
+        world.detach(a)
+        assert not world.joined(post, first) and world.joined(post, second)
+        for _ in range(120):
+            world.step()
+        assert world.pose(first)[0][2] < 0.5  # let go: it fell
+        held = frame((0, 0, 1.0), turn) @ np.array([0.2, 0.05, -0.1, 1.0])  # the post's centre of mass frame
+        assert np.linalg.norm(np.asarray(world.pose(second)[0]) - held[:3]) < 3e-3
+        assert angle_between(rotation(world.pose(second)[1]), rotation(turn)) < 0.03  # aligned with the post

@@ -233,12 +233,14 @@ def test_every_ray_reports_the_first_surface_it_enters(world: World, drawn: list
         rng = np.random.default_rng(seed)
         starts, ends = segments(rng, shapes, 48, fan)
         caster = world.ray_caster()
+        caster.cast(starts[:5], ends[:5])
         hits = caster.cast(starts, ends, detail=detail)
         judged = check(world, shapes, starts, ends, hits, detail=detail)
         assert judged >= 24 or world.engine == "pybullet"  # most rays are judged (PyBullet: see `expected`)
-        assert caster.rays_total == len(starts) and hits.cast.dtype == bool and len(hits.cast) == len(starts)
+        assert caster.rays_total == len(starts) + 5 and hits.cast.dtype == bool and len(hits.cast) == len(starts)
+        assert 0 <= caster.rays_cast <= caster.rays_total
         if world.engine == "mujoco":  # MuJoCo casts every ray itself
-            assert hits.cast.all()
+            assert hits.cast.all() and caster.rays_cast == caster.rays_total
     finally:
         clear(world, shapes)
 
