@@ -46,6 +46,7 @@ class Tok:
     classroom: str  # class key
     student: str | None = None  # student key; None: a teacher token
     revoked: bool = False
+    teacher: str | None = None  # a teacher token's holder (a key of USERS): refused once that account is deactivated
 
 
 # the world's facts: two classes, their people, the tokens; the objects asked for are all class A's: 김민준's
@@ -54,7 +55,8 @@ USERS = {"teacher": User(frozenset({"A"})), "other_teacher": User(frozenset({"B"
          "admin": User(superuser=True), "idle_teacher": User(), "plain": User(staff=False)}
 STUDENTS = {"kim": "A", "lee": "A", "park": "B", "kim_b": "B"}  # kim_b: 김민준 enrolled in class B too
 TOKENS = {**{s: Tok(c, s) for s, c in STUDENTS.items()}, "park_old": Tok("B", "park", revoked=True),
-          "teacher_A": Tok("A"), "teacher_B": Tok("B"), "admin_B": Tok("B")}
+          "teacher_A": Tok("A", teacher="teacher"), "teacher_B": Tok("B", teacher="other_teacher"),
+          "admin_B": Tok("B", teacher="admin")}
 OWNER, CLASS = "kim", "A"  # whose run and submission the URLs name, and their class
 
 
@@ -92,8 +94,8 @@ def expected(route: str, who: Who) -> Any:
         return LOGIN if route == "run" and user is None and who.session is None else 404
     # the API: the token alone
     assert route.startswith("api-"), f"route {route!r} has no rule in this test: add it to expected()"
-    if tok is not None and tok.revoked:
-        return 401
+    if tok is not None and (tok.revoked or (who.inactive and tok.teacher is not None and tok.teacher == who.login)):
+        return 401  # revoked, or a teacher token whose holder's account was deactivated
     if route == "api-submission":  # its student's token, or a teacher token of its class
         mine = tok is not None and (tok.student == OWNER or (tok.student is None and tok.classroom == CLASS))
         return 200 if mine else 404

@@ -20,7 +20,8 @@ PREFIXES = {Token.STUDENT: "rks_", Token.TEACHER: "rkt_"}
 
 
 class TokenError(Exception):
-    """A token that cannot be used: unknown, revoked, or badly formed (the message says which, never the token)."""
+    """A token that cannot be used: unknown, revoked, its teacher's account deactivated, or badly formed (the message
+    says which, never the token)."""
 
 
 def hash_token(token: str) -> str:
@@ -53,7 +54,7 @@ def find(token: str) -> Token:
     """The active :class:`Token` for ``token``.
 
     Raises:
-        TokenError: unknown or revoked.
+        TokenError: unknown or revoked, or a teacher token whose account was deactivated.
     """
     row = (Token.objects.select_related("classroom", "student", "teacher")
            .filter(key_hash=hash_token(token)).first())
@@ -61,6 +62,8 @@ def find(token: str) -> Token:
         raise TokenError("unknown token: check that the whole token was copied (your teacher can issue a new one)")
     if row.revoked_at is not None:
         raise TokenError("revoked token: this token was revoked; ask your teacher for a new one")
+    if row.teacher is not None and not row.teacher.is_active:
+        raise TokenError("inactive account: the teacher account this token belongs to was deactivated")
     return row
 
 
