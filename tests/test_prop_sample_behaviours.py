@@ -295,7 +295,7 @@ def sort_run(plans: dict[str, list[str]]) -> tuple[Any, Tiny, dict[str, Any]]:
         bodies[name] = {"shape": "box", "size": [SIZE] * 3, "mass": 0.1, "position": spot, "rgba": rgba}
     world = Tiny({n: list(p) for n, p in spots.items()}, dict(plans))
     world.arm = world.start = world.target = [0.28, 0.0, 0.34]
-    detector = Detector(world, {n: ("red" if n.startswith("red") else "blue") for n in plans}, rate_hz=1.5)
+    detector = Detector(world, {n: ("red" if n.startswith("red") else "blue") for n in plans}, rate_hz=1.2)
     sim = make_sim({"bodies": bodies}, seed=0)
     readings = Lazy(detector)
     components = {"detector": detector, "arm": StandIn("arm", ArmState, "actuator"),
@@ -303,7 +303,9 @@ def sort_run(plans: dict[str, list[str]]) -> tuple[Any, Tiny, dict[str, Any]]:
     ctx = SetupContext(sim.world, np.random.default_rng(0), "behaviour", readings, components, ".",
                        lambda kind, **data: None)
     sort = Sort("sort", SortConfig.model_validate({"bins": {"red": {"body": "red_bin"}, "blue": {"body": "blue_bin"}},
-                                                   "max_attempts": 3}))
+                                                   "max_attempts": 3,
+                                                   # quick moves: a pick and place well within one camera period
+                                                   "pick_place": {"speed": 6.0, "slow_speed": 6.0}}))
     sort.setup(ctx)
     commands: Any = {}
     steps = 0
