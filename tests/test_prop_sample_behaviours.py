@@ -130,7 +130,6 @@ def drive(run: ScriptedRun, world: Tiny, max_time: float, stop_at: float | None 
 grasp_st = st.lists(st.sampled_from(["ok", "miss", "drop"]), min_size=1, max_size=4)
 
 
-@pytest.mark.slow
 @settings(max_examples=25, deadline=None)
 @given(st.lists(grasp_st, min_size=1, max_size=3), st.integers(1, 4), st.floats(0.025, 0.25))
 def test_each_object_reports_the_attempts_the_world_saw(plans: list[list[str]], max_attempts: int,
@@ -161,7 +160,6 @@ def test_each_object_reports_the_attempts_the_world_saw(plans: list[list[str]], 
             assert z >= max(SIZE / 2, place_z) + lift - 1e-9, (z, place_z)
 
 
-@pytest.mark.slow
 @settings(max_examples=25, deadline=None)
 @given(st.floats(0.05, 6.0))
 def test_a_halted_pick_place_holds_the_arm_and_keeps_the_grip(at: float) -> None:
@@ -191,7 +189,6 @@ def patrol_config(waypoints: list[list[float]], timeout: float, laps: int = 1) -
     }
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("timeout, laps", [(0.4, 1), (0.25, 2)])
 def test_every_leg_gets_its_own_waypoint_timeout(timeout: float, laps: int) -> None:
     """Waypoints far behind a wall cannot be reached in the time allowed: every leg ends missed exactly one
@@ -322,7 +319,6 @@ def sort_run(plans: dict[str, list[str]]) -> tuple[Any, Tiny, dict[str, Any]]:
     return sort, world, result
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_sort_counts_every_missed_grasp_and_never_picks_from_an_old_frame(seed: int) -> None:
     import random

@@ -25,7 +25,6 @@ def actions_of(name: str) -> Actions:
     return Actions(spec, {})
 
 
-@pytest.mark.slow
 @settings(max_examples=80, deadline=None)
 @given(st.sampled_from(["pick.toml", "go_to.toml"]), st.data())
 def test_an_action_outside_the_box_acts_as_its_nearest_point(name: str, data: st.DataObject) -> None:
@@ -35,7 +34,6 @@ def test_an_action_outside_the_box_acts_as_its_nearest_point(name: str, data: st
     assert actions.commands(raw) == actions.commands(clipped)
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("max_time", [0.3, 0.5, 1.2])
 def test_an_episode_is_truncated_after_exactly_max_time(max_time: float) -> None:
     env = RobokitEnv(CONFIGS / "go_to.toml", overrides={"env.task.max_time": max_time})
@@ -53,7 +51,6 @@ def test_an_episode_is_truncated_after_exactly_max_time(max_time: float) -> None
         env.close()
 
 
-@pytest.mark.slow
 def test_reset_with_a_seed_draws_what_that_seed_drew_first() -> None:
     randomize = {"per_episode": True, "mass_scale": [0.5, 1.5], "friction_scale": [0.5, 1.5]}
     env = RobokitEnv(CONFIGS / "go_to.toml", overrides={f"randomize.{k}": v for k, v in randomize.items()})

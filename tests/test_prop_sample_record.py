@@ -40,7 +40,6 @@ def recorded(tmp_path: Path, pose_hz: float, ticks: int) -> tuple[RunRecord, dic
     return RunRecord(tmp_path / "run"), final, tick
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("pose_hz, ticks", [(30.0, 97), (7.0, 130), (45.0, 61), (100.0, 50)])
 def test_the_header_rate_is_the_logged_rate_and_the_last_sample_is_the_end(tmp_path: Path, pose_hz: float,
                                                                            ticks: int) -> None:
@@ -58,7 +57,6 @@ def test_the_header_rate_is_the_logged_rate_and_the_last_sample_is_the_end(tmp_p
         assert np.allclose(row[:3], com_pos, atol=1e-6) and np.allclose(row[3:], com_orn, atol=1e-6), name
 
 
-@pytest.mark.slow
 def test_replay_base_frames_are_the_world_link_frames(tmp_path: Path) -> None:
     rec, final, _ = recorded(tmp_path, 30.0, 80)
     replay = replay_of(rec)

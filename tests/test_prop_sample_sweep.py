@@ -28,7 +28,6 @@ row_st = st.fixed_dictionaries({
 })
 
 
-@pytest.mark.slow
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(st.lists(row_st, max_size=12))
 def test_junit_counts_are_the_cases_it_holds(tmp_path: Path, rows: list[dict]) -> None:
@@ -50,7 +49,6 @@ def test_junit_counts_are_the_cases_it_holds(tmp_path: Path, rows: list[dict]) -
     assert abs(float(suite.get("time")) - sum(float(f"{r['wall_time']:.3f}") for r in rows)) < 1e-3 * (len(rows) + 1)
 
 
-@pytest.mark.slow
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(st.lists(st.integers(0, 10**6), min_size=1, max_size=6), st.data())
 def test_a_torn_trials_file_keeps_every_whole_line_and_takes_more(tmp_path: Path, seeds: list[int],
@@ -91,7 +89,6 @@ duration = 0.05
 """
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("max_time, outcome", [(0.02, "aborted"), (0.2, "succeeded")])
 def test_keep_failed_keeps_the_record_of_every_trial_that_did_not_succeed(tmp_path: Path, max_time: float,
                                                                            outcome: str) -> None:
