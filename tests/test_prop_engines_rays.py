@@ -72,6 +72,13 @@ def interval(shape: Shape, start: np.ndarray, vec: np.ndarray, grow: float = 0.0
     return lo, hi, shape.rot[:, face[0]] * face[1]
 
 
+def inside(shape: Shape, point: np.ndarray, grow: float) -> bool:
+    """True if ``point`` lies inside the shape grown by ``grow`` (m)."""
+    if shape.kind == "sphere":
+        return bool(np.linalg.norm(point - shape.centre) < shape.half[0] + grow)
+    return bool((np.abs(shape.rot.T @ (point - shape.centre)) < shape.half + grow).all())
+
+
 def first_entry(shapes: list[Shape], start: np.ndarray, end: np.ndarray, grow: float = 0.0
                 ) -> list[tuple[float, Shape, np.ndarray]]:
     """Every surface the segment enters in [0, 1), nearest first (a shape it starts inside is passed through)."""
@@ -104,6 +111,9 @@ def expected(shapes: list[Shape], start: np.ndarray, end: np.ndarray, engine: st
     if len(exact) > 1 and exact[1][0] - exact[0][0] < 4 * margin:
         return None
     for shape in shapes:  # starts or ends within the margin of a surface
+        for point in (start, end):
+            if inside(shape, point, MARGIN[engine]) != inside(shape, point, -MARGIN[engine]):
+                return None
         got = interval(shape, start, end - start)
         if got is not None and min(abs(got[0]), abs(got[1]), abs(got[0] - 1.0), abs(got[1] - 1.0)) < margin:
             return None
