@@ -252,7 +252,7 @@ def test_every_ray_reports_the_first_surface_it_enters(world: World, drawn: list
         caster.cast(starts[:5], ends[:5])
         hits = caster.cast(starts, ends, detail=detail)
         judged = check(world, shapes, starts, ends, hits, detail=detail)
-        assert judged >= 24 or world.engine == "pybullet"  # most rays are judged (PyBullet: see `expected`)
+        assert judged >= 12 or world.engine == "pybullet"  # many rays are judged (PyBullet: see `expected`)
         assert caster.rays_total == len(starts) + 5 and hits.cast.dtype == bool and len(hits.cast) == len(starts)
         assert 0 <= caster.rays_cast <= caster.rays_total
         if world.engine == "mujoco":  # MuJoCo casts every ray itself
