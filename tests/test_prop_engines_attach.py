@@ -171,7 +171,6 @@ SETTINGS = dict(max_examples=8, deadline=None, derandomize=True, phases=NO_SHRIN
                 suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 
 
-@pytest.mark.slow
 @settings(**SETTINGS)
 @given(hinge_axis=axes, joint_rpy=angles, arm_com=small, arm_rpy=angles, cargo_com=small, cargo_rpy=angles,
        where=reach, turn_axis=axes, turn=turns, swing=st.floats(0.4, 1.2))
@@ -202,7 +201,6 @@ def test_an_attached_body_keeps_its_pose_in_the_parent_link_as_the_link_turns(
         scene.remove()
 
 
-@pytest.mark.slow
 @settings(**SETTINGS)
 @given(hinge_axis=axes, joint_rpy=angles, arm_com=small, arm_rpy=angles, cargo_com=small, cargo_rpy=angles,
        where=reach, turn_axis=axes, turn=turns)
@@ -226,7 +224,6 @@ def test_an_attachment_at_a_position_holds_the_centre_of_mass_there_aligned(
         scene.remove()
 
 
-@pytest.mark.slow
 @settings(**SETTINGS)
 @given(hinge_axis=axes, joint_rpy=angles, arm_com=small, arm_rpy=angles, cargo_com=small, cargo_rpy=angles,
        where=reach, turn_axis=axes, turn=turns, swing=st.floats(0.4, 1.2))
@@ -249,7 +246,6 @@ def test_a_mounted_body_sits_at_its_offset_in_the_link_frame(
         scene.remove()
 
 
-@pytest.mark.slow
 @settings(max_examples=8, deadline=None, derandomize=True, phases=NO_SHRINK,
           suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @given(hinge_axis=axes, joint_rpy=angles, arm_com=small, arm_rpy=angles, cargo_com=small,
@@ -314,7 +310,6 @@ def test_a_pybullet_attachment_holds_up_to_its_max_force(max_force: float | None
         assert drop > 0.05 if max_force == 0.5 else abs(drop) < 0.003, drop
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("engine", ENGINES)
 def test_two_attachments_are_told_apart(engine: str) -> None:
     """Two boxes attached to one post (one where it is, one at a position in the post's centre-of-mass frame)

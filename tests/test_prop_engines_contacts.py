@@ -49,7 +49,6 @@ axes = st.tuples(*(st.floats(-1.0, 1.0),) * 3).filter(lambda a: np.linalg.norm(a
 turns = st.floats(0.3, 2.8)
 
 
-@pytest.mark.slow
 @settings(max_examples=15, deadline=None, derandomize=True, phases=NO_SHRINK,
           suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @given(axis=axes, turn=turns, spin=turns, slab=st.tuples(st.floats(0.3, 0.6), st.floats(0.3, 0.6)),

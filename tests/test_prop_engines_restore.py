@@ -68,7 +68,6 @@ def engine(request: pytest.FixtureRequest) -> Iterator[type[World]]:
         pytest.skip(f"engine {request.param!r} not installed: {exc}")
 
 
-@pytest.mark.slow
 @settings(max_examples=5, deadline=None, derandomize=True, phases=NO_SHRINK,
           suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @given(sizes=st.tuples(st.floats(0.08, 0.2), st.floats(0.05, 0.12)), yaws=st.tuples(st.floats(0.3, 2.8),

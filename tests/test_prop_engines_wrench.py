@@ -87,7 +87,6 @@ offsets = st.tuples(*(st.floats(-0.15, 0.15),) * 3)
 pushes = st.tuples(*(st.floats(-6.0, 6.0),) * 3)
 
 
-@pytest.mark.slow
 @settings(max_examples=10, deadline=None, derandomize=True, phases=NO_SHRINK,
           suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @given(joint_xyz=offsets, joint_rpy=angles, com=offsets, com_rpy=angles, mass=st.floats(0.2, 3.0), base_axis=axes,
