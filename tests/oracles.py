@@ -30,3 +30,15 @@ def rotation(q: Any) -> np.ndarray:
     if s < 1e-12:
         return np.eye(3)
     return rodrigues((x, y, z), 2.0 * math.atan2(s, w))
+
+
+def quaternion_of(axis: Any, angle: float) -> tuple[float, float, float, float]:
+    """The ``(x, y, z, w)`` quaternion of a turn by ``angle`` about ``axis`` (half the angle, the unit axis)."""
+    k = np.asarray(axis, float) / np.linalg.norm(axis)
+    s = math.sin(angle / 2.0)
+    return (float(k[0] * s), float(k[1] * s), float(k[2] * s), math.cos(angle / 2.0))
+
+
+def rpy_matrix(r: float, p: float, y: float) -> np.ndarray:
+    """URDF's rpy: about fixed x, then fixed y, then fixed z."""
+    return rodrigues((0, 0, 1), y) @ rodrigues((0, 1, 0), p) @ rodrigues((1, 0, 0), r)

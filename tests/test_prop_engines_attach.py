@@ -14,30 +14,20 @@ from __future__ import annotations
 
 import hashlib
 import math
-from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 import pytest
+from engine_inputs import ENGINES, axes, turns
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
-from oracles import rodrigues, rotation
+from oracles import quaternion_of, rodrigues, rotation, rpy_matrix
 
 from robokit.engines.interface import World
 
+pytest_plugins = ["engine_props"]
+
 NO_SHRINK = [Phase.explicit, Phase.generate]
-ENGINES = ["pybullet", "mujoco"]
-
-
-def rpy_matrix(r: float, p: float, y: float) -> np.ndarray:
-    """URDF's rpy: about fixed x, then fixed y, then fixed z."""
-    return rodrigues((0, 0, 1), y) @ rodrigues((0, 1, 0), p) @ rodrigues((1, 0, 0), r)
-
-
-def quaternion_of(axis: tuple, angle: float) -> tuple[float, float, float, float]:
-    k = np.asarray(axis, float) / np.linalg.norm(axis)
-    s = math.sin(angle / 2.0)
-    return (float(k[0] * s), float(k[1] * s), float(k[2] * s), math.cos(angle / 2.0))
 
 
 def frame(position, orientation) -> np.ndarray:
@@ -94,21 +84,9 @@ def cargo_urdf(com: tuple, com_rpy: tuple) -> str:
 """
 
 
-axes = st.tuples(*(st.floats(-1.0, 1.0),) * 3).filter(lambda a: np.linalg.norm(a) > 0.3)
-turns = st.floats(0.3, 2.8)  # rad: never the identity, never a half turn
 small = st.tuples(*(st.floats(-0.05, 0.05),) * 3)
 angles = st.tuples(*(st.floats(-1.4, 1.4),) * 3)
 reach = st.tuples(*(st.floats(-0.25, 0.25),) * 3).filter(lambda v: np.linalg.norm(v) > 0.1)
-
-
-@pytest.fixture(params=ENGINES)
-def world(request: pytest.FixtureRequest) -> Iterator[World]:
-    try:
-        cls = World.engine_class(request.param)
-    except ImportError as exc:
-        pytest.skip(f"engine {request.param!r} not installed: {exc}")
-    with cls(seed=0) as w:
-        yield w
 
 
 class Scene:

@@ -11,18 +11,19 @@ normal, its third rotation column, computed here from axis and angle.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
 
 import numpy as np
 import pytest
+from engine_inputs import axes, turns
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 from oracles import rodrigues
 
 from robokit.engines.interface import World
 
+pytest_plugins = ["engine_props"]
+
 NO_SHRINK = [Phase.explicit, Phase.generate]
-ENGINES = ["pybullet", "mujoco"]
 
 
 def quaternion_of(m: np.ndarray) -> tuple[float, float, float, float]:
@@ -33,20 +34,6 @@ def quaternion_of(m: np.ndarray) -> tuple[float, float, float, float]:
         return (0.0, 0.0, 0.0, 1.0)
     k = axis / np.linalg.norm(axis) * math.sin(angle / 2.0)
     return (float(k[0]), float(k[1]), float(k[2]), math.cos(angle / 2.0))
-
-
-@pytest.fixture(params=ENGINES)
-def world(request: pytest.FixtureRequest) -> Iterator[World]:
-    try:
-        cls = World.engine_class(request.param)
-    except ImportError as exc:
-        pytest.skip(f"engine {request.param!r} not installed: {exc}")
-    with cls(seed=0) as w:
-        yield w
-
-
-axes = st.tuples(*(st.floats(-1.0, 1.0),) * 3).filter(lambda a: np.linalg.norm(a) > 0.3)
-turns = st.floats(0.3, 2.8)
 
 
 @settings(max_examples=15, deadline=None, derandomize=True, phases=NO_SHRINK,

@@ -13,7 +13,6 @@ starting on one, two entries within a millimetre) are left out of the comparison
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -24,8 +23,9 @@ from oracles import rotation
 
 from robokit.engines.interface import World
 
+pytest_plugins = ["engine_props"]
+
 NO_SHRINK = [Phase.explicit, Phase.generate]
-ENGINES = ["pybullet", "mujoco"]
 MARGIN = {"mujoco": 1e-3, "pybullet": 1.2e-2}
 """m a shape is grown and shrunk by to tell a robust ray from a borderline one (PyBullet's ray test against a convex
 primitive converges to within a few millimetres)."""
@@ -187,16 +187,6 @@ def tolerance(world: World, shape: Shape | None) -> float:
     if world.engine == "mujoco" or shape is None or shape.pybullet_exact:
         return 1e-7
     return 1.2e-2
-
-
-@pytest.fixture(params=ENGINES)
-def world(request: pytest.FixtureRequest) -> Iterator[World]:
-    try:
-        cls = World.engine_class(request.param)
-    except ImportError as exc:
-        pytest.skip(f"engine {request.param!r} not installed: {exc}")
-    with cls(seed=0) as w:
-        yield w
 
 
 def clear(world: World, shapes: list[Shape]) -> None:

@@ -13,25 +13,20 @@ same (an edge or a silhouette runs through them) are left out: rasterisers diffe
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
 
 import numpy as np
 import pytest
+from engine_inputs import axes, turns
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
-from oracles import rodrigues
+from oracles import quaternion_of, rodrigues
 
 from robokit.engines.interface import World
 
+pytest_plugins = ["engine_props"]
+
 NO_SHRINK = [Phase.explicit, Phase.generate]
-ENGINES = ["pybullet", "mujoco"]
 WIDTH, HEIGHT, FOV, NEAR, FAR = 48, 36, 60.0, 0.1, 6.0
-
-
-def quaternion_of(axis: tuple, angle: float) -> tuple[float, float, float, float]:
-    k = np.asarray(axis, float) / np.linalg.norm(axis)
-    s = math.sin(angle / 2.0)
-    return (float(k[0] * s), float(k[1] * s), float(k[2] * s), math.cos(angle / 2.0))
 
 
 def box_entry(origin: np.ndarray, direction: np.ndarray, centre: np.ndarray, rot: np.ndarray, half: np.ndarray,
@@ -61,20 +56,6 @@ def pixel_rays(eye: np.ndarray, target: np.ndarray, up: np.ndarray, offset: floa
     rows = (1.0 - (np.arange(HEIGHT) + offset) / HEIGHT * 2.0) * tan_y
     rays = forward + cols[None, :, None] * right + rows[:, None, None] * true_up
     return rays / np.linalg.norm(rays, axis=2)[..., None], forward
-
-
-@pytest.fixture(params=ENGINES)
-def world(request: pytest.FixtureRequest) -> Iterator[World]:
-    try:
-        cls = World.engine_class(request.param)
-    except ImportError as exc:
-        pytest.skip(f"engine {request.param!r} not installed: {exc}")
-    with cls(seed=0) as w:
-        yield w
-
-
-axes = st.tuples(*(st.floats(-1.0, 1.0),) * 3).filter(lambda a: np.linalg.norm(a) > 0.3)
-turns = st.floats(0.3, 2.8)
 
 
 @pytest.mark.slow

@@ -14,32 +14,21 @@ the identity alone) and rotation matrices built from axis and angle.
 from __future__ import annotations
 
 import hashlib
-import math
-from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 import pytest
+from engine_inputs import axes, turns
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
-from oracles import rodrigues
+from oracles import quaternion_of, rodrigues, rpy_matrix
 
 from robokit.engines.interface import World
 
+pytest_plugins = ["engine_props"]
+
 NO_SHRINK = [Phase.explicit, Phase.generate]
-ENGINES = ["pybullet", "mujoco"]
 G = 9.81
-
-
-def rpy_matrix(r: float, p: float, y: float) -> np.ndarray:
-    """URDF's rpy: about fixed x, then fixed y, then fixed z."""
-    return rodrigues((0, 0, 1), y) @ rodrigues((0, 1, 0), p) @ rodrigues((1, 0, 0), r)
-
-
-def quaternion_of(axis: tuple, angle: float) -> tuple[float, float, float, float]:
-    k = np.asarray(axis, float) / np.linalg.norm(axis)
-    s = math.sin(angle / 2.0)
-    return (float(k[0] * s), float(k[1] * s), float(k[2] * s), math.cos(angle / 2.0))
 
 
 def tool_urdf(joint_xyz: tuple, joint_rpy: tuple, com: tuple, com_rpy: tuple, mass: float) -> str:
@@ -70,18 +59,6 @@ def tool_urdf(joint_xyz: tuple, joint_rpy: tuple, com: tuple, com_rpy: tuple, ma
 """
 
 
-@pytest.fixture(params=ENGINES)
-def world(request: pytest.FixtureRequest) -> Iterator[World]:
-    try:
-        cls = World.engine_class(request.param)
-    except ImportError as exc:
-        pytest.skip(f"engine {request.param!r} not installed: {exc}")
-    with cls(seed=0) as w:
-        yield w
-
-
-axes = st.tuples(*(st.floats(-1.0, 1.0),) * 3).filter(lambda a: np.linalg.norm(a) > 0.3)
-turns = st.floats(0.3, 2.8)  # rad: never the identity, never a half turn
 angles = st.tuples(*(st.floats(-1.4, 1.4),) * 3)
 offsets = st.tuples(*(st.floats(-0.15, 0.15),) * 3)
 pushes = st.tuples(*(st.floats(-6.0, 6.0),) * 3)
