@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from engine_inputs import axes, turns
+from engine_inputs import axes, tool_urdf, turns
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 from oracles import quaternion_of, rodrigues, rpy_matrix
@@ -29,34 +29,6 @@ pytest_plugins = ["engine_props"]
 
 NO_SHRINK = [Phase.explicit, Phase.generate]
 G = 9.81
-
-
-def tool_urdf(joint_xyz: tuple, joint_rpy: tuple, com: tuple, com_rpy: tuple, mass: float) -> str:
-    j = " ".join
-    return f"""<?xml version="1.0"?>
-<robot name="probe">
-  <link name="base">
-    <inertial><origin xyz="0 0 0"/><mass value="1"/>
-      <inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
-  </link>
-  <link name="tool">
-    <inertial><origin xyz="{j(map(str, com))}" rpy="{j(map(str, com_rpy))}"/><mass value="{mass}"/>
-      <inertia ixx="0.004" iyy="0.006" izz="0.008" ixy="0" ixz="0" iyz="0"/></inertial>
-  </link>
-  <link name="spare">
-    <inertial><origin xyz="0 0 0"/><mass value="0.1"/>
-      <inertia ixx="0.001" iyy="0.001" izz="0.001" ixy="0" ixz="0" iyz="0"/></inertial>
-  </link>
-  <joint name="spin" type="revolute">
-    <parent link="base"/><child link="spare"/><origin xyz="0 0 -0.1"/><axis xyz="0 0 1"/>
-    <limit lower="-1" upper="1" effort="10" velocity="1"/>
-  </joint>
-  <joint name="wrist" type="fixed">
-    <parent link="base"/><child link="tool"/>
-    <origin xyz="{j(map(str, joint_xyz))}" rpy="{j(map(str, joint_rpy))}"/>
-  </joint>
-</robot>
-"""
 
 
 angles = st.tuples(*(st.floats(-1.4, 1.4),) * 3)

@@ -16,9 +16,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from engine_inputs import tool_urdf
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
-from oracles import rotation
+from oracles import rotation, rpy_matrix
 
 from robokit.errors import ConfigError
 from robokit.testing import make_sim
@@ -27,44 +28,7 @@ NO_SHRINK = [Phase.explicit, Phase.generate]  # an example is a simulation: a fa
 
 ENGINES = ["pybullet", "mujoco"]
 G = 9.81
-
-
-def rpy_matrix(r: float, p: float, y: float) -> np.ndarray:
-    """URDF's rpy: roll about fixed x, then pitch about fixed y, then yaw about fixed z."""
-    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
-    rx = np.array([[1, 0, 0], [0, cr, -sr], [0, sr, cr]])
-    ry = np.array([[cp, 0, sp], [0, 1, 0], [-sp, 0, cp]])
-    rz = np.array([[cy, -sy, 0], [sy, cy, 0], [0, 0, 1]])
-    return rz @ ry @ rx
-
-
-def tool_urdf(joint_rpy: tuple, com: tuple, inertial_rpy: tuple, mass: float) -> str:
-    fmt = " ".join
-    return f"""<?xml version="1.0"?>
-<robot name="probe">
-  <link name="base">
-    <inertial><origin xyz="0 0 0"/><mass value="1"/>
-      <inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
-    <collision><geometry><box size="0.1 0.1 0.1"/></geometry></collision>
-  </link>
-  <link name="tool">
-    <inertial><origin xyz="{fmt(map(str, com))}" rpy="{fmt(map(str, inertial_rpy))}"/><mass value="{mass}"/>
-      <inertia ixx="0.004" iyy="0.006" izz="0.008" ixy="0" ixz="0" iyz="0"/></inertial>
-  </link>
-  <link name="spare">
-    <inertial><origin xyz="0 0 0"/><mass value="0.1"/>
-      <inertia ixx="0.001" iyy="0.001" izz="0.001" ixy="0" ixz="0" iyz="0"/></inertial>
-  </link>
-  <joint name="spin" type="revolute">
-    <parent link="base"/><child link="spare"/><origin xyz="0 0 -0.1"/><axis xyz="0 0 1"/>
-    <limit lower="-1" upper="1" effort="10" velocity="1"/>
-  </joint>
-  <joint name="wrist" type="fixed">
-    <parent link="base"/><child link="tool"/>
-    <origin xyz="0.05 -0.02 0.3" rpy="{fmt(map(str, joint_rpy))}"/>
-  </joint>
-</robot>
-"""
+WRIST = (0.05, -0.02, 0.3)  # the tool's joint in the base frame
 
 
 angles = st.tuples(*(st.floats(-1.4, 1.4),) * 3)
@@ -79,7 +43,7 @@ def test_a_hanging_tool_reads_its_weight_and_moment_about_the_link_origin(
         engine: str, tmp_path: Path, joint_rpy: tuple, base_rpy: tuple, inertial_rpy: tuple, mass: float,
         com: tuple) -> None:
     urdf = tmp_path / "probe.urdf"
-    urdf.write_text(tool_urdf(joint_rpy, com, inertial_rpy, mass), encoding="utf-8")
+    urdf.write_text(tool_urdf(WRIST, joint_rpy, com, inertial_rpy, mass, base_collision=True), encoding="utf-8")
     config = {
         "world": {"engine": engine, "gravity": [0, 0, -G]},
         "robots": {"probe": {"urdf": str(urdf), "position": [0, 0, 0.5], "fixed_base": True,
@@ -108,7 +72,8 @@ def test_a_hanging_tool_reads_its_weight_and_moment_about_the_link_origin(
 
 def probe_config(tmp_path: Path, sensors: dict) -> dict:
     urdf = tmp_path / "probe.urdf"
-    urdf.write_text(tool_urdf((0.3, -0.2, 0.5), (0.05, 0.0, -0.04), (0.0, 0.0, 0.0), 1.5), encoding="utf-8")
+    urdf.write_text(tool_urdf(WRIST, (0.3, -0.2, 0.5), (0.05, 0.0, -0.04), (0.0, 0.0, 0.0), 1.5,
+                              base_collision=True), encoding="utf-8")
     return {"world": {"gravity": [0, 0, -G]},
             "robots": {"probe": {"urdf": str(urdf), "position": [0, 0, 0.5], "fixed_base": True}},
             "sensors": sensors}

@@ -486,9 +486,9 @@ def _reporters(report: Mapping[str, Any], plugins: Any) -> tuple[ComponentSpec, 
     for name, data in report.items():
         if name in _REPORT_KEYS:
             continue
-        if not isinstance(data, Mapping) and name in plugins.types["reporter"]:
-            raise ConfigError(f"expected a table [report.{name}], got {_describe(data)}", key=f"report.{name}")
         if not isinstance(data, Mapping):
+            if name in plugins.types["reporter"]:
+                raise ConfigError(f"expected a table [report.{name}], got {_describe(data)}", key=f"report.{name}")
             valid = sorted(set(_REPORT_KEYS) | set(plugins.types["reporter"]))
             raise ConfigError(f"unknown key {name!r}{did_you_mean(name, valid)}; valid keys: {', '.join(valid)}",
                               key=f"report.{name}")
