@@ -28,7 +28,8 @@ checkout is never touched, so you can keep working while it runs.
     python benchmarks/mutation.py --check                          # each snippet still matches its file?
     python benchmarks/mutation.py --corpus sample.toml --map benchmarks/mutants/corpus.toml --then-all
                         # a sample written by someone else, judged like an outside sample: the file's tests, then
-                        # the whole default tier for what they miss
+                        # the whole default tier for what they miss (add --grouped: what they miss shares the
+                        # tier's runs, each failing test traced back to its mutant by halving)
     python benchmarks/mutation.py --ast --files behaviours/sort.py --per-file 20 --seed 1
 
 The table gives two scores per area: **before** counts kills by the older tests only, **after** by every test; the
@@ -53,7 +54,7 @@ import sys
 import tempfile
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -190,7 +191,8 @@ def run_tests(tree: Path, tests: tuple[str, ...], timeout: float, new: str = "te
     return "killed", took, tail
 
 
-def run_mutant(tree: Path, m: Mutant, timeout: float, then_all: bool = False) -> tuple[str, float, str]:
+def run_mutant(tree: Path, m: Mutant, timeout: float, then_all: bool = False,
+               tier: tuple[str, ...] = ("tests",)) -> tuple[str, float, str]:
     """Plant ``m`` in ``tree``, run its tests (and, with ``then_all``, the whole default tier when they pass),
     restore the file."""
     path = tree / m.file
@@ -204,12 +206,94 @@ def run_mutant(tree: Path, m: Mutant, timeout: float, then_all: bool = False) ->
         path.write_text(mutated, encoding="utf-8")
         status, took, tail = run_tests(tree, m.tests, timeout)
         if then_all and status in ("survived", "no-tests"):
-            status, more, tail = run_tests(tree, ("tests",), timeout * 4)
+            status, more, tail = run_tests(tree, tier, timeout * 4)
             took += more
             tail = tail if status == "survived" else f"{tail} (whole tier)"
         return status, took, tail
     finally:
         path.write_bytes(original)
+
+
+def failing_tests(tree: Path, tests: list[str], timeout: float) -> set[str]:
+    """The node ids of ``tests`` that fail or error in ``tree`` (no ``-x``: every failure is seen)."""
+    env = {**os.environ, "PYTHONPATH": f"{tree}{os.pathsep}{os.environ.get('PYTHONPATH', '')}".rstrip(os.pathsep),
+           "PYTHONDONTWRITEBYTECODE": "1"}
+    cmd = [sys.executable, "-m", "pytest", *[a for a in PYTEST if a != "-x"], "-rfE", f"--timeout={int(timeout)}",
+           *tests]
+    try:
+        proc = subprocess.run(cmd, cwd=tree, capture_output=True, text=True, timeout=timeout * 8 + 600, env=env)
+    except subprocess.TimeoutExpired:
+        return set(tests)  # the run hung as a whole: every test it was given counts as failing
+    return {ln.split()[1] for ln in proc.stdout.splitlines()
+            if ln.startswith(("FAILED ", "ERROR ")) and len(ln.split()) > 1}
+
+
+def _fails(node: str, failed: set[str]) -> bool:
+    """Whether ``node`` (a test, or a module whose collection may have failed) is among the failures."""
+    return any(f == node or f.startswith(node + "::") or node.startswith(f + "::") for f in failed)
+
+
+def whole_tier_grouped(tree: Path, mutants: list[Mutant], timeout: float, tier: tuple[str, ...] = ("tests",),
+                       say: Callable[[str], None] = print) -> dict[str, str]:
+    """Judge the mutants their files' tests missed by the whole default tier, sharing its runs: every one planted at
+    once, the tier run once without ``-x``, then each failing test traced to the mutant that fails it alone by
+    splitting the planted set in halves (only the failing tests re-run). The mutants left untraced are planted
+    together again against the tests that failed, since one may have hidden another's failure in the same test.
+    Returns mutant id -> a test that fails with it alone; an id not returned escaped the whole tier."""
+    originals = {m.file: (tree / m.file).read_bytes() for m in mutants}
+    caught: dict[str, str] = {}
+
+    def plant(subset: list[Mutant]) -> list[Mutant]:
+        for f, text in originals.items():
+            (tree / f).write_bytes(text)
+        taken = []
+        for m in subset:
+            new = apply(m, (tree / m.file).read_text(encoding="utf-8"))
+            if new is not None:  # a mutant of a snippet another one changed waits for a later group
+                (tree / m.file).write_text(new, encoding="utf-8")
+                taken.append(m)
+        return taken
+
+    def split(subset: list[Mutant], hit: list[str]) -> None:
+        """``hit`` failed with ``subset`` planted: find which of them fails each alone."""
+        if len(subset) == 1:
+            caught[subset[0].id] = hit[0]
+            return
+        for half in (subset[: len(subset) // 2], subset[len(subset) // 2:]):
+            plant(half)
+            failed = failing_tests(tree, hit, timeout)
+            again = [t for t in hit if _fails(t, failed)]
+            say(f"  {len(half)} planted, {len(hit)} tests re-run: {len(again)} failed")
+            if again:
+                split(half, again)
+
+    try:
+        pending = list(mutants)
+        while pending:
+            group = plant(pending)
+            if not group:
+                break
+            later = [m for m in pending if m not in group]
+            tests = list(tier)
+            while group:
+                plant(group)
+                failed = failing_tests(tree, tests, timeout * 4)
+                whole = tests == list(tier)
+                hit = sorted(failed) if whole else [t for t in tests if _fails(t, failed)]
+                say(f"{'whole tier' if whole else 'failed tests again'}: {len(group)} planted "
+                    f"together, {len(hit)} tests failed")
+                before = len(caught)
+                if hit:
+                    split(group, hit)
+                group = [m for m in group if m.id not in caught]
+                if len(caught) == before:
+                    break  # what still fails needs a combination of mutants: none of them is caught alone
+                tests = hit
+            pending = later
+    finally:
+        for f, text in originals.items():
+            (tree / f).write_bytes(text)
+    return caught
 
 
 # ---------------------------------------------------------------------------------------------------- reporting
@@ -301,7 +385,7 @@ def run_corpus(args: argparse.Namespace) -> int:
                     dest = tree / src.relative_to(args.sync)
                     dest.parent.mkdir(parents=True, exist_ok=True)
                     shutil.copy2(src, dest)
-            status, took, tail = run_mutant(tree, m, args.timeout, args.then_all)
+            status, took, tail = run_mutant(tree, m, args.timeout, args.then_all and not args.grouped, tuple(args.tier))
             who = tail if status in ("killed", "timeout") else ""
             line = f"{k:3d}/{len(chosen)} {status:8s} {m.id} {m.area} {m.file} {took:6.1f}s [{who}] -- {m.breaks}"
             with lock:
@@ -317,6 +401,22 @@ def run_corpus(args: argparse.Namespace) -> int:
             t.start()
         for t in threads:
             t.join()
+        if args.then_all and args.grouped:
+            missed = [m for m, status, _ in rows if status in ("survived", "no-tests")]
+            if missed:
+                start = time.monotonic()
+                caught = whole_tier_grouped(snapshot(base / "tier", args.rev), missed, args.timeout, tuple(args.tier))
+                took = time.monotonic() - start
+                numbers = {m.id: k for k, m in enumerate(chosen, 1)}
+                for m in missed:
+                    status, who = ("killed", f"{caught[m.id]} (whole tier)") if m.id in caught else ("survived", "")
+                    rows = [(m, status, who) if r[0].id == m.id else r for r in rows]
+                    line = (f"{numbers[m.id]:3d}/{len(chosen)} {status:8s} {m.id} {m.area} {m.file} {took:6.1f}s "
+                            f"[{who}] -- {m.breaks}")
+                    print(line, flush=True)
+                    if log is not None:
+                        log.write(line + "\n")
+                        log.flush()
     finally:
         shutil.rmtree(base, ignore_errors=True)
     done = {m.id for m, _, _ in rows}
@@ -472,6 +572,12 @@ def main() -> int:
                         "written without one; files it lacks get the tests naming their module")
     parser.add_argument("--then-all", action="store_true",
                         help="a mutant its file's tests miss then runs against the whole default tier")
+    parser.add_argument("--grouped", action="store_true",
+                        help="with --then-all: the mutants the files' tests miss share the whole tier's runs (all "
+                        "planted at once, each failing test traced to the mutant that fails it alone)")
+    parser.add_argument("--tier", nargs="*", default=["tests"],
+                        help="what --then-all runs for a mutant its file's tests miss (default: tests, the whole "
+                        "default tier)")
     parser.add_argument("--area", nargs="*", choices=AREAS, help="only these areas")
     parser.add_argument("--ids", nargs="*", help="only these mutant ids")
     parser.add_argument("--files", nargs="*", help="only mutants of these files (with --ast: the files to sample)")
