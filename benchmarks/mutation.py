@@ -98,8 +98,9 @@ def tests_naming(file: str, limit: int = 8) -> tuple[str, ...]:
 
 def load_corpus(path: Path = CORPUS, map_path: Path | None = None) -> list[Mutant]:
     """The corpus' mutants, each with its file's tests (the mutant's own ``tests`` key overrides them). With
-    ``map_path``, the file map is read from that toml instead (a sample written without the corpus), and a file it
-    does not map gets the test files that name its module (``tests_naming``)."""
+    ``map_path``, the file map is read from that toml instead (a sample written without the corpus), each file's
+    tests joined by the (up to four) property files that name its module most, and a file it does not map gets the
+    test files that name its module (``tests_naming``)."""
     data = tomllib.loads(path.read_text(encoding="utf-8"))
     files = data.get("files", {})
     if map_path is not None:
@@ -111,8 +112,9 @@ def load_corpus(path: Path = CORPUS, map_path: Path | None = None) -> list[Mutan
         if area not in AREAS:
             raise SystemExit(f"{path}: mutant {m['id']}: area {area!r} is not one of {', '.join(AREAS)}")
         tests = tuple(m.get("tests") or spec.get("tests") or ())
-        if not tests and map_path is not None:
-            tests = tests_naming(m["file"])
+        if map_path is not None and not m.get("tests"):  # the map's tests, then the properties naming the module
+            props = tuple(t for t in tests_naming(m["file"], limit=40) if "/test_prop_" in t)[:4]
+            tests = tuple(dict.fromkeys(tests + props)) if tests else tests_naming(m["file"])
         if not tests:
             raise SystemExit(f"{path}: mutant {m['id']}: no tests for {m['file']} ([files.\"{m['file']}\"] tests)")
         out.append(Mutant(m["id"], m["file"], area, m["original"], m["replacement"], m.get("breaks", ""), tests))
