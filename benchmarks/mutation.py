@@ -45,6 +45,7 @@ from __future__ import annotations
 import argparse
 import ast
 import copy
+import fnmatch
 import os
 import queue
 import random
@@ -96,6 +97,20 @@ def tests_naming(file: str, limit: int = 8) -> tuple[str, ...]:
     return ("tests",)  # named nowhere: the whole default tier
 
 
+def room_tests(file: str) -> tuple[str, ...]:
+    """The tests of the mutmut rooms (``mutation_rooms.py``) that mutate ``file``: rooms naming it first, then rooms
+    taking it by a pattern, each smaller room first."""
+    from mutation_rooms import ROOMS  # noqa: PLC0415 - a sibling script, loaded only when a map is read
+
+    name = file
+    for src, pkg in (("plugins/", "robokit_plugins/"), ("behaviours/", "robokit_behaviours/")):
+        if file.startswith(src):
+            name = pkg + file[len(src):]
+    rooms = [(any("*" in f for f in files), len(tests), tests) for files, tests in ROOMS.values()
+             if any(fnmatch.fnmatch(name, f) for f in files)]
+    return tuple(dict.fromkeys(t for *_, tests in sorted(rooms) for t in tests))
+
+
 def load_corpus(path: Path = CORPUS, map_path: Path | None = None) -> list[Mutant]:
     """The corpus' mutants, each with its file's tests (the mutant's own ``tests`` key overrides them). With
     ``map_path``, the file map is read from that toml instead (a sample written without the corpus), each file's
@@ -112,9 +127,9 @@ def load_corpus(path: Path = CORPUS, map_path: Path | None = None) -> list[Mutan
         if area not in AREAS:
             raise SystemExit(f"{path}: mutant {m['id']}: area {area!r} is not one of {', '.join(AREAS)}")
         tests = tuple(m.get("tests") or spec.get("tests") or ())
-        if map_path is not None and not m.get("tests"):  # the map's tests, then the properties naming the module
+        if map_path is not None and not m.get("tests"):  # the map's tests, the rooms', the properties naming it
             props = tuple(t for t in tests_naming(m["file"], limit=40) if "/test_prop_" in t)[:4]
-            tests = tuple(dict.fromkeys(tests + props)) if tests else tests_naming(m["file"])
+            tests = tuple(dict.fromkeys(tests + room_tests(m["file"]) + props))[:8] or tests_naming(m["file"])
         if not tests:
             raise SystemExit(f"{path}: mutant {m['id']}: no tests for {m['file']} ([files.\"{m['file']}\"] tests)")
         out.append(Mutant(m["id"], m["file"], area, m["original"], m["replacement"], m.get("breaks", ""), tests))
