@@ -95,10 +95,7 @@ def first_entry(shapes: list[Shape], start: np.ndarray, end: np.ndarray, grow: f
 
 def expected(shapes: list[Shape], start: np.ndarray, end: np.ndarray, engine: str
              ) -> tuple[Shape | None, float, np.ndarray] | None:
-    """The rule's answer (shape, fraction, normal; shape None: no hit), or None when the ray is borderline (or, on
-    PyBullet, starts inside a sphere, or inside a mesh box that a sphere overlaps: PyBullet's ray test reports a
-    sphere a ray starts inside at fraction 0 when the ray heads inwards, a difference from the rule that robokit
-    does not yet mend)."""
+    """The rule's answer (shape, fraction, normal; shape None: no hit), or None when the ray is borderline."""
     length = float(np.linalg.norm(end - start))
     exact = first_entry(shapes, start, end)
     if length < 1e-12:
@@ -116,13 +113,6 @@ def expected(shapes: list[Shape], start: np.ndarray, end: np.ndarray, engine: st
                 return None
         got = interval(shape, start, end - start)
         if got is not None and min(abs(got[0]), abs(got[1]), abs(got[0] - 1.0), abs(got[1] - 1.0)) < margin:
-            return None
-        if engine == "pybullet" and shape.kind == "sphere" and got is not None and got[0] < 0.0 < got[1]:
-            return None
-    if engine == "pybullet":  # cast on from beyond a mesh box it starts in: the same for a sphere entered inside it
-        inside_mesh = [s for s in shapes if s.pybullet_exact and (got := interval(s, start, end - start))
-                       and got[0] < 0.0 < got[1]]
-        if inside_mesh and any(s.kind == "sphere" and interval(s, start, end - start) for s in shapes):
             return None
     if not exact:
         return None, 1.0, np.zeros(3)

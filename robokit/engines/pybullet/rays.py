@@ -20,6 +20,13 @@ and its pose re-read at each cast (a body moved by ``resetBasePositionAndOrienta
 A triangle mesh has no inside: PyBullet answers a ray that starts inside a mesh box with the face it leaves by.
 By the World's rule (:class:`~robokit.engines.interface.RayCaster`) that face is no hit: such a ray is cast on from
 just beyond it (the answer was the nearest surface, so nothing lies before it) until it enters a surface.
+
+PyBullet's ray test against a convex primitive it starts inside answers with a hit at fraction 0 whenever the ray
+heads inwards: a sphere or capsule nearly always, a box or cylinder on rare rays (one seen: along a world axis, 5 mm
+inside a face). A hit at fraction 0 whose shape holds the start (by the shape's own geometry,
+``getCollisionShapeData``) is cast again asking PyBullet for every surface along the segment (``reportHitNumber``:
+one hit per shape, in no promised order), and the nearest one whose shape does not hold the start is the answer: a
+surface of another body inside the shape still counts.
 """
 
 from __future__ import annotations
@@ -45,7 +52,13 @@ NUDGE = 1e-7
 MAX_PASSES = 8
 """Mesh boxes one ray may start inside of, one after the other, before it counts as a miss."""
 INSIDE = 1e-9
-"""m within a mesh box's faces a point must lie to be inside it (a start on a face is outside)."""
+"""m within a shape's surface a point must lie to be inside it (a start on a face is outside)."""
+GEOM_SPHERE, GEOM_BOX, GEOM_CYLINDER, GEOM_CAPSULE = 2, 3, 4, 7
+MAX_HITS = 16
+"""Surfaces along one ray read back when it starts inside a convex primitive, before the rest count as none."""
+START_HIT = 1e-9
+"""A hit at a fraction below this is checked against the shape holding the segment's start."""
+_NO_HIT = (-1, -1, 1.0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
 
 
 class PyBulletRayCaster:
@@ -78,6 +91,9 @@ class PyBulletRayCaster:
         self._centre = np.zeros((0, 3))
         self._rot = np.zeros((0, 3, 3))
         self._others: list[tuple[int, int]] = []  # (body, link) tested by bounding box
+        self._solids: dict[tuple[int, int], list[tuple[int, tuple, Any, Any]]] = {}
+        """(body, link) -> its convex primitives: (geometry type, dimensions, position and orientation in the
+        link's centre-of-mass frame), from ``getCollisionShapeData``."""
         # one slab test covers the boxes (rows 0..B-1) and the others' bounding boxes (rows B..B+K-1, world axes):
         # frame[i, r] = (row r's axis i in the world, -(axis i . centre)); grown[i, r] = half extent tested along it
         self._frame = np.zeros((3, 0, 4))
@@ -99,10 +115,16 @@ class PyBulletRayCaster:
         c = self.client
         boxes: list[int] = []
         others: list[tuple[int, int]] = []
+        self._solids = {}
         for i in range(c.getNumBodies()):
             body = c.getBodyUniqueId(i)
             if body in self.skip:
                 continue
+            for link in range(-1, c.getNumJoints(body)):
+                shapes = [(int(d[2]), tuple(d[3]), d[5], d[6]) for d in c.getCollisionShapeData(body, link)
+                          if d[2] in (GEOM_SPHERE, GEOM_BOX, GEOM_CYLINDER, GEOM_CAPSULE)]
+                if shapes:
+                    self._solids[(body, link)] = shapes
             if self.analytic and self._is_static_mesh_box(body):
                 boxes.append(body)
             else:
@@ -214,6 +236,8 @@ class PyBulletRayCaster:
                                                collisionFilterMask=self.mask)
             if self.world.mesh_boxes:
                 results = self._beyond_mesh_exits(starts[idx], ends[idx], results)
+            if self._solids:
+                results = self._beyond_solid_starts(starts[idx], ends[idx], results)
             m = len(results)
             body[idx] = np.fromiter((r[0] for r in results), dtype=int, count=m)
             frac[idx] = np.fromiter((r[2] for r in results), dtype=float, count=m)
@@ -260,6 +284,8 @@ class PyBulletRayCaster:
                                                collisionFilterMask=self.mask)
             if self.world.mesh_boxes:
                 results = self._beyond_mesh_exits(s_t.T[idx], ends.T[idx], results)
+            if self._solids:
+                results = self._beyond_solid_starts(s_t.T[idx], ends.T[idx], results)
             for k, r in zip(idx.tolist(), results, strict=True):  # (a few rays: plain Python)
                 body[k], frac[k] = (r[0], r[2]) if r[0] != ignore else (-1, 1.0)
         if ignore in self._boxes:  # a mesh box intersected here counts as none too
@@ -309,6 +335,68 @@ class PyBulletRayCaster:
                     break
             out[k] = answer
         return results if out is None else out
+
+    def _holds(self, body: int, link: int, point: np.ndarray) -> bool:
+        """True if ``point`` lies inside (by more than ``INSIDE``) one of the convex primitives of ``body``'s
+        ``link``, or inside a mesh box."""
+        c = self.client
+        if link < 0 and body in self.world.mesh_boxes:
+            pos, orn = c.getBasePositionAndOrientation(body)
+            rot = np.asarray(c.getMatrixFromQuaternion(orn), float).reshape(3, 3)
+            half = np.asarray(self.world.mesh_boxes[body], float) - INSIDE
+            return bool((np.abs((point - np.asarray(pos)) @ rot) < half).all())
+        shapes = self._solids.get((body, link))
+        if not shapes:
+            return False
+        frame = c.getBasePositionAndOrientation(body) if link < 0 else c.getLinkState(body, link)[:2]
+        for geom, dims, local_pos, local_orn in shapes:
+            pos, orn = c.multiplyTransforms(frame[0], frame[1], local_pos, local_orn)
+            rot = np.asarray(c.getMatrixFromQuaternion(orn), float).reshape(3, 3)
+            q = (point - np.asarray(pos)) @ rot  # the point in the shape's frame
+            if geom == GEOM_BOX:  # full edge lengths
+                if (np.abs(q) < np.asarray(dims) / 2.0 - INSIDE).all():
+                    return True
+                continue
+            if geom == GEOM_CYLINDER:  # (height, radius), along z
+                if abs(q[2]) < dims[0] / 2.0 - INSIDE and q[0] ** 2 + q[1] ** 2 < (dims[1] - INSIDE) ** 2:
+                    return True
+                continue
+            if geom == GEOM_SPHERE:
+                radius = dims[0]
+            else:  # a capsule along z: (length between the caps' centres, radius)
+                radius = dims[1]
+                q[2] -= min(max(q[2], -dims[0] / 2.0), dims[0] / 2.0)
+            if float(q @ q) < (radius - INSIDE) ** 2:
+                return True
+        return False
+
+    def _beyond_solid_starts(self, starts: np.ndarray, ends: np.ndarray, results: Any) -> Any:
+        """``rayTestBatch``'s ``results`` for the segments ``starts[k] -> ends[k]`` ((n, 3)), each answer at
+        fraction 0 on a convex primitive that holds the segment's start replaced by the nearest surface along the
+        segment of a shape that does not hold it (see the module doc)."""
+        solids = self._solids
+        redo = [k for k, r in enumerate(results)
+                if r[2] < START_HIT and (r[0], r[1]) in solids and self._holds(r[0], r[1], starts[k])]
+        if not redo:
+            return results
+        out = list(results)
+        best: dict[int, Any] = dict.fromkeys(redo, _NO_HIT)
+        for number in range(MAX_HITS):
+            hits = self.client.rayTestBatch(starts[redo], ends[redo], numThreads=1, collisionFilterMask=self.mask,
+                                            reportHitNumber=number)
+            left = []
+            for k, hit in zip(redo, hits, strict=True):
+                if hit[0] < 0:
+                    continue
+                left.append(k)
+                if hit[2] < best[k][2] and not self._holds(hit[0], hit[1], starts[k]):
+                    best[k] = hit
+            if not left:
+                break
+            redo = left
+        for k, hit in best.items():
+            out[k] = hit
+        return out
 
     def _intersect(self, d_t: np.ndarray, inv_len: np.ndarray, body: np.ndarray, frac: np.ndarray,
                    pos: np.ndarray | None, normal: np.ndarray | None) -> np.ndarray:
