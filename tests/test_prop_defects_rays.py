@@ -1,8 +1,8 @@
-"""A ray that starts inside a shape, on both engines against plain geometry.
+"""A ray that starts inside a shape, and a ray of zero length, on both engines against plain geometry.
 
 The World's rule (``robokit.engines.interface.RayCaster``, docs/engines.md "Rays: one rule on both engines"): a shape
 a ray starts inside is passed through (the face it leaves by is no hit); what lies beyond it, or inside it (another
-body's surface), is the answer.
+body's surface), is the answer; a zero-length segment hits nothing (body -1, fraction 1.0).
 
 Each example builds one static container (a sphere, box, cylinder or capsule, turned by a generated rotation), a
 start strictly inside it (at least 5 mm from its surface), a generated direction, a thin wall well beyond the
@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -167,3 +168,37 @@ def test_a_ray_starting_inside_a_shape_reports_what_lies_beyond_or_inside_it(
             if name == "cube" and not inner:
                 continue
             world.remove_body(name)
+
+
+@settings(max_examples=10, deadline=None, derandomize=True, phases=[Phase.explicit, Phase.generate],
+          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@given(points=st.lists(st.tuples(*(st.floats(-0.3, 0.3),) * 3), min_size=1, max_size=6), mesh=st.booleans())
+def test_a_zero_length_ray_hits_nothing_quietly(world: World, points: list, mesh: bool) -> None:
+    """Zero-length segments anywhere (inside a sphere, a box, in the open), beside ordinary ones: body -1, fraction
+    1.0, no position or normal, and no warning; the ordinary ray beside them keeps its answer (the box at 0.5 m)."""
+    world.add_primitive("ball", "sphere", radius=0.2, mass=0)
+    world.add_primitive("slab", "box", size=(0.2, 0.6, 0.6), mass=0, position=(0.6, 0.0, 0.0), mesh_collision=mesh)
+    try:
+        starts = np.array([*points, (-0.5, 0.25, 0.0)], float)
+        ends = starts.copy()
+        ends[-1] = (1.5, 0.25, 0.0)  # an ordinary ray past the ball: the slab's face at x = 0.5, fraction 0.5
+        n = len(points)
+        caster = world.ray_caster()
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            for detail in (True, False):
+                hits = caster.cast(starts, ends, detail=detail)
+                assert hits.body[:n].tolist() == [-1] * n and hits.fraction[:n].tolist() == [1.0] * n
+                assert hits.link[:n].tolist() == [-1] * n
+                if detail:
+                    assert not hits.position[:n].any() and not hits.normal[:n].any()
+                assert hits.body[n] == world.body("slab") and hits.fraction[n] == pytest.approx(0.5, abs=6e-3)
+            caster.starts(n + 1)[:] = starts.T
+            with np.errstate(divide="ignore"):  # the caller's 1 / 0 for a zero-length segment
+                inv_len = 1.0 / np.linalg.norm(ends - starts, axis=1)
+            body, frac = caster.cast_lean(np.ascontiguousarray(ends.T), inv_len)
+        assert body[:n].tolist() == [-1] * n and frac[:n].tolist() == [1.0] * n
+        assert body[n] == world.body("slab") and frac[n] == pytest.approx(0.5, abs=6e-3)
+    finally:
+        world.remove_body("ball")
+        world.remove_body("slab")

@@ -27,6 +27,8 @@ inside a face). A hit at fraction 0 whose shape holds the start (by the shape's 
 ``getCollisionShapeData``) is cast again asking PyBullet for every surface along the segment (``reportHitNumber``:
 one hit per shape, in no promised order), and the nearest one whose shape does not hold the start is the answer: a
 surface of another body inside the shape still counts.
+
+A zero-length segment hits nothing (body -1, fraction 1.0) and is not cast.
 """
 
 from __future__ import annotations
@@ -53,6 +55,8 @@ MAX_PASSES = 8
 """Mesh boxes one ray may start inside of, one after the other, before it counts as a miss."""
 INSIDE = 1e-9
 """m within a shape's surface a point must lie to be inside it (a start on a face is outside)."""
+ZERO_LENGTH = 1e-12
+"""Segments shorter than this (m) hit nothing."""
 GEOM_SPHERE, GEOM_BOX, GEOM_CYLINDER, GEOM_CAPSULE = 2, 3, 4, 7
 MAX_HITS = 16
 """Surfaces along one ray read back when it starts inside a convex primitive, before the rest count as none."""
@@ -221,15 +225,24 @@ class PyBulletRayCaster:
         body, frac, cast = (a.copy() for a in self._blank(n))
         pos = np.zeros((n, 3)) if detail else None
         normal = np.zeros((n, 3)) if detail else None
+        vec = ends - starts
+        length = np.sqrt(np.einsum("ij,ij->i", vec, vec))
+        empty = length < ZERO_LENGTH
         if self.analytic and self._boxes:  # without mesh boxes the bounding-box test alone rarely pays
             # axis-first (3, N) layouts: numpy's per-axis work is then on contiguous rows
             s_t = self.starts(n)
             s_t[:] = starts.T
-            d_t = np.subtract(ends.T, s_t, order="C")
-            inv_len = 1.0 / np.sqrt(np.einsum("ij,ij->j", d_t, d_t))
-            idx = self._intersect(d_t, inv_len, body, frac, pos, normal).nonzero()[0]
+            d_t = np.ascontiguousarray(vec.T)
+            inv_len = 1.0 / np.where(empty, 1.0, length)
+            need = self._intersect(d_t, inv_len, body, frac, pos, normal)
         else:
-            idx = np.arange(n)
+            need = np.ones(n, dtype=bool)
+        if empty.any():  # a zero-length segment hits nothing, whatever the slab test or PyBullet would say
+            need &= ~empty
+            body[empty], frac[empty] = -1, 1.0
+            if pos is not None and normal is not None:
+                pos[empty] = normal[empty] = 0.0
+        idx = need.nonzero()[0]
         link = self._fresh[0].copy()
         if len(idx):
             results = self.client.rayTestBatch(starts[idx], ends[idx], numThreads=self.num_threads,
@@ -275,10 +288,15 @@ class PyBulletRayCaster:
             self._refresh()
         fresh = self._blank(n)
         body, frac = fresh[0].copy(), fresh[1].copy()
+        empty = ~(inv_len < 1.0 / ZERO_LENGTH)  # zero length (1 / 0 is inf): no hit
         if self.analytic and self._boxes:
-            idx = self._intersect(np.subtract(ends, s_t), inv_len, body, frac, None, None).nonzero()[0]
+            need = self._intersect(np.subtract(ends, s_t), inv_len, body, frac, None, None)
         else:
-            idx = np.arange(n)
+            need = np.ones(n, dtype=bool)
+        if empty.any():
+            need &= ~empty
+            body[empty], frac[empty] = -1, 1.0
+        idx = need.nonzero()[0]
         if len(idx):
             results = self.client.rayTestBatch(s_t.T[idx], ends.T[idx], numThreads=self.num_threads,
                                                collisionFilterMask=self.mask)
