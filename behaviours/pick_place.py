@@ -36,6 +36,7 @@ from typing import Any, ClassVar, Literal
 
 from pydantic import Field, field_validator
 from robokit_behaviours.pick_place_jobs import (
+    REST_SPEED,
     Job,
     all_rest_on_spot,
     identify,
@@ -79,6 +80,8 @@ class Phase(enum.Enum):
     FAILED = "failed"
 
 
+CARRYING = ("GRASP", "LIFT", "TRANSPORT", "LOWER", "RELEASE")
+"""States in which the object may be in the fingers."""
 HANDLING = ["GRASP", "LIFT", "TRANSPORT", "LOWER", "DESCEND", "APPROACH", "RELEASE", "RETREAT"]
 
 TRANSITIONS: list[dict[str, Any]] = [
@@ -204,6 +207,8 @@ class PickPlace(MachineBehaviour):
         self._recheck_due = -math.inf  # sim time of the next check of a planned move's rest (planning.recheck_hz)
         self._replanning = False  # the state's entry runs again to plan its move round a body that came in the way
         self._replans = 0  # replans of the running job (planning.replans)
+        self._settling = False  # a retry with the object in hand: locate it only once it lies still
+        self._still = 0  # steps in a row that found it still
         self.moves: Any = None  # planner = "rrt": robokit.planning.arm_moves.PlannedMoves
 
     # ------------------------------------------------------------------ construction
@@ -300,6 +305,7 @@ class PickPlace(MachineBehaviour):
             self.fire("reset")
         self.task, self.outcome, self.attempts, self.failures = task, None, 0, []
         self._replans, self._replanning = 0, False
+        self._settling, self._still = False, 0
         self._arm_busy_until = -math.inf
         self.t = self.started_at = self.entered_at = t
         self.finished_at, self.final_position, self.final_yaw, self.placement_error = None, None, None, None
@@ -379,6 +385,7 @@ class PickPlace(MachineBehaviour):
             self._fail(f"{reason} ({tries})")  # records the failure (once: one entry per failed attempt)
         else:
             self.failures.append(reason)
+            self._settling, self._still = self.state_name in CARRYING, 0  # the object may be in hand: see APPROACH
             self._go("retry")
 
     def on_timeout(self, state: str) -> None:
@@ -414,8 +421,12 @@ class PickPlace(MachineBehaviour):
         return max(self._grasp[2], self.task.place_position[2] + self.config.grasp_offset) + self.config.lift_height
 
     def enter_approach(self, readings: Mapping[str, Any]) -> dict[str, Any] | None:
-        """Open the gripper and move above the object (located again on every attempt)."""
+        """Open the gripper and move above the object (located again on every attempt, once it rests)."""
         cfg: PickPlaceConfig = self.config
+        if self._settling and not self._rests(readings):  # a retry with the object in hand: let go, and locate
+            self._entry_due = True  # it once it lies still (falling, it would be found in the air)
+            return {cfg.gripper: GripperCommand("open")}
+        self._settling = False
         located = self._locate(readings)
         if located is None:
             return None
@@ -440,6 +451,17 @@ class PickPlace(MachineBehaviour):
                 if cmd is not None:
                     return {cfg.gripper: GripperCommand("open"), **cmd}
         return None
+
+    def _rests(self, readings: Mapping[str, Any]) -> bool:
+        """True from the second step in a row that finds the object out of the fingers and slower than
+        ``REST_SPEED`` (a body let go is still at its first instant)."""
+        still = not readings[self.config.gripper].holding
+        name = self.task.object_name if self.task is not None else None
+        if still and self.config.pose_sensor is not None and name is not None:
+            state = readings[self.config.pose_sensor].get(name)
+            still = state is None or math.hypot(*state.linear_velocity) <= REST_SPEED
+        self._still = self._still + 1 if still else 0
+        return self._still >= 2
 
     def enter_descend(self, readings: Mapping[str, Any]) -> dict[str, Any]:
         """Go straight down to the grasp point."""
