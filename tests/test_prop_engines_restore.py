@@ -93,9 +93,6 @@ def test_a_restored_world_steps_as_a_fresh_build(engine: type[World], sizes, yaw
         used.restore(start)
         assert used.tick == 0
         build(fresh, sizes, yaws)
-        if used.engine == "pybullet":  # PyBullet keeps a joint's last motor command: a reset sends them again
-            for j in range(7):
-                used.set_joint_motor(kuka, j, "position", target_position=0.0, force=300.0)
         tol = TOLERANCE[used.engine]
         assert np.abs(state(used) - state(fresh)).max() <= tol
         for k in range(60):

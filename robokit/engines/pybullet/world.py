@@ -58,6 +58,8 @@ OWN_BODY_GROUP = 0x100
 
 _UNKNOWN: Any = object()
 """Not looked up yet (a cache sentinel)."""
+_KEPT = ("targetPosition", "targetVelocity", "force", "positionGain", "velocityGain")
+"""A position or velocity command's arguments PyBullet sets at each command (to its defaults when not given)."""
 
 
 def to_quaternion(rpy_deg: Sequence[float] | None = None, quaternion: Sequence[float] | None = None) -> Quat:
@@ -82,6 +84,17 @@ def _box_vertices(half: Sequence[float]) -> list[list[float]]:
     """The 8 corners of a box with the given half extents, in the order :data:`_BOX_TRIANGLES` uses."""
     hx, hy, hz = half
     return [[sx * hx, sy * hy, sz * hz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]
+
+
+def _fresh_motor_force(time_step: float) -> float:
+    """The force (N or N m) a velocity motor command needs to give PyBullet's own motor of a fresh build, whose
+    impulse per step is exactly 1 (PyBullet multiplies the force by the time step)."""
+    force = 1.0 / time_step
+    for _ in range(4):
+        if force * time_step == 1.0:
+            break
+        force = math.nextafter(force, math.inf if force * time_step < 1.0 else -math.inf)
+    return force
 
 
 class _Client(BulletClient):  # type: ignore[misc]
@@ -146,6 +159,10 @@ class PyBulletWorld(World):
         self._shape_copies: dict[int, list[tuple[int, Pose]]] = {}  # see _query_shapes
         self._wrench_shifts: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}  # see enable_joint_wrench
         self._cid = int(self.client._client)
+        self._motors: dict[tuple[int, int], tuple[int, dict[str, float], float | None]] = {}
+        """(body, joint) -> the last position or velocity command sent to it (PyBullet mode, its arguments) and the
+        last ``maxVelocity`` given (PyBullet keeps that one until another is given): what :meth:`restore` puts back.
+        A joint not in it has PyBullet's own motor of a fresh build."""
         self.mesh_boxes: dict[int, tuple[float, float, float]] = {}
         """Static boxes built as triangle meshes (``mesh_collision``): body id -> half extents (m), centred on the
         base frame. PyBullet cannot give a mesh's triangles back; the ray caster intersects these boxes itself."""
@@ -385,6 +402,8 @@ class PyBulletWorld(World):
         self._com_to_link.pop(body, None)
         self.mesh_boxes.pop(body, None)
         self._shape_copies.pop(body, None)
+        for key in [k for k in self._motors if k[0] == body]:
+            del self._motors[key]
 
     # ----------------------------------------------------------------- joints and links
     def joints(self, body: str | int) -> list[JointInfo]:
@@ -602,6 +621,16 @@ class PyBulletWorld(World):
         if max_velocity is not None:
             kwargs["maxVelocity"] = max_velocity
         self.client.setJointMotorControl2(body, joint, _MODES[mode], **kwargs)
+        if mode != "torque":  # (a torque lasts one step)
+            self._keep_motor(body, joint, _MODES[mode], kwargs)
+
+    def _keep_motor(self, body: int, joint: int, mode: int, kwargs: dict[str, float]) -> None:
+        """Note a position or velocity command for :meth:`restore` (see ``_motors``)."""
+        key = (int(body), int(joint))
+        cap = kwargs.get("maxVelocity")
+        if cap is None or not cap > 0.0:  # (PyBullet takes a max velocity only above 0)
+            cap = self._motors[key][2] if key in self._motors else None
+        self._motors[key] = (mode, {k: v for k, v in kwargs.items() if k in _KEPT}, cap)
 
     def set_joint_motors(
         self,
@@ -628,6 +657,9 @@ class PyBulletWorld(World):
         if velocity_gains is not None:
             kwargs["velocityGains"] = velocity_gains
         self.client.setJointMotorControlArray(body, joints, _MODES[mode], **kwargs)
+        if mode != "torque":
+            for i, joint in enumerate(joints):
+                self._keep_motor(body, joint, _MODES[mode], {k[:-1]: v[i] for k, v in kwargs.items()})
 
     def enable_joint_wrench(self, body: int, joint: int, enabled: bool = True) -> None:
         c = self.client
@@ -916,37 +948,60 @@ class PyBulletWorld(World):
 
     # ----------------------------------------------------------------- episodes (robokit.gym)
     def snapshot(self) -> dict[str, Any]:
-        """Every registered body's base pose and velocity and joint states, for :meth:`restore` (a cheap reset).
+        """Every registered body's base pose and velocity and joint states, and the joints' motor commands, for
+        :meth:`restore` (a cheap reset).
 
         Only reads: every PyBullet world sorts its overlapping pairs from its build on (see ``__init__``), which
         is what makes contacts after a restore come in a fresh build's order whatever the broadphase's history.
         """
-        c, out = self.client, {}
+        c, bodies = self.client, {}
         for name, bid in self._bodies.items():
             n = c.getNumJoints(bid)
             joints = [s[:2] for s in c.getJointStates(bid, list(range(n)))] if n else []
-            out[name] = (c.getBasePositionAndOrientation(bid), c.getBaseVelocity(bid), joints)
-        return out
+            bodies[name] = (c.getBasePositionAndOrientation(bid), c.getBaseVelocity(bid), joints)
+        return {"bodies": bodies, "motors": dict(self._motors)}
 
     def restore(self, snapshot: dict[str, Any]) -> None:
-        """Put every body of a :meth:`snapshot` back, and the clock to tick 0.
+        """Put every body of a :meth:`snapshot` back, its joints' motors as they were commanded then, and the
+        clock to tick 0.
 
         Contact points cached between bodies are dropped too (every body is moved out of reach of the others
         and collision detection runs once), so an episode after a restore starts exactly as one after a fresh
-        build: no warm-started contact impulses carry over.
+        build: no warm-started contact impulses carry over. PyBullet cannot read a motor back: the world keeps
+        every position and velocity command it sent (``_motors``), and a joint commanded since the snapshot is
+        sent its command of then again, or, if it had none, the command equal to PyBullet's own motor of a fresh
+        build (a velocity motor to 0 with an impulse of 1 per step, no speed cap).
         """
         c = self.client
         far = 1.0e4
         for k, bid in enumerate(self._bodies.values()):
             c.resetBasePositionAndOrientation(bid, [far * (k + 1), far, far], [0.0, 0.0, 0.0, 1.0])
         c.performCollisionDetection()
-        for name, ((pos, orn), (lin, ang), joints) in snapshot.items():
+        for name, ((pos, orn), (lin, ang), joints) in snapshot["bodies"].items():
             bid = self._bodies[name]
             c.resetBasePositionAndOrientation(bid, pos, orn)
             c.resetBaseVelocity(bid, lin, ang)
             for i, (q, dq) in enumerate(joints):
                 c.resetJointState(bid, i, q, dq)
+        self._restore_motors(snapshot["motors"])
         self.tick = 0
+
+    def _restore_motors(self, then: dict[tuple[int, int], tuple[int, dict[str, float], float | None]]) -> None:
+        c = self.client
+        for key, now in list(self._motors.items()):
+            was = then.get(key)
+            if was == now:
+                continue
+            body, joint = key
+            cap = None if was is None else was[2]
+            if now[2] != cap:  # the speed cap of then (none: a fresh motor's), set by a command the next one replaces
+                c.setJointMotorControl2(body, joint, p.POSITION_CONTROL, maxVelocity=math.inf if cap is None else cap)
+            if was is None:
+                c.setJointMotorControl2(body, joint, p.VELOCITY_CONTROL, targetVelocity=0.0,
+                                        force=_fresh_motor_force(self.time_step))
+            else:
+                c.setJointMotorControl2(body, joint, was[0], **was[1])
+        self._motors = dict(then)
 
     # ----------------------------------------------------------------- lifetime
     def close(self) -> None:
