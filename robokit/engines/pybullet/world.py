@@ -8,6 +8,7 @@ centre-of-mass frames, its constants. The methods' contracts (units, frames) are
 
 from __future__ import annotations
 
+import hashlib
 import math
 import os
 from collections.abc import Collection, Iterator, Mapping, Sequence
@@ -163,6 +164,8 @@ class PyBulletWorld(World):
         """(body, joint) -> the last position or velocity command sent to it (PyBullet mode, its arguments) and the
         last ``maxVelocity`` given (PyBullet keeps that one until another is given): what :meth:`restore` puts back.
         A joint not in it has PyBullet's own motor of a fresh build."""
+        self._urdf_contents: dict[str, list[bytes]] = {}
+        """URDF path -> the SHA-256 of each content it had when loaded, in order (see :meth:`load_urdf`)."""
         self.mesh_boxes: dict[int, tuple[float, float, float]] = {}
         """Static boxes built as triangle meshes (``mesh_collision``): body id -> half extents (m), centred on the
         base frame. PyBullet cannot give a mesh's triangles back; the ray caster intersects these boxes itself."""
@@ -291,8 +294,13 @@ class PyBulletWorld(World):
         scale: float = 1.0,
         self_collision: bool = False,
     ) -> int:
-        """Load a URDF (see :meth:`resolve_urdf`) and register it under ``name``; returns the body id."""
-        path = self.resolve_urdf(urdf)
+        """Load a URDF (see :meth:`resolve_urdf`) and register it under ``name``; returns the body id.
+
+        PyBullet keeps a URDF it parsed under its path string for the client's life: a file rewritten on disk and
+        loaded again under the same string would load as it was. Each content of a path (by its SHA-256) is loaded
+        under its own spelling of that path (``dir/./name``, ``dir/././name``, ...: the same folder, so meshes beside
+        it resolve alike), so the body built is always the file's content now."""
+        path = self._spelling(self.resolve_urdf(urdf))
         flags = p.URDF_USE_INERTIA_FROM_FILE
         if self_collision:
             flags |= p.URDF_USE_SELF_COLLISION
@@ -303,6 +311,21 @@ class PyBulletWorld(World):
         except p.error as exc:
             raise UserError(f"URDF {urdf!r} could not be loaded: {exc}") from exc
         return self._register(name, body)
+
+    def _spelling(self, path: str) -> str:
+        """``path`` spelt once per content it has had in this world (see :meth:`load_urdf`)."""
+        try:
+            digest = hashlib.sha256(Path(path).read_bytes()).digest()
+        except OSError:
+            return path  # (PyBullet says what is wrong with it)
+        seen = self._urdf_contents.setdefault(path, [])
+        if digest not in seen:
+            seen.append(digest)
+        k = seen.index(digest)
+        if k == 0:
+            return path
+        folder, name = os.path.split(path)
+        return folder + "/." * k + "/" + name
 
     def load_model(
         self,
