@@ -113,10 +113,14 @@ class Bin:
     top: float = math.inf
 
     def next_slot(self) -> Vec3:
-        """The next place position (cycles through the slots)."""
-        slot = self.slots[self.used % len(self.slots)]
+        """The next place position (cycles through the slots), taken."""
+        slot = self.free_slot()
         self.used += 1
         return slot
+
+    def free_slot(self) -> Vec3:
+        """The next place position, not yet taken (a pick that does not place leaves it free)."""
+        return self.slots[self.used % len(self.slots)]
 
     def holds(self, position: Vec3) -> bool:
         """True if an object centre (metres, world) is over the bin's footprint and below its rim."""
@@ -303,7 +307,7 @@ class Sort(MachineBehaviour):
         obj.attempts += 1
         self.picks += 1
         self.current = obj
-        place = self.bins[d.colour].next_slot()
+        place = self.bins[d.colour].free_slot()  # taken when the pick places (do_pick_place)
         task = PickPlaceTask(pick_position=d.position, pick_yaw=d.yaw, place_position=place,
                              object_name=obj.body, object_size=self.config.object_size)
         self.fire("found")
@@ -353,6 +357,7 @@ class Sort(MachineBehaviour):
         obj.handling_time += float(self.pp.result().get("sim_time") or 0.0)
         if self.pp.outcome.status == "succeeded":
             obj.outcome, obj.reason = "sorted", ""
+            self.bins[obj.colour].next_slot()
             self.fire("placed")
         else:
             reason = self.pp.outcome.reason
