@@ -11,7 +11,8 @@ It reads and takes the same messages as ``gripper`` (:class:`~robokit.msgs.arm.G
 :class:`~robokit.msgs.arm.GripperState` out), so ``pick_place`` and ``sort`` drive it unchanged: set their
 ``grasp_offset`` so that the tool-centre point lands on the object's top face (half the object's height). The
 reported ``width`` is ``open_width`` while the cup is off and 0 while it is on, so a behaviour waiting for an
-opened gripper sees it open at once.
+opened gripper sees it open at once. ``reset()`` (between robokit.gym episodes) lets go and turns the cup off: the
+start state of a fresh build.
 """
 
 from __future__ import annotations
@@ -54,10 +55,16 @@ class Suction(Actuator):
         cfg: SuctionConfig = self.config
         self.body = ctx.body(cfg.body)
         self.link = -1 if cfg.link is None else ctx.link(cfg.body, cfg.link, key="link")
-        self.on = False
-        self.action = "open"
         self.constraint: int | None = None
         self.held: int | None = None
+        self.reset()
+
+    def reset(self, rng: Any = None) -> None:
+        """The start state (also between robokit.gym episodes, after the world's snapshot is restored): the cup off
+        and holding nothing (a held body is let go), no protective stop; the reading is a fresh build's."""
+        self._release()
+        self.on = False
+        self.action = "open"
         self.since = self.world.time
         self.stopped = False
 
