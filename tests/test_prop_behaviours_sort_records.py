@@ -128,13 +128,14 @@ class Run:
     """One sort on the scripted table, begun at ``t0`` (the frame in the camera's cache is from before ``t0``)."""
 
     def __init__(self, cubes: dict[str, tuple[str, tuple[float, float], list[str]]], *, t0: float = 0.0,
-                 max_attempts: int = 3, max_picks: int = 30, period: float = 1 / 1.2) -> None:
+                 max_attempts: int = 3, max_picks: int = 30, period: float = 1 / 1.2,
+                 arm: tuple[float, float, float] = LOOK) -> None:
         from robokit_behaviours.sort import Sort, SortConfig
 
         self.colours = {n: c for n, (c, _, _) in cubes.items()}
         self.start = {n: (x, y, SIZE / 2) for n, (_, (x, y), _) in cubes.items()}
         self.cell = Tiny({n: list(p) for n, p in self.start.items()}, {n: plan for n, (_, _, plan) in cubes.items()})
-        self.cell.arm = self.cell.start = self.cell.target = list(LOOK)
+        self.cell.arm, self.cell.start, self.cell.target = list(arm), list(arm), list(arm)
         self.camera = Camera(self.cell, self.colours, period)
         self.table = Table(self.cell, self.colours)
         self.readings = Readings(self.camera)
@@ -199,12 +200,15 @@ cubes_st = st.lists(st.tuples(st.sampled_from(["red", "red", "blue", "green"]),
 
 
 @settings(max_examples=8, deadline=None, derandomize=True)
-@example([("red", ["ok"]), ("red", ["miss"]), ("red", ["miss", "ok"])], [0, 2, 3, 1, 4, 5], 3, 0.0)  # 6 red picks
-@given(cubes_st, st.permutations(range(len(SPOTS))), st.integers(1, 3), st.sampled_from([0.0, 2.9]))
+@example([("red", ["ok"]), ("red", ["miss"]), ("red", ["miss", "ok"])], [0, 2, 3, 1, 4, 5], 3, 0.0,
+         LOOK)  # six red picks: the sixth places on a slot the first left free
+@given(cubes_st, st.permutations(range(len(SPOTS))), st.integers(1, 3), st.sampled_from([0.0, 2.9]),
+       st.sampled_from([LOOK, (0.5, 0.05, 0.22)]))  # the arm starts out of the camera's view, or over the table
 def test_every_figure_of_a_sort_against_the_tables_record(cubes: list[tuple[str, list[str]]], spots: list[int],
-                                                          max_attempts: int, t0: float) -> None:
+                                                          max_attempts: int, t0: float,
+                                                          arm: tuple[float, float, float]) -> None:
     plan = {f"{colour}_{i}": (colour, SPOTS[spots[i]], grasps) for i, (colour, grasps) in enumerate(cubes)}
-    run = Run(plan, t0=t0, max_attempts=max_attempts)
+    run = Run(plan, t0=t0, max_attempts=max_attempts, arm=arm)
     run.play()
     sort, cell = run.sort, run.cell
     assert sort.outcome is not None, "the sort ended"
@@ -317,3 +321,30 @@ def test_a_halted_sort_leaves_the_arm_where_it_was_and_the_cube_in_the_fingers(a
         cell.readings(run.t + k / 240)
     assert cell.arm == arm, f"the arm went on from {arm} to {cell.arm} after the halt"
     assert cell.held == held and (held is None or cell.objects[held] == arm), "the fingers let go"
+
+
+def test_a_look_that_gets_no_fresh_frame_times_out_saying_so() -> None:
+    """The camera's cached frame is from before the sort began and the camera is not due again for a minute: LOOK
+    waits for a fresh frame until its 1 s timeout, and the sort fails saying so, having looked at nothing."""
+    run = Run({"red_0": ("red", SPOTS[0], ["ok"])}, t0=30.5, period=60.0)
+    run.play(until=40.0)
+    assert run.sort.outcome is not None
+    assert (run.sort.outcome.status, run.sort.outcome.reason) == ("failed",
+                                                                  "timed out in state LOOK after 1 s (sim time)")
+    result = run.sort.result()
+    assert result["looks"] == result["picks"] == 0 and run.cell.grasps == {}
+    assert result["camera_frames"] == 0 and abs(result["total_time"] - 1.0) <= 2 / RATE
+
+
+def test_cubes_over_a_bin_or_within_its_margin_are_left_where_they_lie() -> None:
+    """docs/vision.md: detections over a bin, its footprint grown by bin_margin (2 cm), are ignored: a red cube on the
+    blue bin's edge and one 1.5 cm beyond it stay; one 3 cm beyond it is sorted into the red bin."""
+    x, y = BINS["blue"]
+    edge, near, far = (x + HALF, y), (x + HALF + 0.015, y + 0.1), (x + HALF + 0.03, y + 0.2)
+    run = Run({"red_0": ("red", edge, ["ok"]), "red_1": ("red", near, ["ok"]), "red_2": ("red", far, ["ok"])})
+    run.play()
+    assert run.sort.outcome is not None and run.sort.outcome.status == "succeeded"
+    assert list(run.cell.grasps) == ["red_2"] and in_bin(run.cell.objects["red_2"], "red")
+    assert run.cell.objects["red_0"] == list(run.start["red_0"]) and run.cell.objects["red_1"] == list(
+        run.start["red_1"])
+    assert run.sort.result()["red_sorted"] == 1 and len(run.sort.result()["objects"]) == 1
