@@ -9,7 +9,9 @@ it was halted and the cube stays in the fingers."""
 from __future__ import annotations
 
 import math
+import sys
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -19,6 +21,9 @@ from hypothesis import strategies as st
 from robokit.msgs.arm import ArmState, GripperCommand, GripperState, HoldArm, MoveTo
 from robokit.msgs.body import BodyState
 from robokit.testing import ScriptedRun
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from test_prop_sample_behaviours import Tiny, drive, pick_place  # noqa: E402  (the scripted table of several cubes)
 
 SIZE = 0.05
 G = 9.81
@@ -294,8 +299,6 @@ def test_a_cube_lost_high_in_transport_is_picked_where_it_lands() -> None:
     """Real physics (configs/pick_place.toml, two attempts): mid-transport the cube is put 8 cm to the side of the
     fingers, at their height; it falls to the table. The second attempt finds it where it lies and places it: the
     world has it on the spot. (Located while it fell, the second grasp closed on air.)"""
-    from pathlib import Path
-
     from robokit.testing import make_sim
 
     config = Path(__file__).resolve().parents[1] / "configs" / "pick_place.toml"
@@ -312,3 +315,48 @@ def test_a_cube_lost_high_in_transport_is_picked_where_it_lands() -> None:
     assert result.result["failures"] == ["dropped during TRANSPORT"], result.result["failures"]
     assert result.outcome == "succeeded" and result.result["attempts"] == 2, result.reason
     assert math.dist(cube, (0.45, -0.35, 0.027)) < 0.02  # the config's place_position, within its tolerance
+
+
+@settings(max_examples=10, deadline=None, derandomize=True)
+@given(st.lists(st.lists(st.sampled_from(["ok", "miss", "drop"]), min_size=1, max_size=3), min_size=2, max_size=3),
+       st.integers(1, 3))
+def test_each_job_of_a_stack_has_its_own_record_and_the_run_sums_them(plans: list[list[str]],
+                                                                      max_attempts: int) -> None:
+    """``objects = [...]``: each object is a job with its own record (object, attempts, failures, outcome, reason,
+    place position on the stack so far, times); the run's reason sums the jobs' attempts, or names the job that
+    failed, k of n; ``placed`` counts the jobs that placed. Judged by the scripted table of
+    tests/test_prop_sample_behaviours.py (which grasps hold) and where it put each cube."""
+    names = [f"cube{i}" for i in range(len(plans))]
+    objects = {n: [0.45 + 0.08 * i, -0.1, SIZE / 2] for i, n in enumerate(names)}
+    spot = [0.4, 0.25, SIZE / 2]
+    world = Tiny({k: list(v) for k, v in objects.items()}, dict(zip(names, plans, strict=True)))
+    run = pick_place(objects, spot, max_attempts=max_attempts)
+    drive(run, world, 60.0)
+    result = run.result()
+    jobs, placed, total = result["jobs"], 0, 0
+    for k, (name, plan) in enumerate(zip(names, plans, strict=True)):
+        tried = [plan[min(i, len(plan) - 1)] for i in range(max_attempts)]
+        attempts = tried.index("ok") + 1 if "ok" in tried else max_attempts
+        why = {"miss": "grasp failed: fingers closed to 0.0 mm without holding", "drop": "dropped during LIFT"}
+        failures = [why[g] for g in tried[:attempts] if g != "ok"]
+        job = jobs[k]
+        assert (job["object"], job["attempts"]) == (name, attempts) == (name, world.grasps[name])
+        assert job["place_position"] == pytest.approx([*spot[:2], spot[2] + placed * SIZE])  # on the stack so far
+        assert abs(sum(job["phase_times"].values()) - job["sim_time"]) < 1e-5
+        total += attempts
+        if "ok" not in tried:
+            last = f"{failures[-1]} (after {attempts} attempt{'s' if attempts > 1 else ''})"
+            reason = f"object {k + 1} of {len(names)} ({name}): {last}"
+            assert job["failures"] == [*failures[:-1], last]  # one per attempt; the reason names the job
+            assert (job["outcome"], job["reason"]) == ("failed", reason)
+            assert len(jobs) == k + 1 and (run.outcome.status, run.outcome.reason) == ("failed", reason)
+            break
+        assert (job["failures"], job["outcome"], job["reason"]) == (failures, "succeeded",
+                                                                    f"placed {name} in {attempts} attempt(s)")
+        assert world.objects[name] == pytest.approx([*spot[:2], SIZE / 2 + placed * SIZE])  # the table has it there
+        placed += 1
+    else:
+        assert len(jobs) == len(names)
+        assert (run.outcome.status, run.outcome.reason) == ("succeeded", f"placed {placed} objects in {total} "
+                                                                         "attempt(s)")
+    assert result["placed"] == placed and result["attempts"] == jobs[-1]["attempts"]
