@@ -58,3 +58,32 @@ def test_a_rewritten_urdf_loads_its_new_content(world: World, tmp_path: Path, wr
     finally:
         for name in names:
             world.remove_body(name)
+
+
+def sdf(size: tuple[float, float, float], mass: float) -> str:
+    box = " ".join(f"{v!r}" for v in size)
+    return f"""<?xml version="1.0"?>
+<sdf version="1.6"><world name="w"><model name="block"><link name="base">
+  <inertial><mass>{mass!r}</mass><inertia><ixx>0.01</ixx><iyy>0.01</iyy><izz>0.01</izz>
+    <ixy>0</ixy><ixz>0</ixz><iyz>0</iyz></inertia></inertial>
+  <collision name="box"><geometry><box><size>{box}</size></box></geometry></collision>
+</link></model></world></sdf>
+"""
+
+
+@settings(max_examples=3, deadline=None, derandomize=True, phases=[Phase.explicit, Phase.generate],
+          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@given(writes=st.lists(contents, min_size=2, max_size=4))
+def test_a_rewritten_sdf_loads_its_new_content_on_pybullet(tmp_path: Path, writes: list) -> None:
+    """SDF is PyBullet's only (the mujoco engine loads URDF and MJCF): its parses are kept by path as a URDF's are."""
+    path = tmp_path / "block.sdf"
+    with World.engine_class("pybullet")(seed=0) as world:
+        for k, (size, _, mass) in enumerate(writes):
+            path.write_text(sdf(size, mass))
+            x = 2.0 * k
+            world.load_model(f"block{k}", str(path), "sdf", position=(x, 0.0, 1.0))
+            lo, hi = world.body_aabb(f"block{k}")
+            half = [s / 2.0 for s in size]
+            assert lo == pytest.approx((x - half[0], -half[1], 1.0 - half[2]), abs=1e-6), f"write {k}: {size}"
+            assert hi == pytest.approx((x + half[0], half[1], 1.0 + half[2]), abs=1e-6), f"write {k}: {size}"
+            assert world.mass(f"block{k}") == pytest.approx(mass), f"write {k}: {mass}"

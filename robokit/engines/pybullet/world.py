@@ -313,7 +313,8 @@ class PyBulletWorld(World):
         return self._register(name, body)
 
     def _spelling(self, path: str) -> str:
-        """``path`` spelt once per content it has had in this world (see :meth:`load_urdf`)."""
+        """``path`` spelt once per content it has had in this world (see :meth:`load_urdf`; SDF and MJCF files
+        alike)."""
         try:
             digest = hashlib.sha256(Path(path).read_bytes()).digest()
         except OSError:
@@ -348,7 +349,7 @@ class PyBulletWorld(World):
         Raises:
             UserError: The file is missing, cannot be parsed, or holds no model.
         """
-        resolved = self.resolve_urdf(path)
+        resolved = self._spelling(self.resolve_urdf(path))  # (PyBullet keeps these by path too: see load_urdf)
         label = kind.upper()
         try:
             if kind == "sdf":
