@@ -69,6 +69,9 @@ class Cell:
     grasps: int = 0
     closes: int = 0
     yaws: list[float] = field(default_factory=list)
+    speeds: list[tuple[str, float | None]] = field(default_factory=list)
+    widths: list[float | None] = field(default_factory=list)
+    drops: list[float] = field(default_factory=list)
     misplaced: list[list[float]] = field(default_factory=list)
     fall: tuple[float, float] | None = None
     at_retreat: list[list[float]] = field(default_factory=list)
@@ -88,6 +91,7 @@ class Cell:
             self.command_id += 1
             self.move += 1
             self.yaws.append(arm.yaw)
+            self.speeds.append((MOVES[self.move] if self.move < len(MOVES) else "", arm.speed))
             self.start, self.target, self.t0 = list(self.arm), list(arm.position), t
             self.t1 = t + max(0.02, math.dist(self.arm, arm.position) / (arm.speed or 1.0))
             self.status, self.reason, self.stalled = "moving", "", False
@@ -102,6 +106,8 @@ class Cell:
 
     def grip(self, grip: GripperCommand, t: float) -> None:
         self.action, self.changed_at, self.stuck = grip.action, t, False
+        if grip.action == "width":
+            self.widths.append(grip.width)
         if grip.action == "open":
             self.let_go(t)
         elif grip.action == "close":
@@ -147,6 +153,7 @@ class Cell:
                     self.at_retreat.append(list(self.cube))
             what = MOVES[self.move] if 0 <= self.move < len(MOVES) else ""
             if self.held and self.fault == f"drop:{what}" and s >= 0.5:
+                self.drops.append(t)
                 self.let_go(t)
         if self.held:
             self.cube = list(self.arm)
@@ -271,6 +278,14 @@ def check_run(faults: list[str], max_attempts: int, timeout: float, yaw: float, 
         assert abs(result["phase_times"][state] - seconds) < 3e-6, state
     end = max(r["t"] for r in run.trace if r["kind"] == "transition")
     assert abs(result["sim_time"] - end) < 3e-6 and abs(sum(times.values()) - end) < 1e-5
+    # near the cube (down to it, down to the spot) at slow_speed, else at speed; the release opens to the cube + 25 mm
+    assert all(v == (0.6 if what in ("DESCEND", "LOWER") else 1.2) for what, v in cell.speeds), cell.speeds
+    assert cell.widths and all(abs(w - (SIZE + 0.025)) < 1e-12 for w in cell.widths) or "RELEASE" not in times
+    # a drop while the arm moves is noticed within 1/hold_check_hz (60 Hz) and retried at once
+    retries = [r["t"] for r in run.trace if r["kind"] == "transition" and r["trigger"] in ("retry", "give_up")]
+    for dropped in cell.drops:
+        noticed = min(t for t in retries if t >= dropped - 1e-5)
+        assert noticed - dropped <= 1 / 60 + 1 / 240 + 1e-6, (dropped, noticed)
     # the wrist turned to the cube's faces: its yaw folded into +-45 degrees, on every move
     assert all(abs(y - fold(yaw)) < 1e-9 for y in cell.yaws), (yaw, set(cell.yaws))
 
