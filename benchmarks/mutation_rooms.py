@@ -169,7 +169,9 @@ ROOMS: dict[str, tuple[list[str], list[str]]] = {
     # the three behaviours the course ships and its users run most, against the tests that pin them
     "behaviours": (["robokit_behaviours/sort.py", "robokit_behaviours/pick_place.py", "robokit_behaviours/patrol.py"],
                    ["tests/test_pins_sort.py", "tests/test_pins_pick_place.py", "tests/test_pins_patrol.py",
-                    "tests/test_prop_behaviours.py"]),
+                    "tests/test_prop_behaviours.py", "tests/test_prop_sample_behaviours.py",
+                    "tests/test_prop_behaviours_pick_place_retries.py", "tests/test_prop_behaviours_sort_records.py",
+                    "tests/test_prop_behaviours_patrol_legs.py"]),
 }
 
 # mutmut's exit-code statuses, grouped: what counts as caught, what as missed
