@@ -4,10 +4,10 @@ motor commands.
 The World promises (``robokit.engines.interface.World.restore``): "the next episode runs as one after a fresh
 build". Each example builds a Kuka arm whose first joints are held by position motors at the build (as a plugin's
 setup does) while the others keep the engine's own motors of a fresh build, snapshots it, sends generated commands
-(position with and without a speed cap, velocity, torque; targets, forces and gains drawn) to generated joints
-over a generated number of steps, restores, and steps on with nothing commanded; a second world built the same way
-steps alongside. Every pose, velocity, joint position, velocity and applied motor torque must be equal at every
-step: the fresh build is the oracle.
+(position with and without a speed cap, velocity, torque, one call for two joints; targets and forces drawn) to
+generated joints over a generated number of steps, restores, and steps on with nothing commanded; a second world
+built the same way steps alongside. Every pose, velocity, joint position, velocity and applied motor torque must be
+equal at every step: the fresh build is the oracle.
 """
 
 from __future__ import annotations
@@ -60,7 +60,7 @@ def state(world: World, kuka: int, torques: bool = True) -> np.ndarray:
 
 commands = st.lists(
     st.tuples(st.integers(0, 6),
-              st.sampled_from(["position", "capped", "velocity", "torque"]),
+              st.sampled_from(["position", "capped", "velocity", "torque", "positions", "velocities"]),
               st.floats(-1.5, 1.5), st.floats(5.0, 300.0), st.floats(0.05, 1.0), st.integers(0, 40)),
     min_size=1, max_size=6)
 
@@ -76,6 +76,12 @@ def restored_steps_as_fresh(engine: type[World], sent: list, after: int) -> None
                 used.set_joint_motor(kuka, joint, "position", target_position=value, force=force, max_velocity=speed)
             elif kind == "velocity":
                 used.set_joint_motor(kuka, joint, "velocity", target_velocity=value, force=force)
+            elif kind == "positions":  # one call for a joint and the next (as joint_control sends them)
+                pair = [joint, (joint + 1) % 7]
+                used.set_joint_motors(kuka, pair, "position", target_positions=[value, -value], forces=[force] * 2)
+            elif kind == "velocities":
+                pair = [joint, (joint + 1) % 7]
+                used.set_joint_motors(kuka, pair, "velocity", target_velocities=[value, -value], forces=[force] * 2)
             else:
                 used.set_joint_motor(kuka, joint, "velocity", target_velocity=0.0, force=0.0)
             for _ in range(ticks):

@@ -14,7 +14,7 @@ import os
 from collections.abc import Collection, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -59,7 +59,8 @@ OWN_BODY_GROUP = 0x100
 
 _UNKNOWN: Any = object()
 """Not looked up yet (a cache sentinel)."""
-_KEPT = ("targetPosition", "targetVelocity", "force", "positionGain", "velocityGain")
+_KEPT = ("targetPosition", "targetVelocity", "force", "positionGain", "velocityGain",
+         "targetPositions", "targetVelocities", "forces", "positionGains", "velocityGains")
 """A position or velocity command's arguments PyBullet sets at each command (to its defaults when not given)."""
 
 
@@ -85,6 +86,20 @@ def _box_vertices(half: Sequence[float]) -> list[list[float]]:
     """The 8 corners of a box with the given half extents, in the order :data:`_BOX_TRIANGLES` uses."""
     hx, hy, hz = half
     return [[sx * hx, sy * hy, sz * hz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]
+
+
+class _Motor(NamedTuple):
+    """A joint's last position or velocity command (see ``PyBulletWorld._motors``)."""
+
+    mode: int
+    """PyBullet's control mode."""
+    args: dict[str, float]
+    """Its arguments but ``maxVelocity``; a ``setJointMotorControlArray`` call's by their plural names, this joint's
+    values."""
+    cap: float | None
+    """The last ``maxVelocity`` given to the joint (None: never)."""
+    array: bool
+    """Sent by ``setJointMotorControlArray``."""
 
 
 def _fresh_motor_force(time_step: float) -> float:
@@ -160,10 +175,10 @@ class PyBulletWorld(World):
         self._shape_copies: dict[int, list[tuple[int, Pose]]] = {}  # see _query_shapes
         self._wrench_shifts: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}  # see enable_joint_wrench
         self._cid = int(self.client._client)
-        self._motors: dict[tuple[int, int], tuple[int, dict[str, float], float | None]] = {}
-        """(body, joint) -> the last position or velocity command sent to it (PyBullet mode, its arguments) and the
-        last ``maxVelocity`` given (PyBullet keeps that one until another is given): what :meth:`restore` puts back.
-        A joint not in it has PyBullet's own motor of a fresh build."""
+        self._motors: dict[tuple[int, int], _Motor] = {}
+        """(body, joint) -> the last position or velocity command sent to it and the last ``maxVelocity`` given
+        (PyBullet keeps that one until another is given): what :meth:`restore` puts back. A joint not in it has
+        PyBullet's own motor of a fresh build."""
         self._urdf_contents: dict[str, list[bytes]] = {}
         """URDF path -> the SHA-256 of each content it had when loaded, in order (see :meth:`load_urdf`)."""
         self.mesh_boxes: dict[int, tuple[float, float, float]] = {}
@@ -648,13 +663,13 @@ class PyBulletWorld(World):
         if mode != "torque":  # (a torque lasts one step)
             self._keep_motor(body, joint, _MODES[mode], kwargs)
 
-    def _keep_motor(self, body: int, joint: int, mode: int, kwargs: dict[str, float]) -> None:
+    def _keep_motor(self, body: int, joint: int, mode: int, kwargs: dict[str, float], array: bool = False) -> None:
         """Note a position or velocity command for :meth:`restore` (see ``_motors``)."""
         key = (int(body), int(joint))
         cap = kwargs.get("maxVelocity")
         if cap is None or not cap > 0.0:  # (PyBullet takes a max velocity only above 0)
-            cap = self._motors[key][2] if key in self._motors else None
-        self._motors[key] = (mode, {k: v for k, v in kwargs.items() if k in _KEPT}, cap)
+            cap = self._motors[key].cap if key in self._motors else None
+        self._motors[key] = _Motor(mode, {k: v for k, v in kwargs.items() if k in _KEPT}, cap, array)
 
     def set_joint_motors(
         self,
@@ -683,7 +698,7 @@ class PyBulletWorld(World):
         self.client.setJointMotorControlArray(body, joints, _MODES[mode], **kwargs)
         if mode != "torque":
             for i, joint in enumerate(joints):
-                self._keep_motor(body, joint, _MODES[mode], {k[:-1]: v[i] for k, v in kwargs.items()})
+                self._keep_motor(body, joint, _MODES[mode], {k: v[i] for k, v in kwargs.items()}, array=True)
 
     def enable_joint_wrench(self, body: int, joint: int, enabled: bool = True) -> None:
         c = self.client
@@ -1010,21 +1025,23 @@ class PyBulletWorld(World):
         self._restore_motors(snapshot["motors"])
         self.tick = 0
 
-    def _restore_motors(self, then: dict[tuple[int, int], tuple[int, dict[str, float], float | None]]) -> None:
+    def _restore_motors(self, then: dict[tuple[int, int], _Motor]) -> None:
         c = self.client
         for key, now in list(self._motors.items()):
             was = then.get(key)
             if was == now:
                 continue
             body, joint = key
-            cap = None if was is None else was[2]
-            if now[2] != cap:  # the speed cap of then (none: a fresh motor's), set by a command the next one replaces
+            cap = None if was is None else was.cap
+            if now.cap != cap:  # the speed cap of then (none: a fresh motor's), set by a command the next one replaces
                 c.setJointMotorControl2(body, joint, p.POSITION_CONTROL, maxVelocity=math.inf if cap is None else cap)
             if was is None:
                 c.setJointMotorControl2(body, joint, p.VELOCITY_CONTROL, targetVelocity=0.0,
                                         force=_fresh_motor_force(self.time_step))
+            elif was.array:  # the same call as then: PyBullet's two calls need not fill in the same defaults
+                c.setJointMotorControlArray(body, [joint], was.mode, **{k: [v] for k, v in was.args.items()})
             else:
-                c.setJointMotorControl2(body, joint, was[0], **was[1])
+                c.setJointMotorControl2(body, joint, was.mode, **was.args)
         self._motors = dict(then)
 
     # ----------------------------------------------------------------- lifetime
