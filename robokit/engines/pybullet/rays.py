@@ -354,23 +354,31 @@ class PyBulletRayCaster:
             out[k] = answer
         return results if out is None else out
 
-    def _holds(self, body: int, link: int, point: np.ndarray) -> bool:
-        """True if ``point`` lies inside (by more than ``INSIDE``) one of the convex primitives of ``body``'s
-        ``link``, or inside a mesh box."""
+    def _placed(self, body: int, link: int, frames: dict[tuple[int, int], list[Any]]) -> list[Any]:
+        """The convex primitives of ``body``'s ``link`` (a mesh box counts as a box) in the world: (geometry type,
+        dimensions, centre, world-from-shape rotation) each; looked up once per cast in ``frames``."""
+        key = (body, link)
+        if key in frames:
+            return frames[key]
         c = self.client
+        placed = []
         if link < 0 and body in self.world.mesh_boxes:
             pos, orn = c.getBasePositionAndOrientation(body)
-            rot = np.asarray(c.getMatrixFromQuaternion(orn), float).reshape(3, 3)
-            half = np.asarray(self.world.mesh_boxes[body], float) - INSIDE
-            return bool((np.abs((point - np.asarray(pos)) @ rot) < half).all())
-        shapes = self._solids.get((body, link))
-        if not shapes:
-            return False
-        frame = c.getBasePositionAndOrientation(body) if link < 0 else c.getLinkState(body, link)[:2]
-        for geom, dims, local_pos, local_orn in shapes:
-            pos, orn = c.multiplyTransforms(frame[0], frame[1], local_pos, local_orn)
-            rot = np.asarray(c.getMatrixFromQuaternion(orn), float).reshape(3, 3)
-            q = (point - np.asarray(pos)) @ rot  # the point in the shape's frame
+            dims = tuple(2.0 * h for h in self.world.mesh_boxes[body])
+            placed.append((GEOM_BOX, dims, np.asarray(pos), np.asarray(c.getMatrixFromQuaternion(orn)).reshape(3, 3)))
+        elif key in self._solids:
+            frame = c.getBasePositionAndOrientation(body) if link < 0 else c.getLinkState(body, link)[:2]
+            for geom, dims, local_pos, local_orn in self._solids[key]:
+                pos, orn = c.multiplyTransforms(frame[0], frame[1], local_pos, local_orn)
+                placed.append((geom, dims, np.asarray(pos), np.asarray(c.getMatrixFromQuaternion(orn)).reshape(3, 3)))
+        frames[key] = placed
+        return placed
+
+    def _holds(self, body: int, link: int, point: np.ndarray, frames: dict[tuple[int, int], list[Any]]) -> bool:
+        """True if ``point`` lies inside (by more than ``INSIDE``) one of the convex primitives of ``body``'s
+        ``link``, or inside a mesh box."""
+        for geom, dims, pos, rot in self._placed(body, link, frames):
+            q = (point - pos) @ rot  # the point in the shape's frame
             if geom == GEOM_BOX:  # full edge lengths
                 if (np.abs(q) < np.asarray(dims) / 2.0 - INSIDE).all():
                     return True
@@ -393,8 +401,9 @@ class PyBulletRayCaster:
         fraction 0 on a convex primitive that holds the segment's start replaced by the nearest surface along the
         segment of a shape that does not hold it (see the module doc)."""
         solids = self._solids
+        frames: dict[tuple[int, int], list[Any]] = {}
         redo = [k for k, r in enumerate(results)
-                if r[2] < START_HIT and (r[0], r[1]) in solids and self._holds(r[0], r[1], starts[k])]
+                if r[2] < START_HIT and (r[0], r[1]) in solids and self._holds(r[0], r[1], starts[k], frames)]
         if not redo:
             return results
         out = list(results)
@@ -407,7 +416,7 @@ class PyBulletRayCaster:
                 if hit[0] < 0:
                     continue
                 left.append(k)
-                if hit[2] < best[k][2] and not self._holds(hit[0], hit[1], starts[k]):
+                if hit[2] < best[k][2] and not self._holds(hit[0], hit[1], starts[k], frames):
                     best[k] = hit
             if not left:
                 break
