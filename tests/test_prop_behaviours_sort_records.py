@@ -28,7 +28,9 @@ from robokit.msgs.vision import Detection, Detections
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from test_prop_sample_behaviours import SIZE, Tiny  # noqa: E402  (the scripted arm, fingers and cubes)
 
-RGBA = {"red": (0.9, 0.1, 0.1, 1.0), "blue": (0.1, 0.2, 0.9, 1.0), "green": (0.1, 0.8, 0.1, 1.0)}
+RGBA = {"red": (0.9, 0.1, 0.1, 1.0), "blue": (0.1, 0.2, 0.9, 1.0), "green": (0.1, 0.8, 0.1, 1.0),
+        "grey": (0.5, 0.5, 0.5, 1.0)}
+CLASSES = ("red", "blue", "green")  # the detector's colour classes: grey matches none
 BINS = {"red": (0.35, 0.42), "blue": (0.35, -0.42)}  # bin centres (x, y); 0.16 m square, rim 5 cm high
 HALF, RIM = 0.08, 0.05
 LOOK = (0.28, 0.0, 0.34)  # the sort's default look_position
@@ -43,10 +45,11 @@ class Table:
 
     def __init__(self, cell: Tiny, colours: dict[str, str]) -> None:
         self.cell, self.colours, self.tick = cell, colours, 0
+        self.removed: set[str] = set()
 
     @property
     def body_names(self) -> list[str]:
-        return [*(f"{c}_bin" for c in BINS), *self.colours]
+        return [*(f"{c}_bin" for c in BINS), *(n for n in self.colours if n not in self.removed)]
 
     def has_body(self, name: str) -> bool:
         return name in self.body_names
@@ -61,7 +64,7 @@ class Table:
         return 0.0 if body.endswith("_bin") else 0.1
 
     def visual_rgba(self, body: str) -> tuple[float, ...]:
-        return RGBA[self.colours[body]] if body in self.colours else (0.5, 0.5, 0.5, 1.0)
+        return RGBA[self.colours[body]] if body in self.colours else (0.3, 0.3, 0.3, 1.0)
 
     def pose(self, name: str) -> tuple[tuple[float, ...], tuple[float, ...]]:
         if name.endswith("_bin"):
@@ -86,7 +89,8 @@ class Camera:
         from robokit_plugins.colour_detector import DEFAULT_COLOURS
 
         self.cell, self.colour_of, self.period = cell, colours, period
-        self.colours = {c: DEFAULT_COLOURS[c] for c in RGBA}
+        self.colours = {c: DEFAULT_COLOURS[c] for c in CLASSES}
+        self.hidden: set[str] = set()  # cubes the camera cannot see (under the arm's shadow, say)
         self.cfg = SimpleNamespace(camera="cam")
         self.last: Detections | None = None
         self.renders: list[tuple[float, tuple[float, ...], dict[str, tuple[float, ...]]]] = []
@@ -94,10 +98,11 @@ class Camera:
     def read(self, t: float) -> Detections:
         last = self.last
         if last is None or math.floor(t / self.period + 1e-9) > math.floor(last.time / self.period + 1e-9):
-            seen = {n: tuple(p) for n, p in self.cell.objects.items() if n != self.cell.held}
+            seen = {n: tuple(p) for n, p in self.cell.objects.items()
+                    if n != self.cell.held and n not in self.hidden and self.colour_of[n] in CLASSES}
             items = tuple(Detection(self.colour_of[n], (0.0, 0.0), 300, (0, 0, 1, 1), p, p, 0.0)
                           for n, p in seen.items())
-            self.last = Detections("cam", t, items, tuple(RGBA))
+            self.last = Detections("cam", t, items, CLASSES)
             self.renders.append((t, tuple(self.cell.arm), seen))
         assert self.last is not None
         return self.last
