@@ -307,7 +307,7 @@ class Sort(MachineBehaviour):
         obj.attempts += 1
         self.picks += 1
         self.current = obj
-        place = self.bins[d.colour].free_slot()  # taken when the pick places (do_pick_place)
+        place = self.bins[d.colour].free_slot()  # taken when the pick places, skipped if it fails on the way there
         task = PickPlaceTask(pick_position=d.position, pick_yaw=d.yaw, place_position=place,
                              object_name=obj.body, object_size=self.config.object_size)
         self.fire("found")
@@ -360,6 +360,8 @@ class Sort(MachineBehaviour):
             self.bins[obj.colour].next_slot()
             self.fire("placed")
         else:
+            if "TRANSPORT" in self.pp.phase_times:  # it failed on the way to the slot, which may be out of reach:
+                self.bins[obj.colour].next_slot()  # the next attempt tries the next one
             reason = self.pp.outcome.reason
             obj.failures.append(reason)
             given_up = obj.attempts >= self.config.max_attempts
