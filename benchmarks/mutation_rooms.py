@@ -171,7 +171,8 @@ ROOMS: dict[str, tuple[list[str], list[str]]] = {
                    ["tests/test_pins_sort.py", "tests/test_pins_pick_place.py", "tests/test_pins_patrol.py",
                     "tests/test_prop_behaviours.py", "tests/test_prop_sample_behaviours.py",
                     "tests/test_prop_behaviours_pick_place_retries.py", "tests/test_prop_behaviours_sort_records.py",
-                    "tests/test_prop_behaviours_patrol_legs.py", "tests/test_prop_behaviours_goals.py"]),
+                    "tests/test_prop_behaviours_patrol_legs.py", "tests/test_prop_behaviours_goals.py",
+                    "tests/test_prop_behaviours_preflight.py"]),
 }
 
 # mutmut's exit-code statuses, grouped: what counts as caught, what as missed
