@@ -644,13 +644,15 @@ class PickPlace(MachineBehaviour):
         why = reach((x, y, z + cfg.grasp_offset + cfg.place_clearance))
         if why:
             problems.append(ctx.problem(f"out of the reach of arm {cfg.arm!r}: {why}", "place_position"))
+        named = len(self.jobs) - len(cfg.pick_positions)  # the jobs before pick_positions': object, objects
         for i, job in enumerate(self.jobs):
             pos = job.position or ctx.world.pose(job.object)[0]
             why = reach((pos[0], pos[1], pos[2] + cfg.grasp_offset))
             if why:
-                key = ctx.body_key(job.object) if job.object else f"{ctx.key}.pick_positions[{i - len(cfg.objects)}]"
-                problems.append(ConfigError(f"{job.label} at ({pos[0]:.3f}, {pos[1]:.3f}, {pos[2]:.3f}) is out of "
-                                            f"the reach of arm {cfg.arm!r}: {why}", key=key))
+                key = ctx.body_key(job.object) if job.object else f"{ctx.key}.pick_positions[{i - named}]"
+                where = f" at ({pos[0]:.3f}, {pos[1]:.3f}, {pos[2]:.3f})" if job.object else ""  # a label has it
+                problems.append(ConfigError(f"{job.label}{where} is out of the reach of arm {cfg.arm!r}: {why}",
+                                            key=key))
         return problems
 
     # ------------------------------------------------------------------ goal (ground truth, after the run)

@@ -132,3 +132,45 @@ def test_patrol_validate_refuses_exactly_the_waypoints_outside_the_walls(points:
     want = [(f"behaviour.waypoints[{i}]", f"({x:g}, {y:g}) is outside the map's extent (x -1.10..4.10, y -1.60..2.60)")
             for i, (x, y) in enumerate(points) if not (lo[0] <= x <= hi[0] and lo[1] <= y <= hi[1])]
     assert found == want
+
+
+@settings(max_examples=12, deadline=None, derandomize=True)
+@given(st.booleans(), st.integers(0, 2), st.integers(0, 2), st.floats(0.5, 0.8),
+       st.lists(st.tuples(st.floats(0.3, 0.8), st.floats(-0.4, 0.4)), min_size=6, max_size=6))
+def test_pick_place_validate_refuses_each_job_and_the_place_out_of_reach(one: bool, named: int, given_at: int,
+                                                                        radius: float,
+                                                                        spots: list[tuple[float, float]]) -> None:
+    """docs/arm.md: validate refuses a place position or an object the arm cannot reach, at its key: the place
+    position, the body's section, or ``pick_positions[i]`` for a job given by where it lies."""
+    from robokit.testing import ScriptedRun
+
+    if not (one or named or given_at):
+        return
+    names = ["solo"] * one + [f"cube{i}" for i in range(named)]
+    where = {n: (x, y, SIZE / 2) for n, (x, y) in zip(names, spots, strict=False)}
+    positions = [(x, y, SIZE / 2) for x, y in spots[len(names):len(names) + given_at]]
+    place = (spots[-1][0], spots[-1][1], SIZE / 2)
+    config: dict[str, Any] = {"pose_sensor": "poses", "place_position": list(place), "object_size": SIZE,
+                              "objects": names[one:], "pick_positions": [list(p) for p in positions]}
+    if one:
+        config["object"] = "solo"
+    run = ScriptedRun("pick_place", config, components={"arm": (ArmState, "actuator"),
+                                                         "gripper": (GripperState, "actuator"), "poses": dict},
+                      bodies={n: (p, (0.0, 0.0, 0.0, 1.0)) for n, p in where.items()})
+    arm = Arm(radius)
+    run.ctx.components["arm"] = arm  # type: ignore[index]
+    found = [(p.key, p.message) for p in run.behaviour.preflight(run.ctx)]
+    want = []
+    target = (place[0], place[1], place[2] + 0.004)  # plus pick_place's place_clearance
+    if math.dist(target, (0, 0, 0)) > radius:
+        want.append(("behaviour.place_position", f"out of the reach of arm 'arm': unreachable: "
+                     f"{math.dist(target, (0, 0, 0)):.3f} m from the base"))
+    jobs = [(n, where[n], f"bodies.{n}") for n in names]
+    jobs += [(None, p, f"behaviour.pick_positions[{i}]") for i, p in enumerate(positions)]
+    for name, (x, y, z), key in jobs:
+        d = math.dist((x, y, z), (0, 0, 0))
+        if d > radius:
+            what = f"{name} at" if name else "object at"  # named once where it lies
+            want.append((key, f"{what} ({x:.3f}, {y:.3f}, {z:.3f}) is out of the reach of arm 'arm': "
+                         f"unreachable: {d:.3f} m from the base"))
+    assert found == want
