@@ -91,6 +91,7 @@ class Camera:
         self.cell, self.colour_of, self.period = cell, colours, period
         self.colours = {c: DEFAULT_COLOURS[c] for c in CLASSES}
         self.hidden: set[str] = set()  # cubes the camera cannot see (under the arm's shadow, say)
+        self.offset: dict[str, tuple[float, float]] = {}  # how far off (x, y) each cube is detected, m
         self.cfg = SimpleNamespace(camera="cam")
         self.last: Detections | None = None
         self.renders: list[tuple[float, tuple[float, ...], dict[str, tuple[float, ...]]]] = []
@@ -100,8 +101,10 @@ class Camera:
         if last is None or math.floor(t / self.period + 1e-9) > math.floor(last.time / self.period + 1e-9):
             seen = {n: tuple(p) for n, p in self.cell.objects.items()
                     if n != self.cell.held and n not in self.hidden and self.colour_of[n] in CLASSES}
-            items = tuple(Detection(self.colour_of[n], (0.0, 0.0), 300, (0, 0, 1, 1), p, p, 0.0)
-                          for n, p in seen.items())
+            off = {n: self.offset.get(n, (0.0, 0.0)) for n in seen}
+            at = {n: (p[0] + off[n][0], p[1] + off[n][1], p[2]) for n, p in seen.items()}
+            items = tuple(Detection(self.colour_of[n], (0.0, 0.0), 300, (0, 0, 1, 1), at[n], at[n], 0.0)
+                          for n in seen)
             self.last = Detections("cam", t, items, CLASSES)
             self.renders.append((t, tuple(self.cell.arm), seen))
         assert self.last is not None
@@ -134,7 +137,7 @@ class Run:
 
     def __init__(self, cubes: dict[str, tuple[str, tuple[float, float], list[str]]], *, t0: float = 0.0,
                  max_attempts: int = 3, max_picks: int = 30, period: float = 1 / 1.2,
-                 arm: tuple[float, float, float] = LOOK) -> None:
+                 arm: tuple[float, float, float] = LOOK, truth: bool = False) -> None:
         from robokit_behaviours.sort import Sort, SortConfig
 
         self.colours = {n: c for n, (c, _, _) in cubes.items()}
@@ -155,13 +158,14 @@ class Run:
                 self.cell.objects[name] = list(p)
         components = {"detector": self.camera, "cam": StandIn("cam", object, "sensor"),
                       "arm": StandIn("arm", ArmState, "actuator"),
-                      "gripper": StandIn("gripper", GripperState, "actuator")}
+                      "gripper": StandIn("gripper", GripperState, "actuator"),
+                      **({"poses": StandIn("poses", dict, "sensor")} if truth else {})}  # the table's cube poses
         ctx = SetupContext(self.table, np.random.default_rng(0), "behaviour", self.readings,  # type: ignore[arg-type]
                            components, Path("."), self._note)
         self.max_attempts = max_attempts
         self.sort = Sort("sort", SortConfig.model_validate({
             "bins": {c: {"body": f"{c}_bin"} for c in BINS}, "max_attempts": max_attempts, "max_picks": max_picks,
-            "pick_place": {"speed": 6.0, "slow_speed": 6.0}}))
+            "pick_place": {"speed": 6.0, "slow_speed": 6.0}, "truth_sensor": "poses" if truth else None}))
         self.sort.setup(ctx)
         self.decisions: list[tuple[int, tuple[float, ...], Any, dict[str, int]]] = []
         """Per look: the frame it read (render index), the arm's reading, the pick it started, the grasps so far."""
@@ -353,3 +357,22 @@ def test_cubes_over_a_bin_or_within_its_margin_are_left_where_they_lie() -> None
     assert run.cell.objects["red_0"] == list(run.start["red_0"]) and run.cell.objects["red_1"] == list(
         run.start["red_1"])
     assert run.sort.result()["red_sorted"] == 1 and len(run.sort.result()["objects"]) == 1
+
+
+@settings(max_examples=6, deadline=None, derandomize=True)
+@given(st.lists(st.tuples(st.floats(-0.006, 0.006), st.floats(-0.006, 0.006)), min_size=1, max_size=4))
+def test_with_a_truth_sensor_each_record_names_its_cube_and_how_far_off_it_was_detected(
+        offsets: list[tuple[float, float]]) -> None:
+    """docs/vision.md: ``truth_sensor`` is read for the report only: each object's record names the body nearest
+    to where it was detected and the detection error, the distance the test put between the two."""
+    plan = {f"{'red' if i % 2 else 'blue'}_{i}": ("red" if i % 2 else "blue", SPOTS[i], ["ok"])
+            for i in range(len(offsets))}
+    run = Run(plan, truth=True)
+    run.camera.offset = dict(zip(plan, offsets, strict=True))
+    run.play()
+    records = {r["body"]: r for r in run.sort.result()["objects"]}
+    assert set(records) == set(plan) and run.sort.outcome is not None and run.sort.outcome.status == "succeeded"
+    for name, (dx, dy) in zip(plan, offsets, strict=True):
+        x, y, z = run.start[name]
+        assert records[name]["detected_position"] == [round(x + dx, 4), round(y + dy, 4), round(z, 4)]
+        assert records[name]["detection_error"] == round(math.hypot(dx, dy), 5)
