@@ -135,3 +135,36 @@ def test_every_leg_collision_and_figure_of_a_patrol_against_the_yard(picks: list
             "succeeded", f"visited all {legs} waypoints at t = {last_t:.2f} s")
     assert commands == {"drive": STOP}, "the last leg's end stops the drive"
     assert halt == {"drive": STOP}
+
+
+@settings(max_examples=5, deadline=None, derandomize=True)
+@given(st.lists(st.sets(st.sampled_from(["plane", "box_a", "pad", "crate"])), min_size=1, max_size=12))
+def test_named_map_bodies_are_the_map_and_the_only_bodies_a_collision_counts(touches: list[set[str]]) -> None:
+    """``map_bodies = ["crate", "pad"]``: the map is those two, as boxes with their footprints in the world (the
+    crate is loose, the pad flat: named, they count), and the box, not named, is no obstacle; each new touch of a
+    map body is one collision, in the result and the trace."""
+    cfg = yard([(2.5, 0.0)], 1, 8.0)
+    cfg["behaviour"]["map_bodies"] = ["crate", "pad"]
+    with make_sim(cfg) as sim:
+        patrol = sim.behaviour
+        boxes = {b.name: (b.lo, b.hi) for b in patrol.map}
+        assert boxes.keys() == {"crate", "pad"}
+        for name, (lo, hi) in (("crate", CRATE), ("pad", PAD)):
+            assert all(abs(a - b) < 0.01 for a, b in zip((*boxes[name][0], *boxes[name][1]), (*lo, *hi),
+                                                          strict=True)), (name, boxes[name])
+        before = len(sim.trace)
+        for k, names in enumerate(touches):
+            patrol.count_collisions({"drive": _touching(names)}, k / RATE)
+        result = patrol.result()
+        traced = [r["body"] for r in sim.trace[before:] if r["kind"] == "collision"]
+    expected, was = [], set()
+    for k, names in enumerate(touches):
+        now = names & {"crate", "pad"}
+        expected += [{"t": round(k / RATE, 3), "body": n} for n in sorted(now - was)]
+        was = now
+    assert result["collision_events"] == expected and result["collisions"] == len(expected)
+    assert traced == [e["body"] for e in expected]
+
+
+def _touching(names: set[str]) -> DriveState:
+    return DriveState((0.0, 0.0, 0.0), 0.0, 0.0, (0.0, 0.0, 0.0), 0.0, (0.0, 0.0), tuple(sorted(names)))
