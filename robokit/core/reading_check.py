@@ -150,10 +150,11 @@ def _refuse(value: Any, allow_inf: bool, counter: list[int] | None) -> Path_ | N
 
 def _all_finite(value: Any, allow_inf: bool) -> bool:
     """A C-speed shortcut for a flat sequence of numbers: NaN and infinities propagate through a sum. False means
-    "look closer" (not numbers, or a non-finite sum, which may also be an overflow of large finite values)."""
+    "look closer" (not numbers, or a non-finite sum, which may also be an overflow of large finite values; numpy
+    adding a list as an array, or an integer too large for a float, raise instead)."""
     try:
         total = sum(value)
-    except TypeError:
+    except (TypeError, ValueError, ArithmeticError):
         return False
     if isinstance(total, (float, int)):
         return math.isfinite(total) or (allow_inf and not math.isnan(total))
