@@ -103,8 +103,12 @@ def cmd_submit(args: argparse.Namespace) -> int:
         answer = resp.json()
     except ValueError:
         answer = {"error": f"HTTP {resp.status_code} (not JSON)"}
-    if resp.status_code not in (200, 201):
-        where = args.plugin if answer.get("field") == "plugin" else args.config
+    accepted = resp.status_code in (200, 201)
+    if not isinstance(answer, dict) or (accepted and not {"id", "assignment", "student", "seeds"} <= answer.keys()):
+        # e.g. a proxy's or captive portal's page: not the course server's answer, so not a submission either
+        answer, accepted = {"error": f"HTTP {resp.status_code} (not the course server's answer)"}, False
+    if not accepted:
+        where = args.plugin if answer.get("field") == "plugin" and args.plugin else args.config
         print(f"robokit: error: {where}: {answer.get('error') or resp.status_code}", file=sys.stderr)
         return EXIT_REFUSED
     late = " (late)" if answer.get("late") else ""
