@@ -195,7 +195,7 @@ def test_wait_follows_to_the_grade_and_prints_every_trial(
     out, err = capsys.readouterr()
     assert pauses == pytest.approx([min(0.5 * 1.5 ** i, 5.0) for i in range(len(pauses))])
     shown: list[str] = []
-    for step in steps + ([final] if final != "never" else []):
+    for step in queue:
         if step in ("queued", "running") and (not shown or shown[-1] != f"{step}..."):
             shown.append(f"{step}...")
     lines = out.splitlines()
