@@ -106,7 +106,10 @@ ROOMS: dict[str, tuple[list[str], list[str]]] = {
                    "robokit/core/reading_check.py", "robokit/core/walltime.py", "robokit/runner.py"],
                   ["tests/test_prop_sample3_core.py", "tests/test_lost_end_of_run.py", "tests/test_plugins_faults.py",
                    "tests/test_report_result_first.py", "tests/test_prop_core_monitors.py",
-                   "tests/test_prop_core_scheduler.py", "tests/test_house.py", "tests/test_startup.py"]),
+                   "tests/test_prop_core_scheduler.py", "tests/test_house.py", "tests/test_startup.py",
+                   "tests/test_prop_core_randomize.py", "tests/test_prop_core_result.py",
+                   "tests/test_prop_core_readings.py", "tests/test_prop_core_preflight.py", "tests/test_randomize.py",
+                   "tests/test_preflight.py", "tests/test_composition_refusals.py"]),
     # reporting: the reporters' order, the outbox, submissions, artifact uploads, the HTTP reporter plugin
     "report": (["robokit/report/*", "robokit_plugins/http_report.py"],
                ["tests/test_pins_report.py", "tests/test_report_outbox.py", "tests/test_report_http.py",
