@@ -1,0 +1,193 @@
+"""The ``http`` reporter's promises as properties, judged at a real loopback server that records what arrives.
+
+docs/reporting.md: the body is the payload as compact UTF-8 JSON; the headers are ``Content-Type:
+application/json``, ``Idempotency-Key: <run_id>``, ``User-Agent: robokit/<version>`` and ``Authorization: Bearer
+<token>`` only when a token is set; 5xx, 408, 429 and dropped connections are tried ``retries + 1`` times with the
+same key, then the result waits in the outbox; a 3xx waits too, naming where it redirects; any other 4xx moves it to
+``failed/`` with the server's answer and one line of advice that names the field the server named and ends with how
+to send it again; a token the server echoes is ``***`` everywhere it is kept or shown; a payload over
+``max_payload_bytes`` is never sent; a URL that can never be posted to is never tried.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import shutil
+import tempfile
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from report_server import Answer, CourseServer, make_payload
+from robokit_plugins.http_report import HttpReportConfig, HttpReporter, encode, url_problem
+
+from robokit import __version__
+from robokit.report.outbox import Outbox
+from robokit.report.reporting import Refused
+
+SETTINGS = settings(max_examples=8, deadline=None, derandomize=True, database=None,
+                    suppress_health_check=[HealthCheck.function_scoped_fixture])
+IDS = itertools.count(1)
+TOKEN = "rks_s3cret-f00d-0042"
+TRANSIENT = [500, 502, 503, 504, 408, 429, "reset"]
+
+
+@pytest.fixture
+def server() -> Iterator[CourseServer]:
+    srv = CourseServer().start()
+    yield srv
+    srv.stop()
+
+
+@pytest.fixture
+def folders(tmp_path: Path) -> Iterator[Any]:
+    """New empty folders, in RAM where there is /dev/shm (the outbox fsyncs each write), else under tmp_path."""
+    base = Path("/dev/shm") if Path("/dev/shm").is_dir() else tmp_path
+    made: list[str] = []
+
+    def new() -> Path:
+        made.append(tempfile.mkdtemp(prefix="robokit-http-", dir=base))
+        return Path(made[-1])
+
+    yield new
+    for folder in made:
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def reset(server: CourseServer) -> None:
+    server.requests.clear()
+    server.stored.clear()
+    server.store_count.clear()
+    server.acked.clear()
+
+
+def answer(kind: Any, body: str = "") -> Answer:
+    if kind == "reset":
+        return Answer(reset=True, store=False)
+    return Answer(kind, body or json.dumps({"error": f"said {kind}"}), store=200 <= kind < 300)
+
+
+results = st.dictionaries(st.sampled_from(["red_sorted", "blue_sorted", "failures", "total_time", "note", "이름"]),
+                          st.one_of(st.integers(-5, 10**6), st.floats(-1e6, 1e6, allow_nan=False),
+                                    st.text(max_size=8)), max_size=4)
+
+
+@SETTINGS
+@given(result=results, transient=st.lists(st.sampled_from(TRANSIENT), max_size=3), retries=st.integers(0, 2),
+       end=st.sampled_from([200, 201, 202, 400, 401, 404, 422, 301, 307]), token=st.sampled_from([None, "env", "own"]))
+def test_what_arrives_and_where_the_result_ends(
+        server: CourseServer, folders: Any, monkeypatch: pytest.MonkeyPatch, result: dict[str, Any],
+        transient: list[Any], retries: int, end: int, token: str | None) -> None:
+    reset(server)
+    echo = f"you sent Bearer {TOKEN}" if token else "no"
+    headers = (("Location", "https://elsewhere.example/api/"),) if 300 <= end < 400 else ()
+    body = json.dumps({"error": f"said {end}: {echo}", "field": "project"}) if end >= 400 else "{}"
+    server.script(*[answer(k) for k in transient], then=Answer(end, body, headers=headers, store=end < 300))
+    monkeypatch.delenv("ROBOKIT_TOKEN", raising=False)
+    monkeypatch.delenv("MY_TOKEN", raising=False)
+    if token == "env":
+        monkeypatch.setenv("ROBOKIT_TOKEN", TOKEN)
+    elif token == "own":
+        monkeypatch.setenv("MY_TOKEN", TOKEN)
+    box = folders() / "outbox"
+    cfg = HttpReportConfig(url=server.url, outbox=str(box), retries=retries, backoff_factor=0.0,
+                           backoff_jitter=0.0, flush_outbox=False, token_env="MY_TOKEN" if token == "own" else None)
+    payload = make_payload(next(IDS), **result)
+    delivery = HttpReporter("http", cfg).report(payload)
+
+    tries = min(len(transient) + 1, retries + 1)
+    assert len(server.requests) == tries
+    for rec in server.requests:
+        assert rec.body == json.dumps(payload, separators=(",", ":"), ensure_ascii=False).encode("utf-8")
+        assert rec.key == payload["run_id"] and rec.path == "/api/robotics/result/"
+        assert rec.headers["content-type"] == "application/json"
+        assert rec.headers["user-agent"] == f"robokit/{__version__}"
+        assert rec.headers.get("authorization") == (f"Bearer {TOKEN}" if token else None)
+    outbox = Outbox(box)
+    reached = tries > len(transient)  # the server's own answer (not a scripted failure) was the last
+    kept = outbox.entries() + outbox.failed()
+    shown = delivery.message + "".join(json.dumps(e.data) for e in kept)
+    assert TOKEN not in shown  # an echoed token is *** wherever it is kept or shown
+    if reached and 200 <= end < 300:
+        assert delivery.delivered and kept == [] and server.stored == {payload["run_id"]: payload}
+        assert f"HTTP {end}" in delivery.message
+        return
+    assert not delivery.delivered
+    [entry] = kept
+    assert entry.payload == payload and entry.attempts == 1 and delivery.stored == str(entry.path)
+    if reached and end >= 400:
+        assert isinstance(delivery, Refused) and delivery.status == end and entry in outbox.failed()
+        assert entry.data["server_answer"]["status"] == end
+        assert ("***" in entry.data["server_answer"]["body"]) == bool(token)
+        advice = entry.data["advice"]
+        assert advice == delivery.advice and "\n" not in advice
+        assert f"robokit outbox retry {payload['run_id']}" in advice
+        if end == 401 and not token:
+            assert "export ROBOKIT_TOKEN=" in advice
+        elif end == 401:  # the token was sent and not accepted: the advice is about the token, by its variable
+            assert ("$MY_TOKEN" if token == "own" else "$ROBOKIT_TOKEN") in advice and "said 401" in advice
+        else:
+            assert "project" in advice and f"said {end}" in advice
+        assert delivery.line().startswith(f"refused (HTTP {end}): {advice}; the result is kept ({entry.path})")
+        return
+    assert entry in outbox.entries() and not isinstance(delivery, Refused)
+    assert f"outbox {entry.path}" in delivery.message
+    if reached:
+        assert f"HTTP {end}" in entry.last_error and "elsewhere.example" in entry.last_error
+    elif transient[tries - 1] == "reset":
+        assert entry.last_error.startswith("connection failed") and f"after {retries} retries" in entry.last_error
+    else:
+        assert entry.last_error.startswith(f"HTTP {transient[tries - 1]} after retries")
+
+
+@SETTINGS
+@given(pad=st.integers(0, 300), slack=st.integers(-3, 3))
+def test_a_payload_over_the_limit_is_never_sent_and_one_at_the_limit_is(
+        server: CourseServer, folders: Any, pad: int, slack: int) -> None:
+    reset(server)
+    payload = make_payload(next(IDS), note="한" * pad)
+    size = len(encode(payload))
+    assert size == len(json.dumps(payload, separators=(",", ":"), ensure_ascii=False).encode("utf-8"))
+    box = folders() / "outbox"
+    cfg = HttpReportConfig(url=server.url, outbox=str(box), retries=0, max_payload_bytes=size + slack,
+                           flush_outbox=False)
+    delivery = HttpReporter("http", cfg).report(payload)
+    if slack >= 0:
+        assert delivery.delivered and server.keys() == [payload["run_id"]]
+    else:
+        assert not delivery.delivered and server.requests == []
+        [entry] = Outbox(box).failed()
+        assert f"payload is {size} bytes, over the {size + slack}-byte limit" in entry.last_error
+
+
+@SETTINGS
+@given(bad=st.sampled_from([" ", "\t", "\x7f", "\x00"]), where=st.integers(0, 30))
+def test_a_url_with_a_space_or_control_character_is_never_tried(bad: str, where: int) -> None:
+    url = "http://127.0.0.1:8000/api/robotics/result/"
+    broken = url[:where] + bad + url[where:]
+    assert url_problem(url) is None
+    assert url_problem(broken) is not None
+    with pytest.raises(ValueError):
+        HttpReportConfig(url=broken)
+
+
+def test_a_stopped_run_keeps_its_result_in_the_outbox_without_sending(server: CourseServer, folders: Any,
+                                                                      monkeypatch: pytest.MonkeyPatch) -> None:
+    from robokit.report.reporting import deliver
+
+    reset(server)
+    monkeypatch.setenv("ROBOKIT_TOKEN", TOKEN)
+    box = folders() / "outbox"
+    payload = make_payload(next(IDS))
+    stop = type("Stop", (), {"signalled": True, "installed": True})()
+    [(name, delivery)] = deliver([HttpReporter("http", HttpReportConfig(url=server.url, outbox=str(box)))],
+                                 payload, stop=stop)
+    assert name == "http" and not delivery.delivered and server.requests == []
+    [entry] = Outbox(box).entries()
+    assert entry.payload == payload and entry.attempts == 0 and delivery.stored == str(entry.path)
+    assert "interrupted" in entry.last_error and TOKEN not in json.dumps(entry.data)
+    assert entry.identity.startswith("sha256:")
