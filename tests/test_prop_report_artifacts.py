@@ -29,7 +29,7 @@ from robokit.cli import main
 from robokit.errors import UserError
 from robokit.report.artifact_upload import MAX_FILES, find_artifacts, upload_artifacts
 
-SETTINGS = settings(max_examples=8, deadline=None, derandomize=True, database=None,
+SETTINGS = settings(max_examples=6, deadline=None, derandomize=True, database=None,
                     suppress_health_check=[HealthCheck.function_scoped_fixture])
 WORTH = (".mp4", ".png", ".svg", ".jsonl")
 IDS = itertools.count(1)
@@ -155,7 +155,7 @@ def test_each_file_is_posted_once_and_one_line_says_what_arrived(
         assert TOKEN not in note
 
 
-@SETTINGS
+@settings(SETTINGS, max_examples=4)
 @given(answers=st.lists(st.sampled_from([201, 500]), min_size=1, max_size=3))
 def test_upload_artifacts_exits_0_only_when_every_file_arrived(
         server: CourseServer, folders: Any, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str],

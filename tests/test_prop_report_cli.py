@@ -35,7 +35,7 @@ from robokit.report.reporting import write_json_atomic
 
 OPTS = HttpOptions(retries=0, backoff_factor=0.0, backoff_jitter=0.0).to_dict()
 TOKENS = ("rks_me-0001", "rks_other-0002")
-SETTINGS = settings(max_examples=8, deadline=None, derandomize=True, database=None,
+SETTINGS = settings(max_examples=6, deadline=None, derandomize=True, database=None,
                     suppress_health_check=[HealthCheck.function_scoped_fixture])
 
 

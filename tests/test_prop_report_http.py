@@ -191,3 +191,29 @@ def test_a_stopped_run_keeps_its_result_in_the_outbox_without_sending(server: Co
     assert entry.payload == payload and entry.attempts == 0 and delivery.stored == str(entry.path)
     assert "interrupted" in entry.last_error and TOKEN not in json.dumps(entry.data)
     assert entry.identity.startswith("sha256:")
+
+
+@pytest.mark.slow  # each unanswered try waits out a read timeout
+@settings(SETTINGS, max_examples=5)
+@given(stalls=st.integers(1, 3), retries=st.integers(0, 2))
+def test_a_slow_server_that_stored_the_result_is_sent_the_same_key_until_it_answers(
+        server: CourseServer, folders: Any, stalls: int, retries: int) -> None:
+    from robokit_plugins.http_report import HttpSender
+
+    reset(server)
+    server.script(*[Answer(stall=True)] * stalls)  # stores the result, then never answers
+    box = folders() / "outbox"
+    cfg = HttpReportConfig(url=server.url, outbox=str(box), retries=retries, read_timeout=0.3, backoff_factor=0.0,
+                           backoff_jitter=0.0, flush_outbox=False)
+    payload = make_payload(next(IDS))
+    delivery = HttpReporter("http", cfg).report(payload)
+    assert delivery.delivered == (stalls <= retries)
+    flushes = 0
+    while Outbox(box).entries():
+        [entry] = Outbox(box).entries()
+        assert entry.last_error == f"no answer within the read timeout (0.3 s), after {retries} retries"
+        Outbox(box).flush(HttpSender())
+        flushes += 1
+    assert flushes == stalls // (retries + 1) and Outbox(box).failed() == []
+    assert server.keys() == [payload["run_id"]] * (stalls + 1)
+    assert server.stored == {payload["run_id"]: payload} and server.store_count[payload["run_id"]] == 1

@@ -235,3 +235,23 @@ def test_a_2xx_that_is_not_the_course_servers_answer_is_one_error_line(
     out, err = capsys.readouterr()
     assert code == submit.EXIT_REFUSED and out == "" and err.count("\n") == 1
     assert err.startswith(f"robokit: error: {config}: HTTP 200") and len(server.requests) == 1
+
+
+def test_a_server_that_is_down_is_tried_every_time_then_one_line_and_exit_4(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    from report_server import closed_port_url
+
+    config = tmp_path / "robot.toml"
+    config.write_text("[world]\n", encoding="utf-8")
+    pauses: list[float] = []
+    monkeypatch.setattr(submit, "time", types.SimpleNamespace(sleep=pauses.append, monotonic=lambda: 0.0))
+    monkeypatch.setenv("ROBOKIT_TOKEN", "tok")
+    url = closed_port_url()
+    args = argparse.Namespace(url=url, token_env="ROBOKIT_TOKEN", assignment="a b", config=str(config),
+                              plugin=None, wait=True, wait_seconds=1.0)
+    capsys.readouterr()
+    assert submit.cmd_submit(args) == submit.EXIT_UNREACHABLE
+    out, err = capsys.readouterr()
+    assert out == "" and len(pauses) == submit.SENDS - 1
+    assert err == f"robokit: error: cannot reach {submit.submit_url(url, 'a b')}: ConnectionError\n"
+    assert submit.submit_url(url, "a b").endswith("/api/robotics/assignments/a%20b/submissions/")
