@@ -202,8 +202,13 @@ def test_flush_sends_only_yours_and_exits_0_iff_all_it_took_arrived(
     assert code == (0 if len(delivered) == len(mine) else 1)
     left = len(mine) - len(delivered) - len(refused)
     assert f"{len(delivered)} delivered, {len(refused)} refused (moved to failed/), {left} still waiting" in out
-    others = len(specs) - len(mine)
+    others: dict[str, int] = {}
+    for whose, _ in specs:
+        if fp(whose) != fp(me):
+            others[fp(whose)] = others.get(fp(whose), 0) + 1
     assert ("left waiting, not yours" in out) == bool(others)
+    for who, n in others.items():  # whose, and how many, each in the one line
+        assert f"{n} made " + ("without a token" if who == NO_TOKEN else f"under token {who}") in out
     assert sorted(e.run_id for e in box.entries()) == sorted(set(answers) - set(delivered) - set(refused))
 
 

@@ -78,14 +78,17 @@ results = st.dictionaries(st.sampled_from(["red_sorted", "blue_sorted", "failure
 
 @SETTINGS
 @given(result=results, transient=st.lists(st.sampled_from(TRANSIENT), max_size=3), retries=st.integers(0, 2),
-       end=st.sampled_from([200, 201, 202, 400, 401, 404, 422, 301, 307]), token=st.sampled_from([None, "env", "own"]))
+       end=st.sampled_from([200, 201, 202, 400, 401, 404, 422, 301, 307]), token=st.sampled_from([None, "env", "own"]),
+       field=st.sampled_from([None, "project", "student", "world.max_time", "text"]))
 def test_what_arrives_and_where_the_result_ends(
         server: CourseServer, folders: Any, monkeypatch: pytest.MonkeyPatch, result: dict[str, Any],
-        transient: list[Any], retries: int, end: int, token: str | None) -> None:
+        transient: list[Any], retries: int, end: int, token: str | None, field: str | None) -> None:
     reset(server)
     echo = f"you sent Bearer {TOKEN}" if token else "no"
     headers = (("Location", "https://elsewhere.example/api/"),) if 300 <= end < 400 else ()
-    body = json.dumps({"error": f"said {end}: {echo}", "field": "project"}) if end >= 400 else "{}"
+    body = json.dumps({"error": f"said  {end}:\n {echo}", "field": field}) if end >= 400 else "{}"
+    if field == "text":  # not the course server's JSON: its text is the message
+        body = f"said  {end}:\n {echo} " + "x" * 300
     server.script(*[answer(k) for k in transient], then=Answer(end, body, headers=headers, store=end < 300))
     monkeypatch.delenv("ROBOKIT_TOKEN", raising=False)
     monkeypatch.delenv("MY_TOKEN", raising=False)
@@ -126,12 +129,24 @@ def test_what_arrives_and_where_the_result_ends(
         advice = entry.data["advice"]
         assert advice == delivery.advice and "\n" not in advice
         assert f"robokit outbox retry {payload['run_id']}" in advice
+        said = f"said {end}: {echo}"  # whitespace folded
+        if field == "text":  # and its start only
+            said = (said + " " + "x" * 300)[:200]
+        said = said.replace(TOKEN, "***")  # the token blanked
+        rid = payload["run_id"]
         if end == 401 and not token:
             assert "export ROBOKIT_TOKEN=" in advice
+        elif field == "student" and not token:  # a class that wants tokens, or a name left out: both said
+            assert said in advice and "export ROBOKIT_TOKEN=" in advice and f"{rid} --student NAME" in advice
         elif end == 401:  # the token was sent and not accepted: the advice is about the token, by its variable
-            assert ("$MY_TOKEN" if token == "own" else "$ROBOKIT_TOKEN") in advice and "said 401" in advice
+            assert ("$MY_TOKEN" if token == "own" else "$ROBOKIT_TOKEN") in advice and said in advice
+        elif field in ("project", "student"):
+            assert advice == (f"{field}: {said}: give --{field} NAME (or [report] {field} = \"NAME\"); this "
+                              f"result: `robokit outbox retry {rid} --{field} NAME`")
+        elif field == "world.max_time":
+            assert advice.startswith(f"{field}: {said}: change it in the config")
         else:
-            assert "project" in advice and f"said {end}" in advice
+            assert advice.startswith(f"the server said: {said}; ")
         assert delivery.line().startswith(f"refused (HTTP {end}): {advice}; the result is kept ({entry.path})")
         return
     assert entry in outbox.entries() and not isinstance(delivery, Refused)
