@@ -232,3 +232,60 @@ def test_a_slow_server_that_stored_the_result_is_sent_the_same_key_until_it_answ
     assert flushes == stalls // (retries + 1) and Outbox(box).failed() == []
     assert server.keys() == [payload["run_id"]] * (stalls + 1)
     assert server.stored == {payload["run_id"]: payload} and server.store_count[payload["run_id"]] == 1
+
+
+@SETTINGS
+@given(waiting=st.lists(st.tuples(st.sampled_from(["same", "other_url"]), st.sampled_from([None, TOKEN, "rks_x"])),
+                        max_size=4),
+       own=st.sampled_from([201, 503]), flush=st.booleans(), upload=st.booleans(), me=st.sampled_from([None, TOKEN]))
+def test_a_run_that_delivers_then_sends_what_waits_for_the_same_server_and_owner(
+        server: CourseServer, folders: Any, monkeypatch: pytest.MonkeyPatch, waiting: list[Any], own: int,
+        flush: bool, upload: bool, me: str | None) -> None:
+    """docs/reporting.md: after this run's result is delivered, what waits in the outbox for the same URL and the same
+    identity is sent (``flush_outbox``); entries for other URLs or other tokens are left alone; with
+    ``upload_artifacts`` the run folder's files follow the result to ``<url><run_id>/artifacts/``; nothing of
+    this changes the run's own report."""
+    from robokit_plugins.http_report import HttpOptions
+
+    from robokit.report.outbox import fingerprint
+
+    reset(server)
+    root = folders()
+    box = Outbox(root / "outbox")
+    other_url = server.url.replace("/result/", "/elsewhere/")
+    older: list[tuple[str, str, str | None]] = []
+    for where, whose in waiting:
+        entry = box.put(make_payload(next(IDS)), server.url if where == "same" else other_url,
+                        HttpOptions(retries=0).to_dict(), identity=fingerprint(whose))
+        older.append((entry.run_id, where, whose))
+    payload = make_payload(next(IDS))
+    if upload:
+        (root / "results" / payload["run_id"]).mkdir(parents=True)
+        (root / "results" / payload["run_id"] / "plot.png").write_bytes(b"png")
+    server.script(Answer(own, "{}", store=own == 201))
+    monkeypatch.delenv("ROBOKIT_TOKEN", raising=False)
+    if me:
+        monkeypatch.setenv("ROBOKIT_TOKEN", me)
+    cfg = HttpReportConfig(url=server.url, outbox=str(box.root), retries=0, flush_outbox=flush,
+                           upload_artifacts=upload, artifacts_dir=str(root / "results"))
+    delivery = HttpReporter("http", cfg).report(payload)
+    sent = [rid for rid, where, whose in older if where == "same" and fingerprint(whose) == fingerprint(me)]
+    results = [r for r in server.requests if not r.path.endswith("/artifacts/")]
+    uploads = [r for r in server.requests if r.path.endswith("/artifacts/")]
+    if own != 201:
+        assert not delivery.delivered and [r.key for r in results] == [payload["run_id"]] and uploads == []
+        assert len(box.entries()) == len(older) + 1
+        return
+    assert delivery.delivered and delivery.message.startswith(f"delivered to {server.url} (HTTP 201)")
+    assert [r.key for r in results] == [payload["run_id"]] + (sent if flush else [])
+    assert all(r.headers.get("authorization") == (f"Bearer {me}" if me else None) for r in server.requests)
+    assert [r.path for r in uploads] == ([f"/api/robotics/result/{payload['run_id']}/artifacts/"] if upload else [])
+    assert ("artifacts: 1/1 uploaded" in delivery.message) == upload
+    left = {e.run_id for e in box.entries()}
+    assert left == {rid for rid, _, _ in older} - (set(sent) if flush else set())
+    if flush and any(where == "same" for _, where, _ in older):
+        n = len(sent)
+        assert delivery.message.endswith(f"; outbox {box.root}: {n} delivered, 0 refused (moved to failed/), "
+                                         "0 still waiting, 0 busy in another flush")
+    else:
+        assert "outbox" not in delivery.message
