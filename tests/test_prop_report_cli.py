@@ -227,10 +227,11 @@ def _keyed_record(server: CourseServer, answers: dict[str, int]) -> Any:
 @SETTINGS
 @given(specs=st.lists(st.sampled_from([None, *TOKENS]), min_size=1, max_size=4),
        me=st.sampled_from(TOKENS), claim=st.booleans(), name=st.booleans(),
-       project=st.sampled_from([None, "B"]), student=st.sampled_from([None, "lee"]))
+       project=st.sampled_from([None, "B"]), student=st.sampled_from([None, "lee"]), down=st.booleans())
 def test_retry_takes_refused_entries_that_are_yours_and_sends_them_as_changed(
         server: CourseServer, folders: Any, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str],
-        specs: list[Any], me: str, claim: bool, name: bool, project: str | None, student: str | None) -> None:
+        specs: list[Any], me: str, claim: bool, name: bool, project: str | None, student: str | None,
+        down: bool) -> None:
     box = Outbox(folders())
     made = []
     for i, whose in enumerate(specs):
@@ -240,7 +241,7 @@ def test_retry_takes_refused_entries_that_are_yours_and_sends_them_as_changed(
         entry.path.unlink()
         write_json_atomic(box.failed_dir / entry.path.name, data, overwrite=True)
         made.append((entry.run_id, whose))
-    reset(server)
+    reset(server, (lambda n: Answer(503, "busy", store=False)) if down else None)
     monkeypatch.setenv("ROBOKIT_TOKEN", me)
     named = made[-1:] if name else made
     args = ["outbox", "retry", "--dir", str(box.root)] + ([made[-1][0]] if name else [])
@@ -257,9 +258,16 @@ def test_retry_takes_refused_entries_that_are_yours_and_sends_them_as_changed(
         want = make_payload(i)
         want.update({k: v for k, v in (("project", project), ("student", student)) if v})
         assert body == want and rec.headers["authorization"] == f"Bearer {me}"
-    assert code == (0 if taken else 1)
+    assert code == (0 if taken and not down else 1)
     left = {rid for rid, _ in made} - set(taken)
-    assert {e.run_id for e in box.failed()} == left and box.entries() == []
+    assert {e.run_id for e in box.failed()} == left
+    # a retry the server did not answer waits in the outbox, now yours, as changed, without the old refusal
+    assert sorted(e.run_id for e in box.entries()) == (sorted(taken) if down else [])
+    for e in box.entries():
+        assert e.identity == fp(me) and e.attempts == 1 and "server_answer" not in e.data and "advice" not in e.data
+        assert e.payload == {**make_payload(int(e.run_id[-12:])),
+                             **{k: v for k, v in (("project", project), ("student", student)) if v}}
+        assert e.last_error.startswith("HTTP 503")
     for rid, whose in named:
         if rid not in taken:
             assert f"{rid}: made under token {fp(whose)}, not yours ({fp(me)})" in out
