@@ -200,3 +200,26 @@ def test_upload_artifacts_says_in_one_line_when_it_cannot_send(server: CourseSer
     a.run_id = "full"
     assert _cmd_upload(a) == 0
     assert [r.headers.get("authorization") for r in server.requests] == [f"Bearer {TOKEN}"]
+
+
+@pytest.mark.parametrize("state", ["kept", "no_pose_log", "broken_pose_log"])
+def test_a_replay_that_cannot_be_made_costs_the_replay_only(folders: Any, state: str) -> None:
+    """The replay is made from the pose log the first time it is asked for; one already made is used as it is;
+    without a pose log, or from one that cannot be read, there is none, nothing half-written is left, and the
+    other files are uploaded all the same."""
+    from robokit.report.artifact_upload import REPLAY_FILE, replay_file
+
+    run = folders()
+    (run / "trace.jsonl").write_text('{"kind": "header"}\n', encoding="utf-8")
+    if state == "kept":
+        (run / REPLAY_FILE).write_text('{"made": "earlier"}', encoding="utf-8")
+    elif state == "broken_pose_log":
+        (run / "poses.npz").write_bytes(b"not a pose log")
+    before = sorted(p.name for p in run.iterdir())
+    got = replay_file(run)
+    assert sorted(p.name for p in run.iterdir()) == before  # nothing written, nothing left half-written
+    if state == "kept":
+        assert got == run / REPLAY_FILE and got.read_text(encoding="utf-8") == '{"made": "earlier"}'
+        assert dict(find_artifacts(run)) == {REPLAY_FILE: run / REPLAY_FILE, "trace.jsonl": run / "trace.jsonl"}
+    else:
+        assert got is None and dict(find_artifacts(run)) == {"trace.jsonl": run / "trace.jsonl"}
