@@ -9,6 +9,8 @@ properties over generated results.
 * The summary a run prints: the outcome and its reason, the times to two decimals, the real-time factor to one (``-``
   without a wall time), each result entry (a long one cut at 200 characters), each warning once, each reporter's
   line (a refusal is said elsewhere), and a WARNING when the result is kept nowhere.
+* A run that ended before its first tick (a plugin raised in setup, a signal): every field whole (version, config,
+  behaviour, engine, seed, zero ticks and times, the start in UTC to the second).
 * A run stopped before its config was loaded: the result file goes to the config's ``[report.local] dir``, with its
   seed (``--seed`` first), behaviour type, student and project, written whole (no temporary file left behind).
 * The trace writer: one JSON object per line; a write that fails stops the trace with one line naming the file and
@@ -19,8 +21,11 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import datetime as dt
+import itertools
 import json
 import math
+import uuid
 from pathlib import Path
 from typing import Any
 
@@ -29,10 +34,11 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+import robokit
 from robokit.components import Delivery
-from robokit.core.result import RunResult, early_result, write_early_result
+from robokit.core.result import OUTCOME_EXIT_CODES, RunResult, early_result, write_early_result
 from robokit.report.reporting import Refused
-from robokit.runner import RunOutput, TraceWriter, summary
+from robokit.runner import RunOutput, TraceWriter, error_result, summary
 
 FAST = settings(max_examples=20, deadline=None, derandomize=True, database=None,
                 suppress_health_check=[HealthCheck.function_scoped_fixture])
@@ -85,7 +91,7 @@ def make(**fields: Any) -> RunResult:
     return RunResult(**{**base, **fields})
 
 
-@FAST
+@settings(max_examples=12, deadline=None, derandomize=True, database=None)
 @given(result=st.dictionaries(st.text(max_size=5), trees, max_size=4), sim_time=numbers, wall_time=numbers,
        seed=st.integers(0, 2**63), ticks=st.integers(0, 10**7), outcome=st.sampled_from(OUTCOMES),
        interrupted=st.booleans(), warnings=st.lists(st.text(max_size=8), max_size=3),
@@ -197,17 +203,26 @@ def test_the_summary_says_each_figure_entry_warning_and_delivery_once(
     assert len(rest) == len(result) + len(said) + len(reports) + (not stored)
 
 
-@settings(max_examples=12, deadline=None, derandomize=True, database=None,
+def utc_now_seconds() -> dt.datetime:
+    return dt.datetime.now(dt.timezone.utc).replace(microsecond=0)
+
+
+def started_now(text: str, before: dt.datetime) -> bool:
+    """An ISO time in UTC, to the second, taken during the call."""
+    when = dt.datetime.fromisoformat(text)
+    return when.utcoffset() == dt.timedelta(0) and when.microsecond == 0 and before <= when <= utc_now_seconds()
+
+
+@settings(max_examples=7, deadline=None, derandomize=True, database=None,
           suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(folder=st.one_of(st.none(), st.sampled_from(["out", "runs/here"]), st.integers(0, 3)),
-       world_seed=st.one_of(st.none(), st.integers(0, 10**6), st.just("7")),
-       seed=st.one_of(st.none(), st.integers(0, 99)),
+       world_seed=st.one_of(st.integers(0, 10**6), st.none(), st.just("7")), seed=st.integers(0, 99),
        behaviour=st.one_of(st.none(), st.sampled_from(["sort", "patrol"]), st.just(3)),
        student=st.one_of(st.none(), st.just("kim"), st.just(5)), project=st.one_of(st.none(), st.just("hw1")),
-       broken=st.booleans(), signal_name=st.sampled_from(["SIGINT", "SIGTERM"]))
+       signal_name=st.sampled_from(["SIGINT", "SIGTERM"]))
 def test_a_run_stopped_before_its_config_loaded_keeps_what_the_config_says(
-        tmp_path: Path, folder: Any, world_seed: Any, seed: int | None, behaviour: Any, student: Any,
-        project: str | None, broken: bool, signal_name: str) -> None:
+        tmp_path: Path, folder: Any, world_seed: Any, seed: int, behaviour: Any, student: Any,
+        project: str | None, signal_name: str) -> None:
     lines = []
     if world_seed is not None:
         lines += ["[world]", f"seed = {json.dumps(world_seed)}"]
@@ -219,22 +234,67 @@ def test_a_run_stopped_before_its_config_loaded_keeps_what_the_config_says(
         if folder is not None:
             lines += ["[report.local]", f"dir = {json.dumps(folder)}"]
     config = tmp_path / "c.toml"
-    config.write_text("\n".join(lines) + ("\n[[[ not toml" if broken else "\n"))
-    path, payload = early_result(str(config), signal_name, seed=seed)
-    ok = not broken
-    want_folder = Path(folder) if ok and isinstance(folder, str) else Path("results")
-    assert path == want_folder / payload["run_id"] / "result.json"
-    want_seed = seed if seed is not None else world_seed if ok and isinstance(world_seed, int) else 0
-    assert payload["seed"] == want_seed
-    assert payload["behaviour"] == (behaviour if ok and isinstance(behaviour, str) else None)
-    assert payload.get("student") == (student if ok and isinstance(student, str) else None)
-    assert payload.get("project") == (project if ok else None)
-    assert payload["outcome"] == "aborted" and payload["interrupted"] is True and payload["ticks"] == 0
-    assert signal_name in payload["reason"] and payload["config"] == str(config)
-    target = tmp_path / "keep" / path
-    write_early_result(target, payload)
-    assert json.loads(target.read_text()) == payload
-    assert [p.name for p in target.parent.iterdir()] == ["result.json"]  # no temporary file left
+    for broken, given_seed in itertools.product((False, True), (None, seed)):
+        config.write_text("\n".join(lines) + ("\n[[[ not toml" if broken else "\n"))
+        before = utc_now_seconds()
+        path, payload = early_result(str(config), signal_name, seed=given_seed)
+        ok = not broken  # an unreadable config: the defaults
+        want_folder = Path(folder) if ok and isinstance(folder, str) else Path("results")
+        assert path == want_folder / payload["run_id"] / "result.json"
+        want_seed = given_seed if given_seed is not None else world_seed if ok and isinstance(world_seed, int) else 0
+        assert payload["seed"] == want_seed
+        assert payload["behaviour"] == (behaviour if ok and isinstance(behaviour, str) else None)
+        assert payload.get("student") == (student if ok and isinstance(student, str) else None)
+        assert payload.get("project") == (project if ok else None)
+        assert payload["outcome"] == "aborted" and payload["interrupted"] is True and payload["ticks"] == 0
+        assert payload["sim_time"] == 0.0 and payload["wall_time"] == 0.0 and payload["result"] == {}
+        assert payload["robokit_version"] == robokit.__version__ and payload["schema"] == "robokit.run/1"
+        assert started_now(payload["started_at"], before) and uuid.UUID(payload["run_id"]).version == 4
+        assert payload["reason"] == f"interrupted by {signal_name} during start-up (before the config was loaded)"
+        assert payload["config"] == str(config)
+        target = tmp_path / "keep" / path
+        write_early_result(target, payload)
+        assert json.loads(target.read_text()) == payload
+        assert [p.name for p in target.parent.iterdir()] == ["result.json"]  # no temporary file left
+
+
+@pytest.fixture(scope="module")
+def configs(tmp_path_factory: pytest.TempPathFactory) -> dict[tuple[bool, str], Any]:
+    """Four loaded configs: with and without a behaviour, on each engine."""
+    from robokit.config import load_config
+    from robokit.plugin_api.plugins import load_plugins
+
+    folder, plugins, out = tmp_path_factory.mktemp("configs"), load_plugins(), {}
+    for behaviour, engine in itertools.product((True, False), ("pybullet", "mujoco")):
+        text = f'[world]\nengine = "{engine}"\n[bodies.plane]\nurdf = "plane.urdf"\nposition = [0, 0, 0]\n'
+        text += '[behaviour]\ntype = "record"\n' if behaviour else ""
+        path = folder / f"{behaviour}-{engine}.toml"
+        path.write_text(text)
+        out[(behaviour, engine)] = load_config(path, plugins)
+    return out
+
+
+@FAST
+@given(which=st.sampled_from([(True, "pybullet"), (False, "pybullet"), (True, "mujoco"), (False, "mujoco")]),
+       seed=st.integers(0, 2**40), reason=st.text(max_size=20), run_id=st.one_of(st.none(), st.just("given-id")),
+       outcome=st.sampled_from(["error", "aborted"]), interrupted=st.one_of(st.none(), st.booleans()))
+def test_a_run_that_ended_before_its_first_tick_has_a_whole_result(
+        configs: dict[tuple[bool, str], Any], which: tuple[bool, str], seed: int, reason: str, run_id: str | None,
+        outcome: str, interrupted: bool | None) -> None:
+    cfg = configs[which]
+    options: dict[str, Any] = {"run_id": run_id, "outcome": outcome}
+    if interrupted is not None:
+        options["interrupted"] = interrupted
+    before = utc_now_seconds()
+    r = error_result(cfg, seed, reason, **options)
+    data = json.loads(json.dumps(r.to_dict(), allow_nan=False))
+    assert data["run_id"] == run_id if run_id else uuid.UUID(data["run_id"]).version == 4
+    assert data["robokit_version"] == robokit.__version__ and data["config"] == cfg.source
+    assert data["behaviour"] == ("record" if which[0] else None) and data["engine"] == which[1]
+    assert data["seed"] == seed and data["outcome"] == outcome and data["reason"] == reason
+    assert data["ticks"] == 0 and data["sim_time"] == 0.0 and data["wall_time"] == 0.0 and data["result"] == {}
+    assert data["interrupted"] is bool(interrupted) and started_now(data["started_at"], before)
+    assert r.exit_code == (130 if interrupted else OUTCOME_EXIT_CODES[outcome])
 
 
 @settings(max_examples=10, deadline=None, derandomize=True, database=None)
