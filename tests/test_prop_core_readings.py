@@ -122,7 +122,12 @@ def test_something_that_cannot_be_serialised_is_refused_with_its_path(value: Any
         return
     with pytest.raises(Unserialisable) as info:
         nonfinite_path(box)
-    assert info.value.path == ("data[1]" if where % 2 else "data.x") and info.value.value_type == "Opaque"
+    path = "data[1]" if where % 2 else "data.x"
+    assert info.value.path == path and info.value.value_type == "Opaque" and info.value.value is opaque
+    assert str(info.value) == f"{path} is a Opaque"  # what the run's one line says
+    with pytest.raises(Unserialisable) as bare:
+        ReadingCheck()(opaque)
+    assert bare.value.path == "" and bare.value.value is opaque and str(bare.value) == "the reading is a Opaque"
 
 
 def count(value: Any) -> int:

@@ -100,3 +100,23 @@ def test_a_config_problem_at_setup_leaves_no_run_folder(tmp_path: Path, plugins)
     with pytest.raises(UserError):
         run_config(cfg, plugins, on_problem=lambda problem: (_ for _ in ()).throw(problem))
     assert list((tmp_path / "results").iterdir()) == []
+
+
+@pytest.mark.slow  # loads the plugins again with one more distribution (~1 s)
+def test_a_reporter_that_cannot_be_built_delivers_nothing_and_says_why(tmp_path: Path,
+                                                                      monkeypatch: pytest.MonkeyPatch) -> None:
+    from plugin_dists import BROKEN_REPORTER, make_dist
+
+    from robokit.runner import make_reporters
+
+    make_dist(tmp_path / "site", "grumpy-dist", "0.9", BROKEN_REPORTER)
+    monkeypatch.syspath_prepend(str(tmp_path / "site"))
+    plugins = load_plugins()
+    config = tmp_path / "c.toml"
+    config.write_text('[world]\n[bodies.plane]\nurdf = "plane.urdf"\nposition = [0, 0, 0]\n'
+                      "[report]\nkeep_local = false\n[report.grumpy]\n")
+    (reporter,) = make_reporters(load_config(config, plugins), plugins)
+    delivery = reporter.report({"run_id": "x"})
+    assert not delivery.delivered and delivery.stored is None
+    assert delivery.message.startswith("reporter 'grumpy' (grumpy-dist 0.9) failed to build: RuntimeError: no "
+                                       "credentials (at ")
