@@ -289,3 +289,63 @@ def test_a_run_that_delivers_then_sends_what_waits_for_the_same_server_and_owner
                                          "0 still waiting, 0 busy in another flush")
     else:
         assert "outbox" not in delivery.message
+
+
+@settings(SETTINGS, max_examples=6)
+@given(end=st.sampled_from([201, 200, 503, 422, "reset"]))
+def test_an_outbox_that_cannot_be_written_never_stops_a_delivery_and_says_both_when_it_fails(
+        server: CourseServer, folders: Any, end: Any) -> None:
+    reset(server)
+    root = folders()
+    (root / "blocker").write_text("a file where the outbox folder should be", encoding="utf-8")
+    server.script(answer(end))
+    payload = make_payload(next(IDS))
+    cfg = HttpReportConfig(url=server.url, outbox=str(root / "blocker" / "outbox"), retries=0, flush_outbox=False)
+    delivery = HttpReporter("http", cfg).report(payload)
+    assert server.keys() == [payload["run_id"]]  # sent all the same, once
+    assert delivery.stored is None and sorted(p.name for p in root.iterdir()) == ["blocker"]
+    if end in (200, 201):
+        assert delivery.delivered and delivery.message == f"delivered to {server.url} (HTTP {end})"
+    else:
+        assert not delivery.delivered
+        assert delivery.message.startswith("not delivered (") and "could not be written" in delivery.message
+        assert str(root / "blocker" / "outbox") in delivery.message
+
+
+def test_ctrl_c_while_sending_keeps_the_result_in_the_outbox(server: CourseServer, folders: Any) -> None:
+    """A real SIGINT reaches the run while its POST waits for the answer: the entry written before sending stays,
+    says it was interrupted, and the next flush sends it with the same key."""
+    import signal
+    import threading
+
+    from robokit_plugins.http_report import HttpSender
+
+    reset(server)
+    main_thread = threading.main_thread().ident
+    assert main_thread is not None
+
+    def interrupt(_rec: Any) -> None:
+        signal.pthread_kill(main_thread, signal.SIGINT)
+
+    def handler(_sig: int, _frame: Any) -> None:
+        from robokit.errors import Interrupted
+
+        raise Interrupted("SIGINT")
+
+    server.on_request = interrupt
+    server.script(Answer(stall=True))  # stores it, then never answers: the run is stopped while it waits
+    box = folders() / "outbox"
+    payload = make_payload(next(IDS))
+    old = signal.signal(signal.SIGINT, handler)
+    try:
+        delivery = HttpReporter("http", HttpReportConfig(url=server.url, outbox=str(box), retries=0,
+                                                         read_timeout=30.0, flush_outbox=False)).report(payload)
+    finally:
+        signal.signal(signal.SIGINT, old)
+        server.on_request = None
+    [entry] = Outbox(box).entries()
+    assert not delivery.delivered and delivery.stored == str(entry.path)
+    assert delivery.message.startswith("interrupted (SIGINT) while sending; result kept in the outbox")
+    assert entry.attempts == 1 and entry.last_error.startswith("interrupted")
+    assert Outbox(box).flush(HttpSender()).delivered == [payload["run_id"]]
+    assert server.keys() == [payload["run_id"]] * 2 and server.store_count[payload["run_id"]] == 1
