@@ -349,3 +349,23 @@ def test_ctrl_c_while_sending_keeps_the_result_in_the_outbox(server: CourseServe
     assert entry.attempts == 1 and entry.last_error.startswith("interrupted")
     assert Outbox(box).flush(HttpSender()).delivered == [payload["run_id"]]
     assert server.keys() == [payload["run_id"]] * 2 and server.store_count[payload["run_id"]] == 1
+
+
+@settings(SETTINGS, max_examples=30)
+@given(error=st.one_of(st.text(max_size=400), st.integers(), st.none()), field=st.one_of(st.text(max_size=8),
+                                                                                          st.integers(), st.none()),
+       as_json=st.booleans(), text=st.text(max_size=300))
+def test_the_servers_answer_is_read_as_its_message_and_field(error: Any, field: Any, as_json: bool, text: str) -> None:
+    """``{"error": ..., "field": ...}`` is the course server's answer: its message (blanks folded, at most 300
+    characters) and its field when it names one; any other body is its own text, folded, at most 200 characters."""
+    from robokit_plugins.http_report import server_error
+
+    body = json.dumps({"error": error, "field": field}) if as_json else text
+    message, named = server_error(body)
+    if as_json and isinstance(error, str):
+        folded = " ".join(error.split())
+        assert message == folded[:300] and named == (field if isinstance(field, str) else None)
+    else:
+        folded = " ".join(body.split())
+        assert message == folded[:200] and named is None
+    assert "\n" not in message
