@@ -144,10 +144,39 @@ def test_submit_refuses_bad_input_in_one_line_before_sending(server: CourseServe
         with pytest.raises(UserError) as exc:
             submit.cmd_submit(a)
         assert said in str(exc.value) and "\n" not in str(exc.value)
-    monkeypatch.setenv("MY_TOKEN", "   ")
-    with pytest.raises(UserError, match="no token: export MY_TOKEN="):
-        submit.cmd_submit(args())
+    with pytest.raises(UserError) as exc:
+        submit.cmd_submit(args(url=None))
+    assert str(exc.value) == "--url: say where the course server is (or set ROBOKIT_SERVER_URL)"
+    missing = tmp_path / "missing.toml"
+    with pytest.raises(UserError) as exc:
+        submit.cmd_submit(args(config=str(missing)))
+    assert str(exc.value) == f"{missing}: cannot read the config: No such file or directory"
+    latin = tmp_path / "latin.toml"
+    latin.write_bytes("name = 'caf\u00e9'\n".encode("latin-1"))
+    with pytest.raises(UserError) as exc:
+        submit.cmd_submit(args(config=str(latin)))
+    assert str(exc.value).startswith(f"{latin}: cannot read the config: 'utf-8' codec can't decode")
+    for token in ("   ", None):
+        if token is None:
+            monkeypatch.delenv("MY_TOKEN", raising=False)
+        else:
+            monkeypatch.setenv("MY_TOKEN", token)
+        with pytest.raises(UserError) as exc:
+            submit.cmd_submit(args())
+        assert str(exc.value) == "no token: export MY_TOKEN=<the token your teacher gave you>"
     assert server.requests == []  # nothing was sent for any of them
+
+
+@pytest.mark.parametrize(("address", "name", "want"), [
+    ("https://course.example.org:8443/", "drop test", "https://course.example.org:8443/api/robotics/assignments/"
+                                                      "drop%20test/submissions/"),
+    ("http://10.0.0.5:8000/api/robotics/result/", "a/b?c#d", "http://10.0.0.5:8000/api/robotics/assignments/"
+                                                              "a%2Fb%3Fc%23d/submissions/"),
+    (" http://h/ ", "주행", "http://h/api/robotics/assignments/%EC%A3%BC%ED%96%89/submissions/"),
+])
+def test_the_submission_url_comes_from_the_servers_address_and_the_quoted_name(address: str, name: str,
+                                                                               want: str) -> None:
+    assert submit.submit_url(address, name) == want
 
 
 trials = st.lists(st.fixed_dictionaries({"seed": st.integers(0, 99),
