@@ -253,9 +253,15 @@ def test_a_run_stopped_before_its_config_loaded_keeps_what_the_config_says(
         assert payload["reason"] == f"interrupted by {signal_name} during start-up (before the config was loaded)"
         assert payload["config"] == str(config)
         target = tmp_path / "keep" / path
-        write_early_result(target, payload)
+        write_early_result(target, {"stale": True})
+        write_early_result(target, payload)  # over a file already there, in a folder already there
         assert json.loads(target.read_text()) == payload
         assert [p.name for p in target.parent.iterdir()] == ["result.json"]  # no temporary file left
+    blocked = tmp_path / "blocked" / "result.json"
+    (blocked / "inside").mkdir(parents=True, exist_ok=True)  # a folder where the file should go: no rename
+    with pytest.raises(OSError):
+        write_early_result(blocked, {"seed": seed})
+    assert sorted(p.name for p in blocked.parent.iterdir()) == ["result.json"]  # the temporary file is removed
 
 
 @pytest.fixture(scope="module")
