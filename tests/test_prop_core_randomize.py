@@ -355,7 +355,7 @@ class Counter:
         return self.calls
 
 
-@settings(max_examples=4, deadline=None, derandomize=True, database=None, suppress_health_check=SHARED)
+@settings(max_examples=3, deadline=None, derandomize=True, database=None, suppress_health_check=SHARED)
 @given(p=st.floats(0.05, 0.95), seed=st.integers(0, 2**40), reads=st.integers(1, 3))
 def test_dropout_drops_with_the_drawn_probability_whatever_the_read_rate(scene: Simulation, p: float, seed: int,
                                                                          reads: int) -> None:

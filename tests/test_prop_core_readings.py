@@ -27,7 +27,7 @@ from hypothesis import strategies as st
 from robokit.core.reading_check import ReadingCheck, Unserialisable, nonfinite_path
 from robokit.core.walltime import WallTiming
 
-FAST = settings(max_examples=40, deadline=None, derandomize=True, database=None)
+FAST = settings(max_examples=30, deadline=None, derandomize=True, database=None)
 pytestmark = pytest.mark.filterwarnings("ignore::RuntimeWarning:robokit.core.reading_check")  # numpy sums inf - inf
 
 Pose = namedtuple("Pose", "x y")

@@ -213,7 +213,7 @@ def started_now(text: str, before: dt.datetime) -> bool:
     return when.utcoffset() == dt.timedelta(0) and when.microsecond == 0 and before <= when <= utc_now_seconds()
 
 
-@settings(max_examples=7, deadline=None, derandomize=True, database=None,
+@settings(max_examples=5, deadline=None, derandomize=True, database=None,
           suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(folder=st.one_of(st.none(), st.sampled_from(["out", "runs/here"]), st.integers(0, 3)),
        world_seed=st.one_of(st.integers(0, 10**6), st.none(), st.just("7")), seed=st.integers(0, 99),
