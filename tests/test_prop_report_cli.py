@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 from report_server import Answer, CourseServer, make_payload
 from robokit_plugins.http_report import HttpOptions
@@ -225,6 +225,9 @@ def _keyed_record(server: CourseServer, answers: dict[str, int]) -> Any:
 
 
 @SETTINGS
+@example(specs=[None, TOKENS[0]], me=TOKENS[0], claim=False, name=False, project="B", student="lee", down=False)
+@example(specs=[TOKENS[1], None], me=TOKENS[0], claim=False, name=True, project="B", student=None, down=True)
+@example(specs=[TOKENS[1], TOKENS[0]], me=TOKENS[0], claim=True, name=False, project=None, student="lee", down=True)
 @given(specs=st.lists(st.sampled_from([None, *TOKENS]), min_size=1, max_size=4),
        me=st.sampled_from(TOKENS), claim=st.booleans(), name=st.booleans(),
        project=st.sampled_from([None, "B"]), student=st.sampled_from([None, "lee"]), down=st.booleans())
@@ -271,3 +274,10 @@ def test_retry_takes_refused_entries_that_are_yours_and_sends_them_as_changed(
     for rid, whose in named:
         if rid not in taken:
             assert f"{rid}: made under token {fp(whose)}, not yours ({fp(me)})" in out
+
+
+def test_retry_with_nothing_refused_says_so_and_exits_0(folders: Any, capsys: pytest.CaptureFixture[str]) -> None:
+    box = Outbox(folders())
+    capsys.readouterr()
+    assert main(["outbox", "retry", "--dir", str(box.root)]) == 0
+    assert capsys.readouterr().out == f"nothing to retry: no refused entry in {box.failed_dir}\n"

@@ -201,9 +201,12 @@ def test_a_stopped_run_keeps_its_result_in_the_outbox_without_sending(server: Co
     stop = type("Stop", (), {"signalled": True, "installed": True})()
     [(name, delivery)] = deliver([HttpReporter("http", HttpReportConfig(url=server.url, outbox=str(box)))],
                                  payload, stop=stop)
-    assert name == "http" and not delivery.delivered and server.requests == []
+    assert name == "http" and delivery.delivered is False and server.requests == []
     [entry] = Outbox(box).entries()
     assert entry.payload == payload and entry.attempts == 0 and delivery.stored == str(entry.path)
+    assert entry.url == server.url and entry.options["retries"] == 4  # sent later as this run's config says
+    assert delivery.message == (f"not sent (interrupted); result kept in the outbox {entry.path} - "
+                                f"`robokit outbox flush --dir {box}` sends it")
     assert "interrupted" in entry.last_error and TOKEN not in json.dumps(entry.data)
     assert entry.identity.startswith("sha256:")
 
@@ -369,3 +372,21 @@ def test_the_servers_answer_is_read_as_its_message_and_field(error: Any, field: 
         folded = " ".join(body.split())
         assert message == folded[:200] and named is None
     assert "\n" not in message
+
+
+
+def test_a_stopped_run_whose_outbox_cannot_be_written_says_so(server: CourseServer, folders: Any) -> None:
+    reset(server)
+    root = folders()
+    (root / "blocker").write_text("a file where the outbox folder should be", encoding="utf-8")
+    cfg = HttpReportConfig(url=server.url, outbox=str(root / "blocker" / "outbox"))
+    delivery = HttpReporter("http", cfg).keep(make_payload(next(IDS)))
+    assert delivery.delivered is False and delivery.stored is None and server.requests == []
+    assert delivery.message.startswith(f"not sent (interrupted) and the outbox {root / 'blocker' / 'outbox'} could "
+                                       "not be written: ")
+
+
+def test_a_refusal_without_a_status_or_a_kept_copy_says_only_what_to_change() -> None:
+    assert Refused(False, None, "m", why="w", advice="export X=...", status=None).line() == "refused: export X=..."
+    kept = Refused(False, "f.json", "m", why="w", status=401)
+    assert kept.line() == "refused (HTTP 401): w; the result is kept (f.json)"

@@ -17,7 +17,7 @@ from typing import Any
 from urllib.parse import quote
 
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 from report_server import Answer, CourseServer
 
@@ -56,6 +56,11 @@ ends = st.one_of(
 
 
 @SETTINGS
+@example(drops=1, end={"kind": "ok", "status": 201, "late": True, "plugins": ["mine", "helper"], "seeds": 5, "id": 9},
+         assignment="a/b", with_plugin=True, result_url=True)
+@example(drops=0, end={"kind": "refused", "status": 400, "field": "plugin", "error": "mine: no module"},
+         assignment="a", with_plugin=True, result_url=False)
+@example(drops=0, end={"kind": "garbage", "status": 201}, assignment="a", with_plugin=False, result_url=False)
 @given(drops=st.integers(0, submit.SENDS), end=ends, assignment=NAMES, with_plugin=st.booleans(),
        result_url=st.booleans())
 def test_submit_sends_one_key_however_often_and_says_what_the_server_said(
@@ -185,6 +190,12 @@ trials = st.lists(st.fixed_dictionaries({"seed": st.integers(0, 99),
 
 
 @SETTINGS
+@example(steps=["queued", "running"], final="401", found=[], wilson=None)
+@example(steps=["queued", "500", "running"], final="error", found=[{"seed": 1, "outcome": "error", "reason": ""}],
+         wilson=None)
+@example(steps=["running", "garbage", "queued"], final="done",
+         found=[{"seed": 0, "outcome": "succeeded", "reason": "the cube fell off"}], wilson=(0.1234, 0.9876))
+@example(steps=["queued"], final="never", found=[], wilson=None)
 @given(steps=st.lists(st.sampled_from(["queued", "running", "drop", "garbage", "500"]), max_size=5),
        final=st.sampled_from(["done", "error", "401", "never"]), found=trials,
        wilson=st.sampled_from([None, (0.1234, 0.9876)]))
@@ -284,3 +295,31 @@ def test_a_server_that_is_down_is_tried_every_time_then_one_line_and_exit_4(
     assert out == "" and len(pauses) == submit.SENDS - 1
     assert err == f"robokit: error: cannot reach {submit.submit_url(url, 'a b')}: ConnectionError\n"
     assert submit.submit_url(url, "a b").endswith("/api/robotics/assignments/a%20b/submissions/")
+
+
+def test_a_plugin_module_or_package_is_sent_as_its_py_files(tmp_path: Path) -> None:
+    module = tmp_path / "mine.py"
+    module.write_text("X = 1\n", encoding="utf-8")
+    assert submit.plugin_files(str(module)) == {"mine.py": "X = 1\n"}
+    bad = tmp_path / "pkg"
+    bad.mkdir()
+    (bad / "a.py").write_bytes(b"\xff\xfe")
+    with pytest.raises(UserError) as exc:
+        submit.plugin_files(str(bad))
+    assert str(exc.value).startswith(f"--plugin {bad}: 'utf-8' codec can't decode")
+
+
+def test_an_answer_with_exactly_the_submissions_fields_is_a_submission(
+        server: CourseServer, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    reset(server)
+    config = tmp_path / "robot.toml"
+    config.write_text("[world]\n", encoding="utf-8")
+    server.script(then=Answer(201, json.dumps({"id": 4, "assignment": "a", "student": "kim", "seeds": 3})))
+    monkeypatch.setenv("ROBOKIT_TOKEN", "tok")
+    args = argparse.Namespace(url=server.url, token_env="ROBOKIT_TOKEN", assignment="a", config=str(config),
+                              plugin=None, wait=False, wait_seconds=1.0)
+    capsys.readouterr()
+    assert submit.cmd_submit(args) == 0
+    assert capsys.readouterr().out == ("submitted: submission 4 of 'a' for kim, queued for official evaluation on "
+                                       "3 seeds\n")
