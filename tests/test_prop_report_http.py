@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 from report_server import Answer, CourseServer, make_payload
 from robokit_plugins.http_report import HttpReportConfig, HttpReporter, encode, url_problem
@@ -76,7 +76,13 @@ results = st.dictionaries(st.sampled_from(["red_sorted", "blue_sorted", "failure
                                     st.text(max_size=8)), max_size=4)
 
 
-@SETTINGS
+@settings(SETTINGS, max_examples=4)
+@example(result={}, transient=[], retries=0, end=401, token=None, field=None)
+@example(result={}, transient=[], retries=0, end=401, token="own", field="Authorization")
+@example(result={"red_sorted": 2}, transient=[], retries=0, end=400, token="env", field="project")
+@example(result={}, transient=[429], retries=1, end=422, token=None, field="world.max_time")
+@example(result={}, transient=["reset"], retries=0, end=201, token=None, field=None)
+@example(result={}, transient=[503], retries=0, end=201, token="env", field=None)
 @given(result=results, transient=st.lists(st.sampled_from(TRANSIENT), max_size=3), retries=st.integers(0, 2),
        end=st.sampled_from([200, 201, 202, 400, 401, 404, 422, 301, 307]), token=st.sampled_from([None, "env", "own"]),
        field=st.sampled_from([None, "project", "student", "world.max_time", "text"]))
