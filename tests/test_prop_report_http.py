@@ -81,6 +81,8 @@ results = st.dictionaries(st.sampled_from(["red_sorted", "blue_sorted", "failure
 @example(result={}, transient=[], retries=0, end=401, token="own", field="Authorization")
 @example(result={"red_sorted": 2}, transient=[], retries=0, end=400, token="env", field="project")
 @example(result={}, transient=[429], retries=1, end=422, token=None, field="world.max_time")
+@example(result={}, transient=[], retries=0, end=422, token="env", field="student")
+@example(result={}, transient=[], retries=0, end=409, token="own", field=None)
 @example(result={}, transient=["reset"], retries=0, end=201, token=None, field=None)
 @example(result={}, transient=[503], retries=0, end=201, token="env", field=None)
 @given(result=results, transient=st.lists(st.sampled_from(TRANSIENT), max_size=3), retries=st.integers(0, 2),
