@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from robokit.testing import make_sim
+from robokit.testing import PLANE, make_sim
 
 
 @pytest.fixture(scope="module")
@@ -38,23 +38,23 @@ def test_attach_keeps_the_child_where_it_is_relative_to_a_turned_parent(turned_b
 
 
 @pytest.fixture(scope="module")
-def mujoco_arm():
-    config = {"world": {"engine": "mujoco"},
-              "robots": {"kuka": {"urdf": "kuka_iiwa/model.urdf", "position": [0, 0, 0], "fixed_base": True}}}
+def mujoco_robot():
+    config = {"world": {"engine": "mujoco"}, "bodies": {"plane": PLANE},
+              "robots": {"robot": {"urdf": "robots/diffbot.urdf", "position": [0, 0, 0.06]}}}
     with make_sim(config) as sim:
         yield sim.world
 
 
-def test_a_mujoco_restore_leaves_no_motor_ramp_running(mujoco_arm):
-    w = mujoco_arm
-    body = w.body("kuka")
-    joint = w.joint(body, "lbr_iiwa_joint_2").index
+def test_a_mujoco_restore_leaves_no_motor_ramp_running(mujoco_robot):
+    w = mujoco_robot
+    body = w.body("robot")
+    joint = w.joint(body, "left_wheel").index
     snap = w.snapshot()
     for _ in range(40):
         w.step()
     untouched = w.joint_states(body, [joint])[0][0]  # what follows the snapshot with no command
     w.restore(snap)
-    w.set_joint_motor(body, joint, "position", target_position=1.2, max_velocity=0.5, force=300.0)
+    w.set_joint_motor(body, joint, "position", target_position=3.0, max_velocity=2.0, force=5.0)
     for _ in range(3):  # a capped move under way...
         w.step()
     w.restore(snap)  # ...and the episode starts over
