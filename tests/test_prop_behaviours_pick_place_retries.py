@@ -261,6 +261,7 @@ def check_run(faults: list[str], max_attempts: int, timeout: float, yaw: float, 
     assert cell.grasps == cell.closes - sum(f in ("miss", "stall:GRASP") for f in faults[:attempts])
     # where the cube is: on the spot after a success (the cell put it there), the retreat's measurement of it
     assert result["object"] == "cube" and result["place_position"] == list(PLACE)
+    assert "jobs" not in result and "placed" not in result  # one job: no list of jobs
     assert result["pick_position"] == list(START)
     if status == "succeeded":
         assert math.dist(cell.cube, PLACE) < 1e-9

@@ -312,6 +312,9 @@ def test_max_picks_ends_the_sort_saying_how_many_sortable_cubes_it_still_saw(max
         assert run.sort.outcome.reason == f"{max_picks} pick attempts used up; {cubes - given_up} sortable " \
                                           "object(s) remain"
     assert result["picks"] == grasps and result["failures"] == grasps and result["looks"] == grasps + 1
+    # every cube tried is reported failed at the end, one given up or one still waiting for its next attempt
+    assert [(r["outcome"], r["attempts"]) for r in result["objects"]] == [
+        ("failed", run.cell.grasps[n]) for n in run.cell.grasps]
 
 
 @settings(max_examples=10, deadline=None, derandomize=True)
