@@ -281,3 +281,17 @@ def test_retry_with_nothing_refused_says_so_and_exits_0(folders: Any, capsys: py
     capsys.readouterr()
     assert main(["outbox", "retry", "--dir", str(box.root)]) == 0
     assert capsys.readouterr().out == f"nothing to retry: no refused entry in {box.failed_dir}\n"
+
+
+def test_retry_sends_the_refused_entries_only_never_the_waiting_ones(
+        server: CourseServer, folders: Any, monkeypatch: pytest.MonkeyPatch) -> None:
+    reset(server)
+    box = Outbox(folders())
+    waiting = box.put(make_payload(next(IDS)), server.url, OPTS, identity=fp(TOKENS[0]))
+    refused = box.put(make_payload(next(IDS)), server.url, OPTS, identity=fp(TOKENS[0]))
+    refused.path.unlink()
+    write_json_atomic(box.failed_dir / refused.path.name, {**refused.data, "last_error": "HTTP 400"}, overwrite=True)
+    monkeypatch.setenv("ROBOKIT_TOKEN", TOKENS[0])
+    assert main(["outbox", "retry", "--dir", str(box.root)]) == 0
+    assert server.keys() == [refused.run_id]  # a waiting entry waits for `flush`, in its order
+    assert [e.run_id for e in box.entries()] == [waiting.run_id] and box.failed() == []
