@@ -381,3 +381,23 @@ def test_dropout_drops_with_the_drawn_probability_whatever_the_read_rate(scene: 
     salt = zlib.crc32(b"scan")
     coins = [tick_uniform(seed, salt, t) for t in range(1, 401)]
     assert all(0.0 <= x < 1.0 for x in coins) and coins == [tick_uniform(seed, salt, t) for t in range(1, 401)]
+
+
+@pytest.mark.parametrize(("setting", "dist"), [("draw", "scale"), ("robot", "offset"), ("link", "scale")])
+def test_scale_or_offset_of_a_setting_without_a_number_is_one_line_at_its_key(scene: Simulation, setting: str,
+                                                                              dist: str) -> None:
+    from robokit.errors import ConfigError
+
+    randomizer = Randomizer(section({"params": {f"sensors.scan.{setting}": {dist: [1.0, 2.0]}}}), scene.config)
+    with pytest.raises(ConfigError) as info:
+        randomizer.draw(scene.world, scene.body_keys, generator(0))
+    assert info.value.key == f"randomize.params.sensors.scan.{setting}" and "\n" not in str(info.value)
+    assert info.value.message.startswith(f"{dist} needs a configured number (or list of numbers), and "
+                                         f"sensors.scan.{setting} is ")
+
+
+def test_each_seed_has_its_own_dropout_ticks() -> None:
+    """The coin of a tick depends on the whole seed: no two of 70 seeds drop on the same 32 ticks."""
+    salt = zlib.crc32(b"scan")
+    patterns = {tuple(tick_uniform(seed, salt, t) < 0.5 for t in range(32)) for seed in range(70)}
+    assert len(patterns) == 70
