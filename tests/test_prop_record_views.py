@@ -1,0 +1,200 @@
+"""The top-down map (``robokit plot``'s ``map``) read back from its matplotlib figure and compared with the record it
+was drawn from, over generated records.
+
+Boxes are generated at any yaw (not only the quarter turns, where a rotation composed the wrong way still looks
+right), anywhere, of any size; the robot drives a generated path with gaps (NaN rows) in it. The oracle is written
+plainly here: a box's footprint is its four corners (+-half size) turned by its yaw with cos/sin and moved to its
+first recorded position; the driven path is the record's x and y of the robot's base, gaps left out; waypoints, the
+goal, the objects' start positions and the lidar's estimates sit where the config and result put them.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from robokit.record.format import RunRecord
+from robokit.record.layout import POSES_FILE, RESULT_FILE, TRACE_FILE
+from robokit.record.plots import _pyplot, plot_map
+
+PROPS = settings(max_examples=10, deadline=None, derandomize=True,
+                 suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+TOL = 1e-4  # poses are stored as float32, as the recorder stores them
+
+coord = st.floats(-5.0, 5.0, allow_nan=False)
+yaws = st.floats(-math.pi, math.pi, allow_nan=False)
+
+
+def quat_of_yaw(yaw: float) -> list[float]:
+    return [0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2)]
+
+
+def footprint(size: tuple[float, float], x: float, y: float, yaw: float) -> np.ndarray:
+    """The four xy corners of a box of ``size`` turned by ``yaw`` about its centre at (x, y)."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    out = []
+    for cx, cy in [(-1, -1), (1, -1), (1, 1), (-1, 1)]:
+        dx, dy = cx * size[0] / 2, cy * size[1] / 2
+        out.append((x + dx * c - dy * s, y + dx * s + dy * c))
+    return np.array(out)
+
+
+@st.composite
+def boxes(draw: st.DrawFn) -> dict[str, Any]:
+    return {"size": (draw(st.floats(0.05, 3.0)), draw(st.floats(0.05, 3.0)), draw(st.floats(0.05, 1.0))),
+            "start": (draw(coord), draw(coord), draw(yaws)), "later": (draw(coord), draw(coord), draw(yaws)),
+            "mass": draw(st.sampled_from([0.0, 0.5, 2.0])), "flip": draw(st.booleans())}
+
+
+@st.composite
+def scenes(draw: st.DrawFn) -> dict[str, Any]:
+    n = draw(st.integers(2, 10))
+    path = [(draw(coord), draw(coord), draw(yaws)) for _ in range(n)]
+    gaps = draw(st.lists(st.booleans(), min_size=n, max_size=n))
+    if all(gaps):
+        gaps[draw(st.integers(0, n - 1))] = False
+    return {"boxes": draw(st.lists(boxes(), min_size=3, max_size=8)), "path": path, "gaps": gaps,
+            "objects": draw(st.lists(st.tuples(coord, coord, st.sampled_from(["cylinder", "sphere"])), max_size=3)),
+            "waypoints": draw(st.lists(st.tuples(coord, coord), max_size=4)),
+            "goal": draw(st.none() | st.tuples(coord, coord)),
+            "found": draw(st.lists(st.tuples(st.tuples(coord, coord), st.none() | st.tuples(coord, coord)),
+                                   max_size=3))}
+
+
+def pose_row(x: float, y: float, yaw: float, flip: bool = False) -> list[float]:
+    q = quat_of_yaw(yaw)
+    return [x, y, 0.1, *(-v for v in q)] if flip else [x, y, 0.1, *q]
+
+
+def write_record(folder: Path, scene: dict[str, Any]) -> RunRecord:
+    """A run folder holding ``scene``: a diff-drive robot, its boxes and objects, waypoints or a goal, found objects."""
+    n = len(scene["path"])
+    config: dict[str, Any] = {"bodies": {}, "robots": {"robot": {"urdf": "robots/diffbot.urdf"}},
+                              "actuators": {"drive": {"type": "diff_drive"}}, "behaviour": {"type": "patrol"}}
+    bodies: dict[str, Any] = {"robot": {"links": ["base"], "joints": []}}
+    poses: dict[str, np.ndarray] = {"t": np.arange(n) / 30, "tick": np.arange(n) * 8}
+    path = np.array([pose_row(*p) for p in scene["path"]], np.float32)
+    path[np.array(scene["gaps"])] = np.nan
+    poses["base/robot"] = path
+    for i, box in enumerate(scene["boxes"]):
+        name = f"box{i}"
+        config["bodies"][name] = {"shape": "box", "size": list(box["size"]), "mass": box["mass"]}
+        bodies[name] = {"links": ["base"], "joints": []}
+        poses[f"base/{name}"] = np.array([pose_row(*box["start"], box["flip"])]
+                                         + [pose_row(*box["later"])] * (n - 1), np.float32)
+    for i, (x, y, shape) in enumerate(scene["objects"]):
+        name = f"obj{i}"
+        config["bodies"][name] = {"shape": shape, "mass": 0.2}
+        bodies[name] = {"links": ["base"], "joints": []}
+        poses[f"base/{name}"] = np.array([pose_row(x, y, 0.0)] + [pose_row(x + 1, y - 1, 0.0)] * (n - 1),
+                                         np.float32)
+    if scene["waypoints"]:
+        config["behaviour"]["waypoints"] = [list(w) for w in scene["waypoints"]]
+    if scene["goal"] is not None:
+        config["behaviour"]["goal"] = list(scene["goal"])
+    found = [{"estimate": list(est), **({"true": list(true)} if true else {})} for est, true in scene["found"]]
+    head = {"kind": "header", "schema": "robokit.record/1", "machines": [], "config": config, "bodies": bodies,
+            "seed": 3}
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / TRACE_FILE).write_text(json.dumps(head) + "\n", encoding="utf-8")
+    (folder / RESULT_FILE).write_text(json.dumps({"sim_time": n / 30, "outcome": "succeeded",
+                                                  "result": {"found": found}}), encoding="utf-8")
+    np.savez(folder / POSES_FILE, **poses)  # type: ignore[arg-type]
+    return RunRecord(folder)
+
+
+def drawn_map(tmp_path_factory: pytest.TempPathFactory, scene: dict[str, Any]) -> tuple[Any, Any]:
+    rec = write_record(tmp_path_factory.mktemp("run"), scene)
+    plt = _pyplot()
+    fig = plot_map(rec, plt)
+    assert fig is not None
+    return plt, fig
+
+
+def same_points(got: np.ndarray, want: np.ndarray) -> bool:
+    """Every point of ``want`` is one of ``got`` and the other way round (order aside), within TOL."""
+    if len(got) != len(want):
+        return False
+    d = np.linalg.norm(got[:, None, :] - want[None, :, :], axis=2)
+    return bool((d.min(axis=0) < TOL).all() and (d.min(axis=1) < TOL).all())
+
+
+def lines(ax: Any, marker: str) -> list[np.ndarray]:
+    return [np.asarray(ln.get_xydata(), float) for ln in ax.get_lines() if ln.get_marker() == marker]
+
+
+@PROPS
+@given(scenes())
+def test_the_map_draws_every_box_path_mark_and_estimate_where_the_record_puts_it(
+        tmp_path_factory: pytest.TempPathFactory, scene: dict[str, Any]) -> None:
+    plt, fig = drawn_map(tmp_path_factory, scene)
+    try:
+        ax = fig.axes[0]
+        boxes_are_their_yawed_footprints(ax, scene)
+        the_path_is_the_recorded_x_and_y(ax, scene)
+        marks_sit_where_config_and_result_put_them(ax, scene)
+    finally:
+        plt.close(fig)
+
+
+def boxes_are_their_yawed_footprints(ax: Any, scene: dict[str, Any]) -> None:
+    """Each box is its footprint turned by its yaw at its first recorded pose (not its last), static dark."""
+    polygons = [(np.asarray(p.get_xy(), float), p.get_facecolor()) for p in ax.patches]
+    assert len(polygons) == len(scene["boxes"])
+    for (xy, colour), box in zip(polygons, scene["boxes"], strict=True):
+        corners = xy[:-1] if np.allclose(xy[0], xy[-1]) else xy
+        want = footprint(box["size"][:2], *box["start"])
+        assert same_points(corners, want), (corners, want)
+        # a rectangle traced around its edge: consecutive corners a side apart, not across a diagonal
+        sides = sorted(np.linalg.norm(np.roll(corners, -1, axis=0) - corners, axis=1))
+        assert sides == pytest.approx(sorted([box["size"][0]] * 2 + [box["size"][1]] * 2), abs=TOL)
+        grey = 0.35 if box["mass"] == 0 else 0.75
+        assert colour[:3] == pytest.approx((grey, grey, grey), abs=0.01)  # static dark, free light
+
+
+def the_path_is_the_recorded_x_and_y(ax: Any, scene: dict[str, Any]) -> None:
+    """The driven path is the robot's recorded x and y, its gaps left out; the start its first drawn point."""
+    path = next(ln for ln in ax.get_lines() if ln.get_label() == "driven path")
+    start = next(ln for ln in ax.get_lines() if ln.get_label() == "start")
+    xy, first = np.asarray(path.get_xydata(), float), np.asarray(start.get_xydata(), float)
+    labels, aspect = (ax.get_xlabel(), ax.get_ylabel()), ax.get_aspect()
+    want = np.array([(x, y) for (x, y, _), gap in zip(scene["path"], scene["gaps"], strict=True) if not gap])
+    assert xy.shape == want.shape and np.allclose(xy, want, atol=TOL)
+    assert np.allclose(first, want[:1], atol=TOL)
+    assert labels == ("x (m)", "y (m)") and aspect == 1.0  # metres both ways, one metre as long in x as in y
+
+
+def marks_sit_where_config_and_result_put_them(ax: Any, scene: dict[str, Any]) -> None:
+    """Waypoints (or the goal) numbered in order, objects at their start, estimates joined to the truth, and a
+    view that holds everything drawn."""
+    stars, dots, crosses = lines(ax, "*"), lines(ax, "o"), lines(ax, "x")
+    notes = [(t.get_text(), tuple(float(v) for v in t.xy)) for t in ax.texts]
+    links = [np.asarray(ln.get_xydata(), float) for ln in ax.get_lines()
+             if ln.get_marker() in ("None", "", None) and ln.get_label() != "driven path"]
+    xlim, ylim = ax.get_xlim(), ax.get_ylim()
+    marks = scene["waypoints"] or ([scene["goal"]] if scene["goal"] is not None else [])
+    assert len(stars) == len(notes) == len(marks)
+    for star, (text, at), i, mark in zip(stars, notes, range(len(marks)), marks, strict=True):
+        assert np.allclose(star, [mark]) and np.allclose(at, mark) and text == str(i)  # numbered in order
+    assert len(dots) == len(scene["objects"])
+    for dot, (x, y, _) in zip(dots, scene["objects"], strict=True):
+        assert np.allclose(dot, [[x, y]], atol=TOL)  # where the object started, not where it ended
+    assert len(crosses) == len(scene["found"])
+    assert all(np.allclose(c, [est]) for c, (est, _) in zip(crosses, scene["found"], strict=True))
+    pairs = [np.array([est, true]) for est, true in scene["found"] if true]
+    assert len(links) == len(pairs) and all(np.allclose(a, b) for a, b in zip(links, pairs, strict=True))
+    # the view holds everything drawn
+    points = [footprint(b["size"][:2], *b["start"]) for b in scene["boxes"]]
+    points += [np.array([(x, y)]) for (x, y, _), gap in zip(scene["path"], scene["gaps"], strict=True) if not gap]
+    points += [np.array([m]) for m in marks] + [np.array([(x, y)]) for x, y, _ in scene["objects"]]
+    points += pairs + [np.array([est]) for est, _ in scene["found"]]
+    every = np.vstack(points)
+    assert (every[:, 0] >= xlim[0] - TOL).all() and (every[:, 0] <= xlim[1] + TOL).all()
+    assert (every[:, 1] >= ylim[0] - TOL).all() and (every[:, 1] <= ylim[1] + TOL).all()
