@@ -6,12 +6,17 @@ right), anywhere, of any size; the robot drives a generated path with gaps (NaN 
 plainly here: a box's footprint is its four corners (+-half size) turned by its yaw with cos/sin and moved to its
 first recorded position; the driven path is the record's x and y of the robot's base, gaps left out; waypoints, the
 goal, the objects' start positions and the lidar's estimates sit where the config and result put them.
+
+The run page (``robokit view``) likewise: the times and seed under its title and its object table, cell by cell,
+against the result and header they came from.
 """
 
 from __future__ import annotations
 
+import html
 import json
 import math
+import re
 from pathlib import Path
 from typing import Any
 
@@ -198,3 +203,47 @@ def marks_sit_where_config_and_result_put_them(ax: Any, scene: dict[str, Any]) -
     every = np.vstack(points)
     assert (every[:, 0] >= xlim[0] - TOL).all() and (every[:, 0] <= xlim[1] + TOL).all()
     assert (every[:, 1] >= ylim[0] - TOL).all() and (every[:, 1] <= ylim[1] + TOL).all()
+
+
+# ------------------------------------------------------------------------------------------ the run page
+cells = st.one_of(st.none(), st.integers(-9, 99), st.floats(-5, 5, allow_nan=False), st.sampled_from(["cup", "a<b"]),
+                  st.lists(st.floats(-5, 5, allow_nan=False), min_size=2, max_size=3))
+
+
+@settings(PROPS, max_examples=12)
+@given(st.floats(0, 1e4, allow_nan=False), st.floats(0, 1e4, allow_nan=False), st.integers(0, 2**31),
+       st.sampled_from(["objects", "found"]),
+       st.lists(st.dictionaries(st.sampled_from(["name", "estimate", "true", "error_m"]), cells, min_size=1),
+                min_size=1, max_size=4))
+def test_the_run_pages_times_seed_and_object_table_are_the_records(
+        tmp_path_factory: pytest.TempPathFactory, sim: float, wall: float, seed: int, key: str,
+        items: list[dict[str, Any]]) -> None:
+    """The page's line under its title shows the result's sim and wall seconds (two decimals, each its own field)
+    and the header's seed; its object table has one row per item of the result's list and one column per key
+    (first seen first), each cell that item's value (a list as JSON, a missing or null value blank)."""
+    from robokit.record.page import build_page
+
+    folder = tmp_path_factory.mktemp("run")
+    head = {"kind": "header", "schema": "robokit.record/1", "machines": [], "config": {}, "bodies": {}, "seed": seed}
+    (folder / TRACE_FILE).write_text(json.dumps(head) + "\n", encoding="utf-8")
+    (folder / RESULT_FILE).write_text(json.dumps({"outcome": "succeeded", "sim_time": sim, "wall_time": wall,
+                                                  "result": {key: items}}), encoding="utf-8")
+    page = build_page(RunRecord(folder), None, [])
+    meta = re.search(r"<p class='meta'>run .*?</p>", page)
+    assert meta is not None
+    line = html.unescape(meta.group(0))
+    assert f"seed {seed} " in line
+    for field, value in (("sim", sim), ("wall", wall)):
+        shown = re.search(rf" {field} (\d+\.\d\d) s ", line)
+        assert shown is not None and abs(float(shown.group(1)) - value) <= 0.005 + 1e-9, (field, value, line)
+    section = page[page.index("<h2>Objects"):]
+    table = section[section.index("<table>"):section.index("</table>")]
+    columns = []
+    for item in items:
+        columns += [k for k in item if k not in columns]
+    assert [html.unescape(c) for c in re.findall(r"<th>(.*?)</th>", table)] == columns
+    rows = [[html.unescape(c) for c in re.findall(r"<td>(.*?)</td>", row)]
+            for row in re.findall(r"<tr>((?:<td>.*?</td>)+)</tr>", table)]
+    want = [["" if item.get(c) is None else json.dumps(item[c]) if isinstance(item[c], list) else str(item[c])
+             for c in columns] for item in items]
+    assert rows == want
