@@ -1,8 +1,9 @@
 """``robokit outbox list | flush | retry``: see, deliver and re-send results that wait in the outbox.
 
 Exit codes of ``robokit outbox flush`` and ``retry``: 0 every entry taken was delivered (or none was there to take;
-entries made under another token are left waiting and do not count); 1 some entries are still waiting or were
-refused (moved to ``failed/``). ``robokit outbox list`` exits 0.
+waiting entries made under another token are left waiting and do not count); 1 some entries are still waiting or
+were refused (moved to ``failed/``), including a refused entry ``retry`` leaves because another token made it
+(``--claim`` takes it). ``robokit outbox list`` exits 0.
 """
 
 from __future__ import annotations
@@ -182,7 +183,7 @@ def cmd_retry(args: argparse.Namespace) -> int:
     for line in report.lines:
         print(line)
     print(f"outbox {box.root}: {report.counts()}")
-    return 0 if report.clean else 1
+    return 0 if report.clean and {e.run_id for e in chosen} <= taken else 1  # one left for another token: still refused
 
 
 def _chosen(box: Any, runs: list[str], *, claim: bool) -> list[Any]:
