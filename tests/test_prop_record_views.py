@@ -55,7 +55,8 @@ def footprint(size: tuple[float, float], x: float, y: float, yaw: float) -> np.n
 def boxes(draw: st.DrawFn) -> dict[str, Any]:
     return {"size": (draw(st.floats(0.05, 3.0)), draw(st.floats(0.05, 3.0)), draw(st.floats(0.05, 1.0))),
             "start": (draw(coord), draw(coord), draw(yaws)), "later": (draw(coord), draw(coord), draw(yaws)),
-            "mass": draw(st.sampled_from([0.0, 0.5, 2.0])), "flip": draw(st.booleans())}
+            "mass": draw(st.sampled_from([0.0, 0.5, 2.0])), "flip": draw(st.booleans()),
+            "copy": draw(st.booleans())}
 
 
 @st.composite
@@ -89,11 +90,18 @@ def write_record(folder: Path, scene: dict[str, Any]) -> RunRecord:
     path[np.array(scene["gaps"])] = np.nan
     poses["base/robot"] = path
     for i, box in enumerate(scene["boxes"]):
-        name = f"box{i}"
-        config["bodies"][name] = {"shape": "box", "size": list(box["size"]), "mass": box["mass"]}
+        name = f"box{i}_0" if box["copy"] else f"box{i}"  # the first of a ``count = N`` body's copies
+        config["bodies"][f"box{i}"] = {"shape": "box", "size": list(box["size"]), "mass": box["mass"]}
         bodies[name] = {"links": ["base"], "joints": []}
         poses[f"base/{name}"] = np.array([pose_row(*box["start"], box["flip"])]
                                          + [pose_row(*box["later"])] * (n - 1), np.float32)
+    # never drawn: a floor-sized box (over 20 m across) and a box removed before the first sample (NaN pose)
+    config["bodies"]["floor"] = {"shape": "box", "size": [30.0, 30.0, 0.1], "mass": 0}
+    config["bodies"]["gone"] = {"shape": "box", "size": [0.3, 0.3, 0.3], "mass": 1}
+    for name in ("floor", "gone"):
+        bodies[name] = {"links": ["base"], "joints": []}
+        poses[f"base/{name}"] = np.array([pose_row(0.0, 0.0, 0.3)] * n, np.float32)
+    poses["base/gone"][0] = np.nan
     for i, (x, y, shape) in enumerate(scene["objects"]):
         name = f"obj{i}"
         config["bodies"][name] = {"shape": shape, "mass": 0.2}
