@@ -7,6 +7,8 @@ plainly here: a box's footprint is its four corners (+-half size) turned by its 
 first recorded position; the driven path is the record's x and y of the robot's base, gaps left out; waypoints, the
 goal, the objects' start positions and the lidar's estimates sit where the config and result put them.
 
+The lidar plot: the scan of the last sample at or before the asked time, in the robot's frame (slow tier).
+
 The run page (``robokit view``) likewise: the times and seed under its title and its object table, cell by cell,
 against the result and header they came from.
 """
@@ -255,3 +257,49 @@ def test_the_run_pages_times_seed_and_object_table_are_the_records(
     want = [["" if item.get(c) is None else json.dumps(item[c]) if isinstance(item[c], list) else str(item[c])
              for c in columns] for item in items]
     assert rows == want
+
+
+# ------------------------------------------------------------------------------------------ the lidar plot
+@pytest.mark.slow  # a DIRECT world rebuilt per example
+@settings(PROPS, max_examples=6)
+@given(st.lists(st.tuples(coord, coord, yaws), min_size=2, max_size=5), st.floats(0.0, 0.3), st.floats(1.2, 3.0),
+       st.floats(-math.pi, math.pi))
+def test_the_lidar_plot_is_the_scan_at_the_last_sample_not_after_its_time_in_the_robots_frame(
+        tmp_path_factory: pytest.TempPathFactory, frames: list[tuple[float, float, float]], at: float,
+        distance: float, bearing: float) -> None:
+    """``robokit plot --scan-at T``: the scan of the last pose sample at or before T (its time in the title), drawn in
+    the robot's frame: a post at a world bearing from the robot of that sample shows up at that bearing minus the
+    robot's yaw."""
+    from robokit.record.plots import plot_lidar
+
+    n = len(frames)
+    t = np.arange(n) / 10
+    i = max(k for k in range(n) if t[k] <= at + 1e-9) if at >= 0 else 0
+    x, y, yaw = frames[min(i, n - 1)]
+    post = (x + distance * math.cos(bearing), y + distance * math.sin(bearing))
+    config = {"robots": {"robot": {"urdf": "robots/diffbot.urdf", "position": [0, 0, 0.06]}},
+              "bodies": {"post": {"shape": "box", "size": [0.1, 0.1, 0.6], "mass": 0, "position": [9, 9, 0.3]}},
+              "sensors": {"scan": {"type": "lidar", "link": "lidar_link", "rays": 360, "range_max": 5.0}},
+              "actuators": {"drive": {"type": "diff_drive"}}}
+    folder = tmp_path_factory.mktemp("run")
+    head = {"kind": "header", "schema": "robokit.record/1", "machines": [], "config": config, "seed": 0,
+            "bodies": {"robot": {"links": ["base"], "joints": []}, "post": {"links": ["base"], "joints": []}}}
+    (folder / TRACE_FILE).write_text(json.dumps(head) + "\n", encoding="utf-8")
+    np.savez(folder / POSES_FILE, t=t, tick=np.arange(n) * 24,  # type: ignore[arg-type]
+             **{"base/robot": np.array([[fx, fy, 0.06, *quat_of_yaw(fyaw)] for fx, fy, fyaw in frames]),
+                "base/post": np.array([[*post, 0.3, 0, 0, 0, 1]] * n)})
+    plt = _pyplot()
+    fig = plot_lidar(RunRecord(folder), plt, at)
+    try:
+        ax = fig.axes[0]
+        title = ax.get_title()
+        hits = np.asarray(ax.collections[0].get_offsets(), float)  # (angle, range) of the returns
+    finally:
+        plt.close(fig)
+    assert f"at t = {t[i]:.2f} s" in title
+    assert len(hits)
+    want = (bearing - yaw + math.pi) % (2 * math.pi) - math.pi
+    nearest = hits[np.argmin(hits[:, 1])]
+    off = abs((nearest[0] - want + math.pi) % (2 * math.pi) - math.pi)
+    assert off < math.radians(6), (math.degrees(nearest[0]), math.degrees(want))
+    assert abs(nearest[1] - distance) < 0.2
