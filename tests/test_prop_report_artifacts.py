@@ -14,9 +14,6 @@ from __future__ import annotations
 import itertools
 import json
 import os
-import shutil
-import tempfile
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -29,32 +26,13 @@ from robokit.cli import main
 from robokit.errors import UserError
 from robokit.report.artifact_upload import MAX_FILES, find_artifacts, upload_artifacts
 
+pytest_plugins = ["report_props"]
+
 SETTINGS = settings(max_examples=6, deadline=None, derandomize=True, database=None,
                     suppress_health_check=[HealthCheck.function_scoped_fixture])
 WORTH = (".mp4", ".png", ".svg", ".jsonl")
 IDS = itertools.count(1)
 TOKEN = "rks_up-token-7777"
-
-
-@pytest.fixture
-def server() -> Iterator[CourseServer]:
-    srv = CourseServer().start()
-    yield srv
-    srv.stop()
-
-
-@pytest.fixture
-def folders(tmp_path: Path) -> Iterator[Any]:
-    base = Path("/dev/shm") if Path("/dev/shm").is_dir() else tmp_path
-    made: list[str] = []
-
-    def new() -> Path:
-        made.append(tempfile.mkdtemp(prefix="robokit-art-", dir=base))
-        return Path(made[-1])
-
-    yield new
-    for folder in made:
-        shutil.rmtree(folder, ignore_errors=True)
 
 
 def reset(server: CourseServer) -> None:

@@ -16,11 +16,7 @@ import hashlib
 import itertools
 import json
 import re
-import shutil
-import tempfile
 import time
-from collections.abc import Iterator
-from pathlib import Path
 from typing import Any
 
 import pytest
@@ -32,6 +28,8 @@ from robokit_plugins.http_report import HttpOptions
 from robokit.cli import main
 from robokit.report.outbox import NO_TOKEN, Outbox
 from robokit.report.reporting import write_json_atomic
+
+pytest_plugins = ["report_props"]
 
 OPTS = HttpOptions(retries=0, backoff_factor=0.0, backoff_jitter=0.0).to_dict()
 TOKENS = ("rks_me-0001", "rks_other-0002")
@@ -56,28 +54,6 @@ def age(s: int) -> str:
 
 IDS = itertools.count(1)
 """Run ids never reused between examples (a server thread may still be settling the last one's request)."""
-
-
-@pytest.fixture
-def server() -> Iterator[CourseServer]:
-    srv = CourseServer().start()
-    yield srv
-    srv.stop()
-
-
-@pytest.fixture
-def folders(tmp_path: Path) -> Iterator[Any]:
-    """New empty folders, in RAM where there is /dev/shm (the outbox fsyncs each write), else under tmp_path."""
-    base = Path("/dev/shm") if Path("/dev/shm").is_dir() else tmp_path
-    made: list[str] = []
-
-    def new() -> Path:
-        made.append(tempfile.mkdtemp(prefix="robokit-outbox-", dir=base))
-        return Path(made[-1])
-
-    yield new
-    for folder in made:
-        shutil.rmtree(folder, ignore_errors=True)
 
 
 def reset(server: CourseServer, plan: Any = None) -> None:

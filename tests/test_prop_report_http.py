@@ -13,10 +13,6 @@ from __future__ import annotations
 
 import itertools
 import json
-import shutil
-import tempfile
-from collections.abc import Iterator
-from pathlib import Path
 from typing import Any
 
 import pytest
@@ -29,33 +25,13 @@ from robokit import __version__
 from robokit.report.outbox import Outbox
 from robokit.report.reporting import Refused
 
+pytest_plugins = ["report_props"]
+
 SETTINGS = settings(max_examples=8, deadline=None, derandomize=True, database=None,
                     suppress_health_check=[HealthCheck.function_scoped_fixture])
 IDS = itertools.count(1)
 TOKEN = "rks_s3cret-f00d-0042"
 TRANSIENT = [500, 502, 503, 504, 408, 429, "reset"]
-
-
-@pytest.fixture
-def server() -> Iterator[CourseServer]:
-    srv = CourseServer().start()
-    yield srv
-    srv.stop()
-
-
-@pytest.fixture
-def folders(tmp_path: Path) -> Iterator[Any]:
-    """New empty folders, in RAM where there is /dev/shm (the outbox fsyncs each write), else under tmp_path."""
-    base = Path("/dev/shm") if Path("/dev/shm").is_dir() else tmp_path
-    made: list[str] = []
-
-    def new() -> Path:
-        made.append(tempfile.mkdtemp(prefix="robokit-http-", dir=base))
-        return Path(made[-1])
-
-    yield new
-    for folder in made:
-        shutil.rmtree(folder, ignore_errors=True)
 
 
 def reset(server: CourseServer) -> None:
@@ -380,7 +356,6 @@ def test_the_servers_answer_is_read_as_its_message_and_field(error: Any, field: 
         folded = " ".join(body.split())
         assert message == folded[:200] and named is None
     assert "\n" not in message
-
 
 
 def test_a_stopped_run_whose_outbox_cannot_be_written_says_so(server: CourseServer, folders: Any) -> None:

@@ -15,10 +15,7 @@ from __future__ import annotations
 
 import itertools
 import json
-import shutil
-import tempfile
 from collections.abc import Iterator
-from pathlib import Path
 from typing import Any
 
 import pytest
@@ -29,6 +26,8 @@ from robokit_plugins.http_report import HttpOptions, HttpSender
 
 from robokit.report.outbox import IN_FLIGHT, Outbox, SendResult
 from robokit.report.reporting import write_json_atomic
+
+pytest_plugins = ["report_props"]
 
 OPTS = HttpOptions(retries=0, backoff_factor=0.0, backoff_jitter=0.0).to_dict()
 OK = (200, 201, 202)
@@ -47,22 +46,6 @@ def servers() -> Iterator[list[CourseServer]]:
     yield pair
     for s in pair:
         s.stop()
-
-
-@pytest.fixture
-def folders(tmp_path: Path) -> Iterator[Any]:
-    """New empty folders, in RAM where the machine has /dev/shm (fsync costs nothing there: the outbox's files
-    are real files all the same), else under ``tmp_path``."""
-    base = Path("/dev/shm") if Path("/dev/shm").is_dir() else tmp_path
-    made: list[str] = []
-
-    def new() -> Path:
-        made.append(tempfile.mkdtemp(prefix="robokit-outbox-", dir=base))
-        return Path(made[-1])
-
-    yield new
-    for folder in made:
-        shutil.rmtree(folder, ignore_errors=True)
 
 
 def answer_for(kind: Any) -> Answer:

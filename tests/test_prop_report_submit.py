@@ -11,7 +11,6 @@ from __future__ import annotations
 import argparse
 import json
 import types
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 from urllib.parse import quote
@@ -24,17 +23,12 @@ from report_server import Answer, CourseServer
 from robokit.errors import UserError
 from robokit.report import submit
 
+pytest_plugins = ["report_props"]
+
 SETTINGS = settings(max_examples=6, deadline=None, derandomize=True, database=None,
                     suppress_health_check=[HealthCheck.function_scoped_fixture])
 NAMES = st.text(st.characters(min_codepoint=33, max_codepoint=0x24F, blacklist_characters="\\"), min_size=1,
                 max_size=12)
-
-
-@pytest.fixture
-def server() -> Iterator[CourseServer]:
-    srv = CourseServer().start()
-    yield srv
-    srv.stop()
 
 
 def reset(server: CourseServer) -> None:
