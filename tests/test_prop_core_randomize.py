@@ -401,3 +401,13 @@ def test_each_seed_has_its_own_dropout_ticks() -> None:
     salt = zlib.crc32(b"scan")
     patterns = {tuple(tick_uniform(seed, salt, t) < 0.5 for t in range(32)) for seed in range(70)}
     assert len(patterns) == 70
+
+
+@pytest.mark.parametrize("only", ["colour_hue_deg", "colour_saturation", "colour_value"])
+def test_any_one_colour_bound_alone_draws_a_colour_moving_only_that_channel(scene: Simulation, only: str) -> None:
+    drawn = Randomizer(section({only: 0.2}), scene.config).draw(scene.world, scene.body_keys, generator(3))
+    rgba = drawn["bodies"]["ball"]["rgba"]
+    moved = [abs(a - b) > 1e-9 for a, b in zip(colorsys.rgb_to_hsv(*rgba[:3]),
+                                                colorsys.rgb_to_hsv(*NOMINAL_RGBA["ball"][:3]), strict=True)]
+    assert moved == [only == "colour_hue_deg", only == "colour_saturation", only == "colour_value"]
+    assert "rgba" not in drawn["bodies"]["bot"]  # a URDF keeps its own colours
