@@ -246,8 +246,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         raise
     try:
         return _run_loaded(args, plugins, cfg, run_config)
-    except KeyboardInterrupt:
-        if _run_called:  # the run keeps its own result
+    except KeyboardInterrupt as exc:
+        if _run_called and not getattr(exc, "robokit_before_run", False):  # the run keeps its own result
             raise
         return _interrupted_before_config(args, guard.signal if guard is not None else None)
 

@@ -6,6 +6,7 @@ import contextlib
 import datetime as dt
 import json
 import os
+import shutil
 import uuid
 import warnings
 from collections.abc import Callable
@@ -155,8 +156,16 @@ def run_config(
     :attr:`RunOutput.before_send_error`: the result is sent (or kept in the outbox) all the same.
     """
     run_id = str(uuid.uuid4())
-    run_dir = _make_run_dir(results_root(cfg) / run_id) if record else None
-    reserve = _reserve(run_dir) if run_dir is not None else None
+    run_dir = reserve = None
+    try:
+        run_dir = _make_run_dir(results_root(cfg) / run_id) if record else None
+        reserve = _reserve(run_dir) if run_dir is not None else None
+    except KeyboardInterrupt as exc:  # a start-up signal's forced break before this run keeps anything: the caller
+        _release(reserve)  # keeps an aborted result (robokit run), and no half-made run folder is left
+        if run_dir is not None:
+            shutil.rmtree(run_dir, ignore_errors=True)
+        exc.robokit_before_run = True  # type: ignore[attr-defined]
+        raise
     try:
         return _run_and_keep(cfg, plugins, run_id, run_dir, reserve, gui=gui, seed=seed, max_time=max_time,
                              max_wall=max_wall, trace=trace, report=report, pose_hz=pose_hz, save_frames=save_frames,

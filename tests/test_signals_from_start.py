@@ -114,3 +114,39 @@ def test_the_full_sweep_under_load(folder: Path) -> None:
             hog.wait()
     print(f"signal sweep under load ({os.getloadavg()[0]:.1f}): {counts}")
     assert problems == [] and counts["handled"] >= 22  # every shot after robokit's first instruction: handled
+
+
+INJECT = """
+import os, signal, sys, time
+from robokit import entry
+import robokit.runner as runner
+
+real = runner._reserve
+
+
+def reserve_then_signal(run_dir):
+    held = real(run_dir)
+    os.kill(os.getpid(), signal.SIGINT)
+    end = time.monotonic() + 10
+    while time.monotonic() < end:  # start-up's grace runs out here: the guard breaks in while the folder is made
+        pass
+    return held
+
+
+runner._reserve = reserve_then_signal
+sys.argv = ["robokit", "run", "tiny.toml", "--pose-hz", "0"]
+sys.exit(entry.main())
+"""
+
+
+def test_a_forced_break_while_the_run_folder_is_made_keeps_an_aborted_result(tmp_path: Path) -> None:
+    """A signal whose start-up grace runs out while ``run_config`` is still making the run's folder (before the run
+    keeps anything itself): exit 130, one line, one ``aborted`` result, and no half-made run folder left."""
+    (tmp_path / "tiny.toml").write_text(CONFIG)
+    proc = subprocess.run([sys.executable, "-c", INJECT], cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    lines = proc.stderr.strip().splitlines()
+    assert proc.returncode == 130 and len(lines) == 1 and lines[0].startswith("robokit: interrupted (SIGINT)"), \
+        proc.stderr
+    folders = list((tmp_path / "results").iterdir())
+    assert len(folders) == 1, folders
+    assert json.loads((folders[0] / "result.json").read_text())["outcome"] == "aborted"
