@@ -187,6 +187,7 @@ def _run_and_keep(cfg: Config, plugins: Plugins, run_id: str, run_dir: Path | No
         try:
             with guard.immediate():  # a signal stops building at once (the run ends aborted, no ticks)
                 if guard.signalled:  # it came before this run began (imports, the config): build nothing
+                    guard.acted_on()
                     raise Interrupted(guard.signal or "SIGINT")
                 sim = _build(cfg, plugins, gui=gui, seed=seed, run_id=run_id, run_dir=run_dir,
                              save_frames=save_frames, on_problem=on_problem)

@@ -235,6 +235,11 @@ class StopGuard:
                 reason, self._postponed = self._postponed, None
                 raise Interrupted(reason)
 
+    def acted_on(self) -> None:
+        """The signal received has been acted on (the run ends ``aborted`` before it began): the forced break its
+        phase's grace would still bring is dropped, so it cannot break into the keeping of the result later."""
+        self._cancel_timers()
+
     def closing(self, code: int) -> int:
         """The command is done with exit code ``code``: returns the code to exit with (the signal's if one was
         received) and from now on a signal ends the process at once (output flushed) with that code."""
