@@ -14,7 +14,6 @@ import argparse
 import itertools
 import json
 import types
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -28,13 +27,7 @@ from robokit_plugins.local_report import LocalReportConfig, LocalReporter
 from robokit.report import submit
 from robokit.report.reporting import deliver
 
-
-@pytest.fixture
-def server() -> Iterator[CourseServer]:
-    s = CourseServer().start()
-    yield s
-    s.stop()
-
+pytest_plugins = ["report_props"]
 
 COUNTER = itertools.count()
 
